@@ -1,0 +1,65 @@
+"""The errors prehension raises on bad input.
+
+Every error a user can provoke with a bad hand, object, task or world file is a
+:class:`PrehensionError`; its message names the offending item and says what would
+have been valid.  Code that calls prehension can catch the root class; the CLI turns
+it into a one-line message and the "bad input" exit code.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "PrehensionError",
+    "InvalidGeometry",
+    "DegeneratePatch",
+    "InvalidHand",
+    "InvalidObject",
+    "InvalidTask",
+    "InvalidConfiguration",
+    "WorldFileError",
+]
+
+
+class PrehensionError(ValueError):
+    """Root of every error caused by invalid input to prehension."""
+
+
+class InvalidGeometry(PrehensionError):
+    """A geometric value (patch, region, vector, frame) is malformed."""
+
+
+class DegeneratePatch(InvalidGeometry):
+    """A Bézier patch whose normal p_u x p_v vanishes somewhere on [0, 1]^2."""
+
+
+class InvalidHand(PrehensionError):
+    """A hand model is inconsistent (unknown link, bad joint, bad coupling...)."""
+
+
+class InvalidObject(PrehensionError):
+    """An object model is inconsistent (unknown region, bad mesh...)."""
+
+
+class InvalidTask(PrehensionError):
+    """A task (or task file) is inconsistent or malformed."""
+
+
+class InvalidConfiguration(PrehensionError):
+    """A configuration (joint angles, object pose, contact parameters) has the wrong shape."""
+
+
+class WorldFileError(PrehensionError):
+    """A CuikSuite ``.world`` file cannot be read; the message names file and line."""
+
+    def __init__(self, message: str, *, path: str | None = None, line: int | None = None):
+        where = ""
+        if path is not None:
+            where = f"{path}:"
+            if line is not None:
+                where += f"{line}:"
+            where += " "
+        elif line is not None:
+            where = f"line {line}: "
+        super().__init__(where + message)
+        self.path = path
+        self.line = line

@@ -1,0 +1,601 @@
+r"""Tensor-product Bézier patches: evaluation, exact normal patch, subdivision.
+
+Mathematics
+-----------
+A contact region is the tensor-product Bézier patch (Rosales et al., IJRR 2011, eq. 3)
+
+.. math::
+
+    p(u, v) = \sum_{i=0}^{M} \sum_{j=0}^{N} b_{ij} B_{i,M}(u) B_{j,N}(v),
+    \qquad u, v \in [0, 1],
+
+with the Bernstein basis :math:`B_{i,n}(t) = \binom{n}{i} t^i (1-t)^{n-i}` and control
+points :math:`b_{ij} \in \mathbb{R}^D` (``D = 3`` for geometric patches, in mm;
+``D = 1`` for scalar Bernstein polynomials).
+
+*Derivatives.*  :math:`\frac{d^k}{dt^k} B_{i,n} = \frac{n!}{(n-k)!}
+\sum_{j=0}^{k} (-1)^{k-j}\binom{k}{j} B_{i-j,n-k}`.  In particular the partial
+:math:`p_u` is a Bézier patch of degree :math:`(M-1, N)` with control points
+:math:`M (b_{i+1,j} - b_{ij})`, and :math:`p_v` one of degree :math:`(M, N-1)` with
+control points :math:`N (b_{i,j+1} - b_{ij})`.
+
+*Normal patch* (eq. 19, Yamaguchi 1997).  The product of two Bernstein polynomials of
+degrees :math:`m_1, m_2` is one of degree :math:`m_1 + m_2`:
+
+.. math::
+
+    B_{i_1,m_1} B_{i_2,m_2} = \frac{\binom{m_1}{i_1}\binom{m_2}{i_2}}
+    {\binom{m_1+m_2}{i_1+i_2}} B_{i_1+i_2, m_1+m_2},
+
+so :math:`n = p_u \times p_v` is *exactly* a Bézier patch of degree
+:math:`(2M-1, 2N-1)` whose control points are the correspondingly weighted sums of the
+cross products of the control points of :math:`p_u` and :math:`p_v`.
+
+*Subdivision* (eq. 33).  Restricting a degree-:math:`n` Bernstein polynomial to
+:math:`[a, b]` and re-parameterising to :math:`[0, 1]` keeps the degree; by blossoming,
+the new control points are :math:`c_k = \sum_i S_{ki} b_i` with
+
+.. math::
+
+    S_{ki} = \sum_{j} B_{j,n-k}(a)\, B_{i-j,k}(b),
+
+which is valid for any real :math:`a \ne b` (and reverses the direction if
+:math:`a > b`).  For a patch the matrices act on each parameter separately.
+
+*Regularity certificate.*  By the convex-hull property, if some unit vector
+:math:`w` satisfies :math:`w \cdot c > 0` for every control point :math:`c` of the
+normal patch restricted to a box, the normal cannot vanish on that box.
+:meth:`BezierPatch.check_nondegenerate` covers :math:`[0, 1]^2` with such boxes by
+recursive subdivision.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from math import comb
+
+import numpy as np
+
+from prehension.errors import DegeneratePatch, InvalidGeometry
+
+__all__ = [
+    "bernstein",
+    "bernstein_derivative",
+    "subdivision_matrix",
+    "BezierPatch",
+    "PatchDerivatives",
+    "ensure_regular",
+]
+
+_EPS = np.finfo(np.float64).eps
+_REGULARITY_ADVICE = (
+    "a contact region needs a regular patch (its corners must not coincide and its "
+    "control net must not fold)"
+)
+
+
+# ----------------------------------------------------------------------------------
+# Univariate Bernstein basis
+# ----------------------------------------------------------------------------------
+def _check_degree(degree: int, name: str = "degree") -> int:
+    if isinstance(degree, bool) or not isinstance(degree, (int, np.integer)) or degree < 0:
+        raise InvalidGeometry(f"{name} must be a non-negative integer, got {degree!r}")
+    return int(degree)
+
+
+def _binomials(n: int) -> np.ndarray:
+    """Binomial coefficients C(n, i), i = 0..n, shape (n+1,)."""
+    return np.array([comb(n, i) for i in range(n + 1)], dtype=np.float64)
+
+
+def bernstein(degree: int, t: np.ndarray) -> np.ndarray:
+    """Bernstein basis polynomials of one degree at a batch of parameters.
+
+    Args:
+        degree: Polynomial degree ``n >= 0``.
+        t: Parameters, shape ``(B,)`` (any shape ``(...)`` is accepted), unitless.
+            Values outside ``[0, 1]`` evaluate the polynomial extension.
+
+    Returns:
+        Array of shape ``(B, n+1)`` (``(..., n+1)``) with entry ``[b, i] =
+        B_{i,n}(t[b]) = C(n, i) t^i (1 - t)^(n - i)``.
+    """
+    n = _check_degree(degree)
+    t = np.asarray(t, dtype=np.float64)[..., None]
+    i = np.arange(n + 1)
+    return _binomials(n) * t**i * (1.0 - t) ** (n - i)
+
+
+def bernstein_derivative(degree: int, t: np.ndarray, order: int = 1) -> np.ndarray:
+    """Derivatives of the Bernstein basis polynomials with respect to the parameter.
+
+    Uses ``d^k/dt^k B_{i,n} = n!/(n-k)! * sum_j (-1)^(k-j) C(k, j) B_{i-j, n-k}``.
+
+    Args:
+        degree: Polynomial degree ``n >= 0``.
+        t: Parameters, shape ``(B,)`` (any shape ``(...)`` is accepted), unitless.
+        order: Derivative order ``k >= 0`` (0 returns :func:`bernstein`).
+
+    Returns:
+        Array of shape ``(B, n+1)`` with entry ``[b, i] = d^k B_{i,n} / dt^k (t[b])``;
+        identically zero when ``k > n``.
+    """
+    n = _check_degree(degree)
+    k = _check_degree(order, "order")
+    t = np.asarray(t, dtype=np.float64)
+    if k > n:
+        return np.zeros(t.shape + (n + 1,))
+    lower = bernstein(n - k, t)
+    diff = np.zeros((n - k + 1, n + 1))
+    rows = np.arange(n - k + 1)
+    for j in range(k + 1):
+        diff[rows, rows + j] = (-1.0) ** (k - j) * comb(k, j)
+    return (comb(n, k) * np.prod(np.arange(1, k + 1), dtype=np.float64)) * (lower @ diff)
+
+
+def _sum_index_tensor(p: int, q: int) -> np.ndarray:
+    """One-hot tensor ``E[i, j, i + j] = 1``, shape ``(p+1, q+1, p+q+1)``."""
+    e = np.zeros((p + 1, q + 1, p + q + 1))
+    i, j = np.meshgrid(np.arange(p + 1), np.arange(q + 1), indexing="ij")
+    e[i, j, i + j] = 1.0
+    return e
+
+
+def subdivision_matrix(degree: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Change of basis restricting Bernstein polynomials to ``[a, b]``.
+
+    If ``f(t) = sum_i c_i B_{i,n}(t)`` then ``f(a + s (b - a)) = sum_k c'_k B_{k,n}(s)``
+    with ``c' = S @ c``.  Exact (blossoming) for any real ``a, b``.
+
+    Args:
+        degree: Polynomial degree ``n >= 0``.
+        a: Interval starts, shape ``(K,)`` (or scalar), unitless.
+        b: Interval ends, shape ``(K,)`` (or scalar), unitless.
+
+    Returns:
+        Array ``S`` of shape ``(K, n+1, n+1)`` (``(n+1, n+1)`` for scalar ``a, b``),
+        ``S[..., k, i] = sum_j B_{j,n-k}(a) B_{i-j,k}(b)``.
+    """
+    n = _check_degree(degree)
+    a, b = np.broadcast_arrays(np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64))
+    rows = []
+    for k in range(n + 1):
+        outer = bernstein(n - k, a)[..., :, None] * bernstein(k, b)[..., None, :]
+        rows.append(np.einsum("...jl,jli->...i", outer, _sum_index_tensor(n - k, k)))
+    return np.stack(rows, axis=-2)
+
+
+# ----------------------------------------------------------------------------------
+# Helpers on control nets
+# ----------------------------------------------------------------------------------
+def _as_params(u, v) -> tuple[np.ndarray, np.ndarray]:
+    """Broadcast parameters to two ``(B,)`` float arrays (scalars give ``B = 1``)."""
+    try:
+        u = np.atleast_1d(np.asarray(u, dtype=np.float64))
+        v = np.atleast_1d(np.asarray(v, dtype=np.float64))
+        u, v = np.broadcast_arrays(u, v)
+    except (TypeError, ValueError) as exc:
+        raise InvalidGeometry(f"patch parameters u, v must be real scalars or (B,) arrays: {exc}") from exc
+    if u.ndim != 1:
+        raise InvalidGeometry(f"patch parameters u, v must be scalars or (B,) arrays, got shape {u.shape}")
+    if not (np.all(np.isfinite(u)) and np.all(np.isfinite(v))):
+        raise InvalidGeometry("patch parameters u, v must be finite")
+    return u, v
+
+
+def _cross_nets(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Control net of the cross product of two 3-D Bézier patches.
+
+    Args:
+        a: Control net of degree ``(ma, na)``, shape ``(ma+1, na+1, 3)``.
+        b: Control net of degree ``(mb, nb)``, shape ``(mb+1, nb+1, 3)``.
+
+    Returns:
+        Control net of ``a x b``, degree ``(ma+mb, na+nb)``, shape
+        ``(ma+mb+1, na+nb+1, 3)``.
+    """
+    ma, na = a.shape[0] - 1, a.shape[1] - 1
+    mb, nb = b.shape[0] - 1, b.shape[1] - 1
+    a_w = a * np.multiply.outer(_binomials(ma), _binomials(na))[..., None]
+    b_w = b * np.multiply.outer(_binomials(mb), _binomials(nb))[..., None]
+    pairs = np.cross(a_w[:, :, None, None, :], b_w[None, None, :, :, :])
+    summed = np.einsum(
+        "ajbkd,abx,jky->xyd", pairs, _sum_index_tensor(ma, mb), _sum_index_tensor(na, nb)
+    )
+    return summed / np.multiply.outer(_binomials(ma + mb), _binomials(na + nb))[..., None]
+
+
+def _subdivide_nets(net: np.ndarray, boxes: np.ndarray) -> np.ndarray:
+    """Control nets of one patch restricted to a batch of parameter boxes.
+
+    Args:
+        net: Control net, shape ``(M+1, N+1, D)``.
+        boxes: Boxes ``(u0, u1, v0, v1)``, shape ``(K, 4)``.
+
+    Returns:
+        Restricted control nets, shape ``(K, M+1, N+1, D)``.
+    """
+    su = subdivision_matrix(net.shape[0] - 1, boxes[:, 0], boxes[:, 1])
+    sv = subdivision_matrix(net.shape[1] - 1, boxes[:, 2], boxes[:, 3])
+    return np.einsum("kai,kbj,ijd->kabd", su, sv, net)
+
+
+def _unit(x: np.ndarray) -> np.ndarray:
+    """Normalise the last axis; zero vectors stay zero.  Shape preserved."""
+    norm = np.linalg.norm(x, axis=-1, keepdims=True)
+    return np.divide(x, norm, out=np.zeros_like(x), where=norm > 0)
+
+
+# ----------------------------------------------------------------------------------
+# Patch
+# ----------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class PatchDerivatives:
+    """Values and partial derivatives of a patch at a batch of parameters.
+
+    Every field has shape ``(B, D)`` (units of the control points, e.g. mm, per unit
+    parameter to the derivative's order).  Second-order fields are ``None`` when only
+    first-order derivatives were requested.
+    """
+
+    p: np.ndarray
+    p_u: np.ndarray
+    p_v: np.ndarray
+    p_uu: np.ndarray | None = None
+    p_uv: np.ndarray | None = None
+    p_vv: np.ndarray | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class BezierPatch:
+    """Immutable tensor-product Bézier patch ``p: [0, 1]^2 -> R^D``.
+
+    Attributes:
+        control_points: Control net ``b_ij``, shape ``(M+1, N+1, D)`` with the first
+            index along ``u``; float64, read-only.  Units: mm for geometric patches
+            (``D = 3``); arbitrary for scalar Bernstein polynomials (``D = 1``).
+
+    Equality and hashing compare the control nets exactly.
+    """
+
+    control_points: np.ndarray
+
+    def __post_init__(self) -> None:
+        raw = self.control_points
+        try:
+            net = np.array(raw, dtype=np.float64, copy=True)
+        except (TypeError, ValueError) as exc:
+            raise InvalidGeometry(
+                "control_points must be a numeric array of shape (M+1, N+1, D) with "
+                f"M, N >= 0 and D >= 1; could not convert {type(raw).__name__}: {exc}"
+            ) from exc
+        if net.ndim != 3 or min(net.shape, default=0) < 1:
+            raise InvalidGeometry(
+                "control_points must have shape (M+1, N+1, D) with M, N >= 0 and D >= 1 "
+                f"(D = 3 for a geometric patch); got shape {net.shape}"
+            )
+        if not np.all(np.isfinite(net)):
+            bad = tuple(int(x) for x in np.argwhere(~np.isfinite(net))[0])
+            raise InvalidGeometry(
+                f"control_points must be finite; got {net[bad]} at index {bad} of an "
+                f"array of shape {net.shape}"
+            )
+        net.setflags(write=False)
+        object.__setattr__(self, "control_points", net)
+
+    # -- basic properties ---------------------------------------------------------
+    @property
+    def degree(self) -> tuple[int, int]:
+        """Degrees ``(M, N)`` in ``u`` and ``v``."""
+        return self.control_points.shape[0] - 1, self.control_points.shape[1] - 1
+
+    @property
+    def dim(self) -> int:
+        """Dimension ``D`` of the control points."""
+        return self.control_points.shape[2]
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, BezierPatch):
+            return NotImplemented
+        return bool(np.array_equal(self.control_points, other.control_points))
+
+    def __hash__(self) -> int:
+        return hash((self.control_points.shape, self.control_points.tobytes()))
+
+    # -- evaluation ---------------------------------------------------------------
+    def _eval(self, u: np.ndarray, v: np.ndarray, du: int, dv: int) -> np.ndarray:
+        """``d^(du+dv) p / du^du dv^dv`` at ``(B,)`` parameters, shape ``(B, D)``."""
+        m, n = self.degree
+        bu = bernstein_derivative(m, u, du)
+        bv = bernstein_derivative(n, v, dv)
+        return np.einsum("bi,bj,ijd->bd", bu, bv, self.control_points)
+
+    def evaluate(self, u, v) -> np.ndarray:
+        """Points ``p(u, v)``.
+
+        Args:
+            u: Parameters, shape ``(B,)`` or scalar; values outside ``[0, 1]`` give the
+                polynomial extension.
+            v: Parameters, shape ``(B,)`` or scalar (broadcast against ``u``).
+
+        Returns:
+            Points, shape ``(B, D)`` (``(1, D)`` for scalars), units of the control points.
+        """
+        u, v = _as_params(u, v)
+        return self._eval(u, v, 0, 0)
+
+    def partial_u(self, u, v) -> np.ndarray:
+        """Partial derivative ``p_u``; arguments as :meth:`evaluate`, result ``(B, D)``."""
+        u, v = _as_params(u, v)
+        return self._eval(u, v, 1, 0)
+
+    def partial_v(self, u, v) -> np.ndarray:
+        """Partial derivative ``p_v``; arguments as :meth:`evaluate`, result ``(B, D)``."""
+        u, v = _as_params(u, v)
+        return self._eval(u, v, 0, 1)
+
+    def derivatives(self, u, v, order: int = 2) -> PatchDerivatives:
+        """Point and partial derivatives up to ``order`` (1 or 2).
+
+        Args:
+            u: Parameters, shape ``(B,)`` or scalar.
+            v: Parameters, shape ``(B,)`` or scalar (broadcast against ``u``).
+            order: 1 for ``p, p_u, p_v``; 2 adds ``p_uu, p_uv, p_vv``.
+
+        Returns:
+            :class:`PatchDerivatives` whose fields have shape ``(B, D)``.
+        """
+        if order not in (1, 2):
+            raise InvalidGeometry(f"derivative order must be 1 or 2, got {order!r}")
+        u, v = _as_params(u, v)
+        first = {"p": self._eval(u, v, 0, 0), "p_u": self._eval(u, v, 1, 0), "p_v": self._eval(u, v, 0, 1)}
+        if order == 1:
+            return PatchDerivatives(**first)
+        return PatchDerivatives(
+            **first,
+            p_uu=self._eval(u, v, 2, 0),
+            p_uv=self._eval(u, v, 1, 1),
+            p_vv=self._eval(u, v, 0, 2),
+        )
+
+    # -- derived patches ----------------------------------------------------------
+    def _require_3d(self, what: str) -> None:
+        if self.dim != 3:
+            raise InvalidGeometry(f"{what} needs a patch with 3-D control points (D = 3); got D = {self.dim}")
+
+    def normal_patch(self) -> BezierPatch:
+        """The exact normal patch ``n = p_u x p_v`` (eq. 19).
+
+        Returns:
+            Bézier patch of degree ``(2M-1, 2N-1)``, ``D = 3``, control points in mm^2.
+
+        Raises:
+            InvalidGeometry: If ``D != 3``.
+            DegeneratePatch: If ``M == 0`` or ``N == 0`` (the normal is identically zero).
+        """
+        self._require_3d("normal_patch")
+        m, n = self.degree
+        if m == 0 or n == 0:
+            raise DegeneratePatch(
+                f"Bézier patch of degree (M, N) = ({m}, {n}) is constant along "
+                f"{'u' if m == 0 else 'v'}, so its normal p_u x p_v is identically zero; "
+                "a contact region needs degree >= 1 in both u and v"
+            )
+        net = self.control_points
+        d_u = m * (net[1:] - net[:-1])
+        d_v = n * (net[:, 1:] - net[:, :-1])
+        return BezierPatch(_cross_nets(d_u, d_v))
+
+    def subdivide(self, u0: float, u1: float, v0: float, v1: float) -> BezierPatch:
+        """The patch restricted to ``[u0, u1] x [v0, v1]``, re-parameterised to ``[0, 1]^2``.
+
+        ``sub.evaluate(s, t) == self.evaluate(u0 + s (u1 - u0), v0 + t (v1 - v0))``
+        exactly (up to rounding), for any finite reals (``u0 > u1`` reverses ``u``).
+
+        Args:
+            u0: Start of the ``u`` interval (unitless).
+            u1: End of the ``u`` interval.
+            v0: Start of the ``v`` interval.
+            v1: End of the ``v`` interval.
+
+        Returns:
+            Patch of the same degree and dimension.
+        """
+        box = np.array([[u0, u1, v0, v1]], dtype=np.float64)
+        if not np.all(np.isfinite(box)):
+            raise InvalidGeometry(f"subdivision bounds must be finite, got {box[0].tolist()}")
+        return BezierPatch(_subdivide_nets(self.control_points, box)[0])
+
+    def transformed(self, R: np.ndarray, t: np.ndarray) -> BezierPatch:
+        """The patch mapped by ``x -> R x + t`` (exact: affine maps act on control points).
+
+        Args:
+            R: Matrix, shape ``(3, 3)`` (normally a rotation; the normal then rotates too).
+            t: Translation, shape ``(3,)``, mm.
+
+        Returns:
+            Transformed patch, same degree.
+        """
+        self._require_3d("transformed")
+        R = np.asarray(R, dtype=np.float64)
+        t = np.asarray(t, dtype=np.float64)
+        if R.shape != (3, 3) or t.shape != (3,):
+            raise InvalidGeometry(
+                f"transformed needs R of shape (3, 3) and t of shape (3,); got {R.shape} and {t.shape}"
+            )
+        if not (np.all(np.isfinite(R)) and np.all(np.isfinite(t))):
+            raise InvalidGeometry("transformed needs finite R and t")
+        return BezierPatch(self.control_points @ R.T + t)
+
+    def reversed_orientation(self) -> BezierPatch:
+        """Swap ``u`` and ``v`` (transpose the control net); the normal flips sign.
+
+        Returns:
+            Patch ``q(u, v) = p(v, u)`` of degree ``(N, M)``.
+        """
+        return BezierPatch(np.swapaxes(self.control_points, 0, 1))
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Axis-aligned box containing ``p([0, 1]^2)`` (box of the control points).
+
+        Returns:
+            ``(lo, hi)``, each of shape ``(D,)``, units of the control points.
+        """
+        flat = self.control_points.reshape(-1, self.dim)
+        return flat.min(axis=0), flat.max(axis=0)
+
+    # -- regularity ---------------------------------------------------------------
+    def check_nondegenerate(self, max_depth: int = 8) -> None:
+        """Certify that ``p_u x p_v`` does not vanish on ``[0, 1]^2``.
+
+        Recursively subdivides ``[0, 1]^2``; a box is certified when a unit vector
+        ``w`` (the normalised normal at the box centre, else the normalised mean of the
+        normalised control normals) has ``w . c > margin`` for every control point
+        ``c`` of the normal patch on that box, where the margin dominates
+        floating-point rounding.  Sampled normals (box corners and centres) with
+        norm ``<= 1e-12 * scale^2`` (``scale`` = diagonal of :meth:`bounds`) are
+        rejected immediately.
+
+        Args:
+            max_depth: Maximum number of subdivision levels (``>= 0``).
+
+        Raises:
+            DegeneratePatch: If the normal vanishes (or is ``<= 1e-12 scale^2``) at a
+                sample, if a direction has degree 0, or if some box is still not
+                certified after ``max_depth`` levels.
+            InvalidGeometry: If ``D != 3`` or ``max_depth`` is invalid.
+        """
+        depth_limit = _check_degree(max_depth, "max_depth")
+        normal = self.normal_patch()
+        lo, hi = self.bounds()
+        tiny = 1e-12 * float(np.linalg.norm(hi - lo)) ** 2
+        net = normal.control_points
+        margin = tiny + 256.0 * _EPS * float(np.max(np.linalg.norm(net, axis=-1)))
+        boxes = np.array([[0.0, 1.0, 0.0, 1.0]])
+        for depth in range(depth_limit + 1):
+            centres = _reject_vanishing_samples(normal, boxes, tiny)
+            boxes = boxes[~_certified_boxes(net, boxes, centres, margin)]
+            if len(boxes) == 0:
+                return
+            if depth < depth_limit:
+                boxes = _split_boxes(boxes)
+        _raise_uncertified(normal, boxes, depth_limit)
+
+    @classmethod
+    def bilinear(cls, P00, P01, P10, P11) -> BezierPatch:
+        """Degree-(1, 1) patch with ``control_points[i, j] = P_ij`` (first index ``u``).
+
+        Args:
+            P00: Corner ``p(0, 0)``, shape ``(D,)``.
+            P01: Corner ``p(0, 1)``, shape ``(D,)``.
+            P10: Corner ``p(1, 0)``, shape ``(D,)``.
+            P11: Corner ``p(1, 1)``, shape ``(D,)``.
+
+        Returns:
+            The bilinear patch ``p = P00 + u (P10 - P00) + v (P01 - P00)
+            + u v (P00 - P01 - P10 + P11)``.
+        """
+        corners = [np.asarray(c, dtype=np.float64) for c in (P00, P01, P10, P11)]
+        shapes = {c.shape for c in corners}
+        if len(shapes) != 1 or corners[0].ndim != 1:
+            raise InvalidGeometry(
+                "bilinear needs four corners of the same shape (D,); got shapes "
+                f"{[c.shape for c in corners]}"
+            )
+        return cls(np.array([[corners[0], corners[1]], [corners[2], corners[3]]]))
+
+
+# ----------------------------------------------------------------------------------
+# Regularity certificate internals
+# ----------------------------------------------------------------------------------
+_SAMPLE_OFFSETS = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0], [0.5, 0.5]])
+
+
+def _reject_vanishing_samples(normal: BezierPatch, boxes: np.ndarray, tiny: float) -> np.ndarray:
+    """Raise if the normal is tiny at a box corner or centre.
+
+    Args:
+        normal: Normal patch, ``D = 3``.
+        boxes: Boxes ``(u0, u1, v0, v1)``, shape ``(K, 4)``.
+        tiny: Threshold on ``|n|``, mm^2.
+
+    Returns:
+        Normals at the box centres, shape ``(K, 3)``.
+    """
+    u = boxes[:, None, 0] + _SAMPLE_OFFSETS[None, :, 0] * (boxes[:, None, 1] - boxes[:, None, 0])
+    v = boxes[:, None, 2] + _SAMPLE_OFFSETS[None, :, 1] * (boxes[:, None, 3] - boxes[:, None, 2])
+    values = normal.evaluate(u.ravel(), v.ravel()).reshape(len(boxes), len(_SAMPLE_OFFSETS), 3)
+    norms = np.linalg.norm(values, axis=-1)
+    bad = np.argwhere(norms <= tiny)
+    if len(bad):
+        k, s = bad[0]
+        raise DegeneratePatch(
+            f"Bézier patch normal p_u x p_v vanishes near (u, v) = ({u[k, s]:.2f}, {v[k, s]:.2f}); "
+            + _REGULARITY_ADVICE
+        )
+    return values[:, -1]
+
+
+def _certified_boxes(net: np.ndarray, boxes: np.ndarray, centres: np.ndarray, margin: float) -> np.ndarray:
+    """Convex-hull test of the normal on each box.
+
+    Args:
+        net: Normal-patch control net, shape ``(2M, 2N, 3)``, mm^2.
+        boxes: Boxes, shape ``(K, 4)``.
+        centres: Normals at the box centres, shape ``(K, 3)``, mm^2.
+        margin: Required positive margin of ``w . c``, mm^2.
+
+    Returns:
+        Boolean mask, shape ``(K,)``: True where the box is certified.
+    """
+    sub = _subdivide_nets(net, boxes).reshape(len(boxes), -1, 3)
+    w_centre = _unit(centres)
+    ok = np.all(np.einsum("kpd,kd->kp", sub, w_centre) > margin, axis=1)
+    w_mean = _unit(_unit(sub).mean(axis=1))
+    ok |= np.all(np.einsum("kpd,kd->kp", sub, w_mean) > margin, axis=1)
+    return ok
+
+
+def _split_boxes(boxes: np.ndarray) -> np.ndarray:
+    """Split each box into four at its midpoint: ``(K, 4) -> (4K, 4)``."""
+    um = 0.5 * (boxes[:, 0] + boxes[:, 1])
+    vm = 0.5 * (boxes[:, 2] + boxes[:, 3])
+    u0, u1, v0, v1 = boxes.T
+    quads = [
+        np.stack([u0, um, v0, vm], axis=1),
+        np.stack([um, u1, v0, vm], axis=1),
+        np.stack([u0, um, vm, v1], axis=1),
+        np.stack([um, u1, vm, v1], axis=1),
+    ]
+    return np.concatenate(quads, axis=0)
+
+
+def _raise_uncertified(normal: BezierPatch, boxes: np.ndarray, depth: int) -> None:
+    """Raise :class:`DegeneratePatch` naming the uncertified box with the smallest normal."""
+    uc = 0.5 * (boxes[:, 0] + boxes[:, 1])
+    vc = 0.5 * (boxes[:, 2] + boxes[:, 3])
+    norms = np.linalg.norm(normal.evaluate(uc, vc), axis=-1)
+    k = int(np.argmin(norms))
+    raise DegeneratePatch(
+        "Bézier patch normal p_u x p_v could not be shown to be non-zero on [0, 1]^2 "
+        f"after {depth} subdivision levels ({len(boxes)} boxes left; smallest sampled "
+        f"|p_u x p_v| = {norms[k]:.3g} near (u, v) = ({uc[k]:.2f}, {vc[k]:.2f})); "
+        + _REGULARITY_ADVICE
+    )
+
+
+def ensure_regular(patch: BezierPatch, max_depth: int = 8) -> BezierPatch:
+    """Return ``patch`` after :meth:`BezierPatch.check_nondegenerate` succeeds.
+
+    Args:
+        patch: A 3-D Bézier patch.
+        max_depth: Passed to :meth:`BezierPatch.check_nondegenerate`.
+
+    Returns:
+        The same patch object.
+
+    Raises:
+        DegeneratePatch: If the patch's normal may vanish on ``[0, 1]^2``.
+    """
+    patch.check_nondegenerate(max_depth=max_depth)
+    return patch

@@ -1,0 +1,266 @@
+"""Contact regions: Bézier patches, sphere caps and points with normals.
+
+A region lives in the frame of the body that carries it (a hand link or the object) and
+is a map from ``k`` parameters to a point and its **outward** unit normal (pointing out
+of the body).  Two regions are in contact (eqs. 15-16 of Rosales et al. 2011) when, for
+some parameters, their points coincide and their normals are opposed.
+
+* :class:`BezierRegion` (eq. 3): ``k = 2`` parameters ``(u, v)`` in ``[0, 1]^2``;
+  the outward normal is ``p_u x p_v / |p_u x p_v|`` (eq. 2).  A patch whose normal
+  vanishes somewhere is refused (:class:`~prehension.errors.DegeneratePatch`).
+* :class:`SphereCap`: the part of a sphere (centre ``c``, radius ``rho`` [mm]) whose
+  outward normal makes an angle of at most ``half_angle`` with the cap axis ``m`` (the
+  fingertip model of the SA hand: the ``SPHERICAL`` contact of the CuikSuite files).
+  ``k = 2`` parameters ``(alpha, gamma)`` [rad], two rotations of ``m`` about the
+  orthogonal axes ``e1``, ``e2`` of the cap frame, as the two "virtual joints" of
+  Claret & Suárez (fig. 2b):
+
+  .. math::
+
+      n(\\alpha, \\gamma) = \\mathrm{Rot}(e_1, \\alpha)\\,\\mathrm{Rot}(e_2, \\gamma)\\, m
+        = \\cos\\gamma\\cos\\alpha\\, m - \\cos\\gamma\\sin\\alpha\\, e_2 + \\sin\\gamma\\, e_1,
+      \\qquad p = c + \\rho\\, n.
+
+  The cone condition ``n . m >= cos(half_angle)`` is not a box on ``(alpha, gamma)``: it
+  is reported by :meth:`Region.domain_violation`.
+* :class:`PointRegion`: a single point with a normal, ``k = 0``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InvalidGeometry
+from .bezier import BezierPatch
+from .rotations import orthonormal_frame
+
+__all__ = ["Region", "BezierRegion", "SphereCap", "PointRegion"]
+
+
+def _vec3(value, what: str) -> np.ndarray:
+    arr = np.asarray(value, dtype=float)
+    if arr.shape != (3,) or not np.all(np.isfinite(arr)):
+        raise InvalidGeometry(f"{what} must be 3 finite numbers, got {np.asarray(value).tolist()!r}")
+    arr = arr.copy()
+    arr.setflags(write=False)
+    return arr
+
+
+def _params(params, k: int) -> np.ndarray:
+    arr = np.asarray(params, dtype=float)
+    if arr.ndim == 1:
+        arr = arr[None, :]
+    if arr.ndim != 2 or arr.shape[1] != k:
+        raise InvalidGeometry(f"region parameters must have shape (B, {k}), got {np.shape(params)}")
+    return arr
+
+
+class Region:
+    """Interface of every contact region (all arrays batch-first, mm and rad)."""
+
+    kind: str = "region"
+    n_params: int = 0
+
+    def param_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Box ``(lower (k,), upper (k,))`` that contains the parameter domain."""
+        raise NotImplementedError
+
+    def evaluate(self, params) -> tuple[np.ndarray, np.ndarray]:
+        """``params (B, k) -> (points (B, 3) [mm], outward unit normals (B, 3))``."""
+        raise NotImplementedError
+
+    def jacobian(self, params) -> tuple[np.ndarray, np.ndarray]:
+        """``params (B, k) -> (d point / d params (B, 3, k), d normal / d params (B, 3, k))``."""
+        raise NotImplementedError
+
+    def domain_violation(self, params) -> np.ndarray:
+        """How far ``params (B, k)`` lie outside the region, shape (B,), 0 inside.
+
+        Units: parameter units for patches, degrees for sphere caps.
+        """
+        raise NotImplementedError
+
+    def seed_params(self, n: int = 3) -> np.ndarray:
+        """A small grid of parameters inside the domain, shape (S, k), for local searches."""
+        raise NotImplementedError
+
+    def describe(self) -> str:
+        raise NotImplementedError
+
+
+@dataclass(frozen=True, eq=False)
+class BezierRegion(Region):
+    """A Bézier patch region; its outward normal is ``p_u x p_v`` normalised."""
+
+    patch: BezierPatch
+    kind = "bezier"
+    n_params = 2
+
+    def __post_init__(self):
+        if not isinstance(self.patch, BezierPatch):
+            object.__setattr__(self, "patch", BezierPatch(np.asarray(self.patch, dtype=float)))
+        if self.patch.dim != 3:
+            raise InvalidGeometry(f"a contact patch needs 3-D control points, got dimension {self.patch.dim}")
+        self.patch.check_nondegenerate()
+
+    def param_bounds(self):
+        return np.zeros(2), np.ones(2)
+
+    def evaluate(self, params):
+        uv = _params(params, 2)
+        d = self.patch.derivatives(uv[:, 0], uv[:, 1], order=1)
+        normal = np.cross(d.p_u, d.p_v)
+        return d.p, normal / np.linalg.norm(normal, axis=1, keepdims=True)
+
+    def jacobian(self, params):
+        uv = _params(params, 2)
+        d = self.patch.derivatives(uv[:, 0], uv[:, 1], order=2)
+        N = np.cross(d.p_u, d.p_v)  # (B, 3)
+        dN_du = np.cross(d.p_uu, d.p_v) + np.cross(d.p_u, d.p_uv)
+        dN_dv = np.cross(d.p_uv, d.p_v) + np.cross(d.p_u, d.p_vv)
+        norm = np.linalg.norm(N, axis=1, keepdims=True)
+        n = N / norm
+        proj = lambda dN: (dN - n * np.sum(n * dN, axis=1, keepdims=True)) / norm  # noqa: E731
+        dpoint = np.stack([d.p_u, d.p_v], axis=2)  # (B, 3, 2)
+        dnormal = np.stack([proj(dN_du), proj(dN_dv)], axis=2)  # (B, 3, 2)
+        return dpoint, dnormal
+
+    def domain_violation(self, params):
+        uv = _params(params, 2)
+        return np.max(np.maximum(np.maximum(-uv, uv - 1.0), 0.0), axis=1)
+
+    def seed_params(self, n: int = 3):
+        t = (np.arange(n) + 0.5) / n
+        uu, vv = np.meshgrid(t, t, indexing="ij")
+        return np.stack([uu.ravel(), vv.ravel()], axis=1)
+
+    def describe(self) -> str:
+        M, N = self.patch.degree
+        return f"Bézier patch {M}x{N}"
+
+
+@dataclass(frozen=True, eq=False)
+class SphereCap(Region):
+    """Points of a sphere whose outward normal is within ``half_angle`` [rad] of ``axis``."""
+
+    center: np.ndarray
+    radius: float
+    axis: np.ndarray
+    half_angle: float
+    kind = "sphere_cap"
+    n_params = 2
+
+    def __post_init__(self):
+        object.__setattr__(self, "center", _vec3(self.center, "sphere cap centre"))
+        axis = _vec3(self.axis, "sphere cap axis")
+        if np.linalg.norm(axis) < 1e-9:
+            raise InvalidGeometry("sphere cap axis must be a non-zero vector")
+        axis = axis / np.linalg.norm(axis)
+        axis.setflags(write=False)
+        object.__setattr__(self, "axis", axis)
+        if not (np.isfinite(self.radius) and self.radius > 0):
+            raise InvalidGeometry(f"sphere cap radius must be a positive number of mm, got {self.radius}")
+        if not (np.isfinite(self.half_angle) and 0 <= self.half_angle <= np.pi + 1e-12):
+            raise InvalidGeometry(
+                f"sphere cap half-angle must lie in [0, 180] degrees, got {np.degrees(self.half_angle):.6g}"
+            )
+        object.__setattr__(self, "radius", float(self.radius))
+        object.__setattr__(self, "half_angle", float(self.half_angle))
+
+    @property
+    def frame(self) -> np.ndarray:
+        """Columns ``(e1, e2, m)``: an orthonormal frame whose third axis is the cap axis."""
+        return orthonormal_frame(self.axis)
+
+    def param_bounds(self):
+        a = min(self.half_angle, np.pi)
+        g = min(self.half_angle, np.pi / 2)
+        return np.array([-a, -g]), np.array([a, g])
+
+    def normals(self, params) -> np.ndarray:
+        ag = _params(params, 2)
+        ca, sa = np.cos(ag[:, 0:1]), np.sin(ag[:, 0:1])
+        cg, sg = np.cos(ag[:, 1:2]), np.sin(ag[:, 1:2])
+        e1, e2, m = self.frame.T
+        return cg * ca * m - cg * sa * e2 + sg * e1
+
+    def evaluate(self, params):
+        n = self.normals(params)
+        return self.center + self.radius * n, n
+
+    def jacobian(self, params):
+        ag = _params(params, 2)
+        ca, sa = np.cos(ag[:, 0:1]), np.sin(ag[:, 0:1])
+        cg, sg = np.cos(ag[:, 1:2]), np.sin(ag[:, 1:2])
+        e1, e2, m = self.frame.T
+        dn_da = -cg * sa * m - cg * ca * e2
+        dn_dg = -sg * ca * m + sg * sa * e2 + cg * e1
+        dnormal = np.stack([dn_da, dn_dg], axis=2)
+        return self.radius * dnormal, dnormal
+
+    def domain_violation(self, params):
+        n = self.normals(params)
+        angle = np.degrees(np.arccos(np.clip(n @ self.axis, -1.0, 1.0)))
+        return np.maximum(angle - np.degrees(self.half_angle), 0.0)
+
+    def params_for_normal(self, normal) -> np.ndarray:
+        """Parameters ``(B, 2)`` whose normal is ``normal (B, 3)`` (normalised first)."""
+        n = np.atleast_2d(np.asarray(normal, dtype=float))
+        n = n / np.linalg.norm(n, axis=1, keepdims=True)
+        e1, e2, m = self.frame.T
+        gamma = np.arcsin(np.clip(n @ e1, -1.0, 1.0))
+        alpha = np.arctan2(-(n @ e2), n @ m)
+        return np.stack([alpha, gamma], axis=1)
+
+    def seed_params(self, n: int = 3):
+        lo, hi = self.param_bounds()
+        t = (np.arange(n) + 0.5) / n
+        a = lo[0] + t * (hi[0] - lo[0]) * 0.8 + 0.1 * (hi[0] - lo[0])
+        g = lo[1] + t * (hi[1] - lo[1]) * 0.8 + 0.1 * (hi[1] - lo[1])
+        aa, gg = np.meshgrid(a, g, indexing="ij")
+        return np.stack([aa.ravel(), gg.ravel()], axis=1)
+
+    def describe(self) -> str:
+        return f"sphere cap r={self.radius:g} mm, half-angle {np.degrees(self.half_angle):.4g} deg"
+
+
+@dataclass(frozen=True, eq=False)
+class PointRegion(Region):
+    """A single contact point with its outward normal (link or object frame)."""
+
+    point: np.ndarray
+    normal: np.ndarray
+    kind = "point"
+    n_params = 0
+
+    def __post_init__(self):
+        object.__setattr__(self, "point", _vec3(self.point, "contact point"))
+        n = _vec3(self.normal, "contact normal")
+        norm = float(np.linalg.norm(n))
+        if norm < 1e-9:
+            raise InvalidGeometry("contact normal must be a non-zero vector")
+        n = n / norm
+        n.setflags(write=False)
+        object.__setattr__(self, "normal", n)
+
+    def param_bounds(self):
+        return np.zeros(0), np.zeros(0)
+
+    def evaluate(self, params):
+        B = _params(params, 0).shape[0]
+        return np.broadcast_to(self.point, (B, 3)).copy(), np.broadcast_to(self.normal, (B, 3)).copy()
+
+    def jacobian(self, params):
+        B = _params(params, 0).shape[0]
+        return np.zeros((B, 3, 0)), np.zeros((B, 3, 0))
+
+    def domain_violation(self, params):
+        return np.zeros(_params(params, 0).shape[0])
+
+    def seed_params(self, n: int = 3):
+        return np.zeros((1, 0))
+
+    def describe(self) -> str:
+        return "point with normal"

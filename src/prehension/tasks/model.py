@@ -1,0 +1,216 @@
+"""Tasks and configurations: what both solvers are asked, and what they answer.
+
+A :class:`Task` is a hand, an object, and the contacts the grasp must make ("hand region
+``h_c`` touches object region ``o_c``", sec. 2.2 of Rosales et al.), plus the fingers
+that take part.  Joint angles of fingers that do not take part are held at their *idle*
+values (zero clamped into the limits, unless the task says otherwise), as the CuikSuite
+files hold unused fingers with zero-width ranges.
+
+A :class:`Configuration` is a candidate answer: every joint angle, the object pose in the
+palm frame and, optionally, the contact parameters of each contact (where on each region
+the contact is made).  :func:`prehension.tasks.residuals.evaluate` decides whether it is a
+solution.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Mapping
+
+import numpy as np
+
+from ..errors import InvalidConfiguration, InvalidTask, PrehensionError
+from ..geometry.regions import Region
+from ..hands.model import Hand
+from ..objects.model import GraspObject
+
+__all__ = ["Contact", "Task", "Configuration"]
+
+
+@dataclass(frozen=True)
+class Contact:
+    """Hand region ``hand_region`` must touch object region ``object_region``."""
+
+    hand_region: str
+    object_region: str
+    name: str = ""
+
+    def __post_init__(self):
+        if not self.name:
+            object.__setattr__(self, "name", f"{self.hand_region}->{self.object_region}")
+
+
+@dataclass(frozen=True, eq=False)
+class Task:
+    """A grasp configuration problem.
+
+    Attributes:
+        name: task name.
+        hand: the hand (its ``regions`` hold every hand region the contacts name).
+        object: the object.
+        contacts: the contacts to make, in order.
+        fingers: names of the fingers that take part (may move).
+        description: free text.
+        idle_angles: angles [rad] of dofs that do not take part, by dof name; dofs
+            not listed are held at zero clamped into their limits.
+    """
+
+    name: str
+    hand: Hand
+    object: GraspObject
+    contacts: tuple[Contact, ...]
+    fingers: tuple[str, ...]
+    description: str = ""
+    idle_angles: Mapping[str, float] = field(default_factory=dict)
+
+    def __post_init__(self):
+        object.__setattr__(self, "contacts", tuple(self.contacts))
+        object.__setattr__(self, "fingers", tuple(self.fingers))
+        object.__setattr__(self, "idle_angles", MappingProxyType(dict(self.idle_angles)))
+        try:
+            self._validate()
+        except InvalidTask:
+            raise
+        except PrehensionError as exc:  # unknown link/region/finger...: say which task
+            raise InvalidTask(f"task {self.name!r}: {exc}") from None
+
+    def _validate(self) -> None:
+        if not self.contacts:
+            raise InvalidTask(f"task {self.name!r} has no contacts; give at least one hand/object region pair")
+        for f in self.fingers:
+            self.hand.finger(f)
+        names = [c.name for c in self.contacts]
+        if len(set(names)) != len(names):
+            raise InvalidTask(f"task {self.name!r}: contact names must be unique, got {names}")
+        for c in self.contacts:
+            link = self.hand.region(c.hand_region).link
+            self.object.region(c.object_region)
+            finger = self.hand.finger_of_link(link)
+            if finger is not None and finger not in self.fingers:
+                raise InvalidTask(
+                    f"task {self.name!r}: contact {c.name!r} uses link {link!r} of finger {finger!r}, "
+                    f"which does not take part; fingers taking part: {list(self.fingers)}"
+                )
+        for dof, value in self.idle_angles.items():
+            i = self.hand.dof_index(dof)
+            if not (self.hand.lower[i] - 1e-12 <= value <= self.hand.upper[i] + 1e-12):
+                raise InvalidTask(f"task {self.name!r}: idle angle of {dof!r} ({value} rad) is outside its limits")
+        for cpl in self.hand.couplings:
+            if self.dof_is_active(cpl.dof) != self.dof_is_active(cpl.source):
+                raise InvalidTask(
+                    f"task {self.name!r}: coupled angles {cpl.dof!r} and {cpl.source!r} must both take part or both be idle"
+                )
+
+    # -- which dofs move ------------------------------------------------------------
+    def dof_is_active(self, dof: str) -> bool:
+        return bool(self.active_mask[self.hand.dof_index(dof)])
+
+    @property
+    def active_mask(self) -> np.ndarray:
+        """(n_dof,) bool: the dofs that move the links of the participating fingers."""
+        mask = np.zeros(self.hand.n_dof, dtype=bool)
+        for f in self.fingers:
+            for link in self.hand.finger(f).links:
+                mask[list(self.hand.chain_dofs(link))] = True
+        return mask
+
+    @property
+    def idle_vector(self) -> np.ndarray:
+        """(n_dof,) [rad]: the value of every dof that does not take part (others: 0)."""
+        q = np.clip(0.0, self.hand.lower, self.hand.upper)
+        for dof, value in self.idle_angles.items():
+            q[self.hand.dof_index(dof)] = value
+        return np.where(self.active_mask, 0.0, q)
+
+    def hand_region(self, contact: Contact):
+        return self.hand.region(contact.hand_region)
+
+    def object_region(self, contact: Contact) -> Region:
+        return self.object.region(contact.object_region)
+
+    @property
+    def n_contact_params(self) -> int:
+        """Total number of region parameters over all contacts (hand + object)."""
+        return sum(
+            self.hand_region(c).region.n_params + self.object_region(c).n_params for c in self.contacts
+        )
+
+    def counts(self) -> dict[str, int]:
+        """Sizes of the problem in the configuration variables both solvers use.
+
+        ``variables`` = independent moving angles + 6 (object pose) + region parameters
+        (+1 per contact for the free spin about the common normal, which the object pose
+        already holds, so it is *not* counted); ``equations`` = 5 per contact (3 for the
+        point, 2 for the normal direction); ``dimension`` = variables - equations, the
+        expected dimension of the solution set when the equations are independent.
+        """
+        coupled = {c.dof for c in self.hand.couplings}
+        active = [d for d, a in zip(self.hand.dof_names, self.active_mask) if a]
+        free = [d for d in active if d not in coupled]
+        n_var = len(free) + 6 + self.n_contact_params
+        n_eq = 5 * len(self.contacts)
+        return {
+            "moving_angles": len(active),
+            "independent_angles": len(free),
+            "region_parameters": self.n_contact_params,
+            "variables": n_var,
+            "equations": n_eq,
+            "dimension": n_var - n_eq,
+        }
+
+
+@dataclass(frozen=True, eq=False)
+class Configuration:
+    """A candidate grasp.
+
+    Attributes:
+        joint_angles: (n_dof,) every joint angle of the hand [rad], in ``hand.dof_names`` order.
+        T_palm_object: (4, 4) object pose in the palm frame (``x_palm = T x_object``, mm).
+        contact_params: per contact, ``(hand_params (k_h,), object_params (k_o,))``: where
+            on each region the contact is made; ``None`` lets the residual function find
+            the best-fitting parameters itself.
+    """
+
+    joint_angles: np.ndarray
+    T_palm_object: np.ndarray
+    contact_params: tuple[tuple[np.ndarray, np.ndarray], ...] | None = None
+
+    def __post_init__(self):
+        q = np.asarray(self.joint_angles, dtype=float)
+        if q.ndim != 1 or not np.all(np.isfinite(q)):
+            raise InvalidConfiguration(f"joint_angles must be a 1-D array of finite angles [rad], got shape {q.shape}")
+        T = np.asarray(self.T_palm_object, dtype=float)
+        if T.shape != (4, 4) or not np.all(np.isfinite(T)):
+            raise InvalidConfiguration(f"T_palm_object must be a finite 4x4 transform, got shape {T.shape}")
+        R = T[:3, :3]
+        if not np.allclose(R.T @ R, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0 or not np.allclose(T[3], [0, 0, 0, 1]):
+            raise InvalidConfiguration("T_palm_object must be a rigid transform (rotation block orthonormal, det +1, last row 0 0 0 1)")
+        object.__setattr__(self, "joint_angles", q)
+        object.__setattr__(self, "T_palm_object", T)
+        if self.contact_params is not None:
+            params = tuple(
+                (np.atleast_1d(np.asarray(h, dtype=float)), np.atleast_1d(np.asarray(o, dtype=float)))
+                for h, o in self.contact_params
+            )
+            object.__setattr__(self, "contact_params", params)
+
+    def check_against(self, task: Task) -> None:
+        """Raise :class:`InvalidConfiguration` if the shapes do not fit ``task``."""
+        if self.joint_angles.shape != (task.hand.n_dof,):
+            raise InvalidConfiguration(
+                f"configuration has {self.joint_angles.size} joint angles; hand {task.hand.name!r} has "
+                f"{task.hand.n_dof}: {', '.join(task.hand.dof_names)}"
+            )
+        if self.contact_params is None:
+            return
+        if len(self.contact_params) != len(task.contacts):
+            raise InvalidConfiguration(
+                f"configuration gives parameters for {len(self.contact_params)} contacts; task has {len(task.contacts)}"
+            )
+        for c, (h, o) in zip(task.contacts, self.contact_params):
+            kh, ko = task.hand_region(c).region.n_params, task.object_region(c).n_params
+            if h.size != kh or o.size != ko:
+                raise InvalidConfiguration(
+                    f"contact {c.name!r}: expected {kh} hand and {ko} object parameters, got {h.size} and {o.size}"
+                )

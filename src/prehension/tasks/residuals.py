@@ -1,0 +1,235 @@
+"""The one residual function that decides what counts as a solution.
+
+Solvers, tests, benchmarks and ``prehension check`` all call :func:`evaluate`.  Given a
+task and a configuration it reports, in physical units:
+
+* per contact: the distance between the hand point and the object point [mm]
+  (eq. 15), the angle between the hand normal and the *opposite* of the object normal
+  [deg] (eq. 16), and how far each region's parameters lie outside the region
+  (patch parameters outside [0, 1]; a sphere cap's normal outside its cone, in deg);
+* per joint angle: how far it lies outside its limits [deg];
+* per coupling: ``|q[dof] - (ratio q[source] + offset)|`` [deg];
+* per pair of collision capsules: the penetration depth [mm] (0 when apart).
+
+Each value is compared with a :class:`Tolerances` entry; a configuration is a solution
+when every check passes.  The batch cores (:func:`contact_residuals`,
+:func:`limit_violations`, :func:`coupling_violations`) work on ``B`` configurations at once.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..hands.collision import capsule_clearances
+from ..hands.kinematics import HandPose, as_batch, forward_kinematics
+from .locate import locate_contact_params
+from .model import Configuration, Task
+
+__all__ = [
+    "Tolerances",
+    "Check",
+    "ContactState",
+    "ResidualReport",
+    "evaluate",
+    "contact_residuals",
+    "limit_violations",
+    "coupling_violations",
+]
+
+
+@dataclass(frozen=True)
+class Tolerances:
+    """Largest violation of each kind that still counts as satisfied.
+
+    The defaults are those of a *verified* solution: contacts within 1e-6 mm and 1e-6 deg,
+    limits and couplings exact up to rounding, no penetration.  The local solver's
+    acceptance test (``d_min`` of Claret & Suárez) passes looser contact tolerances.
+    """
+
+    contact_mm: float = 1e-6
+    normal_deg: float = 1e-6
+    region: float = 1e-9  # patch parameters (unitless) and cap cones (deg)
+    limit_deg: float = 1e-9
+    coupling_deg: float = 1e-9
+    penetration_mm: float = 0.0
+
+
+@dataclass(frozen=True)
+class Check:
+    """One constraint: ``value`` (>= 0) is its violation, in ``unit``."""
+
+    kind: str  # contact_distance | contact_normal | hand_region | object_region | joint_limit | coupling | collision
+    name: str
+    value: float
+    unit: str
+    tolerance: float
+
+    @property
+    def ok(self) -> bool:
+        return bool(self.value <= self.tolerance)
+
+    def describe(self) -> str:
+        verdict = "ok" if self.ok else "FAILED"
+        return f"{self.kind} {self.name}: {self.value:.3g} {self.unit} (tolerance {self.tolerance:g}) {verdict}"
+
+
+@dataclass(frozen=True, eq=False)
+class ContactState:
+    """Where a contact is made, in the palm frame (points in mm, unit normals)."""
+
+    name: str
+    hand_params: np.ndarray
+    object_params: np.ndarray
+    hand_point: np.ndarray
+    hand_normal: np.ndarray
+    object_point: np.ndarray
+    object_normal: np.ndarray
+    distance_mm: float
+    normal_angle_deg: float
+
+
+@dataclass(frozen=True, eq=False)
+class ResidualReport:
+    """Every check of a configuration against a task."""
+
+    checks: tuple[Check, ...]
+    contacts: tuple[ContactState, ...]
+
+    @property
+    def ok(self) -> bool:
+        return all(c.ok for c in self.checks)
+
+    @property
+    def failures(self) -> tuple[Check, ...]:
+        return tuple(c for c in self.checks if not c.ok)
+
+    def worst(self, kind: str) -> float:
+        """Largest violation of one kind (0 when there is no such check)."""
+        return max((c.value for c in self.checks if c.kind == kind), default=0.0)
+
+    def summary(self) -> str:
+        if self.ok:
+            return "all constraints satisfied"
+        return "; ".join(c.describe() for c in self.failures)
+
+
+# -- batch cores ------------------------------------------------------------------------
+def _transform_points(T, p) -> np.ndarray:
+    return np.einsum("bij,bj->bi", T[:, :3, :3], p) + T[:, :3, 3]
+
+
+def contact_residuals(task: Task, pose: HandPose, T_palm_object, params) -> dict[str, np.ndarray]:
+    """Contact errors of ``B`` configurations.
+
+    Args:
+        task: the task.
+        pose: forward kinematics of the ``B`` configurations.
+        T_palm_object: (B, 4, 4) object poses.
+        params: per contact, ``(hand_params (B, k_h), object_params (B, k_o))``.
+
+    Returns:
+        ``distance_mm (B, C)``, ``normal_angle_deg (B, C)``, ``hand_region (B, C)``,
+        ``object_region (B, C)`` and the palm-frame ``hand_point``, ``hand_normal``,
+        ``object_point``, ``object_normal`` (B, C, 3).
+    """
+    T = np.asarray(T_palm_object, dtype=float).reshape(-1, 4, 4)
+    out = {k: [] for k in ("hand_point", "hand_normal", "object_point", "object_normal", "hand_region", "object_region")}
+    for contact, (hp, op) in zip(task.contacts, params):
+        hreg, oreg = task.hand_region(contact), task.object_region(contact)
+        li = task.hand.link_index(hreg.link)
+        h_pt, h_n = hreg.region.evaluate(hp)
+        o_pt, o_n = oreg.evaluate(op)
+        out["hand_point"].append(pose.points(li, h_pt))
+        out["hand_normal"].append(pose.directions(li, h_n))
+        out["object_point"].append(_transform_points(T, o_pt))
+        out["object_normal"].append(np.einsum("bij,bj->bi", T[:, :3, :3], o_n))
+        out["hand_region"].append(hreg.region.domain_violation(hp))
+        out["object_region"].append(oreg.domain_violation(op))
+    res = {k: np.stack(v, axis=1) for k, v in out.items()}
+    res["distance_mm"] = np.linalg.norm(res["hand_point"] - res["object_point"], axis=-1)
+    cos = -np.sum(res["hand_normal"] * res["object_normal"], axis=-1)
+    res["normal_angle_deg"] = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+    return res
+
+
+def limit_violations(hand, q) -> np.ndarray:
+    """How far each angle lies outside its limits, (B, n_dof) [rad], 0 inside."""
+    q = as_batch(q, hand.n_dof)
+    return np.maximum(np.maximum(hand.lower - q, q - hand.upper), 0.0)
+
+
+def coupling_violations(hand, q) -> np.ndarray:
+    """``|q[dof] - (ratio q[source] + offset)|`` per coupling, (B, n_couplings) [rad]."""
+    q = as_batch(q, hand.n_dof)
+    if not hand.couplings:
+        return np.zeros((q.shape[0], 0))
+    dof = np.array([hand.dof_index(c.dof) for c in hand.couplings])
+    src = np.array([hand.dof_index(c.source) for c in hand.couplings])
+    ratio = np.array([c.ratio for c in hand.couplings])
+    offset = np.array([c.offset for c in hand.couplings])
+    return np.abs(q[:, dof] - (ratio * q[:, src] + offset))
+
+
+# -- one configuration, with names ------------------------------------------------------
+def evaluate(task: Task, config: Configuration, tolerances: Tolerances = Tolerances()) -> ResidualReport:
+    """Check ``config`` against every constraint of ``task`` (see the module docstring).
+
+    When ``config.contact_params`` is ``None``, the parameters of each contact are those
+    that bring its two regions closest (:func:`~prehension.tasks.locate.locate_contact_params`).
+    """
+    config.check_against(task)
+    pose = forward_kinematics(task.hand, config.joint_angles)
+    T = config.T_palm_object[None]
+    params = config.contact_params
+    if params is None:
+        params = locate_contact_params(task, pose, config.T_palm_object)
+    batch_params = [(h[None], o[None]) for h, o in params]
+    res = contact_residuals(task, pose, T, batch_params)
+    checks = _contact_checks(task, res, tolerances)
+    checks += _joint_checks(task, config.joint_angles, tolerances)
+    checks += _collision_checks(task, pose, tolerances)
+    states = tuple(
+        ContactState(
+            c.name, params[i][0], params[i][1],
+            res["hand_point"][0, i], res["hand_normal"][0, i], res["object_point"][0, i], res["object_normal"][0, i],
+            float(res["distance_mm"][0, i]), float(res["normal_angle_deg"][0, i]),
+        )  # fmt: skip
+        for i, c in enumerate(task.contacts)
+    )
+    return ResidualReport(tuple(checks), states)
+
+
+def _contact_checks(task, res, tol) -> list[Check]:
+    checks = []
+    for i, c in enumerate(task.contacts):
+        cap = task.hand_region(c).region.kind == "sphere_cap"
+        checks += [
+            Check("contact_distance", c.name, float(res["distance_mm"][0, i]), "mm", tol.contact_mm),
+            Check("contact_normal", c.name, float(res["normal_angle_deg"][0, i]), "deg", tol.normal_deg),
+            Check("hand_region", c.name, float(res["hand_region"][0, i]), "deg" if cap else "param", tol.region),
+            Check("object_region", c.name, float(res["object_region"][0, i]), _unit(task.object_region(c)), tol.region),
+        ]
+    return checks
+
+
+def _unit(region) -> str:
+    return {"sphere_cap": "deg", "bezier": "param"}.get(region.kind, "-")
+
+
+def _joint_checks(task, q, tol) -> list[Check]:
+    hand = task.hand
+    lim = np.degrees(limit_violations(hand, q)[0])
+    checks = [Check("joint_limit", d, float(v), "deg", tol.limit_deg) for d, v in zip(hand.dof_names, lim)]
+    cpl = np.degrees(coupling_violations(hand, q)[0])
+    checks += [Check("coupling", f"{c.dof}={c.source}", float(v), "deg", tol.coupling_deg) for c, v in zip(hand.couplings, cpl)]
+    return checks
+
+
+def _collision_checks(task, pose, tol) -> list[Check]:
+    clearance, names = capsule_clearances(task.hand, pose)
+    depth: dict[tuple[str, str], float] = {}
+    for (a, b), c in zip(names, clearance[0]):
+        depth[(a, b)] = max(depth.get((a, b), 0.0), float(max(-c, 0.0)))
+    return [Check("collision", f"{a}/{b}", v, "mm", tol.penetration_mm) for (a, b), v in depth.items()]

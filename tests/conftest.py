@@ -1,0 +1,40 @@
+"""Shared fixtures: the built-in SA hand, seeded random generators, shared data paths."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+SHARED = Path(__file__).resolve().parents[2] / "shared"
+CUIK_DIR = SHARED / "cuik-ijrr"
+HANDS_DIR = SHARED / "hands"
+
+
+@pytest.fixture(scope="session")
+def sa_hand():
+    from prehension.hands.sa_hand import schunk_sa_hand
+
+    return schunk_sa_hand()
+
+
+@pytest.fixture
+def rng():
+    return np.random.default_rng(20261121)
+
+
+def random_angles(hand, rng, n):
+    """Random joint angles within the limits that satisfy the couplings, (n, n_dof)."""
+    q = rng.uniform(hand.lower, hand.upper, size=(n, hand.n_dof))
+    for c in hand.couplings:
+        q[:, hand.dof_index(c.dof)] = c.ratio * q[:, hand.dof_index(c.source)] + c.offset
+    return q
+
+
+def cuik_worlds():
+    """The six shared world files (empty when shared/ is absent)."""
+    return sorted(CUIK_DIR.glob("*/*/*.world")) if CUIK_DIR.is_dir() else []
+
+
+requires_cuik = pytest.mark.skipif(not CUIK_DIR.is_dir(), reason="shared/cuik-ijrr not present beside the checkout")
