@@ -69,9 +69,13 @@ def _rotation(value, what: str) -> np.ndarray:
         raise InvalidHand(f"{what} must be a 3x3 rotation matrix, got shape {R.shape}")
     if not np.allclose(R.T @ R, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0:
         raise InvalidHand(f"{what} is not a rotation matrix (R^T R != I or det(R) < 0)")
-    # Re-orthonormalise so that round-off in a user's numbers never accumulates.
-    u, _, vt = np.linalg.svd(R)
-    R = u @ vt
+    # Re-orthonormalise rounded user numbers; leave a matrix that is already orthonormal
+    # to rounding untouched, so that re-building a joint (a file round trip, a limit
+    # change) never moves it.
+    if np.abs(R.T @ R - np.eye(3)).max() > 1e-13:
+        u, _, vt = np.linalg.svd(R)
+        R = u @ vt
+    R = R.copy()
     R.setflags(write=False)
     return R
 

@@ -50,15 +50,16 @@ Grammar (``[x]`` optional, ``x*`` repeated, ``|`` alternatives)
     expr       := term (("+" | "-") term)*
     term       := unary (("*" | "/") unary)*
     unary      := ("+" | "-") unary | power
-    power      := primary ["^" unary]              (right-associative)
+    power      := primary ["^" ("+" | "-")* primary]   (a^b^c and -a^b are refused)
     primary    := NUMBER | "pi" | NAME | "(" expr ")" | FUNCTION "(" expr ["," expr] ")"
     FUNCTION   := sin | cos | tan | cot | asin | acos | atan | atan2 | sqrt | exp
                 | log | abs                        (atan2 takes two arguments)
 
-Expressions use the usual precedence: ``^`` binds tighter than unary minus
-(``-2^2 == -4``) and is right-associative (``2^3^2 == 512``).  (CuikSuite's own
-grammar makes unary minus bind tightest and ``^`` left-associative; the IJRR files
-use no ``^``, so they read the same either way.)  A name must be a constant defined
+CuikSuite's grammar makes unary minus bind tighter than ``^`` and ``^``
+left-associative, unlike the usual mathematical convention.  So that an imported file
+never means something other than what CuikSuite would read, the two forms on which the
+conventions differ (a sign right before a power, ``-a^b``, and chained powers ``a^b^c``)
+are refused with a request for parentheses; everything else reads the same both ways.  A name must be a constant defined
 earlier; expressions are evaluated as they are read, never with Python's ``eval``.
 
 Everything else CuikSuite accepts (``[OBSTACLES]``, ``[COLLISIONS]``, ``[INCLUDE]``,
@@ -375,17 +376,46 @@ class _Parser:
         token = self.peek()
         if token.is_op("-") or token.is_op("+"):
             self.advance()
-            value = self.unary()
+            if self.peek().kind != "op" or self.peek().is_op("("):
+                value, powered = self.power_or_primary()
+                if powered:
+                    raise _Problem(
+                        f"'{token.text}a^b' is ambiguous (CuikSuite reads ({token.text}a)^b, mathematics "
+                        f"{token.text}(a^b)); add parentheses",
+                        token.line,
+                    )
+            else:
+                value = self.unary()
             return -value if token.text == "-" else value
         return self.power()
 
     def power(self) -> float:
+        return self.power_or_primary()[0]
+
+    def power_or_primary(self) -> tuple[float, bool]:
+        """``primary ["^" unary]`` and whether a power was read.
+
+        Chained powers and a sign before a power are refused: CuikSuite's grammar and
+        the usual mathematical convention read them differently, and an imported task
+        must never silently differ from what CuikSuite would solve.
+        """
         base = self.primary()
+        if not self.peek().is_op("^"):
+            return base, False
+        op = self.advance()
+        exponent = self.signed_primary()
         if self.peek().is_op("^"):
-            op = self.advance()
-            exponent = self.unary()
-            return self.checked(op, partial(math.pow, base, exponent), f"{base:g}^{exponent:g}")
-        return base
+            raise _Problem("'a^b^c' is ambiguous (CuikSuite reads (a^b)^c); add parentheses", self.peek().line)
+        return self.checked(op, partial(math.pow, base, exponent), f"{base:g}^{exponent:g}"), True
+
+    def signed_primary(self) -> float:
+        """An exponent: ``("+" | "-")* primary``."""
+        token = self.peek()
+        if token.is_op("-") or token.is_op("+"):
+            self.advance()
+            value = self.signed_primary()
+            return -value if token.text == "-" else value
+        return self.primary()
 
     def primary(self) -> float:
         token = self.peek()

@@ -1,0 +1,299 @@
+"""Turn a CuikSuite ``.world`` grasp problem into a :class:`~prehension.tasks.model.Task`.
+
+The parser (:mod:`prehension.tasks.cuik_parser`) reads the syntax; this module gives
+the joints their meaning, as the IJRR 2011 files use them (``shared/cuik-ijrr/README.md``):
+
+* ``revolute: L1 (p)+(d) L2 (q)+(e) range [lo,hi] +(a) +(b)``: points p (in L1) and q
+  (in L2) coincide, axes d and e coincide; the angle is the right-handed angle about
+  the axis from a (L1) to b (L2).  So ``R0`` maps (e, b) onto (d, a).
+* ``universal: L1 (p)+(d1) L2 (q)+(d2) range [lo1,hi1] +(a1) [lo2,hi2] +(a2)``: angle 1
+  is measured about d1 from a1 to the second axis; angle 2 about d2, by default in the
+  2011 reading: from L2's reference a2 to the first axis (``angle2="2011"``); the current
+  CuikSuite release measures it the other way (``angle2="current"``).  ``R0`` maps
+  (d2, a2) onto (a1, d1); in the 2011 reading our second axis is ``-d2``.
+* ``SPHERICAL: L (c) X (0,0,-rho) range [beta] +(m) +(0,0,1)`` followed by
+  ``in_patch: X (0,0,0) (0,0,1) object (P0) (P1) (P2) (P3)``: a fingertip (or palm)
+  sphere of radius rho centred at c on hand link L, whose contact normal may deviate from
+  m by at most beta, touching the bilinear patch with corners b00=P0, b01=P1, b10=P2,
+  b11=P3.  The files orient ``p_u x p_v`` *into* the object; our regions carry outward
+  normals, so the imported patch is the file's with u and v swapped.
+* ``in_patch: L (p) (d) object (...)`` with L a hand link: the point p of L, with outward
+  normal d, touches the patch.
+* A joint without ``range`` is unlimited ([-180, 180] deg; its zero is then arbitrary).
+  ``avoid limits`` only biases CuikSuite's search and is ignored.
+
+The file states no coupling.  ``couplings`` adds ``(angle, source)`` pairs (equal angles),
+and ``couple_distal=True`` couples the last two revolute joints of every finger, as the
+SA hand does.  Fingers are the chains that leave the ground link, named after their tip
+link; the fingers taking part are those that carry a contact.  Everything else in a file
+(other joint kinds, a spherical joint that is not a contact, several free bodies) is
+refused with an error naming the line.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import PrehensionError, WorldFileError
+from ..geometry.bezier import BezierPatch
+from ..geometry.regions import BezierRegion, PointRegion, SphereCap
+from ..hands.model import Coupling, Finger, Hand, HandRegion, Joint, Link
+from ..objects.model import GraspObject
+from .cuik_parser import WorldFile, WorldJoint, read_world
+from .model import Contact, Task
+
+__all__ = ["task_from_world", "import_world"]
+
+_ORTHO_TOL = 1e-3  # the files round reference vectors to 5 digits
+
+
+@dataclass(frozen=True)
+class _Ctx:
+    world: WorldFile
+
+    def fail(self, message: str, joint: WorldJoint | None = None) -> WorldFileError:
+        return WorldFileError(message, path=self.world.path, line=None if joint is None else joint.line)
+
+
+def _unit(v, what: str, ctx: _Ctx, joint: WorldJoint) -> np.ndarray:
+    v = np.asarray(v, dtype=float)
+    n = np.linalg.norm(v)
+    if n < 1e-12:
+        raise ctx.fail(f"{what} is a zero vector", joint)
+    return v / n
+
+
+def _frame_map(axis_p, ref_p, axis_c, ref_c, ctx, joint) -> np.ndarray:
+    """R0 with R0 axis_c = axis_p and R0 ref_c = ref_p (references made orthogonal)."""
+    cols = []
+    for axis, ref, side in ((axis_p, ref_p, "first"), (axis_c, ref_c, "second")):
+        if abs(float(axis @ ref)) > _ORTHO_TOL:
+            raise ctx.fail(
+                f"{joint.kind} joint: the {side} reference vector must be orthogonal to its axis "
+                f"(cosine {float(axis @ ref):.3g})",
+                joint,
+            )
+        ref = ref - axis * float(axis @ ref)
+        ref = ref / np.linalg.norm(ref)
+        cols.append(np.column_stack([axis, ref, np.cross(axis, ref)]))
+    return cols[0] @ cols[1].T
+
+
+def _any_perpendicular(axis: np.ndarray) -> np.ndarray:
+    helper = np.eye(3)[int(np.argmin(np.abs(axis)))]
+    v = np.cross(axis, helper)
+    return v / np.linalg.norm(v)
+
+
+def _limits(joint: WorldJoint, n: int) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    if not joint.ranges:
+        return (-np.pi,) * n, (np.pi,) * n
+    return tuple(float(lo) for lo, _ in joint.ranges), tuple(float(hi) for _, hi in joint.ranges)
+
+
+def _revolute(joint: WorldJoint, ctx: _Ctx) -> Joint:
+    d = _unit(joint.axis1, "revolute joint: first axis", ctx, joint)
+    e = _unit(joint.axis2, "revolute joint: second axis", ctx, joint)
+    if joint.range_vectors:
+        a = _unit(joint.range_vectors[0], "revolute joint: first reference", ctx, joint)
+        b = _unit(joint.range_vectors[1], "revolute joint: second reference", ctx, joint)
+    else:
+        a, b = _any_perpendicular(d), _any_perpendicular(e)
+    R0 = _frame_map(d, a, e, b, ctx, joint)
+    lo, hi = _limits(joint, 1)
+    name = joint.link2
+    return Joint(name, "revolute", joint.link1, joint.link2, joint.point1, joint.point2, d, R0, (name,), lo, hi)
+
+
+def _universal(joint: WorldJoint, ctx: _Ctx, angle2: str) -> Joint:
+    u = _unit(joint.axis1, "universal joint: first axis", ctx, joint)
+    v = _unit(joint.axis2, "universal joint: second axis", ctx, joint)
+    if joint.range_vectors:
+        a1 = _unit(joint.range_vectors[0], "universal joint: first reference", ctx, joint)
+        a2 = _unit(joint.range_vectors[1], "universal joint: second reference", ctx, joint)
+    else:
+        a1, a2 = _any_perpendicular(u), _any_perpendicular(v)
+    R0 = _frame_map(a1, u, v, a2, ctx, joint)  # R0 v = a1, R0 a2 = u
+    lo, hi = _limits(joint, 2)
+    name = joint.link2
+    v_model = -v if angle2 == "2011" else v
+    return Joint(
+        name, "universal", joint.link1, joint.link2, joint.point1, joint.point2, u, R0,
+        (f"{name}_1", f"{name}_2"), lo, hi, axis_in_child=v_model,
+    )  # fmt: skip
+
+
+def _hand_tree(ctx: _Ctx, angle2: str) -> tuple[list[Joint], str]:
+    ground = ctx.world.ground
+    if ground is None:
+        raise ctx.fail("the file has no [LINKS]; its first link is the palm")
+    joints = []
+    for j in ctx.world.joints:
+        if j.kind == "revolute":
+            joints.append(_revolute(j, ctx))
+        elif j.kind == "universal":
+            joints.append(_universal(j, ctx, angle2))
+    return _order_from(ground, joints, ctx), ground
+
+
+def _order_from(ground: str, joints: list[Joint], ctx: _Ctx) -> list[Joint]:
+    """Joints ordered palm-outwards; refuses loops and links with two parents."""
+    children: dict[str, list[Joint]] = {}
+    seen_child: dict[str, Joint] = {}
+    for j in joints:
+        if j.child in seen_child or j.child == ground:
+            raise ctx.fail(f"link {j.child!r} has two parent joints (a closed loop): prehension reads hands that are trees")
+        seen_child[j.child] = j
+        children.setdefault(j.parent, []).append(j)
+    ordered, stack = [], [ground]
+    while stack:
+        link = stack.pop(0)
+        for j in children.get(link, []):
+            ordered.append(j)
+            stack.append(j.child)
+    loose = [j for j in joints if j not in ordered]
+    if loose:
+        raise ctx.fail(f"joint to {loose[0].child!r} is not connected to the ground link {ground!r}")
+    return ordered
+
+
+def _contacts(ctx: _Ctx, hand_links: set[str]):
+    """Hand regions, object regions and contacts from SPHERICAL + in_patch pairs."""
+    spheres = {j.link2: j for j in ctx.world.joints if j.kind == "spherical"}
+    hand_regions, object_regions, contacts, objects = {}, {}, [], set()
+    for j in ctx.world.joints:
+        if j.kind == "spherical" and j.link1 not in hand_links:
+            raise ctx.fail(f"spherical joint: {j.link1!r} is not a hand link; only fingertip contacts are supported", j)
+        if j.kind != "in_patch":
+            continue
+        if j.link2 in hand_links:
+            raise ctx.fail("in_patch: the patch must lie on the object, not on a hand link", j)
+        objects.add(j.link2)
+        if j.link1 in spheres:
+            link, region = _sphere_region(spheres[j.link1], j, ctx)
+        elif j.link1 in hand_links:
+            link, region = j.link1, PointRegion(j.point1, j.axis1)
+        else:
+            raise ctx.fail(f"in_patch: {j.link1!r} is neither a hand link nor a contact frame of a SPHERICAL joint", j)
+        name = j.link1
+        hand_regions[name] = HandRegion(link, region)
+        object_regions[name] = _object_patch(j, ctx)
+        contacts.append(Contact(name, name, name))
+    unused = set(spheres) - set(hand_regions)
+    if unused:
+        raise ctx.fail(f"SPHERICAL joint to {sorted(unused)[0]!r} has no in_patch: a contact needs both", spheres[sorted(unused)[0]])
+    if len(objects) != 1:
+        raise ctx.fail(f"expected exactly one object carrying the contact patches, found {sorted(objects) or 'none'}")
+    return hand_regions, object_regions, contacts, objects.pop()
+
+
+def _sphere_region(sph: WorldJoint, patch: WorldJoint, ctx: _Ctx) -> tuple[str, SphereCap]:
+    """The fingertip sphere cap of a SPHERICAL joint whose contact frame touches a patch."""
+    if sph.cone_angle is None or len(sph.range_vectors) != 2:
+        raise ctx.fail("SPHERICAL contact: give 'range [beta] +(m) +(n)' (the cap axis and the frame normal)", sph)
+    q, n = np.asarray(sph.point2, float), _unit(sph.range_vectors[1], "SPHERICAL: frame normal", ctx, sph)
+    rho = float(np.linalg.norm(q))
+    if rho < 1e-9 or np.linalg.norm(q + rho * n) > 1e-9 * max(rho, 1.0):
+        raise ctx.fail("SPHERICAL contact: the contact-frame point must be (0,0,-rho) along minus the frame normal", sph)
+    surface = np.asarray(patch.point1, float)
+    direction = _unit(patch.axis1, "in_patch: direction", ctx, patch)
+    if np.linalg.norm(surface) > 1e-9 or np.linalg.norm(direction - n) > 1e-9:
+        raise ctx.fail("in_patch: on a contact frame, the point must be its origin and the direction its normal", patch)
+    cap = SphereCap(sph.point1, rho, sph.range_vectors[0], min(float(sph.cone_angle), np.pi))
+    return sph.link1, cap
+
+
+def _object_patch(j: WorldJoint, ctx: _Ctx) -> BezierRegion:
+    P0, P1, P2, P3 = (np.asarray(p, float) for p in j.patch)
+    file_patch = BezierPatch(np.array([[P0, P1], [P2, P3]]))
+    try:
+        return BezierRegion(file_patch.reversed_orientation())  # outward = -(file's p_u x p_v)
+    except PrehensionError as exc:
+        raise ctx.fail(f"in_patch: {exc}", j) from None
+
+
+def _fingers(ground: str, joints: list[Joint]) -> list[Finger]:
+    children: dict[str, list[str]] = {}
+    for j in joints:
+        children.setdefault(j.parent, []).append(j.child)
+    fingers = []
+    for start in children.get(ground, []):
+        chain = [start]
+        while len(children.get(chain[-1], [])) == 1:
+            chain.append(children[chain[-1]][0])
+        fingers.append(Finger(chain[-1], tuple(chain)))
+    return fingers
+
+
+def _distal_couplings(fingers, joints) -> list[Coupling]:
+    by_child = {j.child: j for j in joints}
+    out = []
+    for f in fingers:
+        revs = [by_child[l] for l in f.links if by_child[l].kind == "revolute"]
+        if len(revs) >= 2:
+            out.append(Coupling(revs[-1].dof_names[0], revs[-2].dof_names[0]))
+    return out
+
+
+def task_from_world(
+    world: WorldFile,
+    *,
+    name: str | None = None,
+    angle2: str = "2011",
+    couplings: tuple[tuple[str, str], ...] = (),
+    couple_distal: bool = False,
+) -> Task:
+    """The task a parsed world file states (see the module docstring)."""
+    if angle2 not in ("2011", "current"):
+        raise ValueError("angle2 must be '2011' or 'current'")
+    ctx = _Ctx(world)
+    joints, ground = _hand_tree(ctx, angle2)
+    hand_links = {ground} | {j.child for j in joints}
+    hand_regions, object_regions, contacts, obj_name = _contacts(ctx, hand_links)
+    _check_all_links_used(ctx, hand_links, set(hand_regions), obj_name)
+    fingers = _fingers(ground, joints)
+    cpl = [Coupling(a, b) for a, b in couplings]
+    if couple_distal:
+        cpl += [c for c in _distal_couplings(fingers, joints) if c.dof not in {x.dof for x in cpl}]
+    links = [Link(ground)] + [Link(j.child) for j in joints]
+    stem = Path(world.path).stem if world.path else "world"
+    try:
+        hand = Hand(stem, tuple(links), tuple(joints), tuple(cpl), tuple(fingers), hand_regions)
+        obj = GraspObject(obj_name, object_regions, mesh_file=_object_mesh(world, obj_name))
+        used = sorted({hand.finger_of_link(r.link) for r in hand_regions.values()} - {None})
+        task_name = name or (f"{Path(world.path).parent.name}" if world.path else stem)
+        return Task(task_name, hand, obj, tuple(contacts), tuple(used), description=f"imported from {world.path}")
+    except WorldFileError:
+        raise
+    except PrehensionError as exc:
+        raise WorldFileError(str(exc), path=world.path) from None
+
+
+def _check_all_links_used(ctx: _Ctx, hand_links, frames, obj_name) -> None:
+    for link in ctx.world.links:
+        if link.name not in hand_links and link.name not in frames and link.name != obj_name:
+            raise WorldFileError(
+                f"link {link.name!r} is connected to nothing prehension reads (hand joints, contacts, the object)",
+                path=ctx.world.path, line=link.line,
+            )  # fmt: skip
+
+
+def _object_mesh(world: WorldFile, obj_name: str) -> str | None:
+    if world.path is None:
+        return None
+    folder = Path(world.path).resolve().parent
+    for body in world.link(obj_name).bodies:
+        if body.kind != "off" or not body.path:
+            continue
+        for base in (folder, *list(folder.parents)[:3]):  # CuikSuite examples keep bodies/ a level or two up
+            if (base / body.path).is_file():
+                return str(base / body.path)
+    return None
+
+
+def import_world(path, **options) -> Task:
+    """Read and import a ``.world`` file (options as :func:`task_from_world`)."""
+    return task_from_world(read_world(path), **options)
