@@ -159,3 +159,15 @@ def test_transforms_round_trip():
     np.testing.assert_allclose(invert_transform(single)[:3, 3], [-1.0, -2.0, -3.0])
     with pytest.raises(InvalidGeometry, match=r"T must have shape \(4, 4\)"):
         invert_transform(np.eye(3))
+
+
+def test_angle_between_is_accurate_near_zero_and_pi():
+    from prehension.geometry.rotations import angle_between
+
+    a = np.array([1.0, 0.0, 0.0])
+    for tiny in (1e-12, 1e-9, 1e-6):
+        b = np.array([np.cos(tiny), np.sin(tiny), 0.0])
+        assert angle_between(a, b) == pytest.approx(tiny, rel=1e-6)
+        assert angle_between(a, -b) == pytest.approx(np.pi - tiny, abs=1e-15)
+    batch = angle_between(np.tile(a, (3, 1)), np.eye(3))
+    np.testing.assert_allclose(batch, [0.0, np.pi / 2, np.pi / 2], atol=1e-15)

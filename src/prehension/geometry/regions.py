@@ -34,7 +34,7 @@ import numpy as np
 
 from ..errors import InvalidGeometry
 from .bezier import BezierPatch
-from .rotations import orthonormal_frame
+from .rotations import angle_between, orthonormal_frame
 
 __all__ = ["Region", "BezierRegion", "SphereCap", "PointRegion"]
 
@@ -202,7 +202,7 @@ class SphereCap(Region):
 
     def domain_violation(self, params):
         n = self.normals(params)
-        angle = np.degrees(np.arccos(np.clip(n @ self.axis, -1.0, 1.0)))
+        angle = np.degrees(angle_between(n, self.axis))
         return np.maximum(angle - np.degrees(self.half_angle), 0.0)
 
     def params_for_normal(self, normal) -> np.ndarray:

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..geometry.rotations import angle_between
 from ..hands.collision import capsule_clearances
 from ..hands.kinematics import HandPose, as_batch, forward_kinematics
 from .locate import locate_contact_params
@@ -149,8 +150,7 @@ def contact_residuals(task: Task, pose: HandPose, T_palm_object, params) -> dict
         out["object_region"].append(oreg.domain_violation(op))
     res = {k: np.stack(v, axis=1) for k, v in out.items()}
     res["distance_mm"] = np.linalg.norm(res["hand_point"] - res["object_point"], axis=-1)
-    cos = -np.sum(res["hand_normal"] * res["object_normal"], axis=-1)
-    res["normal_angle_deg"] = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+    res["normal_angle_deg"] = np.degrees(angle_between(res["hand_normal"], -res["object_normal"]))
     return res
 
 
