@@ -1,12 +1,54 @@
-"""prehension: grasp configurations of multi-fingered hands with specified contact regions."""
+"""prehension: grasp configurations of multi-fingered hands with specified contact regions.
+
+The data flow is ``hand + object + contacts -> Task -> solver -> configuration``; every
+configuration is judged by one residual function, :func:`evaluate`.
+"""
 
 from __future__ import annotations
 
 from importlib.metadata import PackageNotFoundError, version
+
+from .errors import (
+    DegeneratePatch,
+    InvalidConfiguration,
+    InvalidGeometry,
+    InvalidHand,
+    InvalidObject,
+    InvalidTask,
+    PrehensionError,
+    WorldFileError,
+)
+from .geometry.bezier import BezierPatch
+from .geometry.regions import BezierRegion, PointRegion, Region, SphereCap
+from .hands.kinematics import HandPose, forward_kinematics
+from .hands.model import Capsule, Coupling, Finger, Hand, HandRegion, Joint, Link
+from .hands.sa_hand import schunk_sa_hand
+from .hands.urdf import hand_from_urdf
+from .objects.model import GraspObject
+from .tasks.cuik_import import import_world
+from .tasks.library import builtin_task_names, load_builtin_task, resolve_task
+from .tasks.model import Configuration, Contact, Task
+from .tasks.residuals import ResidualReport, Tolerances, evaluate
+from .tasks.yaml_io import dump_task, dumps_task, load_task, loads_task
 
 try:
     __version__ = version("prehension")
 except PackageNotFoundError:  # running from a source tree without installation
     __version__ = "0.0.0+local"
 
-__all__ = ["__version__"]
+__all__ = [
+    "__version__",
+    # errors
+    "PrehensionError", "InvalidGeometry", "DegeneratePatch", "InvalidHand", "InvalidObject",
+    "InvalidTask", "InvalidConfiguration", "WorldFileError",
+    # geometry and regions
+    "BezierPatch", "Region", "BezierRegion", "SphereCap", "PointRegion",
+    # hands
+    "Hand", "Joint", "Link", "Capsule", "Coupling", "Finger", "HandRegion", "HandPose",
+    "forward_kinematics", "schunk_sa_hand", "hand_from_urdf",
+    # objects and tasks
+    "GraspObject", "Task", "Contact", "Configuration",
+    "evaluate", "Tolerances", "ResidualReport",
+    "load_task", "loads_task", "dump_task", "dumps_task", "import_world",
+    "builtin_task_names", "load_builtin_task", "resolve_task",
+]  # fmt: skip

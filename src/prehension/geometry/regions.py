@@ -175,7 +175,9 @@ class SphereCap(Region):
         return orthonormal_frame(self.axis)
 
     def param_bounds(self):
-        a = min(self.half_angle, np.pi)
+        # Beyond 90 deg the cone holds normals with alpha = pi (n = -cos(g) m + sin(g) e1
+        # with |g| >= pi - half_angle), so alpha needs its full range.
+        a = self.half_angle if self.half_angle <= np.pi / 2 else np.pi
         g = min(self.half_angle, np.pi / 2)
         return np.array([-a, -g]), np.array([a, g])
 

@@ -185,6 +185,8 @@ def _contacts(ctx: _Ctx, hand_links: set[str]):
     unused = set(spheres) - set(hand_regions)
     if unused:
         raise ctx.fail(f"SPHERICAL joint to {sorted(unused)[0]!r} has no in_patch: a contact needs both", spheres[sorted(unused)[0]])
+    if not objects:
+        raise ctx.fail("the file states no contact (no in_patch joint); a grasp task needs at least one")
     if len(objects) != 1:
         raise ctx.fail(f"expected exactly one object carrying the contact patches, found {sorted(objects) or 'none'}")
     return hand_regions, object_regions, contacts, objects.pop()

@@ -53,7 +53,9 @@ class Task:
         fingers: names of the fingers that take part (may move).
         description: free text.
         idle_angles: angles [rad] of dofs that do not take part, by dof name; dofs
-            not listed are held at zero clamped into their limits.
+            not listed are held at zero clamped into their limits.  Solvers hold idle
+            fingers there; the residual function does not require it (an idle finger
+            anywhere within its limits, clear of the others, is still a valid grasp).
     """
 
     name: str
@@ -189,11 +191,7 @@ class Configuration:
         object.__setattr__(self, "joint_angles", q)
         object.__setattr__(self, "T_palm_object", T)
         if self.contact_params is not None:
-            params = tuple(
-                (np.atleast_1d(np.asarray(h, dtype=float)), np.atleast_1d(np.asarray(o, dtype=float)))
-                for h, o in self.contact_params
-            )
-            object.__setattr__(self, "contact_params", params)
+            object.__setattr__(self, "contact_params", tuple(_pair(i, p) for i, p in enumerate(self.contact_params)))
 
     def check_against(self, task: Task) -> None:
         """Raise :class:`InvalidConfiguration` if the shapes do not fit ``task``."""
@@ -214,3 +212,20 @@ class Configuration:
                 raise InvalidConfiguration(
                     f"contact {c.name!r}: expected {kh} hand and {ko} object parameters, got {h.size} and {o.size}"
                 )
+
+
+def _pair(i: int, pair) -> tuple[np.ndarray, np.ndarray]:
+    """One contact's ``(hand_params, object_params)`` as two finite 1-D arrays."""
+    try:
+        h, o = pair
+        h, o = np.asarray(h, dtype=float), np.asarray(o, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidConfiguration(
+            f"contact_params[{i}] must be a pair (hand_params, object_params) of numbers"
+        ) from None
+    for what, arr in (("hand", h), ("object", o)):
+        if arr.ndim > 1 or not np.all(np.isfinite(arr)):
+            raise InvalidConfiguration(
+                f"contact_params[{i}]: {what} parameters must be a flat list of finite numbers, got shape {arr.shape}"
+            )
+    return np.atleast_1d(h), np.atleast_1d(o)

@@ -204,11 +204,10 @@ def evaluate(task: Task, config: Configuration, tolerances: Tolerances = Toleran
 def _contact_checks(task, res, tol) -> list[Check]:
     checks = []
     for i, c in enumerate(task.contacts):
-        cap = task.hand_region(c).region.kind == "sphere_cap"
         checks += [
             Check("contact_distance", c.name, float(res["distance_mm"][0, i]), "mm", tol.contact_mm),
             Check("contact_normal", c.name, float(res["normal_angle_deg"][0, i]), "deg", tol.normal_deg),
-            Check("hand_region", c.name, float(res["hand_region"][0, i]), "deg" if cap else "param", tol.region),
+            Check("hand_region", c.name, float(res["hand_region"][0, i]), _unit(task.hand_region(c).region), tol.region),
             Check("object_region", c.name, float(res["object_region"][0, i]), _unit(task.object_region(c)), tol.region),
         ]
     return checks
