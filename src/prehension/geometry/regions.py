@@ -35,17 +35,9 @@ import numpy as np
 from ..errors import InvalidGeometry
 from .bezier import BezierPatch
 from .rotations import angle_between, orthonormal_frame
+from .vectors import unit3, vec3
 
 __all__ = ["Region", "BezierRegion", "SphereCap", "PointRegion"]
-
-
-def _vec3(value, what: str) -> np.ndarray:
-    arr = np.asarray(value, dtype=float)
-    if arr.shape != (3,) or not np.all(np.isfinite(arr)):
-        raise InvalidGeometry(f"{what} must be 3 finite numbers, got {np.asarray(value).tolist()!r}")
-    arr = arr.copy()
-    arr.setflags(write=False)
-    return arr
 
 
 def _params(params, k: int) -> np.ndarray:
@@ -153,13 +145,8 @@ class SphereCap(Region):
     n_params = 2
 
     def __post_init__(self):
-        object.__setattr__(self, "center", _vec3(self.center, "sphere cap centre"))
-        axis = _vec3(self.axis, "sphere cap axis")
-        if np.linalg.norm(axis) < 1e-9:
-            raise InvalidGeometry("sphere cap axis must be a non-zero vector")
-        axis = axis / np.linalg.norm(axis)
-        axis.setflags(write=False)
-        object.__setattr__(self, "axis", axis)
+        object.__setattr__(self, "center", vec3(self.center, "sphere cap centre"))
+        object.__setattr__(self, "axis", unit3(self.axis, "sphere cap axis"))
         if not (np.isfinite(self.radius) and self.radius > 0):
             raise InvalidGeometry(f"sphere cap radius must be a positive number of mm, got {self.radius}")
         if not (np.isfinite(self.half_angle) and 0 <= self.half_angle <= np.pi + 1e-12):
@@ -238,14 +225,8 @@ class PointRegion(Region):
     n_params = 0
 
     def __post_init__(self):
-        object.__setattr__(self, "point", _vec3(self.point, "contact point"))
-        n = _vec3(self.normal, "contact normal")
-        norm = float(np.linalg.norm(n))
-        if norm < 1e-9:
-            raise InvalidGeometry("contact normal must be a non-zero vector")
-        n = n / norm
-        n.setflags(write=False)
-        object.__setattr__(self, "normal", n)
+        object.__setattr__(self, "point", vec3(self.point, "contact point"))
+        object.__setattr__(self, "normal", unit3(self.normal, "contact normal"))
 
     def param_bounds(self):
         return np.zeros(0), np.zeros(0)

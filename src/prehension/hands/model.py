@@ -38,6 +38,7 @@ import numpy as np
 
 from ..errors import InvalidHand
 from ..geometry.regions import Region
+from ..geometry.vectors import unit3, vec3
 
 __all__ = ["Joint", "Coupling", "Capsule", "Link", "Finger", "HandRegion", "Hand"]
 
@@ -45,22 +46,11 @@ _ORTHO_TOL = 1e-6
 
 
 def _vec3(value, what: str) -> np.ndarray:
-    arr = np.asarray(value, dtype=float)
-    if arr.shape != (3,) or not np.all(np.isfinite(arr)):
-        raise InvalidHand(f"{what} must be 3 finite numbers, got {np.asarray(value).tolist()!r}")
-    arr = arr.copy()
-    arr.setflags(write=False)
-    return arr
+    return vec3(value, what, InvalidHand)
 
 
 def _unit3(value, what: str) -> np.ndarray:
-    arr = _vec3(value, what)
-    norm = float(np.linalg.norm(arr))
-    if norm < 1e-9:
-        raise InvalidHand(f"{what} must be a non-zero vector, got {arr.tolist()}")
-    arr = arr / norm
-    arr.setflags(write=False)
-    return arr
+    return unit3(value, what, InvalidHand)
 
 
 def _rotation(value, what: str) -> np.ndarray:
