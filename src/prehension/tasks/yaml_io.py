@@ -85,8 +85,6 @@ import dataclasses
 import difflib
 import math
 import os
-import secrets
-import stat
 from pathlib import Path
 from typing import Annotated, Any, Callable, Iterator, Literal
 
@@ -94,6 +92,7 @@ import numpy as np
 import yaml
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, field_validator, model_validator
 
+from ..atomic import write_text_atomic
 from ..errors import InvalidTask, PrehensionError
 from ..geometry.bezier import BezierPatch
 from ..geometry.regions import BezierRegion, PointRegion, Region, SphereCap
@@ -1022,36 +1021,8 @@ def dumps_task(task: Task, *, base_dir: Path | str | None = None) -> str:
     return yaml.dump(data, Dumper=_Dumper, sort_keys=False, allow_unicode=True, width=100)
 
 
-def _fsync_dir(directory: Path) -> None:
-    with contextlib.suppress(OSError, AttributeError):  # not possible on every platform
-        fd = os.open(directory, os.O_RDONLY)
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
-
-
-def _atomic_write(path: Path, text: str) -> None:
-    """Write via a temporary file in the same folder, fsync it, then ``os.replace``."""
-    tmp = path.parent / f".{path.name}.{secrets.token_hex(6)}.tmp"
-    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
-        with contextlib.suppress(OSError):  # keep an existing file's permissions
-            os.chmod(tmp, stat.S_IMODE(os.stat(path).st_mode))
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
-    _fsync_dir(path.parent)
-
-
 def dump_task(task: Task, path) -> None:
     """Write ``task`` to ``path`` atomically (a reader sees the old file or the new one)."""
     path = Path(path)
     text = dumps_task(task, base_dir=path.resolve().parent)
-    _atomic_write(path, text)
+    write_text_atomic(path, text)

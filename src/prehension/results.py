@@ -1,0 +1,228 @@
+"""The one result type both solvers return, and the result file anyone can re-check.
+
+A :class:`SolveResult` is shaped like scipy's ``OptimizeResult`` (``success``, ``status``,
+``message``, counters) plus what a grasp needs.  Each :class:`Solution` holds the joint
+angles by name, the object pose, **every link's pose in the palm frame** and each
+contact's points, normals and region parameters, and the residual report that verified
+it (:func:`prehension.tasks.residuals.evaluate`): a solver never returns a configuration
+that has not passed it.
+
+Result files are JSON (``prehension: result/1``) and embed the task (as in a task file),
+so that ``prehension check`` -- or any other program -- can re-verify them alone.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+from .atomic import write_text_atomic
+from .errors import InvalidTask
+from .hands.kinematics import forward_kinematics
+from .tasks.model import Configuration, Task
+from .tasks.residuals import ResidualReport, Tolerances, evaluate
+
+__all__ = [
+    "Status",
+    "ContactResult",
+    "Solution",
+    "SolveResult",
+    "make_solution",
+    "result_to_dict",
+    "write_result",
+    "read_result",
+    "RESULT_TAG",
+]
+
+RESULT_TAG = "result/1"
+
+
+class Status:
+    """``SolveResult.status`` values (also the CLI's exit codes, see ``prehension.cli``)."""
+
+    SOLVED = "solved"
+    INFEASIBLE = "infeasible"  # proven: every box pruned (complete solver only)
+    GAVE_UP = "gave_up"  # limits reached without a verified solution or a proof
+
+
+@dataclass(frozen=True, eq=False)
+class ContactResult:
+    """One contact of a solution, in the palm frame (mm, unit normals)."""
+
+    name: str
+    hand_point: np.ndarray
+    hand_normal: np.ndarray
+    object_point: np.ndarray
+    object_normal: np.ndarray
+    hand_params: np.ndarray
+    object_params: np.ndarray
+    distance_mm: float
+    normal_angle_deg: float
+
+
+@dataclass(frozen=True, eq=False)
+class Solution:
+    """A verified grasp configuration.
+
+    Attributes:
+        joint_angles: every joint angle of the hand [rad], by name (hand order).
+        T_palm_object: (4, 4) object pose in the palm frame [mm].
+        link_poses: every link's pose ``T_palm_link`` (4, 4) [mm], by link name.
+        contacts: per contact, where it is made.
+        report: the residual report that verified it.
+    """
+
+    joint_angles: Mapping[str, float]
+    T_palm_object: np.ndarray
+    link_poses: Mapping[str, np.ndarray]
+    contacts: tuple[ContactResult, ...]
+    report: ResidualReport
+
+    @property
+    def q(self) -> np.ndarray:
+        """(n_dof,) joint angles [rad] in hand order."""
+        return np.array(list(self.joint_angles.values()))
+
+    def configuration(self) -> Configuration:
+        return Configuration(
+            self.q, self.T_palm_object, tuple((c.hand_params, c.object_params) for c in self.contacts)
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class SolveResult:
+    """What a solver answers (``OptimizeResult``-like).
+
+    Attributes:
+        task: the task solved.
+        method: ``"complete"`` or ``"local"``.
+        status: a :class:`Status` value; ``success`` is ``status == "solved"``.
+        message: one sentence for people.
+        solutions: verified solutions (empty unless solved).
+        seconds: wall-clock time.
+        stats: solver counters (boxes, LPs, initial poses, iterations...).
+        unverified_boxes: complete solver: boxes below sigma holding no verified point,
+            as ``(lower, upper)`` arrays over the system's variables.  Never solutions.
+    """
+
+    task: Task
+    method: str
+    status: str
+    message: str
+    solutions: tuple[Solution, ...] = ()
+    seconds: float = 0.0
+    stats: Mapping[str, Any] = field(default_factory=dict)
+    unverified_boxes: tuple[tuple[np.ndarray, np.ndarray], ...] = ()
+
+    @property
+    def success(self) -> bool:
+        return self.status == Status.SOLVED
+
+
+def make_solution(task: Task, config: Configuration, tolerances: Tolerances = Tolerances()) -> Solution | None:
+    """Verify ``config`` against ``task``; the :class:`Solution` if it passes, else ``None``.
+
+    This is the only way solvers build solutions, so every returned configuration has been
+    re-checked against the original constraints.
+    """
+    report = evaluate(task, config, tolerances)
+    if not report.ok:
+        return None
+    pose = forward_kinematics(task.hand, config.joint_angles)
+    T = pose.T_palm_link[0]
+    contacts = tuple(
+        ContactResult(
+            s.name, s.hand_point, s.hand_normal, s.object_point, s.object_normal,
+            s.hand_params, s.object_params, s.distance_mm, s.normal_angle_deg,
+        )  # fmt: skip
+        for s in report.contacts
+    )
+    return Solution(
+        dict(zip(task.hand.dof_names, (float(x) for x in config.joint_angles))),
+        config.T_palm_object.copy(),
+        {name: T[i] for i, name in enumerate(task.hand.link_names)},
+        contacts,
+        report,
+    )
+
+
+# -- files ------------------------------------------------------------------------------
+def _solution_to_dict(sol: Solution) -> dict:
+    return {
+        "joint_angles_deg": {k: float(np.degrees(v)) for k, v in sol.joint_angles.items()},
+        "joint_angles_rad": dict(sol.joint_angles),
+        "T_palm_object": sol.T_palm_object.tolist(),
+        "link_poses": {k: v.tolist() for k, v in sol.link_poses.items()},
+        "contacts": [
+            {
+                "name": c.name,
+                "hand_point": c.hand_point.tolist(),
+                "hand_normal": c.hand_normal.tolist(),
+                "object_point": c.object_point.tolist(),
+                "object_normal": c.object_normal.tolist(),
+                "hand_params": c.hand_params.tolist(),
+                "object_params": c.object_params.tolist(),
+                "distance_mm": c.distance_mm,
+                "normal_angle_deg": c.normal_angle_deg,
+            }
+            for c in sol.contacts
+        ],
+        "worst": {k: sol.report.worst(k) for k in sorted({c.kind for c in sol.report.checks})},
+    }
+
+
+def result_to_dict(result: SolveResult) -> dict:
+    """A JSON-ready dict: units in keys, the task embedded."""
+    from .tasks.yaml_io import task_to_dict
+
+    return {
+        "prehension": RESULT_TAG,
+        "units": {"length": "mm", "angle": "rad unless the key ends in _deg"},
+        "frames": "poses are T_palm_X (x_palm = T x_X); points and normals in the palm frame",
+        "task": task_to_dict(result.task),
+        "method": result.method,
+        "status": result.status,
+        "success": result.success,
+        "message": result.message,
+        "seconds": result.seconds,
+        "stats": _plain(dict(result.stats)),
+        "solutions": [_solution_to_dict(s) for s in result.solutions],
+        "unverified_boxes": [{"lower": lo.tolist(), "upper": hi.tolist()} for lo, hi in result.unverified_boxes],
+    }
+
+
+def _plain(value):
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def write_result(result: SolveResult, path) -> None:
+    """Write the result file atomically (never a half-written file)."""
+    write_text_atomic(Path(path), json.dumps(result_to_dict(result), indent=1) + "\n")
+
+
+def read_result(path) -> tuple[Task, dict]:
+    """The task embedded in a result file and the file's dict (for re-checking)."""
+    from .tasks.yaml_io import task_from_dict
+
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InvalidTask(f"cannot read result file {path}: {exc}") from None
+    except json.JSONDecodeError as exc:
+        raise InvalidTask(f"{path}: not a result file (invalid JSON at line {exc.lineno})") from None
+    if not isinstance(data, dict) or data.get("prehension") != RESULT_TAG:
+        raise InvalidTask(f"{path}: not a prehension result file (expected 'prehension: {RESULT_TAG}')")
+    return task_from_dict(data["task"], base_dir=path.parent, source=f"{path} (embedded task)"), data
