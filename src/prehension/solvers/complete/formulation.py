@@ -1,0 +1,377 @@
+"""The grasp problem as a polynomial system of special form (Rosales et al. 2011, sec. 3).
+
+``build_system(task)`` returns a :class:`Formulation`: the canonical :class:`System` of
+eq. 29 and the bookkeeping that maps its points to and from task configurations.
+
+Choices (each keeps the system exact; see ``docs/complete-solver.md``):
+
+* **The object frame is the absolute frame.**  The paper takes the palm; taking the
+  object makes every object point and normal *constant or Bernstein* in the object's own
+  coordinates (no rotation products on the object side), and the palm becomes a link with
+  a free pose ``(R_0, r_0)``.
+* **Link rotations** ``R_l = (c, d, e)`` are 9 variables per link with eqs. 4-7, plus the
+  redundant unit-column ``|e| = 1`` and unit-row identities (they tighten the linear
+  relaxations at no risk).
+* **Positions are eliminated** (the loop closure of sec. 3.5): a link's origin is
+  ``r_0 + sum over its chain of (R_parent P - R_child Q)``, linear in rotation entries.
+* **Joints**: revolute ``R_p u = R_c v`` (eq. 9, linear); universal
+  ``(R_p u) . (R_c v) = 0`` (eq. 11).  **Limits** (sec. 3.3): every joint angle ``theta`` is
+  the angle about an axis ``w`` from a vector ``a`` to a vector ``b`` fixed in the two
+  links: ``cos theta = a . b``, ``sin theta = (w x a) . b``, and the range
+  ``[mid - h, mid + h]`` is ``cos(mid) cos theta + sin(mid) sin theta >= cos h`` (linear).
+  **Couplings** with ratio +-1 and any offset are linear in these cosines and sines (sec.
+  5.1 equates them); other ratios are refused.
+* **Contacts** (eqs. 15-25): the object point ``o = f(s, t)`` and the normal patch
+  ``N = g(s, t)`` are Bernstein forms (eq. 32); ``N = mu nu`` with ``|nu| = 1`` and
+  ``mu >= 0`` makes ``nu`` the unit outward normal.  A fingertip sphere cap gives
+  ``r_k + R_k c - rho nu = o`` and the cone ``-nu . (R_k m) >= cos(beta)``; a point region
+  ``r_k + R_k p = o``, ``R_k n = -nu``; a hand Bézier patch the same with Bernstein forms
+  in the link frame.
+
+Only the links on the paths from the palm to the contact links enter the system (the
+paper removes fingers outside the kinematic loops); the other angles are fixed when a
+point of the system is turned back into a configuration.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ...errors import InvalidTask
+from ...geometry.regions import BezierRegion, PointRegion, SphereCap
+from ...geometry.rotations import rotation_about
+from ...hands.model import Joint
+from ...tasks.model import Task
+from .builder import Builder, Lin, lin_sum
+from .system import System
+
+__all__ = ["Formulation", "DofAngle", "build_system"]
+
+
+@dataclass(frozen=True)
+class DofAngle:
+    """A joint angle: the angle about ``w`` from ``a`` to ``b`` (vectors in link frames)."""
+
+    dof: str
+    link_a: str
+    a: np.ndarray
+    link_b: str
+    b: np.ndarray
+    link_w: str
+    w: np.ndarray
+    mid: float  # middle of the range [rad]
+    half_range: float  # half its width [rad]
+
+
+@dataclass(eq=False)
+class Formulation:
+    """The system of a task and the maps between its points and configurations."""
+
+    task: Task
+    system: System
+    links: tuple[str, ...]
+    rot: dict[str, np.ndarray]  # link -> (3, 3) variable indices
+    r0: np.ndarray  # (3,) palm origin in the object frame
+    dof_vars: dict[str, tuple[int, int]]  # dof -> (cos theta, sin theta) variable indices
+    contact_vars: list[dict]
+    base_keys: dict[int, tuple]
+    builder: Builder = field(repr=False)
+
+    @property
+    def dofs_in_system(self) -> tuple[str, ...]:
+        return tuple(self.dof_vars)
+
+
+# -- which links, which angles ----------------------------------------------------------
+def _contact_links(task: Task) -> list[str]:
+    return [task.hand_region(c).link for c in task.contacts]
+
+
+def _loop_joints(task: Task) -> list[Joint]:
+    """Joints on the paths from the palm to the contact links, palm outwards."""
+    needed: set[str] = set()
+    for link in _contact_links(task):
+        joint = task.hand.joint_of_link(link)
+        while joint is not None:
+            needed.add(joint.name)
+            joint = task.hand.joint_of_link(joint.parent)
+    return [j for j in task.hand.joints if j.name in needed]
+
+
+def dof_angles(joint: Joint) -> list[DofAngle]:
+    """Each angle of a joint as the angle about ``w`` from ``a`` to ``b`` (link frames).
+
+    Frame axes are preferred for ``a`` and ``b``, so that the world vectors are rotation
+    columns already in the system and no new variable is needed.
+    """
+    u = joint.axis_in_parent
+    R0 = joint.R_parent_child_zero
+    if joint.kind == "revolute":
+        a = _perpendicular(u)
+        specs = [(joint.parent, a, joint.child, R0.T @ a, joint.parent, u)]
+    else:
+        v = joint.axis_in_child
+        specs = [
+            (joint.parent, R0 @ v, joint.child, v, joint.parent, u),  # theta_1 about u
+            (joint.parent, u, joint.child, R0.T @ u, joint.child, v),  # theta_2 about v
+        ]
+    return [
+        DofAngle(dof, la, a, lb, b, lw, w, 0.5 * (lo + hi), 0.5 * (hi - lo))
+        for dof, lo, hi, (la, a, lb, b, lw, w) in zip(joint.dof_names, joint.lower, joint.upper, specs)
+    ]
+
+
+def _perpendicular(u: np.ndarray) -> np.ndarray:
+    """A unit vector orthogonal to ``u``: a frame axis when ``u`` is one."""
+    for axis in np.eye(3):
+        if abs(axis @ u) < 1e-12:
+            return axis
+    helper = np.eye(3)[int(np.argmin(np.abs(u)))]
+    p = np.cross(u, helper)
+    return p / np.linalg.norm(p)
+
+
+# -- the builder steps ------------------------------------------------------------------
+class _Formulator:
+    def __init__(self, task: Task):
+        self.task = task
+        self.b = Builder()
+        self.rot: dict[str, np.ndarray] = {}
+        self.base_keys: dict[int, tuple] = {}
+        self.pos_cache: dict[str, list[Lin]] = {}
+        self.dof_vars: dict[str, tuple[int, int]] = {}
+        self.contact_vars: list[dict] = []
+        self.angles: dict[str, DofAngle] = {}
+        self.r0 = np.zeros(3, dtype=int)
+
+    def base(self, key: tuple, name: str, lo: float, hi: float) -> int:
+        i = self.b.var(name, lo, hi)
+        self.base_keys[i] = key
+        return i
+
+    # rotations ------------------------------------------------------------------
+    def add_link(self, link: str) -> None:
+        idx = np.array(
+            [[self.base(("R", link, r, c), f"R_{link}[{r},{c}]", -1.0, 1.0) for c in range(3)] for r in range(3)]
+        )
+        self.rot[link] = idx
+        self._orthonormal(idx)
+
+    def _orthonormal(self, R: np.ndarray) -> None:
+        b = self.b
+        sq = np.vectorize(b.square)(R)
+        one = Lin.constant(1.0)
+        for k in range(3):
+            b.equation(lin_sum(Lin.var(sq[r, k]) for r in range(3)) - one)  # unit columns (4, 5)
+            b.equation(lin_sum(Lin.var(sq[k, c]) for c in range(3)) - one)  # unit rows (redundant)
+        cols = [[(R[r, c], 1.0) for r in range(3)] for c in range(3)]
+        b.equation(b.dot(cols[0], cols[1]))  # orthogonal columns (6)
+        c, d = cols[0], cols[1]
+        for r in range(3):  # e = c x d (7)
+            r1, r2 = (r + 1) % 3, (r + 2) % 3
+            b.equation(b.bilinear(c[r1], d[r2]) - b.bilinear(c[r2], d[r1]) - Lin.var(R[r, 2]))
+
+    def world(self, link: str, v) -> list[Lin]:
+        """``R_link v`` as three linear expressions."""
+        R = self.rot[link]
+        return [lin_sum(Lin.var(R[r, c], float(v[c])) for c in range(3) if v[c] != 0.0) for r in range(3)]
+
+    def world_vars(self, link: str, v, name: str) -> list[tuple[int, float]]:
+        return [self.b.as_var(e, f"{name}[{r}]") for r, e in enumerate(self.world(link, v))]
+
+    def position(self, link: str) -> list[Lin]:
+        """Origin of ``link`` in the object frame (linear in rotations and r_0)."""
+        if link not in self.pos_cache:
+            joint = self.task.hand.joint_of_link(link)
+            if joint is None:
+                self.pos_cache[link] = [Lin.var(i) for i in self.r0]
+            else:
+                parent = self.position(joint.parent)
+                P = self.world(joint.parent, joint.origin_in_parent)
+                Q = self.world(link, joint.origin_in_child)
+                self.pos_cache[link] = [parent[r] + P[r] - Q[r] for r in range(3)]
+        return self.pos_cache[link]
+
+    # joints ----------------------------------------------------------------------
+    def add_joint(self, joint: Joint) -> None:
+        b = self.b
+        if joint.kind == "revolute":
+            v_child = joint.R_parent_child_zero.T @ joint.axis_in_parent
+            for e_p, e_c in zip(self.world(joint.parent, joint.axis_in_parent), self.world(joint.child, v_child)):
+                b.equation(e_p - e_c)  # (9)
+        else:
+            u = self.world_vars(joint.parent, joint.axis_in_parent, f"u_{joint.name}")
+            v = self.world_vars(joint.child, joint.axis_in_child, f"v_{joint.name}")
+            b.equation(b.dot(u, v))  # (11)
+        for angle in dof_angles(joint):
+            self.add_angle(angle)
+
+    def add_angle(self, ang: DofAngle) -> None:
+        """``cos theta = a . b`` and ``sin theta = (w x a) . b`` (or ``a . (b x w)``), and the
+        limit ``cos(theta - mid) = cos(mid) cos + sin(mid) sin >= cos(half range)``."""
+        a = self.world_vars(ang.link_a, ang.a, f"a_{ang.dof}")
+        bvec = self.world_vars(ang.link_b, ang.b, f"b_{ang.dof}")
+        cos_i = self.b.as_var_bounded(self.b.dot(a, bvec), f"cos_{ang.dof}", -1.0, 1.0)
+        if ang.link_w == ang.link_a:
+            perp = self.world_vars(ang.link_a, np.cross(ang.w, ang.a), f"aperp_{ang.dof}")
+            sin_expr = self.b.dot(perp, bvec)
+        else:
+            perp = self.world_vars(ang.link_b, np.cross(ang.b, ang.w), f"bperp_{ang.dof}")
+            sin_expr = self.b.dot(a, perp)
+        sin_i = self.b.as_var_bounded(sin_expr, f"sin_{ang.dof}", -1.0, 1.0)
+        self.dof_vars[ang.dof] = (cos_i, sin_i)
+        self.angles[ang.dof] = ang
+        if ang.half_range < np.pi:
+            shifted = Lin.var(cos_i, np.cos(ang.mid)) + Lin.var(sin_i, np.sin(ang.mid))
+            self.b.inequality(Lin.constant(np.cos(ang.half_range)) - shifted)
+
+    def add_coupling(self, cpl) -> None:
+        """``theta_d = r theta_s + o`` with ``r = +-1``: cosines and sines of both sides."""
+        if abs(abs(cpl.ratio) - 1.0) > 1e-12:
+            raise InvalidTask(
+                f"coupling {cpl.dof} = {cpl.ratio} x {cpl.source} + offset: the complete solver handles "
+                "couplings with ratio +1 or -1 only (equal or opposite angles, any offset)"
+            )
+        r, o = float(np.sign(cpl.ratio)), cpl.offset
+        cd, sd = (Lin.var(i) for i in self.dof_vars[cpl.dof])
+        cs, ss = (Lin.var(i) for i in self.dof_vars[cpl.source])
+        self.b.equation(cd - (cs * np.cos(o) - ss * (r * np.sin(o))))
+        self.b.equation(sd - (ss * (r * np.cos(o)) + cs * np.sin(o)))
+
+    # contacts --------------------------------------------------------------------
+    def unit_vector(self, key: tuple, name: str) -> list[int]:
+        nu = [self.base(key + (r,), f"{name}[{r}]", -1.0, 1.0) for r in range(3)]
+        self.b.equation(lin_sum(Lin.var(self.b.square(i)) for i in nu) - Lin.constant(1.0))
+        return nu
+
+    def object_side(self, ci: int, region) -> tuple[list[Lin], list[Lin], dict]:
+        """Object point and unit outward normal (object frame) of contact ``ci``."""
+        b, info = self.b, {}
+        if isinstance(region, PointRegion):
+            return [Lin.constant(x) for x in region.point], [Lin.constant(x) for x in region.normal], info
+        if isinstance(region, SphereCap):
+            nu = self.unit_vector(("onu", ci), f"onu{ci}")
+            b.inequality(Lin.constant(np.cos(region.half_angle)) - lin_sum(Lin.var(i, m) for i, m in zip(nu, region.axis)))
+            o = [Lin.constant(region.center[r]) + Lin.var(nu[r], region.radius) for r in range(3)]
+            info["object_nu"] = nu
+            return o, [Lin.var(i) for i in nu], info
+        p, nu, info = self._patch(ci, region.patch, "o", info)
+        return [Lin.var(i) for i in p], [Lin.var(i) for i in nu], info
+
+    def _patch(self, ci: int, patch, tag: str, info: dict):
+        """Bernstein point, unit normal and (s, t) of a Bézier patch (its own frame)."""
+        b = self.b
+        s = self.base((f"{tag}s", ci), f"{tag}s{ci}", 0.0, 1.0)
+        t = self.base((f"{tag}t", ci), f"{tag}t{ci}", 0.0, 1.0)
+        cp, ncp = patch.control_points, patch.normal_patch().control_points
+        p = [b.bernstein_var(f"{tag}p{ci}[{r}]", s, t, cp[:, :, r]) for r in range(3)]
+        N = [b.bernstein_var(f"{tag}N{ci}[{r}]", s, t, ncp[:, :, r]) for r in range(3)]
+        nu = self.unit_vector((f"{tag}nu", ci), f"{tag}nu{ci}")
+        mu = self.base((f"{tag}mu", ci), f"{tag}mu{ci}", 0.0, float(np.linalg.norm(ncp, axis=2).max()))
+        for r in range(3):
+            b.equation(Lin.var(N[r]) - Lin.var(b.product(mu, nu[r])))  # N = mu nu (22-25)
+        info.update({f"{tag}_params": (s, t), f"{tag}_nu": nu, f"{tag}_point": p})
+        return p, nu, info
+
+    def add_contact(self, ci: int, contact) -> None:
+        task, b = self.task, self.b
+        hreg = task.hand_region(contact)
+        o, nu, info = self.object_side(ci, task.object_region(contact))
+        link, region = hreg.link, hreg.region
+        pos, nh = self.position(link), [n * -1.0 for n in nu]  # hand normal = -object normal
+        if isinstance(region, SphereCap):
+            cw = self.world(link, region.center)
+            for r in range(3):
+                b.equation(pos[r] + cw[r] + nh[r] * region.radius - o[r])  # (15) on the sphere
+            if region.half_angle < np.pi:
+                m = self.world(link, region.axis)
+                b.inequality(Lin.constant(np.cos(region.half_angle)) - self.dot_lin(nh, m, f"m{ci}"))
+        elif isinstance(region, PointRegion):
+            pw, nw = self.world(link, region.point), self.world(link, region.normal)
+            for r in range(3):
+                b.equation(pos[r] + pw[r] - o[r])
+                b.equation(nw[r] - nh[r])
+        else:
+            self._hand_patch(ci, link, region.patch, pos, o, nh, info)
+        self.contact_vars.append(info)
+
+    def _hand_patch(self, ci, link, patch, pos, o, nh, info) -> None:
+        b = self.b
+        hp, hn, _ = self._patch(ci, patch, "h", info)
+        R = self.rot[link]
+        for r in range(3):
+            point = lin_sum(Lin.var(b.product(R[r, c], hp[c])) for c in range(3))  # R_k h
+            normal = lin_sum(Lin.var(b.product(R[r, c], hn[c])) for c in range(3))  # R_k m
+            b.equation(pos[r] + point - o[r])
+            b.equation(normal - nh[r])
+
+    def dot_lin(self, u: list[Lin], v: list[Lin], name: str) -> Lin:
+        """``u . v`` for linear expressions (linear when one side is constant)."""
+        if all(not e.coeffs for e in u):
+            return lin_sum(e * x.const for e, x in zip(v, u))
+        if all(not e.coeffs for e in v):
+            return lin_sum(e * x.const for e, x in zip(u, v))
+        uu = [self.b.as_var(e, f"{name}u[{r}]") for r, e in enumerate(u)]
+        vv = [self.b.as_var(e, f"{name}v[{r}]") for r, e in enumerate(v)]
+        return self.b.dot(uu, vv)
+
+
+def _palm_reach(task: Task) -> float:
+    """A bound on the distance from the palm origin to any hand contact point [mm]."""
+    reach = 0.0
+    for c in task.contacts:
+        hr = task.hand_region(c)
+        total, joint = _region_extent(hr.region), task.hand.joint_of_link(hr.link)
+        while joint is not None:
+            total += np.linalg.norm(joint.origin_in_parent) + np.linalg.norm(joint.origin_in_child)
+            joint = task.hand.joint_of_link(joint.parent)
+        reach = max(reach, total)
+    return reach
+
+
+def _region_extent(region) -> float:
+    if isinstance(region, SphereCap):
+        return float(np.linalg.norm(region.center) + region.radius)
+    if isinstance(region, PointRegion):
+        return float(np.linalg.norm(region.point))
+    return float(np.linalg.norm(region.patch.control_points, axis=2).max())
+
+
+def _object_box(task: Task) -> tuple[np.ndarray, np.ndarray]:
+    pts = []
+    for c in task.contacts:
+        reg = task.object_region(c)
+        if isinstance(reg, BezierRegion):
+            pts.append(reg.patch.control_points.reshape(-1, 3))
+        elif isinstance(reg, SphereCap):
+            pts.append(np.array([reg.center - reg.radius, reg.center + reg.radius]))
+        else:
+            pts.append(reg.point[None])
+    allp = np.concatenate(pts)
+    return allp.min(axis=0), allp.max(axis=0)
+
+
+def build_system(task: Task) -> Formulation:
+    """The canonical system of ``task`` (see the module docstring)."""
+    f = _Formulator(task)
+    joints = _loop_joints(task)
+    links = [task.hand.palm] + [j.child for j in joints]
+    for link in links:
+        f.add_link(link)
+    lo, hi = _object_box(task)
+    reach = _palm_reach(task)
+    f.r0 = np.array([f.base(("r0", r), f"r0[{r}]", lo[r] - reach, hi[r] + reach) for r in range(3)])
+    for joint in joints:
+        f.add_joint(joint)
+    for cpl in task.hand.couplings:
+        # A coupling with only one side in the system constrains nothing the system sees:
+        # dropping it only enlarges the set searched (verification still checks it).
+        if cpl.dof in f.dof_vars and cpl.source in f.dof_vars:
+            f.add_coupling(cpl)
+    for ci, contact in enumerate(task.contacts):
+        f.add_contact(ci, contact)
+    return Formulation(
+        task, f.b.build(), tuple(links), f.rot, f.r0, f.dof_vars, f.contact_vars, f.base_keys, f.b
+    )

@@ -1,0 +1,79 @@
+"""The polynomial formulation (sec. 3): known solutions are points of the system."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fk_tasks import build_fk_case
+from prehension.errors import InvalidTask
+from prehension.hands.model import Coupling
+from prehension.solvers.complete.embedding import configuration_from_point, embed
+from prehension.solvers.complete.formulation import build_system
+from prehension.tasks.library import load_builtin_task
+from prehension.tasks.model import Task
+from prehension.tasks.residuals import Tolerances, evaluate
+
+ANY_COLLISION = Tolerances(penetration_mm=float("inf"))
+
+
+def _assert_is_solution_point(form, x, tol=1e-9):
+    system = form.system
+    assert np.abs(system.residuals(x)).max() < tol
+    assert system.inequality_violation(x) < tol
+    assert np.all(x >= system.lower - tol) and np.all(x <= system.upper + tol)
+
+
+@pytest.mark.parametrize("seed", range(25))
+def test_fk_solutions_are_points_of_the_system(sa_hand, seed):
+    rng = np.random.default_rng(seed)
+    case = build_fk_case(sa_hand, rng)
+    assert evaluate(case.task, case.config, ANY_COLLISION).ok
+    form = build_system(case.task)
+    _assert_is_solution_point(form, embed(form, case.config))
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_configuration_read_back_from_a_point_is_the_configuration(sa_hand, seed):
+    rng = np.random.default_rng(100 + seed)
+    case = build_fk_case(sa_hand, rng)
+    form = build_system(case.task)
+    back = configuration_from_point(form, embed(form, case.config))
+    assert evaluate(case.task, back, ANY_COLLISION).ok
+    np.testing.assert_allclose(back.T_palm_object, case.config.T_palm_object, atol=1e-9)
+    moving = [sa_hand.dof_index(d) for d in form.dofs_in_system]
+    np.testing.assert_allclose(back.joint_angles[moving], case.config.joint_angles[moving], atol=1e-9)
+
+
+def test_a_configuration_breaking_a_limit_is_not_a_point_of_the_system(sa_hand):
+    rng = np.random.default_rng(7)
+    case = build_fk_case(sa_hand, rng, fingers=("thumb", "index"))
+    q = case.config.joint_angles.copy()
+    i = sa_hand.dof_index("index_mcp_abd")
+    q[i] = sa_hand.upper[i] + 0.05  # 3 degrees beyond the limit: rebuild the task there
+    broken = build_fk_case(sa_hand, np.random.default_rng(7), fingers=("thumb", "index"), q=q)
+    form = build_system(broken.task)
+    x = embed(form, broken.config)
+    assert np.abs(form.system.residuals(x)).max() < 1e-9  # the equations hold...
+    assert form.system.inequality_violation(x) > 1e-4  # ...but the limit inequality does not
+
+
+@pytest.mark.parametrize("name", ["teapot-lid-lifting", "scalpel-incision", "teapot-service", "guitar-holding"])
+def test_builtin_systems_have_the_expected_shape(name):
+    form = build_system(load_builtin_task(name))
+    system = form.system
+    assert set(form.links) >= {"palm"}
+    assert system.n_equations > system.A.shape[0] > 0
+    assert len(system.bernstein) == 6 * len(form.task.contacts)  # point + normal patch, 3 each
+    assert np.all(system.lower <= system.upper)
+    assert np.all(np.isfinite(system.lower)) and np.all(np.isfinite(system.upper))
+
+
+def test_unsupported_coupling_ratio_is_refused(sa_hand):
+    rng = np.random.default_rng(3)
+    case = build_fk_case(sa_hand, rng, fingers=("thumb", "index"))
+    couplings = tuple(Coupling(c.dof, c.source, 0.5 if c.dof == "index_dip" else 1.0) for c in sa_hand.couplings)
+    hand = type(sa_hand)(sa_hand.name, sa_hand.links, sa_hand.joints, couplings, sa_hand.fingers, sa_hand.regions)
+    task = Task("half", hand, case.task.object, case.task.contacts, case.task.fingers)
+    with pytest.raises(InvalidTask, match="ratio \\+1 or -1"):
+        build_system(task)
