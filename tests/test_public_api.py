@@ -32,3 +32,19 @@ def test_readme_python_example_runs(capsys):
     for block in blocks:
         exec(compile(block, "README.md", "exec"), {})
     assert "(5, 14, 4, 4)" in capsys.readouterr().out
+
+
+def test_tasks_pickle_for_worker_processes():
+    import pickle
+
+    import numpy as np
+
+    task = prehension.load_builtin_task("teapot-service")
+    again = pickle.loads(pickle.dumps(task))
+    assert prehension.dumps_task(again) == prehension.dumps_task(task)
+    q = np.clip(np.zeros(task.hand.n_dof), task.hand.lower, task.hand.upper)
+    np.testing.assert_array_equal(
+        prehension.forward_kinematics(again.hand, q).T_palm_link, prehension.forward_kinematics(task.hand, q).T_palm_link
+    )
+    with __import__("pytest").raises(TypeError):
+        task.hand.regions["x"] = None  # still read-only

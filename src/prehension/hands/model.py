@@ -31,7 +31,7 @@ Couplings state one dof as a linear function of another, as URDF ``<mimic>`` doe
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from types import MappingProxyType
+from ..frozen import FrozenMap
 from typing import Literal, Mapping
 
 import numpy as np
@@ -235,7 +235,7 @@ class Hand:
         set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731
         for attr in ("links", "joints", "couplings", "fingers"):
             set_(attr, tuple(getattr(self, attr)))
-        set_("regions", MappingProxyType(dict(self.regions)))
+        set_("regions", FrozenMap(dict(self.regions)))
         set_("collision_exclusions", tuple(tuple(p) for p in self.collision_exclusions))
         from ._validate import validate_hand  # local: keeps this module about data
 

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from types import MappingProxyType
+from ..frozen import FrozenMap
 from typing import Mapping
 
 from ..errors import InvalidObject
@@ -30,7 +30,7 @@ class GraspObject:
     mesh_file: str | None = None
 
     def __post_init__(self):
-        object.__setattr__(self, "regions", MappingProxyType(dict(self.regions)))
+        object.__setattr__(self, "regions", FrozenMap(dict(self.regions)))
         object.__setattr__(self, "primitives", tuple(self.primitives))
         for name, region in self.regions.items():
             if not isinstance(region, Region):

@@ -77,7 +77,7 @@ import re
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
-from types import MappingProxyType
+from ..frozen import FrozenMap
 from typing import Callable, Mapping, NoReturn, Union
 
 from ..errors import WorldFileError
@@ -749,8 +749,8 @@ def parse_world(text: str, path: str | None = None) -> WorldFile:
         raise WorldFileError(problem.message, path=path, line=problem.line) from None
     return WorldFile(
         path=path,
-        constants=MappingProxyType(dict(parser.constants)),
-        constant_lines=MappingProxyType(dict(parser.constant_lines)),
+        constants=FrozenMap(dict(parser.constants)),
+        constant_lines=FrozenMap(dict(parser.constant_lines)),
         links=tuple(parser.links.values()),
         joints=tuple(parser.joints),
     )

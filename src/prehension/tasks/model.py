@@ -15,7 +15,7 @@ solution.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from types import MappingProxyType
+from ..frozen import FrozenMap
 from typing import Mapping
 
 import numpy as np
@@ -69,7 +69,7 @@ class Task:
     def __post_init__(self):
         object.__setattr__(self, "contacts", tuple(self.contacts))
         object.__setattr__(self, "fingers", tuple(self.fingers))
-        object.__setattr__(self, "idle_angles", MappingProxyType(dict(self.idle_angles)))
+        object.__setattr__(self, "idle_angles", FrozenMap(dict(self.idle_angles)))
         try:
             self._validate()
         except InvalidTask:

@@ -125,7 +125,8 @@ def _object_params(form, contact, info, x) -> np.ndarray:
     if isinstance(region, BezierRegion):
         return np.clip(x[list(info["o_params"])], 0.0, 1.0)
     if isinstance(region, SphereCap):
-        return region.params_for_normal(x[info["object_nu"]])[0]
+        nu = x[info["object_nu"]]
+        return np.zeros(2) if np.linalg.norm(nu) < 1e-6 else region.params_for_normal(nu)[0]
     return np.zeros(0)
 
 
@@ -136,6 +137,8 @@ def _hand_params(form, ci, contact, info, x, rot) -> np.ndarray:
         return np.clip(x[list(info["h_params"])], 0.0, 1.0)
     if isinstance(region, SphereCap):
         nu = _object_normal(form, contact, info, x)
+        if np.linalg.norm(nu) < 1e-6:  # no direction in this point: the cap's axis
+            return np.zeros(2)
         return region.params_for_normal(rot[hreg.link].T @ -nu)[0]
     return np.zeros(0)
 
