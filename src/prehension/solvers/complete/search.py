@@ -1,0 +1,298 @@
+"""Branch and prune over boxes (Rosales et al. 2011, sec. 4.2), with verified answers.
+
+Each box is *processed*: shrunk (contraction, then linear programs over the relaxations,
+:func:`.shrink.shrink_box`); if not empty, a point read from it is refined on the original
+constraints and judged by the residual function (:func:`prehension.results.make_solution`);
+if that fails, the box is split through its widest scaled interval -- or, once it is
+narrower than ``sigma``, kept as an *unverified* solution box (never called a solution).
+
+Depth-first order stops at the first verified solution; breadth-first collects every
+solution box (``all_solutions``).  When every box is pruned the answer is **infeasible**,
+with the numbers of boxes and linear programs as its certificate.
+
+Boxes are independent, so :func:`solve_complete` can process them on any
+``concurrent.futures.Executor``; the open boxes can be saved to a checkpoint file and
+the search resumed from it.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections import deque
+from concurrent.futures import FIRST_COMPLETED, Executor, wait
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+from typing import Callable, Literal
+
+import numpy as np
+
+from ...atomic import write_text_atomic
+from ...errors import PrehensionError
+from ...results import Solution, SolveResult, Status, make_solution
+from ...tasks.model import Task
+from ...tasks.residuals import Tolerances
+from ..refine import RefineOptions, refine
+from .embedding import configuration_from_point
+from .formulation import Formulation, build_system
+from .contract import contract
+from .shrink import ShrinkOptions, shrink_box
+
+__all__ = ["BranchAndPruneOptions", "solve_complete", "process_box", "BoxOutcome"]
+
+
+@dataclass(frozen=True)
+class BranchAndPruneOptions:
+    """Options of the complete solver.
+
+    Attributes:
+        sigma: a box whose base variables are all narrower than ``sigma`` (relative to
+            the initial box) is a solution box and is not split further.
+        order: ``"depth"`` (stop at the first verified solution) or ``"breadth"``.
+        all_solutions: keep searching after a verified solution (solution-set mode).
+        max_boxes: stop (``gave_up``) after this many boxes.
+        time_limit_s: stop (``gave_up``) after this many seconds.
+        shrink: box-shrinking options.
+        refine: local-refinement options for verification.
+        tolerances: what counts as a verified solution (strict by default).
+    """
+
+    sigma: float = 0.1
+    order: Literal["depth", "breadth"] = "depth"
+    all_solutions: bool = False
+    max_boxes: int | None = None
+    time_limit_s: float | None = None
+    shrink: ShrinkOptions = field(default_factory=ShrinkOptions)
+    refine: RefineOptions = field(default_factory=lambda: RefineOptions(max_evaluations=60))
+    tolerances: Tolerances = field(default_factory=Tolerances)
+
+    def __post_init__(self):
+        if not 0.0 < self.sigma < 1.0:
+            raise PrehensionError(f"sigma must lie in (0, 1) (a fraction of the initial box), got {self.sigma}")
+        if self.order not in ("depth", "breadth"):
+            raise PrehensionError(f"order must be 'depth' or 'breadth', got {self.order!r}")
+
+
+@dataclass(frozen=True, eq=False)
+class BoxOutcome:
+    """What processing one box gave."""
+
+    kind: Literal["empty", "solution", "small", "split"]
+    lower: np.ndarray
+    upper: np.ndarray
+    depth: int
+    n_lps: int
+    solution: Solution | None = None
+    children: tuple[tuple[np.ndarray, np.ndarray], ...] = ()
+
+
+def _base_indices(form: Formulation) -> np.ndarray:
+    """Variables worth splitting: the base ones (rotations, palm position, parameters...)."""
+    return np.array(sorted(form.base_keys), dtype=int)
+
+
+def _scaled_widths(form: Formulation, lower, upper) -> np.ndarray:
+    system = form.system
+    ref = np.maximum(system.upper - system.lower, 1e-12)
+    base = _base_indices(form)
+    return (upper[base] - lower[base]) / ref[base]
+
+
+def _verify(form: Formulation, lower, upper, options: BranchAndPruneOptions) -> Solution | None:
+    start = configuration_from_point(form, 0.5 * (lower + upper))
+    return make_solution(form.task, refine(form.task, start, options=options.refine), options.tolerances)
+
+
+def process_box(form: Formulation, lower, upper, depth: int, options: BranchAndPruneOptions) -> BoxOutcome:
+    """Contract, try to verify, shrink, then split or keep one box (a pure function).
+
+    Verification comes before the linear programs: in the large solution sets of grasp
+    problems a refinement from the box centre often succeeds at once, and it costs far
+    less than a round of LPs.
+    """
+    lower, upper, empty = contract(form.system, lower, upper, tol=options.shrink.contract_tol,
+                                   max_iter=options.shrink.contract_max_iter)  # fmt: skip
+    if empty:
+        return BoxOutcome("empty", lower, upper, depth, 0)
+    solution = _verify(form, lower, upper, options)
+    if solution is not None:
+        return BoxOutcome("solution", lower, upper, depth, 0, solution)
+    shrink_options = replace(options.shrink, variables=tuple(_base_indices(form).tolist()))
+    shrunk = shrink_box(form.system, lower, upper, shrink_options)
+    if shrunk.empty:
+        return BoxOutcome("empty", shrunk.lower, shrunk.upper, depth, shrunk.n_lps)
+    lo, hi = shrunk.lower, shrunk.upper
+    widths = _scaled_widths(form, lo, hi)
+    if widths.max() < options.sigma:
+        return BoxOutcome("small", lo, hi, depth, shrunk.n_lps)
+    k = _base_indices(form)[int(np.argmax(widths))]
+    mid = 0.5 * (lo[k] + hi[k])
+    left_hi, right_lo = hi.copy(), lo.copy()
+    left_hi[k], right_lo[k] = mid, mid
+    return BoxOutcome("split", lo, hi, depth, shrunk.n_lps, children=((lo, left_hi), (right_lo, hi)))
+
+
+# -- the driver -------------------------------------------------------------------------
+@dataclass
+class _State:
+    open: deque
+    boxes: int = 0
+    lps: int = 0
+    max_depth: int = 0
+    solutions: list = field(default_factory=list)
+    small: list = field(default_factory=list)
+
+    def to_json(self) -> dict:
+        return {
+            "open": [{"lower": lo.tolist(), "upper": hi.tolist(), "depth": d} for lo, hi, d in self.open],
+            "boxes": self.boxes,
+            "lps": self.lps,
+            "max_depth": self.max_depth,
+            "small": [{"lower": lo.tolist(), "upper": hi.tolist()} for lo, hi in self.small],
+        }
+
+    @staticmethod
+    def from_json(data: dict) -> "_State":
+        open_ = deque((np.array(b["lower"]), np.array(b["upper"]), int(b["depth"])) for b in data["open"])
+        state = _State(open_, data["boxes"], data["lps"], data["max_depth"])
+        state.small = [(np.array(b["lower"]), np.array(b["upper"])) for b in data["small"]]
+        return state
+
+
+def _record(state: _State, out: BoxOutcome, options: BranchAndPruneOptions) -> None:
+    state.boxes += 1
+    state.lps += out.n_lps
+    state.max_depth = max(state.max_depth, out.depth)
+    if out.kind == "solution":
+        state.solutions.append(out.solution)
+    elif out.kind == "small":
+        state.small.append((out.lower, out.upper))
+    elif out.kind == "split":
+        children = [(lo, hi, out.depth + 1) for lo, hi in out.children]
+        if options.order == "depth":
+            state.open.extend(reversed(children))  # the first child is processed next
+        else:
+            state.open.extendleft(children)
+
+
+def _done(state: _State, options: BranchAndPruneOptions) -> bool:
+    return bool(state.solutions) and not options.all_solutions
+
+
+def _limits_hit(state: _State, options: BranchAndPruneOptions, started: float) -> str:
+    if options.max_boxes is not None and state.boxes >= options.max_boxes:
+        return f"box limit ({options.max_boxes}) reached"
+    if options.time_limit_s is not None and time.perf_counter() - started > options.time_limit_s:
+        return f"time limit ({options.time_limit_s:g} s) reached"
+    return ""
+
+
+def solve_complete(
+    task: Task,
+    options: BranchAndPruneOptions = BranchAndPruneOptions(),
+    *,
+    executor: Executor | None = None,
+    workers: int = 1,
+    checkpoint: str | Path | None = None,
+    resume: bool = False,
+    progress: Callable[[dict], None] | None = None,
+) -> SolveResult:
+    """Solve ``task`` by branch and prune (see the module docstring).
+
+    Args:
+        task: the task.
+        options: :class:`BranchAndPruneOptions`.
+        executor: where boxes are processed (default: in this process); ``workers``
+            boxes are kept in flight on it.
+        checkpoint: file where the open boxes are saved when the search stops early or
+            is interrupted (Ctrl-C); with ``resume=True`` the search starts from it.
+        progress: called after each box with counters (boxes, open, depth, lps).
+    """
+    started = time.perf_counter()
+    form = build_system(task)
+    state = _initial_state(form, checkpoint, resume)
+    try:
+        stop = _run(form, state, options, executor, max(1, workers), started, progress)
+    except KeyboardInterrupt:
+        _save(checkpoint, state)
+        return _result(task, form, state, options, started, "interrupted" + _saved_note(checkpoint))
+    if stop:
+        _save(checkpoint, state)
+        stop += _saved_note(checkpoint)
+    return _result(task, form, state, options, started, stop)
+
+
+def _initial_state(form: Formulation, checkpoint, resume: bool) -> _State:
+    if resume:
+        if checkpoint is None or not Path(checkpoint).is_file():
+            raise PrehensionError(f"cannot resume: no checkpoint file {checkpoint}")
+        data = json.loads(Path(checkpoint).read_text())
+        if data.get("n_variables") != form.system.n:
+            raise PrehensionError(f"checkpoint {checkpoint} belongs to another task (variable count differs)")
+        return _State.from_json(data)
+    return _State(deque([(form.system.lower.copy(), form.system.upper.copy(), 0)]))
+
+
+def _save(checkpoint, state: _State) -> None:
+    if checkpoint is not None and state.open:
+        data = state.to_json()
+        data["n_variables"] = len(state.open[0][0])
+        write_text_atomic(Path(checkpoint), json.dumps(data))
+
+
+def _saved_note(checkpoint) -> str:
+    return f"; search state saved to {checkpoint} (resume with --resume)" if checkpoint else ""
+
+
+def _run(form, state, options, executor, workers, started, progress) -> str:
+    """Process boxes until done; returns why it stopped early ('' when it finished)."""
+    in_flight: dict = {}
+    while state.open or in_flight:
+        if _done(state, options):
+            return ""
+        reason = _limits_hit(state, options, started)
+        if reason:
+            return reason
+        while state.open and len(in_flight) < (workers if executor else 1):
+            lo, hi, depth = state.open.pop()  # depth: last pushed; breadth: oldest (children go left)
+            if executor is None:
+                _record(state, process_box(form, lo, hi, depth, options), options)
+                _report(progress, state, 0)
+                break
+            in_flight[executor.submit(process_box, form, lo, hi, depth, options)] = (lo, hi, depth)
+        if executor is not None and in_flight:
+            finished, _ = wait(in_flight, return_when=FIRST_COMPLETED)
+            for fut in finished:
+                in_flight.pop(fut)
+                _record(state, fut.result(), options)
+            _report(progress, state, len(in_flight))
+    return ""
+
+
+def _report(progress, state: _State, in_flight: int) -> None:
+    if progress is not None:
+        progress({"boxes": state.boxes, "open": len(state.open) + in_flight, "depth": state.max_depth, "lps": state.lps})
+
+
+def _result(task, form, state: _State, options, started: float, stop: str) -> SolveResult:
+    seconds = time.perf_counter() - started
+    stats = {"boxes": state.boxes, "lps": state.lps, "max_depth": state.max_depth, "open_boxes": len(state.open),
+             "n_variables": form.system.n, "n_equations": form.system.n_equations, "options": _options_dict(options)}  # fmt: skip
+    small = tuple(state.small)
+    if state.solutions:
+        status, msg = Status.SOLVED, f"verified solution found after {state.boxes} boxes and {state.lps} LPs"
+    elif stop:
+        status, msg = Status.GAVE_UP, f"stopped: {stop}"
+    elif small:
+        status = Status.GAVE_UP
+        msg = f"{len(small)} box(es) narrower than sigma hold no verified solution; try a smaller sigma"
+    else:
+        status = Status.INFEASIBLE
+        msg = f"infeasible: all {state.boxes} boxes pruned ({state.lps} linear programs)"
+    return SolveResult(task, "complete", status, msg, tuple(state.solutions), seconds, stats, small)
+
+
+def _options_dict(options: BranchAndPruneOptions) -> dict:
+    d = asdict(options)
+    d.pop("tolerances", None)
+    return d

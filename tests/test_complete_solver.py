@@ -1,0 +1,102 @@
+"""The complete solver: never loses a solution, proves infeasibility only when true."""
+
+from __future__ import annotations
+
+import json
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+import pytest
+
+from fk_tasks import build_fk_case
+from prehension.results import Status, make_solution
+from prehension.solvers.complete.embedding import embed
+from prehension.solvers.complete.formulation import build_system
+from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
+from prehension.solvers.complete.shrink import ShrinkOptions, shrink_box
+from prehension.tasks.residuals import Tolerances
+from tiny_tasks import FEASIBLE_UP_TO_MM, pincer_task
+
+FAST = BranchAndPruneOptions(time_limit_s=120)
+
+
+@pytest.mark.parametrize("d", [30.0, 44.0])
+def test_small_feasible_task_is_solved(d):
+    result = solve_complete(pincer_task(d), FAST)
+    assert result.status == Status.SOLVED and result.success
+    solution = result.solutions[0]
+    assert solution.report.ok  # verified with the strict default tolerances
+    assert make_solution(result.task, solution.configuration()) is not None
+
+
+@pytest.mark.parametrize("d", [55.0, 60.0, 120.0])
+def test_small_infeasible_task_is_certified(d):
+    assert d > FEASIBLE_UP_TO_MM
+    result = solve_complete(pincer_task(d), FAST)
+    assert result.status == Status.INFEASIBLE and not result.solutions
+    assert result.stats["boxes"] >= 1 and "pruned" in result.message
+
+
+def test_boundary_task_is_never_called_solved_or_infeasible_wrongly():
+    """1 mm past the boundary: the solver may prove it or leave small unverified boxes,
+    but must never return a solution; just inside, it must find one."""
+    outside = solve_complete(pincer_task(FEASIBLE_UP_TO_MM + 1.0), FAST)
+    assert outside.status in (Status.INFEASIBLE, Status.GAVE_UP) and not outside.solutions
+    if outside.status == Status.GAVE_UP:
+        assert outside.unverified_boxes and "narrower than sigma" in outside.message
+    inside = solve_complete(pincer_task(FEASIBLE_UP_TO_MM - 1.0), FAST)
+    assert inside.status == Status.SOLVED
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_fk_generated_tasks_are_solved(sa_hand, seed):
+    """Never loses a solution: tasks built around a known configuration are solved."""
+    case = build_fk_case(sa_hand, np.random.default_rng(1000 + seed), palm=False, kinds=None)
+    tol = Tolerances(penetration_mm=float("inf"))  # random poses may self-collide
+    result = solve_complete(case.task, BranchAndPruneOptions(time_limit_s=300, tolerances=tol))
+    assert result.status == Status.SOLVED
+    assert result.solutions[0].report.ok
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_shrinking_a_box_around_a_known_solution_keeps_it(sa_hand, seed):
+    rng = np.random.default_rng(2000 + seed)
+    case = build_fk_case(sa_hand, rng)
+    form = build_system(case.task)
+    x = embed(form, case.config)
+    system = form.system
+    width = system.upper - system.lower
+    lower = np.maximum(system.lower, x - rng.uniform(0.001, 0.3, system.n) * width)
+    upper = np.minimum(system.upper, x + rng.uniform(0.001, 0.3, system.n) * width)
+    base = tuple(sorted(form.base_keys))  # as the search shrinks them
+    shrunk = shrink_box(system, lower, upper, ShrinkOptions(variables=base, max_passes=1))
+    assert not shrunk.empty and shrunk.n_lps > 0
+    assert np.all(shrunk.lower <= x + 1e-9) and np.all(x <= shrunk.upper + 1e-9)
+
+
+def test_time_limit_gives_up_and_checkpoint_resumes(tmp_path):
+    task = pincer_task(50.0)  # infeasible, needs tens of boxes
+    ckpt = tmp_path / "search.json"
+    first = solve_complete(task, BranchAndPruneOptions(max_boxes=3), checkpoint=ckpt)
+    assert first.status == Status.GAVE_UP and "box limit" in first.message and str(ckpt) in first.message
+    saved = json.loads(ckpt.read_text())
+    assert saved["open"] and saved["boxes"] == 3
+    resumed = solve_complete(task, FAST, checkpoint=ckpt, resume=True)
+    assert resumed.status == Status.INFEASIBLE
+    assert resumed.stats["boxes"] > 3  # counted from where the first run stopped
+
+
+def test_boxes_on_an_executor_give_the_same_answer():
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        infeasible = solve_complete(pincer_task(55.0), FAST, executor=pool, workers=2)
+        feasible = solve_complete(pincer_task(30.0), FAST, executor=pool, workers=2)
+    assert infeasible.status == Status.INFEASIBLE
+    assert feasible.status == Status.SOLVED
+
+
+def test_builtin_task_first_solution(capsys):
+    from prehension.tasks.library import load_builtin_task
+
+    result = solve_complete(load_builtin_task("scalpel-upholding"), BranchAndPruneOptions(time_limit_s=300))
+    assert result.status == Status.SOLVED
+    assert result.solutions[0].report.worst("contact_distance") < 1e-6

@@ -1,0 +1,41 @@
+"""A two-joint 'pincer' and tasks on it whose feasibility is known by hand.
+
+The pincer: a palm with a pad at (10, 0, 100) facing +x, and a planar finger (joints at
+(0, 0, 50) and 40 mm further, both flexing towards +x about +y, limits [0, 90] deg) with
+a fingertip sphere of radius 8 mm, 30 mm beyond the second joint, whose contact cap faces
++x (half-angle 90 deg).  The object is two points d apart along its x axis: A (normal -x)
+touched by the pad, B (normal -x) touched by the fingertip.
+
+The pad fixes A at the pad and the object's x axis along the palm's, so B's contact point
+is at (10 + d, 0, 100) and the fingertip centre at (2 + d, 0, 100), which the finger
+reaches iff its distance from the first joint, sqrt((2 + d)^2 + 50^2), is at most 70 mm:
+**feasible iff d <= 47 mm** (the cone allows it: the finger turns by less than 90 deg).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from prehension.geometry.regions import PointRegion, SphereCap
+from prehension.hands.model import Finger, Hand, HandRegion, Joint, Link
+from prehension.objects.model import GraspObject
+from prehension.tasks.model import Contact, Task
+
+FEASIBLE_UP_TO_MM = np.sqrt(70.0**2 - 50.0**2) - 2.0  # 46.99
+
+
+def pincer_hand() -> Hand:
+    half_pi = np.pi / 2
+    j1 = Joint("j1", "revolute", "palm", "prox", (0, 0, 50), (0, 0, 0), (0, 1, 0), np.eye(3), ("j1",), (0.0,), (half_pi,))
+    j2 = Joint("j2", "revolute", "prox", "dist", (0, 0, 40), (0, 0, 0), (0, 1, 0), np.eye(3), ("j2",), (0.0,), (half_pi,))
+    regions = {
+        "tip": HandRegion("dist", SphereCap((0, 0, 30), 8.0, (1, 0, 0), half_pi)),
+        "pad": HandRegion("palm", PointRegion((10, 0, 100), (1, 0, 0))),
+    }
+    links = (Link("palm"), Link("prox"), Link("dist"))
+    return Hand("pincer", links, (j1, j2), (), (Finger("f", ("prox", "dist")),), regions)
+
+
+def pincer_task(d: float) -> Task:
+    obj = GraspObject("two-points", {"A": PointRegion((0, 0, 0), (-1, 0, 0)), "B": PointRegion((d, 0, 0), (-1, 0, 0))})
+    return Task(f"pincer-{d:g}", pincer_hand(), obj, (Contact("pad", "A"), Contact("tip", "B")), ("f",))
