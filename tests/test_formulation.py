@@ -77,3 +77,24 @@ def test_unsupported_coupling_ratio_is_refused(sa_hand):
     task = Task("half", hand, case.task.object, case.task.contacts, case.task.fingers)
     with pytest.raises(InvalidTask, match="ratio \\+1 or -1"):
         build_system(task)
+
+
+def test_system_jacobian_matches_finite_differences(sa_hand):
+    case = build_fk_case(sa_hand, np.random.default_rng(11), palm=True)
+    system = build_system(case.task).system
+    x = embed(build_system(case.task), case.config)
+    J = system.jacobian(x).toarray()
+    h = 1e-7
+    for k in np.random.default_rng(0).choice(system.n, size=40, replace=False):
+        dx = np.zeros(system.n)
+        dx[k] = h
+        fd = (system.residuals(x + dx) - system.residuals(x - dx)) / (2 * h)
+        np.testing.assert_allclose(J[:, k], fd, atol=1e-5)
+
+
+def test_solution_dimension_of_a_two_finger_task(sa_hand):
+    """Index + thumb, fingertip caps on patches: 7 independent angles + 6 pose + 8 region
+    parameters - 10 contact equations = 11 (the dimension the task's counts predict)."""
+    case = build_fk_case(sa_hand, np.random.default_rng(5), fingers=("thumb", "index"), palm=False, kinds=("bezier", "bezier"))
+    form = build_system(case.task)
+    assert form.system.solution_dimension(embed(form, case.config)) == case.task.counts()["dimension"] == 11

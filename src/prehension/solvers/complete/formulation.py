@@ -144,6 +144,7 @@ class _Formulator:
         self.dof_vars: dict[str, tuple[int, int]] = {}
         self.contact_vars: list[dict] = []
         self.angles: dict[str, DofAngle] = {}
+        self.object_points: list[list[Lin]] = []
         self.r0 = np.zeros(3, dtype=int)
 
     def base(self, key: tuple, name: str, lo: float, hi: float) -> int:
@@ -279,6 +280,7 @@ class _Formulator:
         task, b = self.task, self.b
         hreg = task.hand_region(contact)
         o, nu, info = self.object_side(ci, task.object_region(contact))
+        self.object_points.append(o)
         link, region = hreg.link, hreg.region
         pos, nh = self.position(link), [n * -1.0 for n in nu]  # hand normal = -object normal
         if isinstance(region, SphereCap):
@@ -307,6 +309,25 @@ class _Formulator:
             b.equation(pos[r] + point - o[r])
             b.equation(normal - nh[r])
 
+    def add_reach_constraints(self) -> None:
+        """Redundant distance bounds: ``|o_a - r_0| <= reach_a`` and ``|o_a - o_b| <= reach_ab``.
+
+        They follow from the kinematics (every hand point lies within a known distance of
+        the palm origin and of the other contact points) and let interval contraction
+        discard at once the boxes in which the object's contact regions are farther apart
+        than the hand can span.
+        """
+        task, b = self.task, self.b
+        points = self.object_points
+        pairs = [(a, None) for a in range(len(points))] + [
+            (a, c) for a in range(len(points)) for c in range(a + 1, len(points))
+        ]
+        for a, c in pairs:
+            other = [Lin.var(i) for i in self.r0] if c is None else points[c]
+            diff = [b.as_var(points[a][r] - other[r], f"d{a}{'' if c is None else c}[{r}]") for r in range(3)]
+            sq = lin_sum(Lin.var(b.square(i)) for i, _ in diff)
+            b.inequality(sq - Lin.constant(contact_reach(task, a, c) ** 2))
+
     def dot_lin(self, u: list[Lin], v: list[Lin], name: str) -> Lin:
         """``u . v`` for linear expressions (linear when one side is constant)."""
         if all(not e.coeffs for e in u):
@@ -318,17 +339,58 @@ class _Formulator:
         return self.b.dot(uu, vv)
 
 
+def _chain(task: Task, link: str) -> list[Joint]:
+    """Joints from the palm to ``link``, palm first."""
+    out, joint = [], task.hand.joint_of_link(link)
+    while joint is not None:
+        out.insert(0, joint)
+        joint = task.hand.joint_of_link(joint.parent)
+    return out
+
+
+def _reach_below(joints: list[Joint], region) -> float:
+    """Bound on |point of region - first joint centre| along a chain [mm]."""
+    total = _region_extent(region)
+    for k, joint in enumerate(joints):
+        total += np.linalg.norm(joint.origin_in_child)
+        if k + 1 < len(joints):
+            total += np.linalg.norm(joints[k + 1].origin_in_parent)
+    return total
+
+
+def contact_reach(task: Task, a: int, b: int | None = None) -> float:
+    """A bound on the distance [mm] between the hand points of contacts ``a`` and ``b``
+    (``b=None``: between contact ``a`` and the palm origin), over all configurations.
+
+    Through the deepest common link: the two first joint centres below it are fixed in
+    that link, and every later joint adds at most |Q| + |next P|.
+    """
+    ra = task.hand_region(task.contacts[a])
+    chain_a = _chain(task, ra.link)
+    if b is None:
+        if not chain_a:
+            return _region_extent(ra.region)
+        return float(np.linalg.norm(chain_a[0].origin_in_parent) + _reach_below(chain_a, ra.region))
+    rb = task.hand_region(task.contacts[b])
+    chain_b = _chain(task, rb.link)
+    k = 0
+    while k < min(len(chain_a), len(chain_b)) and chain_a[k] is chain_b[k]:
+        k += 1
+    rest_a, rest_b = chain_a[k:], chain_b[k:]
+    first_a = rest_a[0].origin_in_parent if rest_a else np.zeros(3)
+    first_b = rest_b[0].origin_in_parent if rest_b else np.zeros(3)
+    reach = float(np.linalg.norm(first_a - first_b))
+    for rest, region, first in ((rest_a, ra.region, first_a), (rest_b, rb.region, first_b)):
+        if rest:
+            reach += _reach_below(rest, region)
+        else:  # the region sits on the common link itself
+            reach += _region_extent(region)
+    return reach
+
+
 def _palm_reach(task: Task) -> float:
     """A bound on the distance from the palm origin to any hand contact point [mm]."""
-    reach = 0.0
-    for c in task.contacts:
-        hr = task.hand_region(c)
-        total, joint = _region_extent(hr.region), task.hand.joint_of_link(hr.link)
-        while joint is not None:
-            total += np.linalg.norm(joint.origin_in_parent) + np.linalg.norm(joint.origin_in_child)
-            joint = task.hand.joint_of_link(joint.parent)
-        reach = max(reach, total)
-    return reach
+    return max(contact_reach(task, a) for a in range(len(task.contacts)))
 
 
 def _region_extent(region) -> float:
@@ -372,6 +434,7 @@ def build_system(task: Task) -> Formulation:
             f.add_coupling(cpl)
     for ci, contact in enumerate(task.contacts):
         f.add_contact(ci, contact)
+    f.add_reach_constraints()
     return Formulation(
         task, f.b.build(), tuple(links), f.rot, f.r0, f.dof_vars, f.contact_vars, f.base_keys, f.b
     )

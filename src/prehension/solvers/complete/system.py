@@ -96,6 +96,29 @@ class System:
             out.append(np.array([x[eq.k] - f]))
         return np.concatenate(out)
 
+    def jacobian(self, x: np.ndarray) -> sp.csr_matrix:
+        """Jacobian of :meth:`residuals` at ``x``, sparse (n_equations, n)."""
+        from ...geometry.bezier import bernstein, bernstein_derivative
+
+        rows = [sp.csr_matrix(self.A)]
+        n = self.n
+        for k, i in self.squares:
+            rows.append(sp.csr_matrix(([1.0, -2.0 * x[i]], ([0, 0], [k, i])), shape=(1, n)))
+        for k, i, j in self.products:
+            rows.append(sp.csr_matrix(([1.0, -x[j], -x[i]], ([0, 0, 0], [k, i, j])), shape=(1, n)))
+        for eq in self.bernstein:
+            dp, dq = eq.coeffs.shape[0] - 1, eq.coeffs.shape[1] - 1
+            bi, bj = bernstein(dp, np.atleast_1d(x[eq.i]))[0], bernstein(dq, np.atleast_1d(x[eq.j]))[0]
+            di = bernstein_derivative(dp, np.atleast_1d(x[eq.i]))[0] @ eq.coeffs @ bj
+            dj = bi @ eq.coeffs @ bernstein_derivative(dq, np.atleast_1d(x[eq.j]))[0]
+            rows.append(sp.csr_matrix(([1.0, -di, -dj], ([0, 0, 0], [eq.k, eq.i, eq.j])), shape=(1, n)))
+        return sp.vstack(rows, format="csr")
+
+    def solution_dimension(self, x: np.ndarray, tol: float = 1e-8) -> int:
+        """``n - rank(J(x))``: the dimension of the solution set near a solution ``x``."""
+        J = self.jacobian(x).toarray()
+        return self.n - int(np.linalg.matrix_rank(J, tol=tol * max(1.0, np.abs(J).max())))
+
     def inequality_violation(self, x: np.ndarray) -> float:
         """Largest violation of ``G x <= h`` and of the box (0 when satisfied)."""
         worst = float(np.max(self.G @ x - self.h, initial=0.0))
