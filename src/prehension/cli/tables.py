@@ -1,72 +1,15 @@
-"""The ``prehension`` command line.
-
-Exit codes: 0 success; 2 bad input (an unknown task, a malformed task or world file, an
-output file that already exists...): the message names the problem.
-"""
+"""Describing tasks in the terminal: ``prehension tasks`` and ``prehension show``."""
 
 from __future__ import annotations
-
-import argparse
-import sys
-from pathlib import Path
 
 import numpy as np
 from rich.console import Console
 from rich.table import Table
 
-from . import __version__
-from .errors import PrehensionError
+from .codes import EXIT_OK
 
-__all__ = ["main", "build_parser", "EXIT_OK", "EXIT_BAD_INPUT"]
-
-EXIT_OK = 0
-EXIT_BAD_INPUT = 2
-
-
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="prehension",
-        description="Grasp configurations of multi-fingered hands with specified contact regions.",
-    )
-    parser.add_argument("--version", action="version", version=f"prehension {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    sub.add_parser("tasks", help="list the built-in tasks")
-    show = sub.add_parser("show", help="describe a task: hand, limits, contacts, problem size")
-    show.add_argument("task", help="built-in task name, task file (.yaml) or CuikSuite file (.world)")
-    imp = sub.add_parser("import-cuik", help="convert a CuikSuite .world grasp problem into a task file")
-    imp.add_argument("world", type=Path, help="the .world file")
-    imp.add_argument("-o", "--output", type=Path, required=True, help="task file to write (.yaml)")
-    imp.add_argument("--name", help="task name (default: the world file's folder name)")
-    imp.add_argument(
-        "--angle2", choices=("2011", "current"), default="2011",
-        help="sign of universal-joint angle 2: as in the 2011 CuikSuite release (default) or the current one",
-    )  # fmt: skip
-    imp.add_argument("--couple-distal", action="store_true", help="couple the last two revolute joints of each finger")
-    imp.add_argument(
-        "--couple", action="append", default=[], metavar="ANGLE=SOURCE", help="couple two joint angles (equal angles)"
-    )
-    imp.add_argument("--force", action="store_true", help="overwrite the output file if it exists")
-    return parser
-
-
-def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    console = Console(highlight=False)
-    commands = {"tasks": _cmd_tasks, "show": _cmd_show, "import-cuik": _cmd_import}
-    if args.command is None:
-        parser.print_help()
-        return EXIT_OK
-    try:
-        return commands[args.command](args, console)
-    except PrehensionError as exc:
-        Console(stderr=True, highlight=False).print(f"[bold red]error:[/] {exc}", markup=True, soft_wrap=True)
-        return EXIT_BAD_INPUT
-
-
-# -- commands ---------------------------------------------------------------------------
-def _cmd_tasks(args, console: Console) -> int:
-    from .tasks.library import builtin_task_names, load_builtin_task
+def cmd_tasks(args, console: Console) -> int:
+    from ..tasks.library import builtin_task_names, load_builtin_task
 
     table = Table(title="Built-in tasks", title_justify="left")
     table.add_column("task", no_wrap=True)
@@ -80,8 +23,8 @@ def _cmd_tasks(args, console: Console) -> int:
     return EXIT_OK
 
 
-def _cmd_show(args, console: Console) -> int:
-    from .tasks.library import resolve_task
+def cmd_show(args, console: Console) -> int:
+    from ..tasks.library import resolve_task
 
     task = resolve_task(args.task)
     console.print(f"[bold]{task.name}[/]  hand {task.hand.name!r}, object {task.object.name!r}")
@@ -92,31 +35,6 @@ def _cmd_show(args, console: Console) -> int:
     console.print(_contacts_table(task))
     console.print(_size_table(task))
     return EXIT_OK
-
-
-def _cmd_import(args, console: Console) -> int:
-    from .tasks.cuik_import import import_world
-    from .tasks.yaml_io import dump_task
-
-    if args.output.exists() and not args.force:
-        raise PrehensionError(f"{args.output} already exists; pass --force to overwrite it")
-    couplings = tuple(_parse_coupling(c) for c in args.couple)
-    task = import_world(
-        args.world, name=args.name, angle2=args.angle2, couplings=couplings, couple_distal=args.couple_distal
-    )
-    dump_task(task, args.output)
-    console.print(
-        f"wrote {args.output}: task {task.name!r}, {len(task.contacts)} contacts, "
-        f"fingers {', '.join(task.fingers)}, {len(task.hand.couplings)} couplings"
-    )
-    return EXIT_OK
-
-
-def _parse_coupling(text: str) -> tuple[str, str]:
-    angle, sep, source = text.partition("=")
-    if not sep or not angle.strip() or not source.strip():
-        raise PrehensionError(f"--couple {text!r}: write ANGLE=SOURCE, e.g. --couple p14=p13")
-    return angle.strip(), source.strip()
 
 
 # -- tables -----------------------------------------------------------------------------
@@ -169,7 +87,7 @@ def _contacts_table(task) -> Table:
 
 
 def _size_table(task) -> Table:
-    from .paper import TABLE2
+    from ..paper import TABLE2
 
     counts = task.counts()
     table = Table(
@@ -196,5 +114,3 @@ def _size_table(task) -> Table:
     return table
 
 
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,0 +1,113 @@
+"""The ``prehension`` command line.
+
+Exit codes (``prehension.cli.codes``): 0 done / solved, 2 bad input (the message names
+the problem), 3 proven infeasible, 4 gave up, 5 a checked result does not hold.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from rich.console import Console
+
+from .. import __version__
+from ..errors import PrehensionError
+from .codes import EXIT_BAD_INPUT, EXIT_CHECK_FAILED, EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK
+
+__all__ = [
+    "main", "build_parser", "EXIT_OK", "EXIT_BAD_INPUT", "EXIT_INFEASIBLE", "EXIT_GAVE_UP", "EXIT_CHECK_FAILED",
+]  # fmt: skip
+
+TASK_HELP = "built-in task name, task file (.yaml) or CuikSuite file (.world)"
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="prehension",
+        description="Grasp configurations of multi-fingered hands with specified contact regions.",
+    )
+    parser.add_argument("--version", action="version", version=f"prehension {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub.add_parser("tasks", help="list the built-in tasks")
+    show = sub.add_parser("show", help="describe a task: hand, limits, contacts, problem size")
+    show.add_argument("task", help=TASK_HELP)
+    _add_solve(sub)
+    check = sub.add_parser("check", help="re-verify a result file against its task")
+    check.add_argument("result", type=Path, help="result file (.json) written by 'prehension solve'")
+    _add_import(sub)
+    off = sub.add_parser("offline", help="local solver: compute a hand's sequence of initial poses (sec. 3.2)")
+    off.add_argument("hand", help="built-in hand name (schunk-sa)")
+    off.add_argument("-o", "--output", type=Path, required=True, help="sequence file to write (.json)")
+    off.add_argument("--M", type=int, default=5000, help="random problems per step (paper: 5000)")
+    off.add_argument("--N", type=int, default=30, help="grid values per lambda (paper: 30)")
+    off.add_argument("--imax", type=int, default=12, help="initial poses in the sequence (paper: 12)")
+    off.add_argument("--workers", type=int, default=1, help="processes")
+    off.add_argument("--seed", type=int, default=0)
+    off.add_argument("--force", action="store_true", help="overwrite the output file if it exists")
+    return parser
+
+
+def _add_solve(sub) -> None:
+    p = sub.add_parser("solve", help="find a grasp configuration (or prove there is none)")
+    p.add_argument("task", help=TASK_HELP)
+    p.add_argument("--method", choices=("auto", "local", "complete"), default="auto",
+                   help="auto (default): the local solver, then the complete one if it fails")  # fmt: skip
+    p.add_argument("-o", "--output", type=Path, help="result file (default: TASK.result.json; an older one is kept as a backup)")
+    p.add_argument("--all", action="store_true", help="complete solver: search the whole solution set (breadth first)")
+    p.add_argument("--sigma", type=float, default=0.1, help="complete solver: solution-box size (fraction of the initial box)")
+    p.add_argument("--workers", type=int, default=1, help="complete solver: boxes processed in parallel (processes)")
+    p.add_argument("--time-limit", type=float, default=None, metavar="SECONDS", help="give up after this long")
+    p.add_argument("--max-boxes", type=int, default=None, help="complete solver: give up after this many boxes")
+    p.add_argument("--checkpoint", type=Path, help="complete solver: save the open boxes here when stopped (Ctrl-C too)")
+    p.add_argument("--resume", action="store_true", help="complete solver: continue from --checkpoint")
+    p.add_argument("--seed", type=int, default=0, help="random seed (local solver)")
+    p.add_argument("--quiet", action="store_true", help="no progress or tables, only errors")
+    p.add_argument("--json", action="store_true", help="print the result summary as JSON on stdout")
+
+
+def _add_import(sub) -> None:
+    imp = sub.add_parser("import-cuik", help="convert a CuikSuite .world grasp problem into a task file")
+    imp.add_argument("world", type=Path, help="the .world file")
+    imp.add_argument("-o", "--output", type=Path, required=True, help="task file to write (.yaml)")
+    imp.add_argument("--name", help="task name (default: the world file's folder name)")
+    imp.add_argument(
+        "--angle2", choices=("2011", "current"), default="2011",
+        help="sign of universal-joint angle 2: as in the 2011 CuikSuite release (default) or the current one",
+    )  # fmt: skip
+    imp.add_argument("--couple-distal", action="store_true", help="couple the last two revolute joints of each finger")
+    imp.add_argument(
+        "--couple", action="append", default=[], metavar="ANGLE=SOURCE", help="couple two joint angles (equal angles)"
+    )
+    imp.add_argument("--force", action="store_true", help="overwrite the output file if it exists")
+
+
+def main(argv: list[str] | None = None) -> int:
+    from .check import cmd_check
+    from .convert import cmd_import
+    from .solve import cmd_solve
+    from .tables import cmd_show, cmd_tasks
+
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    console = Console(highlight=False, quiet=bool(getattr(args, "quiet", False)))
+    commands = {
+        "tasks": cmd_tasks, "show": cmd_show, "import-cuik": cmd_import, "solve": cmd_solve,
+        "check": cmd_check, "offline": _cmd_offline,
+    }  # fmt: skip
+    if args.command is None:
+        parser.print_help()
+        return EXIT_OK
+    try:
+        return commands[args.command](args, console)
+    except PrehensionError as exc:
+        Console(stderr=True, highlight=False).print(f"[bold red]error:[/] {exc}", markup=True, soft_wrap=True)
+        return EXIT_BAD_INPUT
+
+
+def _cmd_offline(args, console: Console) -> int:
+    from ..solvers.local.offline import cli_offline
+
+    cli_offline(args.hand, args.output, M=args.M, N=args.N, imax=args.imax, workers=args.workers,
+                seed=args.seed, force=args.force, console=console)  # fmt: skip
+    return EXIT_OK

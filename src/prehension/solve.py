@@ -1,0 +1,58 @@
+"""One entry point for both solvers: :func:`solve`.
+
+``method="auto"`` runs the local solver first (milliseconds when it succeeds) and falls
+back to the complete solver, which always finds a solution when one exists and can prove
+that none does; the result's message says which solver answered.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+from typing import Callable, Literal
+
+from .errors import PrehensionError
+from .results import SolveResult
+from .tasks.model import Task
+
+__all__ = ["solve"]
+
+
+def solve(
+    task: Task,
+    method: Literal["auto", "local", "complete"] = "auto",
+    *,
+    complete_options=None,
+    local_options=None,
+    seed: int = 0,
+    executor=None,
+    workers: int = 1,
+    checkpoint=None,
+    resume: bool = False,
+    progress: Callable[[dict], None] | None = None,
+) -> SolveResult:
+    """Solve ``task`` with the chosen method (see the module docstring)."""
+    if method not in ("auto", "local", "complete"):
+        raise PrehensionError(f"method must be 'auto', 'local' or 'complete', got {method!r}")
+    started = time.perf_counter()
+    if method in ("auto", "local"):
+        local = _solve_local(task, local_options, seed)
+        if local.success or method == "local":
+            return local
+    from .solvers.complete.search import BranchAndPruneOptions, solve_complete
+
+    result = solve_complete(
+        task, complete_options or BranchAndPruneOptions(), executor=executor, workers=workers,
+        checkpoint=checkpoint, resume=resume, progress=progress,
+    )  # fmt: skip
+    if method == "auto":
+        note = f"the local solver found no solution ({local.message}); complete solver: {result.message}"
+        stats = dict(result.stats, local=dict(local.stats))
+        result = replace(result, message=note, seconds=time.perf_counter() - started, stats=stats)
+    return result
+
+
+def _solve_local(task: Task, options, seed: int) -> SolveResult:
+    from .solvers.local import LocalOptions, solve_local
+
+    return solve_local(task, options or LocalOptions(), seed=seed)

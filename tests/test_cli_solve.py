@@ -1,0 +1,80 @@
+"""prehension solve / check: exit codes, result files, bad input."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from prehension.cli import EXIT_BAD_INPUT, EXIT_CHECK_FAILED, EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK, main
+from prehension.tasks.yaml_io import dumps_task, task_to_dict
+from tiny_tasks import pincer_task
+
+
+@pytest.fixture
+def pincer_file(tmp_path):
+    def write(d: float):
+        path = tmp_path / f"pincer-{d:g}.yaml"
+        path.write_text(dumps_task(pincer_task(d)))
+        return path
+
+    return write
+
+
+def test_solve_writes_a_result_that_check_verifies(pincer_file, tmp_path, capsys):
+    out = tmp_path / "r.json"
+    assert main(["solve", str(pincer_file(30.0)), "--method", "complete", "-o", str(out)]) == EXIT_OK
+    assert "solved" in capsys.readouterr().out
+    data = json.loads(out.read_text())
+    assert data["prehension"] == "result/1" and data["status"] == "solved"
+    sol = data["solutions"][0]
+    assert set(sol["link_poses"]) == {"palm", "prox", "dist"}  # every link's pose
+    assert len(sol["T_palm_object"]) == 4 and len(sol["contacts"]) == 2
+    assert {"hand_point", "hand_normal", "object_point", "object_normal", "hand_params"} <= set(sol["contacts"][0])
+    assert main(["check", str(out)]) == EXIT_OK
+    assert "holds" in capsys.readouterr().out
+
+
+def test_solve_keeps_an_older_result(pincer_file, tmp_path, capsys):
+    out = tmp_path / "r.json"
+    args = ["solve", str(pincer_file(30.0)), "--method", "complete", "-o", str(out), "--quiet"]
+    assert main(args) == EXIT_OK
+    first = out.read_text()
+    assert main(args) == EXIT_OK
+    assert (tmp_path / "r.json.~1~").read_text() == first
+
+
+def test_infeasible_and_gave_up_exit_codes(pincer_file, tmp_path):
+    assert main(["solve", str(pincer_file(60.0)), "--method", "complete", "-o", str(tmp_path / "a.json"), "--quiet"]) == EXIT_INFEASIBLE
+    assert json.loads((tmp_path / "a.json").read_text())["status"] == "infeasible"
+    code = main(["solve", str(pincer_file(50.0)), "--method", "complete", "--time-limit", "0", "-o", str(tmp_path / "b.json"), "--quiet"])
+    assert code == EXIT_GAVE_UP
+
+
+def test_json_summary(pincer_file, tmp_path, capsys):
+    code = main(["solve", str(pincer_file(30.0)), "--method", "complete", "-o", str(tmp_path / "r.json"), "--json"])
+    assert code == EXIT_OK
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["status"] == "solved" and summary["result_file"].endswith("r.json")
+    assert set(summary["joint_angles_deg"]) == {"j1", "j2"}
+
+
+def test_bad_input_exit_code(capsys, tmp_path):
+    assert main(["solve", "no-such-task", "--method", "complete"]) == EXIT_BAD_INPUT
+    assert "neither a built-in task" in capsys.readouterr().err
+    assert main(["solve", "teapot-lid-lifting", "--sigma", "2", "--method", "complete"]) == EXIT_BAD_INPUT
+    assert "sigma must lie in (0, 1)" in capsys.readouterr().err
+    bad = tmp_path / "x.json"
+    bad.write_text("{not json")
+    assert main(["check", str(bad)]) == EXIT_BAD_INPUT
+    assert "not a result file" in capsys.readouterr().err
+
+
+def test_check_refuses_a_result_of_another_task(pincer_file, tmp_path, capsys):
+    out = tmp_path / "r.json"
+    assert main(["solve", str(pincer_file(30.0)), "--method", "complete", "-o", str(out), "--quiet"]) == EXIT_OK
+    data = json.loads(out.read_text())
+    data["task"] = task_to_dict(pincer_task(44.0))  # the stored solution belongs to d = 30
+    out.write_text(json.dumps(data))
+    assert main(["check", str(out)]) == EXIT_CHECK_FAILED
+    assert "DOES NOT HOLD" in capsys.readouterr().out
