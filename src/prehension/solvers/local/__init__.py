@@ -1,1 +1,40 @@
-"""The local solver: Jacobian iterations from an off-line sequence of initial poses (Claret & Suárez)."""
+"""The local solver: Jacobian iterations from an off-line sequence of initial poses (Claret & Suárez).
+
+Public API:
+
+* :func:`solve_local` -- one task -> :class:`~prehension.results.SolveResult` (method ``"local"``);
+* :func:`solve_local_batch` -- many problems of one hand in one call -> :class:`LocalBatch`;
+* :class:`LocalOptions` -- the paper's parameters (``i_max``, ``k_max``, ``d_min``...) and ours;
+* :class:`PointProblems`, :func:`random_point_problems` -- the compact batch form and the
+  paper's random feasible problems;
+* :class:`InitialPoseSequence`, :func:`default_sequence`, :func:`offline_sequence` -- sec. 3.2.
+
+See ``docs/local-solver.md``.
+"""
+
+from .options import LocalOptions
+from .problems import PointProblems, random_point_problems
+from .sequence import PAPER_TABLE1, InitialPoseSequence, default_sequence
+from .solver import LocalBatch, LocalRecord, solve_local, solve_local_batch
+
+__all__ = [
+    "LocalOptions",
+    "solve_local",
+    "solve_local_batch",
+    "LocalBatch",
+    "LocalRecord",
+    "PointProblems",
+    "random_point_problems",
+    "InitialPoseSequence",
+    "default_sequence",
+    "offline_sequence",
+    "PAPER_TABLE1",
+]
+
+
+def __getattr__(name):  # the off-line search loads only when asked for
+    if name == "offline_sequence":
+        from .offline import offline_sequence
+
+        return offline_sequence
+    raise AttributeError(name)

@@ -1,0 +1,160 @@
+"""A general solver on the same problems: scipy's ``least_squares`` from the same initial poses.
+
+Used by ``benchmarks/fig9.py`` to *measure* how much the local solver gains over a
+well-known general method.  For every problem and every initial pose of the sequence
+(the same ``Obtain_Initial_Conf`` as the local solver: anchor contact held, ``psi``
+aligned), :func:`scipy.optimize.least_squares` (trust-region reflective, analytic
+Jacobian, bounds for the joint limits and the patch parameters; a sphere cap's cone is
+not a box, so its parameters only get their bounding box) minimises the same residual
+(contact points and weighted normals).  Its answer is judged by the same checks
+(the foundation's residuals, limits, couplings, self-collision) and the next initial
+pose is tried when it fails, as in Algorithm 1.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from . import _kernel as K
+from ._kernel import njit
+from .options import LocalOptions
+from .problems import PointProblems
+from .sequence import InitialPoseSequence, default_sequence
+from .solver import _check, _contact_checks_points, _pose_index
+
+__all__ = ["least_squares_batch"]
+
+
+@njit(cache=True)
+def _fun_jac(z, R0, cp0, data, piv, cint, cdofs, cnd, dof_free, dof_ratio, dof_offset, q_fixed,
+             jp, jc, jkind, joff, jP, jQ, ju, jR0, jv, n_links, nf, wn, f, J, R, t):  # fmt: skip
+    """Residual and exact Jacobian at ``z`` where the twist entries are a rotation vector
+    ``w`` and a shift ``v`` of the pivot from the initial pose ``(R0, pivot cp0)``."""
+    C = cint.shape[0]
+    ndof = dof_free.shape[0]
+    w0, w1, w2 = z[nf], z[nf + 1], z[nf + 2]
+    th = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+    Rw = np.eye(3)
+    if th > 0.0:
+        K._rot(w0 / th, w1 / th, w2 / th, th, Rw)
+    K._mm(Rw, R0, R)
+    pv = np.empty(3)
+    K._mv(R, piv, pv)
+    for i in range(3):
+        t[i] = cp0[i] + z[nf + 3 + i] - pv[i]
+    q = np.zeros(ndof)
+    K._q_from_free(z, dof_free, dof_ratio, dof_offset, q_fixed, q)
+    Rl = np.zeros((n_links, 3, 3))
+    rl = np.zeros((n_links, 3))
+    ax = np.zeros((ndof, 3))
+    org = np.zeros((ndof, 3))
+    K._fk(q, jp, jc, jkind, joff, jP, jQ, ju, jR0, jv, Rl, rl, ax, org, np.zeros((3, 3)), np.zeros((3, 3)), np.zeros(3))
+    ph = np.zeros((C, 3))
+    nh = np.zeros((C, 3))
+    po = np.zeros((C, 3))
+    no = np.zeros((C, 3))
+    K._residual(z, R, t, data, piv, cint, cdofs, cnd, dof_free, dof_ratio, wn, True, Rl, rl, ax, org, f, J,
+                ph, nh, po, no, nf)  # fmt: skip
+    # the kernel's twist columns are derivatives along a left increment; d Rot(w) = [J_l(w) dw]x Rot(w)
+    Jl = np.eye(3)
+    if th > 1e-12:
+        a = (1.0 - math.cos(th)) / (th * th)
+        b = (th - math.sin(th)) / (th * th * th)
+        Wx = np.array([[0.0, -w2, w1], [w2, 0.0, -w0], [-w1, w0, 0.0]])
+        Jl = np.eye(3) + a * Wx + b * (Wx @ Wx)
+    for r in range(6 * C):
+        c0, c1, c2 = J[r, nf], J[r, nf + 1], J[r, nf + 2]
+        for k in range(3):
+            J[r, nf + k] = c0 * Jl[0, k] + c1 * Jl[1, k] + c2 * Jl[2, k]
+
+
+def least_squares_batch(
+    problems: PointProblems,
+    options: LocalOptions = LocalOptions(),
+    sequence: InitialPoseSequence | None = None,
+    rng=None,
+    max_nfev: int = 100,
+) -> dict:
+    """Solve point problems one by one with ``least_squares`` from the local solver's initial poses.
+
+    Returns a dict of arrays: ``solved_with`` (P,) 1-based initial pose or 0,
+    ``seconds`` (P,) wall time per problem, ``level`` (P,) 2 strict / 1 d_min / 0,
+    ``nfev`` (P,) function evaluations, and ``time_after`` (i_max,) the mean time per
+    problem had ``i_max`` been 1, 2, ...
+    """
+    sequence = sequence if sequence is not None else default_sequence(problems.hand)
+    rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(0 if rng is None else rng)
+    group = problems.group(options.joint_scale_mm)
+    P, nx, nf, imax = len(problems), group.nx, group.nf, options.i_max
+    args = group.kernel_args()
+    (jp, jc, jkind, joff, jP, jQ, ju, jR0, jv, n_links) = args[:10]
+    pidx = _pose_index(group, sequence)
+    use = pidx >= 0
+    init_opt = options.kernel_array()
+    init_opt[K.O_KMAX] = 0
+    init_opt[K.O_NPOLISH] = 0
+    init_opt[K.O_NREPAIR] = 0
+    lo, hi = group.lo.copy(), group.hi.copy()
+    lo[nf : nf + 6], hi[nf : nf + 6] = -np.inf, np.inf
+    hi = np.maximum(hi, lo + 1e-12)
+    check = lambda idx, pose, T, prm: _contact_checks_points(problems, idx, pose, T, prm)  # noqa: E731
+    C = len(group.contacts)
+    solved_with = np.zeros(P, dtype=np.int64)
+    level = np.zeros(P, dtype=np.int64)
+    seconds = np.zeros(P)
+    nfev = np.zeros(P, dtype=np.int64)
+    per_pose_time = np.zeros((P, imax))
+    for p in range(P):
+        data = group.pdata[p]
+        piv = data[group.piv_off : group.piv_off + 3]
+        t_p = time.perf_counter()
+        for i in range(imax):
+            t_i = time.perf_counter()
+            lam = sequence.lambdas[i : i + 1] if (options.initial == "sequence" and i < len(sequence)) else rng.uniform(0, 1, (1, 2))
+            x0 = group.x_default[None].copy()
+            x0[:, use] = sequence.poses(lam)[:, pidx[use]]
+            st, it, pit = (np.zeros(1, dtype=np.int64) for _ in range(3))
+            xo, Ro, to, eo = np.zeros((1, nx)), np.zeros((1, 3, 3)), np.zeros((1, 3)), np.zeros((1, 2))
+            K.run_states(np.array([p]), x0, group.pdata, group.piv_off, *args, init_opt, st, it, pit, xo, Ro, to, eo)
+            R0 = Ro[0].copy()
+            cp0 = R0 @ piv + to[0]
+            z0 = np.clip(xo[0], lo, hi)
+            f = np.zeros(6 * C)
+            J = np.zeros((6 * C, nx))
+            R = np.zeros((3, 3))
+            t = np.zeros(3)
+            cache = {}
+
+            def evaluate(z):
+                key = z.tobytes()
+                if key not in cache:
+                    cache.clear()
+                    _fun_jac(z, R0, cp0, data, piv, group.cint, group.cdofs, group.cnd, group.dof_free, group.dof_ratio,
+                             group.dof_offset, group.q_fixed, jp, jc, jkind, joff, jP, jQ, ju, jR0, jv, n_links, nf,
+                             options.normal_weight_mm, f, J, R, t)  # fmt: skip
+                    cache[key] = (f.copy(), J.copy(), R.copy(), t.copy())
+                return cache[key]
+
+            sol = least_squares(
+                lambda z: evaluate(z)[0], z0, jac=lambda z: evaluate(z)[1], bounds=(lo, hi), method="trf",
+                xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=max_nfev,
+            )  # fmt: skip
+            nfev[p] += sol.nfev
+            _, _, R, t = evaluate(sol.x)
+            x = sol.x.copy()
+            x[nf : nf + 6] = 0.0
+            lev = _check(group, check, np.array([p]), x[None], R[None], t[None], options)[0][0]
+            per_pose_time[p, i] = time.perf_counter() - t_i
+            if lev > 0:
+                solved_with[p] = i + 1
+                level[p] = lev
+                break
+        seconds[p] = time.perf_counter() - t_p
+    # mean time per problem had i_max been 1..imax: a problem solved at pose s costs its
+    # first min(s, i) poses; an unsolved one its first i
+    time_after = np.array([per_pose_time[:, : i + 1].sum(axis=1).mean() for i in range(imax)])
+    return {"solved_with": solved_with, "level": level, "seconds": seconds, "nfev": nfev, "time_after": time_after}

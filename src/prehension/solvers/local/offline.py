@@ -1,0 +1,287 @@
+"""The off-line search for a sequence of initial poses (Claret & Suárez, sec. 3.2).
+
+1. Sample hand poses, take their mean and first two principal directions (PCA).
+2. Discretise ``lambda = (lambda^1, lambda^2)`` in an ``N x N`` grid of [0, 1]^2
+   (``lambda_j = j / (N - 1)``: the paper's Table 1 values are multiples of 1/29).
+3. For ``i = 1 .. i_max``: draw ``M`` random feasible problems that the poses chosen so
+   far do not solve; run Algorithm 1 with the single initial pose of every grid point
+   on all of them; append the grid point with the highest success rate ``E_i`` (ties:
+   the first in grid order).
+
+The grid points of a step are split in chunks, each run by ``executor.submit`` (any
+:class:`concurrent.futures.Executor`; default: run inline).  ``progress(done, total,
+message)`` is called after each chunk, for a progress bar.  The problems are the
+paper's: four fingertip contacts, points with normals, made by forward kinematics
+(:func:`.problems.random_point_problems`).
+"""
+
+from __future__ import annotations
+
+import time
+from concurrent.futures import Executor
+from dataclasses import asdict, replace
+from typing import Callable
+
+import numpy as np
+
+from ...errors import PrehensionError
+from ...hands.model import Hand
+from .options import LocalOptions
+from .problems import SA_FOUR_TIPS, PointProblems, random_point_problems
+from .sequence import PAPER_TABLE1, InitialPoseSequence, principal_directions, sample_poses
+
+__all__ = ["offline_sequence", "grid_values", "compare_with_paper", "make_executor", "cli_offline"]
+
+Progress = Callable[[int, int, str], None]
+
+
+def grid_values(N: int) -> np.ndarray:
+    """The ``N`` values of each lambda: ``j / (N - 1)``, j = 0 .. N-1."""
+    if N < 2:
+        raise PrehensionError(f"the lambda grid needs N >= 2 values, got N = {N}")
+    return np.arange(N) / (N - 1)
+
+
+# -- hands across processes ----------------------------------------------------------------
+def _hand_spec(hand: Hand):
+    """A picklable recipe for ``hand`` (the Hand itself holds a mappingproxy)."""
+    from ...hands.sa_hand import schunk_sa_hand
+    from ._group import hand_key
+
+    if hand.name == "schunk-sa" and hand_key(hand) == hand_key(schunk_sa_hand()) and set(hand.regions) == set(
+        schunk_sa_hand().regions
+    ):
+        return ("schunk-sa",)
+    return (
+        "hand",
+        (hand.name, hand.links, hand.joints, hand.couplings, hand.fingers, dict(hand.regions), hand.collision_exclusions),
+    )
+
+
+_HANDS: dict = {}
+
+
+def _hand_from_spec(spec) -> Hand:
+    key = repr(spec) if spec[0] == "schunk-sa" else id(spec)
+    if spec[0] == "schunk-sa":
+        if key not in _HANDS:
+            from ...hands.sa_hand import schunk_sa_hand
+
+            _HANDS[key] = schunk_sa_hand()
+        return _HANDS[key]
+    return Hand(*spec[1])
+
+
+def _evaluate_chunk(payload) -> np.ndarray:
+    """Problems solved by each single initial pose of a chunk of lambdas: (G,) counts."""
+    from .solver import solve_local_batch
+
+    hand = _hand_from_spec(payload["hand"])
+    problems = PointProblems(hand, payload["regions"], payload["points"], payload["normals"])
+    base = InitialPoseSequence.from_dict(payload["sequence"])
+    options = replace(payload["options"], i_max=1, initial="sequence")
+    counts = np.zeros(len(payload["lambdas"]), dtype=np.int64)
+    for g, lam in enumerate(payload["lambdas"]):
+        batch = solve_local_batch(problems, options, base.with_lambdas([lam]))
+        counts[g] = int(batch.solved_after[0])
+    return counts
+
+
+def _unsolved_problems(hand, regions, M, base, lambdas, options, rng, max_candidates):
+    """``M`` random problems that the poses ``lambdas`` do not solve, and the fraction unsolved."""
+    from .solver import solve_local_batch
+
+    kept_p, kept_n = [], []
+    n_kept = n_tried = 0
+    batch_size = max(M, 500)
+    while n_kept < M:
+        if n_tried >= max_candidates:
+            raise PrehensionError(
+                f"off-line search: fewer than {M} of {n_tried} random problems are left unsolved by "
+                f"{len(lambdas)} initial poses; use a smaller M or a smaller i_max"
+            )
+        cand = random_point_problems(batch_size, hand, regions, rng)
+        n_tried += batch_size
+        if lambdas:
+            batch = solve_local_batch(cand, replace(options, i_max=len(lambdas), initial="sequence"), base.with_lambdas(lambdas))
+            cand = cand.subset(np.flatnonzero(~batch.success))
+        kept_p.append(cand.points)
+        kept_n.append(cand.normals)
+        n_kept += len(cand)
+        if lambdas:  # later steps: draw more at once
+            frac = max(n_kept / n_tried, 1e-3)
+            batch_size = int(min(max((M - n_kept) / frac * 1.2, 500), 50000))
+    points = np.concatenate(kept_p)[:M]
+    normals = np.concatenate(kept_n)[:M]
+    return points, normals, n_kept / n_tried if lambdas else 1.0
+
+
+def offline_sequence(
+    hand: Hand | None = None,
+    M: int = 5000,
+    N: int = 30,
+    imax: int = 12,
+    executor: Executor | None = None,
+    progress: Progress | None = None,
+    seed: int = 0,
+    *,
+    options: LocalOptions = LocalOptions(),
+    n_samples: int = 5000,
+    hand_regions=SA_FOUR_TIPS,
+    chunks_per_step: int | None = None,
+    max_candidates: int = 2_000_000,
+) -> InitialPoseSequence:
+    """Search a sequence of ``imax`` initial poses (sec. 3.2); see the module docstring.
+
+    Args:
+        hand: the hand (default: the SA hand).
+        M: random unsolved problems per step.
+        N: grid values per lambda (``N^2`` candidate poses per step).
+        imax: length of the sequence.
+        executor: runs the chunks (``submit``); ``None`` runs them inline.
+        progress: ``progress(done, total, message)`` after each chunk.
+        seed: seed of the pose samples and of the problems.
+        options: solver options for the single-pose runs (``i_max`` is set to 1).
+        n_samples: hand poses sampled for the PCA.
+        hand_regions: the contacts of the random problems.
+        chunks_per_step: chunks the grid is split into (default: ``4 x`` the executor's
+            workers, or 1 inline).
+
+    Returns:
+        An :class:`InitialPoseSequence` with the lambdas, the success grid of every step
+        and ``meta`` (parameters, seconds, success rates).
+    """
+    from ...hands.sa_hand import schunk_sa_hand
+
+    for name, v, lo in (("M", M, 1), ("N", N, 2), ("imax", imax, 1), ("n_samples", n_samples, 3)):
+        if not isinstance(v, (int, np.integer)) or v < lo:
+            raise PrehensionError(f"offline_sequence: {name} must be an integer >= {lo}, got {v!r}")
+    t0 = time.perf_counter()
+    hand = schunk_sa_hand() if hand is None else hand
+    rng = np.random.default_rng(seed)
+    names, samples = sample_poses(hand, n_samples, rng)
+    mean, comps, sig = principal_directions(samples)
+    base = InitialPoseSequence(hand.name, names, mean, comps, sig, np.zeros((0, 2)))
+    values = grid_values(N)
+    grid = np.array([(a, b) for a in values for b in values])
+    if chunks_per_step is None:
+        workers = getattr(executor, "_max_workers", 1) if executor is not None else 1
+        chunks_per_step = 1 if executor is None else 4 * max(int(workers), 1)
+    chunks = [c for c in np.array_split(np.arange(len(grid)), min(chunks_per_step, len(grid))) if len(c)]
+    total = imax * len(chunks)
+    done = 0
+    spec = _hand_spec(hand)
+    lambdas: list = []
+    tables, rates, unsolved_frac = [], [], []
+    for i in range(imax):
+        points, normals, frac = _unsolved_problems(
+            hand, tuple(hand_regions), M, base, lambdas, options, rng, max_candidates
+        )
+        unsolved_frac.append(frac)
+        payload_base = {
+            "hand": spec, "regions": tuple(hand_regions), "points": points, "normals": normals,
+            "sequence": base.to_dict(), "options": options,
+        }  # fmt: skip
+        counts = np.zeros(len(grid), dtype=np.int64)
+        if executor is None:
+            for idx in chunks:
+                counts[idx] = _evaluate_chunk({**payload_base, "lambdas": grid[idx]})
+                done += 1
+                if progress:
+                    progress(done, total, f"pose {i + 1}/{imax}")
+        else:
+            futures = {executor.submit(_evaluate_chunk, {**payload_base, "lambdas": grid[idx]}): idx for idx in chunks}
+            from concurrent.futures import as_completed
+
+            for fut in as_completed(futures):
+                counts[futures[fut]] = fut.result()
+                done += 1
+                if progress:
+                    progress(done, total, f"pose {i + 1}/{imax}")
+        best = int(np.argmax(counts))
+        lambdas.append(grid[best].tolist())
+        tables.append((counts / M).reshape(N, N))
+        rates.append(float(counts[best] / M))
+    # success on fresh problems after i poses: the fraction left unsolved before step i
+    # times the fraction of those the i-th pose does not solve
+    cumulative = [1.0 - u * (1.0 - e) for u, e in zip(unsolved_frac, rates)]
+    seconds = time.perf_counter() - t0
+    meta = {
+        "origin": f"offline_sequence(M={M}, N={N}, imax={imax}, seed={seed})",
+        "M": M, "N": N, "imax": imax, "seed": seed, "n_samples": n_samples,
+        "hand_regions": list(hand_regions), "seconds": seconds,
+        "best_rate_per_step": rates,
+        "unsolved_fraction_per_step": unsolved_frac,
+        "estimated_cumulative_success": cumulative,
+        "options": {k: v for k, v in asdict(options).items() if k != "tolerances"},
+    }  # fmt: skip
+    return base.with_lambdas(np.array(lambdas), tables, **meta)
+
+
+def compare_with_paper(sequence: InitialPoseSequence) -> list[tuple[int, tuple | None, tuple | None]]:
+    """Rows ``(i, ours (l1, l2) or None, paper's Table 1 (l1, l2) or None)``."""
+    n = max(len(sequence), len(PAPER_TABLE1))
+    rows = []
+    for i in range(n):
+        ours = tuple(float(v) for v in sequence.lambdas[i]) if i < len(sequence) else None
+        paper = tuple(float(v) for v in PAPER_TABLE1[i]) if i < len(PAPER_TABLE1) else None
+        rows.append((i + 1, ours, paper))
+    return rows
+
+
+def make_executor(workers: int | None):
+    """A process pool for ``workers > 1``, else ``None`` (inline)."""
+    if workers is None or workers <= 1:
+        return None
+    from concurrent.futures import ProcessPoolExecutor
+
+    return ProcessPoolExecutor(max_workers=int(workers))
+
+
+def cli_offline(hand_name: str, output, *, M: int = 5000, N: int = 30, imax: int = 12, workers: int = 1,
+                seed: int = 0, force: bool = False, console=None) -> InitialPoseSequence:  # fmt: skip
+    """What ``prehension offline HAND`` does: search with a rich progress bar, write the file,
+    print the sequence beside the paper's Table 1."""
+    from pathlib import Path
+
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+    from rich.table import Table
+
+    from ...hands.sa_hand import schunk_sa_hand
+
+    console = console or Console()
+    output = Path(output)
+    if output.exists() and not force:
+        raise PrehensionError(f"{output} already exists; pass --force to overwrite it")
+    if hand_name not in ("schunk-sa", "sa"):
+        raise PrehensionError(f"unknown hand {hand_name!r}; hands with an off-line search: schunk-sa")
+    executor = make_executor(workers)
+    try:
+        with Progress(
+            TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total} chunks"),
+            TimeElapsedColumn(), TimeRemainingColumn(), console=console,
+        ) as bar:  # fmt: skip
+            task_id = bar.add_task("off-line search", total=None)
+
+            def progress(done, total, message):
+                bar.update(task_id, completed=done, total=total, description=f"off-line search, {message}")
+
+            seq = offline_sequence(schunk_sa_hand(), M, N, imax, executor, progress, seed)
+    finally:
+        if executor is not None:
+            executor.shutdown()
+    seq.save(output)
+    table = Table(title=f"Initial poses: ours (M={M}, N={N}) beside Table 1 of Claret & Suárez (M=5000, N=30)")
+    for col in ("i", "ours l1", "ours l2", "E_i (ours)", "paper l1", "paper l2"):
+        table.add_column(col, justify="right")
+    rates = seq.meta.get("best_rate_per_step", [])
+    for i, ours, paper in compare_with_paper(seq):
+        e = f"{100 * rates[i - 1]:.1f}%" if i - 1 < len(rates) else ""
+        table.add_row(
+            str(i), *(f"{v:.3f}" for v in ours) if ours else ("", ""), e,
+            *(f"{v:.3f}" for v in paper) if paper else ("", ""),
+        )  # fmt: skip
+    console.print(table)
+    console.print(f"wrote {output} ({seq.meta['seconds']:.0f} s)")
+    return seq

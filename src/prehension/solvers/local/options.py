@@ -1,0 +1,178 @@
+"""Options of the local solver (Claret & Suárez, sec. 3.1 and 4.1), with the paper's values.
+
+Paper -> here:
+
+==================  ==================  =========================================================
+paper               option              meaning
+==================  ==================  =========================================================
+``i_max = 12``      ``i_max``           initial poses tried (outer loop of Algorithm 1)
+``k_max = 100``     ``k_max``           Jacobian iterations per initial pose
+``d_min = 1.5 mm``  ``d_min_mm``        a contact holds when ``|p - p*| < d_min`` and
+                                        ``|r - r*| < d_min`` (eq. 9)
+``s_min = 1 mm``    ``s_min_mm``        "no progress": the contacts moved less than ``s_min``
+                                        in total (eq. 10) ...
+``n``               ``n_stall``         ... during ``n`` consecutive iterations (the paper
+                                        gives no value)
+``alpha``           ``alpha``           step size of ``Delta C' = J^+ alpha (P* - P)`` (eq. 7)
+(pseudo-inverse)    ``damping_mm``      damped least squares instead of a plain pseudo-inverse
+==================  ==================  =========================================================
+
+The paper's second condition ``|r - r*| < d_min`` compares fingertip centres
+``r = p - rho n``; the solver compares ``w_n |n_h + n_o|`` with ``d_min`` instead, with
+``w_n = normal_weight_mm`` (13 mm, the SA fingertip radius), which is the same test for a
+spherical fingertip and also makes sense for regions that are not spheres.
+
+**Acceptance.**  A configuration whose contacts are within ``d_min`` is a *local*
+solution in the paper's sense; the solver then *polishes* it with a few Gauss-Newton
+iterations, which usually drive the contacts to ~1e-10 mm, and returns it verified with
+the **strict** default :class:`~prehension.tasks.residuals.Tolerances` whenever it passes
+them.  Otherwise (polishing off, or it did not converge) the configuration is verified
+with :attr:`LocalOptions.acceptance` -- contacts within ``d_min``, normals within the angle
+that ``d_min`` allows (``2 asin(d_min / 2 w_n)``, 6.6 deg), limits, couplings and
+self-collision exact -- and the result says which tolerances it met and the residuals it
+achieved.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ...errors import PrehensionError
+from ...tasks.residuals import Tolerances
+from . import _kernel as K
+
+__all__ = ["LocalOptions"]
+
+
+@dataclass(frozen=True)
+class LocalOptions:
+    """Settings of :func:`prehension.solvers.local.solve_local` (see the module docstring).
+
+    Attributes:
+        i_max: initial poses tried per problem (paper: 12).
+        k_max: Jacobian iterations per initial pose (paper: 100).
+        d_min_mm: contact tolerance of the iterations [mm] (paper: 1.5).
+        s_min_mm: smallest total motion of the contacts that counts as progress [mm]
+            (paper: 1).
+        n_stall: iterations without progress that end an initial pose.
+        alpha: step size (paper's alpha).
+        damping_mm: damping ``mu`` of the least-squares step [mm] (0: pseudo-inverse).
+        max_step_mm: largest change of one unknown per iteration, in scaled units [mm]
+            (a joint angle counts ``joint_scale_mm`` mm per rad).
+        normal_weight_mm: weight ``w_n`` of the normal rows [mm].
+        joint_scale_mm: scale of joint angles [mm per rad] in the damped step.
+        active_set: freeze unknowns at a bound that the step would push out and
+            recompute the step (joint limits respected *during* the iterations; without
+            it the step is only clipped).
+        polish: run Gauss-Newton polishing on every local solution.
+        polish_iterations: most polishing iterations.
+        polish_tol_mm: polishing target for contact distances and weighted normals [mm].
+        strict_retries: after a local solution that meets only the ``d_min`` tolerances,
+            try this many more initial poses for one that meets the strict tolerances
+            (the first ``d_min`` solution is returned if none does).
+        psi_rule: ``"paper"``: the rotation about the anchor normal aligns the index ->
+            ring direction (or the first -> last other contact); ``"procrustes"``: it
+            best aligns every other contact seen from the anchor.
+        initial: ``"sequence"`` (the off-line sequence) or ``"random"`` (random
+            lambdas, the paper's comparison in Fig. 9).
+        check_collisions: reject local solutions in self-collision (Check_Collisions).
+        repair_iterations: beyond the paper: a local solution in self-collision is first
+            *repaired* -- Gauss-Newton on the contacts plus one row per capsule pair
+            closer than ``collision_margin_mm``, which pushes the pair apart within the
+            contacts' null space -- for at most this many iterations (0: the paper's
+            behaviour, go straight to the next initial pose).
+        collision_margin_mm: clearance the repair aims at [mm].
+        tolerances: acceptance tolerances when the strict ones are not met
+            (default: derived from ``d_min_mm``, see :attr:`acceptance`).
+        cap_margin_rad: sphere-cap parameters are kept this far inside the cone.
+    """
+
+    i_max: int = 12
+    k_max: int = 100
+    d_min_mm: float = 1.5
+    s_min_mm: float = 1.0
+    n_stall: int = 5
+    alpha: float = 1.0
+    damping_mm: float = 0.02
+    max_step_mm: float = 60.0
+    normal_weight_mm: float = 25.0
+    joint_scale_mm: float = 40.0
+    active_set: bool = True
+    polish: bool = True
+    polish_iterations: int = 10
+    polish_tol_mm: float = 1e-9
+    strict_retries: int = 2
+    psi_rule: str = "procrustes"
+    initial: str = "sequence"
+    check_collisions: bool = True
+    repair_iterations: int = 30
+    collision_margin_mm: float = 0.5
+    tolerances: Tolerances | None = field(default=None)
+    cap_margin_rad: float = 1e-9
+
+    def __post_init__(self):
+        def need(cond, msg):
+            if not cond:
+                raise PrehensionError(f"LocalOptions: {msg}")
+
+        need(isinstance(self.i_max, (int, np.integer)) and self.i_max >= 1, f"i_max must be an integer >= 1, got {self.i_max!r}")
+        need(isinstance(self.k_max, (int, np.integer)) and self.k_max >= 0, f"k_max must be an integer >= 0, got {self.k_max!r}")
+        need(isinstance(self.n_stall, (int, np.integer)) and self.n_stall >= 1, f"n_stall must be an integer >= 1, got {self.n_stall!r}")
+        need(
+            isinstance(self.polish_iterations, (int, np.integer)) and self.polish_iterations >= 0,
+            f"polish_iterations must be an integer >= 0, got {self.polish_iterations!r}",
+        )
+        need(
+            isinstance(self.repair_iterations, (int, np.integer)) and self.repair_iterations >= 0,
+            f"repair_iterations must be an integer >= 0, got {self.repair_iterations!r}",
+        )
+        need(
+            isinstance(self.strict_retries, (int, np.integer)) and self.strict_retries >= 0,
+            f"strict_retries must be an integer >= 0, got {self.strict_retries!r}",
+        )
+        for name in ("d_min_mm", "alpha", "max_step_mm", "normal_weight_mm", "joint_scale_mm", "polish_tol_mm"):
+            v = getattr(self, name)
+            need(np.isfinite(v) and v > 0, f"{name} must be a positive number, got {v!r}")
+        for name in ("s_min_mm", "damping_mm", "cap_margin_rad", "collision_margin_mm"):
+            v = getattr(self, name)
+            need(np.isfinite(v) and v >= 0, f"{name} must be a number >= 0, got {v!r}")
+        need(self.psi_rule in ("paper", "procrustes"), f"psi_rule must be 'paper' or 'procrustes', got {self.psi_rule!r}")
+        need(self.initial in ("sequence", "random"), f"initial must be 'sequence' or 'random', got {self.initial!r}")
+        need(self.tolerances is None or isinstance(self.tolerances, Tolerances), "tolerances must be a Tolerances or None")
+
+    @property
+    def normal_tolerance_deg(self) -> float:
+        """The normal misalignment that ``w_n |n_h + n_o| < d_min`` allows [deg]."""
+        ratio = min(1.0, self.d_min_mm / (2.0 * self.normal_weight_mm))
+        return math.degrees(2.0 * math.asin(ratio))
+
+    @property
+    def acceptance(self) -> Tolerances:
+        """Tolerances of a local solution that polishing did not make strict."""
+        if self.tolerances is not None:
+            return self.tolerances
+        return Tolerances(contact_mm=self.d_min_mm, normal_deg=self.normal_tolerance_deg)
+
+    def kernel_array(self) -> np.ndarray:
+        """The float options of :func:`._kernel.run_states`."""
+        opt = np.zeros(K.N_OPT)
+        opt[K.O_ALPHA] = self.alpha
+        opt[K.O_MU] = self.damping_mm
+        opt[K.O_DMIN] = self.d_min_mm
+        opt[K.O_WN] = self.normal_weight_mm
+        opt[K.O_SMIN] = self.s_min_mm
+        opt[K.O_NSTALL] = self.n_stall
+        opt[K.O_KMAX] = self.k_max
+        opt[K.O_MAXSTEP] = self.max_step_mm
+        opt[K.O_NPOLISH] = self.polish_iterations if self.polish else 0
+        opt[K.O_POLISH_P] = self.polish_tol_mm
+        opt[K.O_POLISH_N] = self.polish_tol_mm
+        opt[K.O_ACTIVE] = 1.0 if self.active_set else 0.0
+        opt[K.O_PSI_MODE] = 0.0 if self.psi_rule == "paper" else 1.0
+        opt[K.O_CAP_MARGIN] = self.cap_margin_rad
+        opt[K.O_NREPAIR] = self.repair_iterations if self.check_collisions else 0
+        opt[K.O_COL_MARGIN] = self.collision_margin_mm
+        return opt

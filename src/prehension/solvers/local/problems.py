@@ -1,0 +1,284 @@
+"""Problems for the local solver: lists of tasks, and a compact form for point contacts.
+
+:class:`PointProblems` is the compact batch form of the paper's problems (sec. 4.2): one
+hand, the same hand regions for every problem (e.g. the four SA fingertips), and per
+problem one object point with its outward normal per contact, in the object's frame.
+It holds thousands of problems in three arrays; :meth:`PointProblems.task` turns one into
+an ordinary :class:`~prehension.tasks.model.Task` (object regions =
+:class:`~prehension.geometry.regions.PointRegion`).
+
+:func:`random_point_problems` makes feasible ones by forward kinematics, as the paper's
+Monte-Carlo study and Fig. 9 need: random joint angles within the limits (couplings
+exact), random contact parameters within each fingertip cap, rejected when the hand
+collides with itself (the foundation's capsules), then every contact point and normal
+expressed in a random object frame.  The true configuration is kept in ``truth``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Mapping
+
+import numpy as np
+
+from ...errors import InvalidTask
+from ...geometry.regions import BezierRegion, PointRegion, SphereCap
+from ...hands.collision import capsule_clearances
+from ...hands.kinematics import forward_kinematics
+from ...hands.model import Hand
+from ...objects.model import GraspObject
+from ...tasks.model import Contact, Task
+from . import _kernel as K
+from ._group import Group, build_group, region_code, region_data, region_reference_point, region_size
+
+__all__ = ["PointProblems", "random_point_problems", "SA_FOUR_TIPS", "group_from_tasks", "structure_key"]
+
+SA_FOUR_TIPS = ("thumb_tip", "index_tip", "middle_tip", "ring_tip")
+
+
+@dataclass(frozen=True, eq=False)
+class PointProblems:
+    """Many point-contact problems of one hand (object frame, mm).
+
+    Attributes:
+        hand: the hand.
+        hand_regions: hand region name of each contact, shape (C,).
+        points: (P, C, 3) object contact points.
+        normals: (P, C, 3) outward unit normals of the object at those points.
+        truth: optional known solutions: ``q (P, n_dof)``, ``T_palm_object (P, 4, 4)``,
+            ``hand_params (P, C, k)``.
+    """
+
+    hand: Hand
+    hand_regions: tuple[str, ...]
+    points: np.ndarray
+    normals: np.ndarray
+    truth: Mapping[str, np.ndarray] = field(default_factory=dict)
+
+    def __post_init__(self):
+        object.__setattr__(self, "hand_regions", tuple(self.hand_regions))
+        p = np.asarray(self.points, dtype=float)
+        n = np.asarray(self.normals, dtype=float)
+        C = len(self.hand_regions)
+        if p.ndim != 3 or p.shape[1:] != (C, 3) or n.shape != p.shape:
+            raise InvalidTask(
+                f"point problems need points and normals of shape (P, {C}, 3) for {C} hand regions; "
+                f"got {p.shape} and {n.shape}"
+            )
+        if not (np.all(np.isfinite(p)) and np.all(np.isfinite(n))):
+            raise InvalidTask("point problems: points and normals must be finite")
+        norm = np.linalg.norm(n, axis=-1, keepdims=True)
+        if np.any(norm < 1e-12):
+            raise InvalidTask("point problems: every normal must be non-zero")
+        for name in self.hand_regions:
+            self.hand.region(name)
+        object.__setattr__(self, "points", p)
+        object.__setattr__(self, "normals", n / norm)
+
+    def __len__(self) -> int:
+        return self.points.shape[0]
+
+    @property
+    def fingers(self) -> tuple[str, ...]:
+        """Fingers that carry a contact (they take part), in hand order."""
+        used = {self.hand.finger_of_link(self.hand.region(r).link) for r in self.hand_regions}
+        return tuple(f.name for f in self.hand.fingers if f.name in used)
+
+    def subset(self, index) -> "PointProblems":
+        index = np.atleast_1d(np.asarray(index))
+        truth = {k: np.asarray(v)[index] for k, v in self.truth.items()}
+        return PointProblems(self.hand, self.hand_regions, self.points[index], self.normals[index], truth)
+
+    def task(self, i: int, name: str | None = None) -> Task:
+        """Problem ``i`` as a task (object regions are points with normals)."""
+        regions = {f"p{c}": PointRegion(self.points[i, c], self.normals[i, c]) for c in range(len(self.hand_regions))}
+        contacts = tuple(Contact(h, f"p{c}") for c, h in enumerate(self.hand_regions))
+        return Task(name or f"point-problem-{i}", self.hand, GraspObject(f"points-{i}", regions), contacts, self.fingers)
+
+    def group(self, joint_scale_mm: float = 40.0) -> Group:
+        """The kernel's arrays for these problems."""
+        hand = self.hand
+        C = len(self.hand_regions)
+        P = len(self)
+        hregs = [hand.region(r) for r in self.hand_regions]
+        hdata = [region_data(h.region) for h in hregs]
+        blocks = []
+        for c in range(C):
+            blocks.append(np.broadcast_to(hdata[c], (P, hdata[c].size)))
+            blocks.append(self.points[:, c])
+            blocks.append(self.normals[:, c])
+        piv = self.points.mean(axis=1)
+        blocks.append(piv)
+        pdata = np.concatenate(blocks, axis=1)
+        piv_off = pdata.shape[1] - 3
+        fingers = self.fingers
+        active = _active_mask(hand, fingers)
+        idle = np.clip(0.0, hand.lower, hand.upper)
+        extent = float(np.median(np.max(np.linalg.norm(self.points - piv[:, None], axis=-1), axis=1))) if P else 10.0
+        first = [PointRegion(self.points[0, c], self.normals[0, c]) for c in range(C)] if P else []
+        return build_group(
+            hand, fingers, active, idle, [f"{h}->p{c}" for c, h in enumerate(self.hand_regions)],
+            [(h.link, h.region) for h in hregs], first, pdata, piv_off, [1.0] * C, extent, joint_scale_mm,
+        )  # fmt: skip
+
+
+def _active_mask(hand: Hand, fingers) -> np.ndarray:
+    mask = np.zeros(hand.n_dof, dtype=bool)
+    for f in fingers:
+        for link in hand.finger(f).links:
+            mask[list(hand.chain_dofs(link))] = True
+    return mask
+
+
+def random_params(region, rng, n: int) -> np.ndarray:
+    """``n`` random parameter vectors inside a region's domain (caps: inside the cone)."""
+    k = region.n_params
+    if k == 0:
+        return np.zeros((n, 0))
+    if isinstance(region, BezierRegion):
+        return rng.uniform(0.0, 1.0, (n, 2))
+    lo, hi = region.param_bounds()
+    out = np.empty((0, k))
+    while out.shape[0] < n:
+        cand = rng.uniform(lo, hi, (2 * n + 8, k))
+        ok = region.domain_violation(cand) == 0.0
+        out = np.concatenate([out, cand[ok]])
+    return out[:n]
+
+
+def random_rotations(rng, n: int) -> np.ndarray:
+    """``n`` uniformly random rotations (unit quaternions), (n, 3, 3)."""
+    qv = rng.normal(size=(n, 4))
+    qv /= np.linalg.norm(qv, axis=1, keepdims=True)
+    w, x, y, z = qv.T
+    return np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
+            np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
+            np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
+        ],
+        axis=1,
+    )
+
+
+def random_hand_configurations(hand: Hand, fingers, n: int, rng, collision_free: bool = True) -> np.ndarray:
+    """``n`` random joint-angle vectors (n, n_dof): moving angles uniform within their limits,
+    coupled angles following their source exactly (rejected when that leaves their limits),
+    the others at zero clamped into the limits; without self-collision if asked."""
+    active = _active_mask(hand, fingers)
+    idle = np.clip(0.0, hand.lower, hand.upper)
+    coupled = {hand.dof_index(c.dof): c for c in hand.couplings}
+    out = np.empty((0, hand.n_dof))
+    while out.shape[0] < n:
+        m = max(64, 2 * (n - out.shape[0]))
+        q = rng.uniform(hand.lower, hand.upper, (m, hand.n_dof))
+        for _ in range(len(coupled) + 1):  # settle chains of couplings
+            for d, c in coupled.items():
+                q[:, d] = c.ratio * q[:, hand.dof_index(c.source)] + c.offset
+        q = np.where(active, q, idle)
+        ok = np.all((q >= hand.lower) & (q <= hand.upper), axis=1)
+        q = q[ok]
+        if collision_free and len(q):
+            clearance, _ = capsule_clearances(hand, forward_kinematics(hand, q))
+            q = q[np.all(clearance > 0.0, axis=1)] if clearance.shape[1] else q
+        out = np.concatenate([out, q])
+    return out[:n]
+
+
+def random_point_problems(
+    n: int,
+    hand: Hand | None = None,
+    hand_regions=SA_FOUR_TIPS,
+    seed=0,
+    *,
+    collision_free: bool = True,
+    object_offset_mm: float = 100.0,
+) -> PointProblems:
+    """``n`` feasible point-contact problems made by forward kinematics (seeded).
+
+    Args:
+        n: number of problems.
+        hand: the hand (default: the SA hand).
+        hand_regions: hand region of each contact (default: the four SA fingertips).
+        seed: an int seed or a ``numpy.random.Generator``.
+        collision_free: reject configurations in self-collision.
+        object_offset_mm: the object frame is a random rotation and a translation of up to
+            this much (each coordinate) away from the palm frame.
+    """
+    from ...hands.sa_hand import schunk_sa_hand
+
+    hand = schunk_sa_hand() if hand is None else hand
+    rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+    hand_regions = tuple(hand_regions)
+    hregs = [hand.region(r) for r in hand_regions]
+    fingers = tuple(
+        f.name for f in hand.fingers if f.name in {hand.finger_of_link(h.link) for h in hregs}
+    )
+    q = random_hand_configurations(hand, fingers, n, rng, collision_free)
+    pose = forward_kinematics(hand, q)
+    params = [random_params(h.region, rng, n) for h in hregs]
+    R = random_rotations(rng, n)
+    t = rng.uniform(-object_offset_mm, object_offset_mm, (n, 3))
+    pts, nrm = [], []
+    for h, prm in zip(hregs, params):
+        p_link, n_link = h.region.evaluate(prm) if h.region.n_params else h.region.evaluate(np.zeros((n, 0)))
+        li = hand.link_index(h.link)
+        p = pose.points(li, p_link)
+        nn = pose.directions(li, n_link)
+        pts.append(np.einsum("bji,bj->bi", R, p - t))  # R^T (p - t)
+        nrm.append(-np.einsum("bji,bj->bi", R, nn))
+    T = np.zeros((n, 4, 4))
+    T[:, :3, :3] = R
+    T[:, :3, 3] = t
+    T[:, 3, 3] = 1.0
+    k = max((h.region.n_params for h in hregs), default=0)
+    hp = np.zeros((n, len(hregs), k))
+    for c, prm in enumerate(params):
+        hp[:, c, : prm.shape[1]] = prm
+    return PointProblems(
+        hand, hand_regions, np.stack(pts, axis=1), np.stack(nrm, axis=1),
+        {"q": q, "T_palm_object": T, "hand_params": hp},
+    )  # fmt: skip
+
+
+# -- tasks ------------------------------------------------------------------------------
+def structure_key(task: Task) -> tuple:
+    """Tasks with equal keys share one group (same hand kinematics, moving angles and
+    region kinds and sizes); see :mod:`._group`."""
+    from ._group import hand_key
+
+    per_contact = []
+    for c in task.contacts:
+        h = task.hand_region(c)
+        per_contact.append((h.link, region_code(h.region)[:3], region_code(task.object_region(c))[:3]))
+    return (hand_key(task.hand), tuple(task.fingers), task.active_mask.tobytes(), task.idle_vector.tobytes(), tuple(per_contact))
+
+
+def group_from_tasks(tasks, joint_scale_mm: float = 40.0) -> Group:
+    """The kernel's arrays for tasks that share one structure (see :func:`structure_key`)."""
+    tasks = list(tasks)
+    first = tasks[0]
+    key = structure_key(first)
+    rows, extents = [], []
+    for task in tasks:
+        if task is not first and structure_key(task) != key:
+            raise InvalidTask("group_from_tasks: the tasks do not share one hand and one structure")
+        blocks, refs = [], []
+        for c in task.contacts:
+            blocks.append(region_data(task.hand_region(c).region))
+            oreg = task.object_region(c)
+            blocks.append(region_data(oreg))
+            refs.append(region_reference_point(oreg))
+        refs = np.array(refs)
+        piv = refs.mean(axis=0)
+        blocks.append(piv)
+        rows.append(np.concatenate(blocks))
+        extents.append(float(np.max(np.linalg.norm(refs - piv, axis=1))))
+    pdata = np.array(rows)
+    hand = first.hand
+    return build_group(
+        hand, first.fingers, first.active_mask, first.idle_vector, [c.name for c in first.contacts],
+        [(first.hand_region(c).link, first.hand_region(c).region) for c in first.contacts],
+        [first.object_region(c) for c in first.contacts], pdata, pdata.shape[1] - 3,
+        [region_size(first.object_region(c)) for c in first.contacts], float(np.median(extents)), joint_scale_mm,
+    )  # fmt: skip

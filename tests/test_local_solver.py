@@ -1,0 +1,322 @@
+"""The local solver (Claret & Suárez): Jacobians, steps, solutions that re-verify, give-ups."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fk_tasks import build_fk_case
+from prehension.errors import PrehensionError
+from prehension.geometry.regions import BezierRegion, SphereCap
+from prehension.hands.collision import capsule_clearances
+from prehension.hands.kinematics import forward_kinematics
+from prehension.objects.model import GraspObject
+from prehension.results import Status, make_solution
+from prehension.tasks.library import load_builtin_task
+from prehension.tasks.model import Task
+from prehension.tasks.residuals import Tolerances, coupling_violations, evaluate, limit_violations
+from prehension.solvers.local import (
+    LocalOptions,
+    PointProblems,
+    random_point_problems,
+    solve_local,
+    solve_local_batch,
+)
+from prehension.solvers.local import _kernel as K
+from prehension.solvers.local._group import hand_tables
+from prehension.solvers.local.problems import group_from_tasks
+
+DEG = np.pi / 180.0
+
+
+# -- helpers: the kernel's residual at a state ----------------------------------------------
+class _State:
+    """Call the kernel's residual/Jacobian from Python for one problem of a group."""
+
+    def __init__(self, group, problem=0, wn=25.0):
+        self.g, self.wn = group, wn
+        self.t = hand_tables(group.hand)
+        self.data = group.pdata[problem]
+        self.piv = self.data[group.piv_off : group.piv_off + 3]
+
+    def residual(self, x, R, t, jac=True):
+        g, T = self.g, self.t
+        C, nx, ndof = len(g.contacts), g.nx, g.hand.n_dof
+        q = np.zeros(ndof)
+        K._q_from_free(x, g.dof_free, g.dof_ratio, g.dof_offset, g.q_fixed, q)
+        Rl, rl = np.zeros((T["n_links"], 3, 3)), np.zeros((T["n_links"], 3))
+        ax, org = np.zeros((ndof, 3)), np.zeros((ndof, 3))
+        K._fk(q, T["jp"], T["jc"], T["jkind"], T["joff"], T["jP"], T["jQ"], T["ju"], T["jR0"], T["jv"],
+              Rl, rl, ax, org, np.zeros((3, 3)), np.zeros((3, 3)), np.zeros(3))  # fmt: skip
+        f, J = np.zeros(6 * C), np.zeros((6 * C, nx))
+        ph, nh, po, no = (np.zeros((C, 3)) for _ in range(4))
+        K._residual(x, R, t, self.data, self.piv, g.cint, g.cdofs, g.cnd, g.dof_free, g.dof_ratio, self.wn, jac,
+                    Rl, rl, ax, org, f, J, ph, nh, po, no, g.nf)  # fmt: skip
+        return f, J
+
+    def moved(self, x, R, t, dx):
+        Rn, tn = np.zeros((3, 3)), np.zeros(3)
+        K._apply_twist(dx, self.g.nf, R, t, self.piv, Rn, tn, np.zeros((3, 3)))
+        xn = x + np.where((np.arange(self.g.nx) < self.g.nf) | (np.arange(self.g.nx) >= self.g.nf + 6), dx, 0.0)
+        return xn, Rn, tn
+
+
+def _state_from_case(case, group):
+    """Unknowns x and pose (R, t) of an FK case's known configuration."""
+    x = group.x_default.copy()
+    x[: group.nf] = case.config.joint_angles[group.free]
+    for c, (h, o) in enumerate(case.config.contact_params):
+        xh, kh, xo, ko = (group.cint[c, k] for k in (K.C_XH, K.C_KH, K.C_XO, K.C_KO))
+        x[xh : xh + kh], x[xo : xo + ko] = h, o
+    T = case.config.T_palm_object
+    return x, T[:3, :3].copy(), T[:3, 3].copy()
+
+
+def _check_solution(task, sol):
+    """Everything the issue asks of a returned solution, with the foundation's functions."""
+    hand = task.hand
+    q = sol.q
+    assert np.degrees(coupling_violations(hand, q)).max(initial=0.0) <= 1e-9
+    assert np.degrees(limit_violations(hand, q)).max() <= 1e-9
+    clearance, _ = capsule_clearances(hand, forward_kinematics(hand, q))
+    assert clearance.min() >= 0.0
+    report = evaluate(task, sol.configuration(), Tolerances(contact_mm=1.5, normal_deg=5.0))
+    assert report.ok, report.summary()
+
+
+# -- the kernel --------------------------------------------------------------------------
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_kernel_jacobian_matches_finite_differences(sa_hand, seed):
+    rng = np.random.default_rng(seed)
+    case = build_fk_case(sa_hand, rng, fingers=("thumb", "index", "middle"), palm=True, kinds=("bezier", "cap", "point", "bezier"))
+    group = group_from_tasks([case.task])
+    st = _State(group)
+    x, R, t = _state_from_case(case, group)
+    x[: group.nf] += rng.uniform(-0.1, 0.1, group.nf)  # away from the solution
+    x = np.clip(x, group.lo, group.hi)
+    f, J = st.residual(x, R, t)
+    h = 1e-6
+    Jn = np.zeros_like(J)
+    for k in range(group.nx):
+        e = np.zeros(group.nx)
+        e[k] = h
+        fp = st.residual(*st.moved(x, R, t, e), jac=False)[0]
+        fm = st.residual(*st.moved(x, R, t, -e), jac=False)[0]
+        Jn[:, k] = (fp - fm) / (2 * h)
+    np.testing.assert_allclose(J, Jn, atol=2e-5 * max(1.0, np.abs(J).max()))
+
+
+def _kernel_region(region, prm):
+    from prehension.solvers.local._group import region_code, region_data
+
+    kind, m, n, _ = region_code(region)
+    p, nn, dp, dn = np.zeros(3), np.zeros(3), np.zeros((3, 2)), np.zeros((3, 2))
+    K._region(kind, 0, m, n, region_data(region), np.asarray(prm, dtype=float), p, nn, dp, dn, True)
+    return p, nn, dp, dn
+
+
+def test_kernel_regions_agree_with_the_foundation(rng):
+    cap = SphereCap((1.0, 2.0, 3.0), 13.0, (0.14, 0.0, 0.99), 60 * DEG)
+    from fk_tasks import height_field_patch
+
+    patch = BezierRegion(height_field_patch(rng, 3, 2, jitter=0.2))
+    for region in (cap, patch):
+        for prm in region.seed_params(3):
+            p, n, dp, dn = _kernel_region(region, prm)
+            p0, n0 = region.evaluate(prm)
+            dp0, dn0 = region.jacobian(prm)
+            np.testing.assert_allclose(p, p0[0], atol=1e-12)
+            np.testing.assert_allclose(n, n0[0], atol=1e-12)
+            np.testing.assert_allclose(dp, dp0[0], atol=1e-10)
+            np.testing.assert_allclose(dn, dn0[0], atol=1e-10)
+
+
+def test_cap_projection_keeps_parameters_in_the_cone():
+    cap = SphereCap((0.0, 0.0, 0.0), 13.0, (0.14, 0.0, 0.99), 60 * DEG)
+    from prehension.solvers.local._group import region_data
+
+    data = region_data(cap)
+    lo, hi = np.full(2, -np.pi), np.full(2, np.pi)
+    for a, g in [(1.5, 0.2), (-2.0, 1.0), (0.1, -1.4), (3.5, 2.0)]:
+        x = np.array([a, g])
+        K._project_params(K.K_CAP, 0, data, x, 0, lo, hi, 1e-9)
+        assert cap.domain_violation(x)[0] == 0.0
+        assert np.degrees(np.arccos(cap.normals(x)[0] @ cap.axis)) == pytest.approx(60.0, abs=1e-6)
+
+
+def test_a_damped_step_decreases_the_error_on_a_smooth_problem(sa_hand):
+    rng = np.random.default_rng(5)
+    case = build_fk_case(sa_hand, rng, fingers=("thumb", "index"), palm=False, kinds=("bezier", "point"),
+                         q=np.clip(0.5 * (sa_hand.lower + sa_hand.upper), sa_hand.lower, sa_hand.upper))  # fmt: skip
+    group = group_from_tasks([case.task])
+    st = _State(group)
+    x0, R, t = _state_from_case(case, group)
+    x = x0.copy()
+    x[: group.nf] += 0.05  # 3 degrees on every free angle: a smooth neighbourhood
+    C, nx = len(group.contacts), group.nx
+    f, J = st.residual(x, R, t)
+    A, L, Js = np.zeros((6 * C, 6 * C)), np.zeros((6 * C, 6 * C)), np.zeros((6 * C, nx))
+    y, dx, frozen = np.zeros(6 * C), np.zeros(nx), np.zeros(nx, dtype=bool)
+    assert K._dls_step(J, f, C, nx, group.Dinv, frozen, group.pcols, group.pn, 0.02**2, A, L, y, dx, Js)
+    f1, _ = st.residual(*st.moved(x, R, t, dx))
+    assert np.linalg.norm(f1) < 0.1 * np.linalg.norm(f)
+    f_half, _ = st.residual(*st.moved(x, R, t, 0.5 * dx))
+    assert np.linalg.norm(f_half) < np.linalg.norm(f)
+
+
+# -- solutions ----------------------------------------------------------------------------
+def test_random_point_problems_hold_at_their_known_configuration(sa_hand):
+    pp = random_point_problems(5, sa_hand, seed=3)
+    for i in range(len(pp)):
+        task = pp.task(i)
+        T = pp.truth["T_palm_object"][i]
+        params = tuple((pp.truth["hand_params"][i, c], np.zeros(0)) for c in range(4))
+        from prehension.tasks.model import Configuration
+
+        report = evaluate(task, Configuration(pp.truth["q"][i], T, params), Tolerances(contact_mm=1e-9, normal_deg=1e-9))
+        assert report.ok, report.summary()
+
+
+def test_four_fingertip_point_problems_are_solved_and_re_verify(sa_hand):
+    pp = random_point_problems(40, sa_hand, seed=11)
+    batch = solve_local_batch(pp)
+    assert len(batch) == 40
+    assert batch.success.mean() >= 0.9
+    assert batch.solved_after[-1] == batch.success.sum()
+    assert np.all(np.diff(batch.solved_after) >= 0) and np.all(np.diff(batch.wave_seconds) >= 0)
+    for rec in batch:
+        task = pp.task(rec.index)
+        result = rec.to_result(task)
+        assert result.method == "local"
+        assert result.status == rec.status
+        assert result.stats["initial_poses_tried"] == rec.initial_poses_tried >= 1
+        assert len(result.stats["per_pose_iterations"]) == rec.initial_poses_tried
+        if not rec.success:
+            assert result.message.startswith("no solution found after")
+            continue
+        (sol,) = result.solutions
+        tol = Tolerances() if result.stats["tolerances"] == "strict" else LocalOptions().acceptance
+        assert make_solution(task, sol.configuration(), tol) is not None
+        _check_solution(task, sol)
+    strict = [r.tolerance == "strict" for r in batch if r.success]
+    assert np.mean(strict) >= 0.8  # polishing makes most answers strictly verified
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_fk_tasks_with_patches_caps_points_and_palm_are_solved(sa_hand, seed):
+    rng = np.random.default_rng(100 + seed)
+    case = build_fk_case(sa_hand, rng)
+    result = solve_local(case.task, rng=seed)
+    assert result.status in (Status.SOLVED, Status.GAVE_UP)
+    if result.success:
+        _check_solution(case.task, result.solutions[0])
+
+
+def test_most_fk_tasks_are_solved(sa_hand):
+    rng = np.random.default_rng(77)
+    tasks = [build_fk_case(sa_hand, rng).task for _ in range(12)]
+    batch = solve_local_batch(tasks)  # mixed structures: grouped inside
+    assert [r.index for r in batch] == list(range(12))
+    assert batch.success.sum() >= 10
+    for task, result in zip(tasks, batch.results(tasks)):
+        if result.success:
+            _check_solution(task, result.solutions[0])
+
+
+@pytest.mark.parametrize("name", ["teapot-lid-lifting", "scalpel-upholding", "guitar-tuning", "teapot-transportation", "guitar-holding"])
+def test_builtin_tasks_are_solved(name):
+    task = load_builtin_task(name)
+    result = solve_local(task)
+    assert result.success, result.message
+    (sol,) = result.solutions
+    assert result.stats["tolerances"] == "strict"
+    assert make_solution(task, sol.configuration()) is not None  # strict default tolerances
+    _check_solution(task, sol)
+
+
+def test_an_unreachable_problem_gives_up_with_a_clear_message(sa_hand):
+    pp = random_point_problems(1, sa_hand, seed=4)
+    far = PointProblems(sa_hand, pp.hand_regions, pp.points * np.array([1.0, 1.0, 40.0]), pp.normals)
+    task = far.task(0)
+    options = LocalOptions(i_max=3, k_max=30)
+    result = solve_local(task, options)
+    assert result.status == Status.GAVE_UP and not result.success and result.solutions == ()
+    assert result.message.startswith("no solution found after 3 initial poses and")
+    assert result.stats["initial_poses_tried"] == 3
+    assert len(result.stats["per_pose_iterations"]) == 3
+    assert result.stats["iterations"] == sum(result.stats["per_pose_iterations"]) > 0
+
+
+def test_couplings_are_exact_and_limits_hold_in_every_answer(sa_hand):
+    pp = random_point_problems(30, sa_hand, seed=21)
+    batch = solve_local_batch(pp, LocalOptions(polish=False))  # d_min answers too
+    answers = [r for r in batch if r.success]
+    assert answers
+    q = np.array([r.joint_angles for r in answers])
+    assert coupling_violations(sa_hand, q).max() <= 1e-12
+    assert limit_violations(sa_hand, q).max() == 0.0
+    assert all(r.tolerance in ("strict", "d_min") for r in answers)
+
+
+def test_random_initial_poses_and_the_paper_rule_also_work(sa_hand):
+    pp = random_point_problems(20, sa_hand, seed=8)
+    a = solve_local_batch(pp, LocalOptions(initial="random"), rng=1)
+    b = solve_local_batch(pp, LocalOptions(initial="random"), rng=1)
+    assert [r.iterations for r in a] == [r.iterations for r in b]  # seeded
+    c = solve_local_batch(pp, LocalOptions(psi_rule="paper", repair_iterations=0, strict_retries=0))
+    assert a.success.mean() >= 0.8 and c.success.mean() >= 0.8
+
+
+def test_empty_batches_and_bad_input():
+    pp = random_point_problems(0)
+    assert len(solve_local_batch(pp)) == 0
+    assert len(solve_local_batch([])) == 0
+    with pytest.raises(PrehensionError, match="takes PointProblems or a list of Task"):
+        solve_local_batch(["teapot"])
+    with pytest.raises(PrehensionError, match="i_max must be an integer >= 1"):
+        LocalOptions(i_max=0)
+    with pytest.raises(PrehensionError, match="psi_rule"):
+        LocalOptions(psi_rule="best")
+    with pytest.raises(PrehensionError, match=r"shape \(P, 4, 3\)"):
+        PointProblems(random_point_problems(1).hand, ("thumb_tip", "index_tip", "middle_tip", "ring_tip"), np.zeros((2, 3, 3)), np.zeros((2, 3, 3)))
+
+
+def test_options_acceptance_follows_d_min():
+    o = LocalOptions(d_min_mm=1.5, normal_weight_mm=25.0)
+    assert o.acceptance.contact_mm == 1.5
+    assert o.acceptance.normal_deg == pytest.approx(np.degrees(2 * np.arcsin(1.5 / 50.0)))
+    custom = Tolerances(contact_mm=0.1, normal_deg=1.0)
+    assert LocalOptions(tolerances=custom).acceptance is custom
+
+
+def test_point_problem_task_round_trip(sa_hand):
+    pp = random_point_problems(3, sa_hand, seed=2)
+    task = pp.task(1)
+    assert isinstance(task, Task) and isinstance(task.object, GraspObject)
+    assert [c.hand_region for c in task.contacts] == list(pp.hand_regions)
+    assert set(task.fingers) == {"thumb", "index", "middle", "ring"}
+    sub = pp.subset([2, 0])
+    np.testing.assert_array_equal(sub.points[1], pp.points[0])
+    np.testing.assert_array_equal(sub.truth["q"][0], pp.truth["q"][2])
+
+
+def test_another_hand_from_urdf_with_fingertip_caps():
+    from conftest import HANDS_DIR
+
+    path = HANDS_DIR / "allegro_hand" / "allegro_hand_right.urdf"
+    if not path.is_file():
+        pytest.skip("shared/hands not present beside the checkout")
+    from prehension.hands.model import HandRegion
+    from prehension.hands.urdf import hand_from_urdf
+
+    hand = hand_from_urdf(path)
+    regions = {f"tip{i}": HandRegion(f.tip_link, SphereCap((0, 0, 0), 10.0, (1, 0, 0), 90 * DEG)) for i, f in enumerate(hand.fingers)}
+    hand = hand.with_regions(regions)
+    pp = random_point_problems(30, hand, tuple(regions), seed=1)
+    batch = solve_local_batch(pp)  # no shipped sequence: PCA of random poses + the paper's lambdas
+    assert batch.success.mean() >= 0.9
+    for rec in batch:
+        if rec.success:
+            result = rec.to_result(pp.task(rec.index))
+            assert result.success
+            _check_solution(pp.task(rec.index), result.solutions[0])
