@@ -8,7 +8,9 @@ import secrets
 import stat
 from pathlib import Path
 
-__all__ = ["write_text_atomic"]
+import numpy as np
+
+__all__ = ["write_text_atomic", "to_plain"]
 
 
 def _fsync_dir(directory: Path) -> None:
@@ -37,3 +39,16 @@ def write_text_atomic(path: Path, text: str) -> None:
             os.unlink(tmp)
         raise
     _fsync_dir(path.parent)
+
+
+def to_plain(value):
+    """``value`` with numpy arrays and scalars turned into plain Python (JSON-ready)."""
+    if isinstance(value, dict):
+        return {str(k): to_plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [to_plain(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    return value

@@ -20,7 +20,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from .atomic import write_text_atomic
+from .atomic import to_plain, write_text_atomic
 from .errors import InvalidTask
 from .hands.kinematics import forward_kinematics
 from .tasks.model import Configuration, Task
@@ -189,22 +189,10 @@ def result_to_dict(result: SolveResult) -> dict:
         "success": result.success,
         "message": result.message,
         "seconds": result.seconds,
-        "stats": _plain(dict(result.stats)),
+        "stats": to_plain(dict(result.stats)),
         "solutions": [_solution_to_dict(s) for s in result.solutions],
         "unverified_boxes": [{"lower": lo.tolist(), "upper": hi.tolist()} for lo, hi in result.unverified_boxes],
     }
-
-
-def _plain(value):
-    if isinstance(value, dict):
-        return {str(k): _plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, np.generic):
-        return value.item()
-    return value
 
 
 def write_result(result: SolveResult, path) -> None:

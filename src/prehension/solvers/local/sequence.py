@@ -30,7 +30,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ...atomic import write_text_atomic
+from ...atomic import to_plain, write_text_atomic
 from ...errors import InvalidTask
 from ...geometry.regions import SphereCap
 from ...hands.model import Hand
@@ -131,7 +131,7 @@ class InitialPoseSequence:
             "sigmas": self.sigmas.tolist(),
             "lambdas": self.lambdas.tolist(),
             "success": [s.tolist() for s in self.success],
-            "meta": _plain(dict(self.meta)),
+            "meta": to_plain(dict(self.meta)),
         }
 
     @classmethod
@@ -160,18 +160,6 @@ class InitialPoseSequence:
         except json.JSONDecodeError as exc:
             raise InvalidTask(f"{path}: not an initial-pose sequence (invalid JSON at line {exc.lineno})") from None
         return cls.from_dict(data, str(path))
-
-
-def _plain(value):
-    if isinstance(value, dict):
-        return {str(k): _plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, np.generic):
-        return value.item()
-    return value
 
 
 # -- the pose space of a hand -------------------------------------------------------------
