@@ -22,13 +22,12 @@ from typing import Mapping
 import numpy as np
 
 from ...errors import InvalidTask
-from ...geometry.regions import BezierRegion, PointRegion, SphereCap
+from ...geometry.regions import BezierRegion, PointRegion
 from ...hands.collision import capsule_clearances
 from ...hands.kinematics import forward_kinematics
 from ...hands.model import Hand
 from ...objects.model import GraspObject
 from ...tasks.model import Contact, Task
-from . import _kernel as K
 from ._group import Group, build_group, region_code, region_data, region_reference_point, region_size
 
 __all__ = ["PointProblems", "random_point_problems", "SA_FOUR_TIPS", "group_from_tasks", "structure_key"]
