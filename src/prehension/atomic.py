@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import secrets
 import stat
@@ -10,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["write_text_atomic", "to_plain"]
+__all__ = ["write_text_atomic", "to_plain", "write_json_atomic", "read_json"]
 
 
 def _fsync_dir(directory: Path) -> None:
@@ -52,3 +53,21 @@ def to_plain(value):
     if isinstance(value, np.generic):
         return value.item()
     return value
+
+
+def write_json_atomic(path, data) -> None:
+    """``data`` as indented JSON, written atomically."""
+    write_text_atomic(Path(path), json.dumps(to_plain(data), indent=1) + "\n")
+
+
+def read_json(path, what: str):
+    """The JSON document in ``path``; errors name the file and ``what`` was expected."""
+    from .errors import InvalidTask
+
+    path = Path(path)
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InvalidTask(f"cannot read {what} {path}: {exc}") from None
+    except json.JSONDecodeError as exc:
+        raise InvalidTask(f"{path}: not a {what} (invalid JSON at line {exc.lineno})") from None

@@ -13,14 +13,13 @@ so that ``prehension check`` -- or any other program -- can re-verify them alone
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
 
 import numpy as np
 
-from .atomic import to_plain, write_text_atomic
+from .atomic import read_json, to_plain, write_json_atomic
 from .errors import InvalidTask
 from .hands.kinematics import forward_kinematics
 from .tasks.model import Configuration, Task
@@ -197,7 +196,7 @@ def result_to_dict(result: SolveResult) -> dict:
 
 def write_result(result: SolveResult, path) -> None:
     """Write the result file atomically (never a half-written file)."""
-    write_text_atomic(Path(path), json.dumps(result_to_dict(result), indent=1) + "\n")
+    write_json_atomic(path, result_to_dict(result))
 
 
 def read_result(path) -> tuple[Task, dict]:
@@ -205,12 +204,7 @@ def read_result(path) -> tuple[Task, dict]:
     from .tasks.yaml_io import task_from_dict
 
     path = Path(path)
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InvalidTask(f"cannot read result file {path}: {exc}") from None
-    except json.JSONDecodeError as exc:
-        raise InvalidTask(f"{path}: not a result file (invalid JSON at line {exc.lineno})") from None
+    data = read_json(path, "result file")
     if not isinstance(data, dict) or data.get("prehension") != RESULT_TAG:
         raise InvalidTask(f"{path}: not a prehension result file (expected 'prehension: {RESULT_TAG}')")
     return task_from_dict(data["task"], base_dir=path.parent, source=f"{path} (embedded task)"), data

@@ -30,7 +30,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ...atomic import to_plain, write_text_atomic
+from ...atomic import read_json, to_plain, write_json_atomic
 from ...errors import InvalidTask
 from ...geometry.regions import SphereCap
 from ...hands.model import Hand
@@ -148,18 +148,11 @@ class InitialPoseSequence:
 
     def save(self, path) -> None:
         """Write the sequence as JSON, atomically."""
-        write_text_atomic(Path(path), json.dumps(self.to_dict(), indent=1) + "\n")
+        write_json_atomic(path, self.to_dict())
 
     @classmethod
     def load(cls, path) -> "InitialPoseSequence":
-        path = Path(path)
-        try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError) as exc:
-            raise InvalidTask(f"cannot read initial-pose sequence {path}: {exc}") from None
-        except json.JSONDecodeError as exc:
-            raise InvalidTask(f"{path}: not an initial-pose sequence (invalid JSON at line {exc.lineno})") from None
-        return cls.from_dict(data, str(path))
+        return cls.from_dict(read_json(path, "initial-pose sequence"), str(path))
 
 
 # -- the pose space of a hand -------------------------------------------------------------
