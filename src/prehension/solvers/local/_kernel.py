@@ -559,6 +559,21 @@ def _apply_twist(dx, nf, R, t, piv, Rn, tn, tmp):
 
 
 @njit(cache=True)
+def _advance(dx, nf, nx, x, R, t, piv, Rn, tn, tmp, cint, data, lo, hi, margin):
+    """Apply a step: the object pose by its twist, the other unknowns by ``dx``, then
+    project the parameters back into their regions."""
+    _apply_twist(dx, nf, R, t, piv, Rn, tn, tmp)
+    for i in range(3):
+        t[i] = tn[i]
+        for j in range(3):
+            R[i, j] = Rn[i, j]
+    for j in range(nx):
+        if j < nf or j >= nf + 6:
+            x[j] += dx[j]
+    _project(x, nf, cint, data, lo, hi, margin)
+
+
+@njit(cache=True)
 def _cap_on_rim(kind, off, data, x, i0, margin):
     """The gradient ``(g_a, g_g)`` of ``n . m`` if a cap's parameters lie on its cone's rim."""
     if kind != K_CAP:
@@ -1101,15 +1116,7 @@ def run_states(
                 fac = maxstep / big
             for j in range(nx):
                 dx[j] *= fac
-            _apply_twist(dx, nf, R, t, piv, Rn, tn, tmp1)
-            for i in range(3):
-                t[i] = tn[i]
-                for j in range(3):
-                    R[i, j] = Rn[i, j]
-            for j in range(nx):
-                if j < nf or j >= nf + 6:
-                    x[j] += dx[j]
-            _project(x, nf, cint, data, lo, hi, margin)
+            _advance(dx, nf, nx, x, R, t, piv, Rn, tn, tmp1, cint, data, lo, hi, margin)
             _q_from_free(x, dof_free, dof_ratio, dof_offset, q_fixed, q)
             _fk(q, jp, jc, jkind, joff, jP, jQ, ju, jR0, jv, Rl, rl, ax, org, tmp1, tmp2, vec)
         pk = 0
@@ -1131,15 +1138,7 @@ def run_states(
                     pk += 1
                     if not ok:
                         break
-                    _apply_twist(dx, nf, R, t, piv, Rn, tn, tmp1)
-                    for i in range(3):
-                        t[i] = tn[i]
-                        for j in range(3):
-                            R[i, j] = Rn[i, j]
-                    for j in range(nx):
-                        if j < nf or j >= nf + 6:
-                            x[j] += dx[j]
-                    _project(x, nf, cint, data, lo, hi, margin)
+                    _advance(dx, nf, nx, x, R, t, piv, Rn, tn, tmp1, cint, data, lo, hi, margin)
                     _q_from_free(x, dof_free, dof_ratio, dof_offset, q_fixed, q)
                     _fk(q, jp, jc, jkind, joff, jP, jQ, ju, jR0, jv, Rl, rl, ax, org, tmp1, tmp2, vec)
                     _residual(x, R, t, data, piv, cint, cdofs, cnd, dof_free, dof_ratio, wn, True,
@@ -1237,15 +1236,7 @@ def run_states(
                         if big > maxstep:
                             for j in range(nx):
                                 dx[j] *= maxstep / big
-                        _apply_twist(dx, nf, R, t, piv, Rn, tn, tmp1)
-                        for i in range(3):
-                            t[i] = tn[i]
-                            for j in range(3):
-                                R[i, j] = Rn[i, j]
-                        for j in range(nx):
-                            if j < nf or j >= nf + 6:
-                                x[j] += dx[j]
-                        _project(x, nf, cint, data, lo, hi, margin)
+                        _advance(dx, nf, nx, x, R, t, piv, Rn, tn, tmp1, cint, data, lo, hi, margin)
                         _q_from_free(x, dof_free, dof_ratio, dof_offset, q_fixed, q)
                         _fk(q, jp, jc, jkind, joff, jP, jQ, ju, jR0, jv, Rl, rl, ax, org, tmp1, tmp2, vec)
                     pk += rk
