@@ -94,14 +94,21 @@ def _limits(joint: WorldJoint, n: int) -> tuple[tuple[float, ...], tuple[float, 
     return tuple(float(lo) for lo, _ in joint.ranges), tuple(float(hi) for _, hi in joint.ranges)
 
 
+def _axes_and_references(joint: WorldJoint, ctx: _Ctx):
+    """The joint's two unit axes and two unit reference vectors (any perpendiculars
+    when the joint has no range: its zero is then arbitrary)."""
+    kind = joint.kind
+    first = _unit(joint.axis1, f"{kind} joint: first axis", ctx, joint)
+    second = _unit(joint.axis2, f"{kind} joint: second axis", ctx, joint)
+    if not joint.range_vectors:
+        return first, second, _any_perpendicular(first), _any_perpendicular(second)
+    ref1 = _unit(joint.range_vectors[0], f"{kind} joint: first reference", ctx, joint)
+    ref2 = _unit(joint.range_vectors[1], f"{kind} joint: second reference", ctx, joint)
+    return first, second, ref1, ref2
+
+
 def _revolute(joint: WorldJoint, ctx: _Ctx) -> Joint:
-    d = _unit(joint.axis1, "revolute joint: first axis", ctx, joint)
-    e = _unit(joint.axis2, "revolute joint: second axis", ctx, joint)
-    if joint.range_vectors:
-        a = _unit(joint.range_vectors[0], "revolute joint: first reference", ctx, joint)
-        b = _unit(joint.range_vectors[1], "revolute joint: second reference", ctx, joint)
-    else:
-        a, b = _any_perpendicular(d), _any_perpendicular(e)
+    d, e, a, b = _axes_and_references(joint, ctx)
     R0 = _frame_map(d, a, e, b, ctx, joint)
     lo, hi = _limits(joint, 1)
     name = joint.link2
@@ -109,13 +116,7 @@ def _revolute(joint: WorldJoint, ctx: _Ctx) -> Joint:
 
 
 def _universal(joint: WorldJoint, ctx: _Ctx, angle2: str) -> Joint:
-    u = _unit(joint.axis1, "universal joint: first axis", ctx, joint)
-    v = _unit(joint.axis2, "universal joint: second axis", ctx, joint)
-    if joint.range_vectors:
-        a1 = _unit(joint.range_vectors[0], "universal joint: first reference", ctx, joint)
-        a2 = _unit(joint.range_vectors[1], "universal joint: second reference", ctx, joint)
-    else:
-        a1, a2 = _any_perpendicular(u), _any_perpendicular(v)
+    u, v, a1, a2 = _axes_and_references(joint, ctx)
     R0 = _frame_map(a1, u, v, a2, ctx, joint)  # R0 v = a1, R0 a2 = u
     lo, hi = _limits(joint, 2)
     name = joint.link2
