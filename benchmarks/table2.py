@@ -26,7 +26,7 @@ from rich.table import Table
 
 from prehension.geometry.regions import BezierRegion
 from prehension.objects.model import GraspObject
-from prehension.paper import TABLE2
+from prehension.paper import CUIK_FILE_TASKS, TABLE2
 from prehension.solvers.complete.embedding import embed
 from prehension.solvers.complete.formulation import build_system
 from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
@@ -35,14 +35,6 @@ from prehension.tasks.library import builtin_task_names, load_builtin_task
 from prehension.tasks.model import Task
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "cuik-ijrr"
-FILE_TO_TASK = {
-    "scalpel/2_contacts_index_thumb": "scalpel-upholding",
-    "scalpel/3_contacts_middle_thumb_palm": "scalpel-handling",
-    "scalpel/4_contacts_middle_index_thumb_palm": "scalpel-incision",
-    "teapot/2_contacts_index_thumb": "teapot-lid-lifting",
-    "teapot/3_contacts_middle_index_thumb": "teapot-service",
-    "teapot/4_contacts_index_middle_ring_palm": "teapot-transportation",
-}
 
 
 def _tasks(include_shared: bool) -> list[tuple[str, Task, str]]:
@@ -50,7 +42,7 @@ def _tasks(include_shared: bool) -> list[tuple[str, Task, str]]:
     if include_shared and SHARED.is_dir():
         for path in sorted(SHARED.glob("*/*/*.world")):
             key = f"{path.parent.parent.name}/{path.parent.name}"
-            rows.append((f"file {key}", import_world(path), FILE_TO_TASK[key]))
+            rows.append((f"file {key}", import_world(path), CUIK_FILE_TASKS[key]))
     return rows
 
 

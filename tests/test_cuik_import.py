@@ -8,6 +8,7 @@ import pytest
 from conftest import CUIK_DIR, cuik_worlds, requires_cuik
 from prehension.errors import WorldFileError
 from prehension.hands.kinematics import forward_kinematics
+from prehension.paper import CUIK_FILE_TASKS
 from prehension.tasks.cuik_import import import_world, task_from_world
 from prehension.tasks.cuik_parser import parse_world
 from prehension.tasks.library import load_builtin_task
@@ -22,14 +23,6 @@ LINKS = {
 }  # fmt: skip
 ANGLES = {"_1": "_mcp_abd", "_2": "_mcp_flex"}
 FINGER = {"1": "ring", "2": "middle", "3": "index", "4": "thumb"}
-BUILTIN_OF_FILE = {
-    "scalpel/2_contacts_index_thumb": "scalpel-upholding",
-    "scalpel/3_contacts_middle_thumb_palm": "scalpel-handling",
-    "scalpel/4_contacts_middle_index_thumb_palm": "scalpel-incision",
-    "teapot/2_contacts_index_thumb": "teapot-lid-lifting",
-    "teapot/3_contacts_middle_index_thumb": "teapot-service",
-    "teapot/4_contacts_index_middle_ring_palm": "teapot-transportation",
-}
 
 
 def _builtin_angle(file_angle: str) -> str:
@@ -67,7 +60,7 @@ def test_world_hand_moves_like_the_builtin_sa_hand(path, sa_hand, rng):
 @pytest.mark.parametrize("path", cuik_worlds(), ids=_key)
 def test_builtin_task_reproduces_the_file_numbers(path):
     imported = import_world(path)
-    builtin = load_builtin_task(BUILTIN_OF_FILE[_key(path)])
+    builtin = load_builtin_task(CUIK_FILE_TASKS[_key(path)])
     assert len(builtin.contacts) == len(imported.contacts)
     for c_file, c_ours in zip(imported.contacts, builtin.contacts):
         r_file, r_ours = imported.hand_region(c_file), builtin.hand_region(c_ours)

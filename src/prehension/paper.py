@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
-__all__ = ["Table2Row", "TABLE2"]
+__all__ = ["Table2Row", "TABLE2", "CUIK_FILE_TASKS"]
 
 
 class Table2Row(NamedTuple):
@@ -29,4 +29,16 @@ TABLE2: dict[str, Table2Row] = {
     "guitar-tuning": Table2Row(219, 209, 17, 68),
     "guitar-playing": Table2Row(307, 298, 19, 229),
     "guitar-holding": Table2Row(331, 324, 18, 664),
+}
+
+
+# The authors' CuikSuite problem files (folder/subfolder in shared/cuik-ijrr) and the
+# built-in task that reproduces each one's numbers.
+CUIK_FILE_TASKS: dict[str, str] = {
+    "scalpel/2_contacts_index_thumb": "scalpel-upholding",
+    "scalpel/3_contacts_middle_thumb_palm": "scalpel-handling",
+    "scalpel/4_contacts_middle_index_thumb_palm": "scalpel-incision",
+    "teapot/2_contacts_index_thumb": "teapot-lid-lifting",
+    "teapot/3_contacts_middle_index_thumb": "teapot-service",
+    "teapot/4_contacts_index_middle_ring_palm": "teapot-transportation",
 }
