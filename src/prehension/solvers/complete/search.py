@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import json
 import time
+import zlib
 from collections import deque
 from concurrent.futures import FIRST_COMPLETED, Executor, wait
 from dataclasses import asdict, dataclass, field, replace
@@ -32,7 +33,8 @@ from ...errors import PrehensionError
 from ...results import Solution, SolveResult, Status, make_solution
 from ...tasks.model import Task
 from ...tasks.residuals import Tolerances
-from ..refine import RefineOptions, refine
+from ..local.options import LocalOptions
+from ..local.solver import refine_local
 from .embedding import configuration_from_point
 from .formulation import Formulation, build_system
 from .contract import contract
@@ -53,7 +55,10 @@ class BranchAndPruneOptions:
         max_boxes: stop (``gave_up``) after this many boxes.
         time_limit_s: stop (``gave_up``) after this many seconds.
         shrink: box-shrinking options.
-        refine: local-refinement options for verification.
+        verify_starts: points of each box the verification starts from: its centre and
+            ``verify_starts - 1`` pseudo-random points (seeded by the box's bounds, so a
+            box is verified the same way in every process).
+        refine: options of the local iterations that verify a box.
         tolerances: what counts as a verified solution (strict by default).
     """
 
@@ -63,12 +68,15 @@ class BranchAndPruneOptions:
     max_boxes: int | None = None
     time_limit_s: float | None = None
     shrink: ShrinkOptions = field(default_factory=ShrinkOptions)
-    refine: RefineOptions = field(default_factory=lambda: RefineOptions(max_evaluations=60))
+    verify_starts: int = 8
+    refine: LocalOptions = field(default_factory=LocalOptions)
     tolerances: Tolerances = field(default_factory=Tolerances)
 
     def __post_init__(self):
         if not 0.0 < self.sigma < 1.0:
             raise PrehensionError(f"sigma must lie in (0, 1) (a fraction of the initial box), got {self.sigma}")
+        if not (isinstance(self.verify_starts, int) and self.verify_starts >= 1):
+            raise PrehensionError(f"verify_starts must be an integer >= 1, got {self.verify_starts!r}")
         if self.order not in ("depth", "breadth"):
             raise PrehensionError(f"order must be 'depth' or 'breadth', got {self.order!r}")
 
@@ -98,17 +106,36 @@ def _scaled_widths(form: Formulation, lower, upper) -> np.ndarray:
     return (upper[base] - lower[base]) / ref[base]
 
 
+def _verification_points(lower: np.ndarray, upper: np.ndarray, n: int) -> np.ndarray:
+    """The box centre, then ``n - 1`` points drawn in the box's middle half (deterministic)."""
+    seed = zlib.crc32(np.ascontiguousarray(lower).tobytes() + np.ascontiguousarray(upper).tobytes())
+    u = np.random.default_rng(seed).uniform(0.25, 0.75, (n - 1, lower.size))
+    return np.vstack([0.5 * (lower + upper), lower + u * (upper - lower)])
+
+
 def _verify(form: Formulation, lower, upper, options: BranchAndPruneOptions) -> Solution | None:
-    start = configuration_from_point(form, 0.5 * (lower + upper))
-    return make_solution(form.task, refine(form.task, start, options=options.refine), options.tolerances)
+    """A verified solution reached by local iterations from points of the box, or None.
+
+    The iterations (:func:`prehension.solvers.local.refine_local`) work on the original
+    constraints and may leave the box; whatever they reach is judged by
+    :func:`make_solution` alone, so a returned solution is a solution of the task.
+    """
+    points = _verification_points(lower, upper, options.verify_starts)
+    starts = [configuration_from_point(form, x) for x in points]
+    for config in refine_local(form.task, starts, options.refine):
+        if config is not None:
+            solution = make_solution(form.task, config, options.tolerances)
+            if solution is not None:
+                return solution
+    return None
 
 
 def process_box(form: Formulation, lower, upper, depth: int, options: BranchAndPruneOptions) -> BoxOutcome:
     """Contract, try to verify, shrink, then split or keep one box (a pure function).
 
     Verification comes before the linear programs: in the large solution sets of grasp
-    problems a refinement from the box centre often succeeds at once, and it costs far
-    less than a round of LPs.
+    problems local iterations from a few points of the box often succeed at once (a few ms),
+    far less than a round of LPs.
     """
     lower, upper, empty = contract(form.system, lower, upper, tol=options.shrink.contract_tol,
                                    max_iter=options.shrink.contract_max_iter)  # fmt: skip

@@ -42,7 +42,7 @@ from .options import LocalOptions
 from .problems import PointProblems, group_from_tasks, structure_key
 from .sequence import InitialPoseSequence, default_sequence
 
-__all__ = ["solve_local", "solve_local_batch", "LocalRecord", "LocalBatch", "STRICT"]
+__all__ = ["solve_local", "solve_local_batch", "refine_local", "LocalRecord", "LocalBatch", "STRICT"]
 
 STRICT = Tolerances()
 
@@ -453,3 +453,57 @@ def solve_local(
     from dataclasses import replace
 
     return replace(result, seconds=time.perf_counter() - t0)
+
+
+# -- refinement from given starts ------------------------------------------------------------
+def _unknowns_of(group: Group, starts: Sequence[Configuration]) -> np.ndarray:
+    """The kernel's unknowns (S, nx) for starting configurations (joint angles, region params).
+
+    The object pose is not an unknown of the kernel: it is placed from the hand, as for
+    the initial poses of the sequence.
+    """
+    x0 = np.repeat(group.x_default[None], len(starts), axis=0)
+    for s, cfg in enumerate(starts):
+        x0[s, : group.nf] = np.asarray(cfg.joint_angles, dtype=float)[group.free]
+        for c, (hp, op) in enumerate(cfg.contact_params or ()):
+            xh, kh, xo, ko = (int(group.cint[c, k]) for k in (K.C_XH, K.C_KH, K.C_XO, K.C_KO))
+            x0[s, xh : xh + kh] = hp
+            x0[s, xo : xo + ko] = op
+    return np.clip(x0, group.lo, group.hi)
+
+
+def refine_local(
+    task: Task, starts: Sequence[Configuration], options: LocalOptions = LocalOptions()
+) -> list[Configuration | None]:
+    """Run the local iterations (Jacobian steps, polishing, collision repair) from given starts.
+
+    The complete solver verifies its boxes with this: ``starts`` are points read from
+    boxes (joint angles and contact parameters; each start must carry
+    ``contact_params``).  Returns, per start, the configuration reached when it meets
+    the strict tolerances (limits, couplings, contacts and collisions checked as in
+    :func:`solve_local`), else ``None``.  The iterations may leave the region of the
+    start; callers re-verify with :func:`~prehension.results.make_solution`.
+    """
+    starts = list(starts)
+    if not starts:
+        return []
+    group = group_from_tasks([task], options.joint_scale_mm)
+    S = len(starts)
+    x0 = _unknowns_of(group, starts)
+    status = np.zeros(S, dtype=np.int64)
+    it, pit = np.zeros(S, dtype=np.int64), np.zeros(S, dtype=np.int64)
+    xo, Ro, to, eo = np.zeros((S, group.nx)), np.zeros((S, 3, 3)), np.zeros((S, 3)), np.zeros((S, 2))
+    K.run_states(np.zeros(S, dtype=np.int64), x0, group.pdata, group.piv_off, *group.kernel_args(),
+                 options.kernel_array(), status, it, pit, xo, Ro, to, eo)  # fmt: skip
+    out: list[Configuration | None] = [None] * S
+    sel = np.flatnonzero((status == K.SOLVED_STRICT) | (status == K.SOLVED_DMIN))
+    if sel.size == 0:
+        return out
+    idx = np.zeros(sel.size, dtype=np.int64)
+    level, q, T, params, _, _ = _check(
+        group, lambda i, pose, T_, prm: _contact_checks_tasks([task], i, pose, T_, prm), idx, xo[sel], Ro[sel], to[sel], options
+    )  # fmt: skip
+    for k, s in enumerate(sel):
+        if level[k] == 2:
+            out[s] = Configuration(q[k].copy(), T[k].copy(), tuple((h[k].copy(), o[k].copy()) for h, o in params))
+    return out
