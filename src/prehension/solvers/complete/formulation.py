@@ -43,6 +43,7 @@ from ...errors import InvalidTask
 from ...geometry.regions import BezierRegion, PointRegion, SphereCap
 from ...geometry.rotations import rotation_about
 from ...hands.model import Joint
+from ...hands.reach import span_bound_mm
 from ...tasks.model import Task
 from .builder import Builder, Lin, lin_sum
 from .system import System
@@ -145,6 +146,7 @@ class _Formulator:
         self.contact_vars: list[dict] = []
         self.angles: dict[str, DofAngle] = {}
         self.object_points: list[list[Lin]] = []
+        self.reach_points: list[list[Lin]] = []  # per contact: the centre of its hand ball
         self.r0 = np.zeros(3, dtype=int)
 
     def base(self, key: tuple, name: str, lo: float, hi: float) -> int:
@@ -283,6 +285,10 @@ class _Formulator:
         self.object_points.append(o)
         link, region = hreg.link, hreg.region
         pos, nh = self.position(link), [n * -1.0 for n in nu]  # hand normal = -object normal
+        if isinstance(region, SphereCap):  # the cap's centre, o - r n_hand, has no slack
+            self.reach_points.append([o[r] + nu[r] * region.radius for r in range(3)])
+        else:
+            self.reach_points.append(o)
         if isinstance(region, SphereCap):
             cw = self.world(link, region.center)
             for r in range(3):
@@ -310,15 +316,18 @@ class _Formulator:
             b.equation(normal - nh[r])
 
     def add_reach_constraints(self) -> None:
-        """Redundant distance bounds: ``|o_a - r_0| <= reach_a`` and ``|o_a - o_b| <= reach_ab``.
+        """Redundant distance bounds between the hand balls of the contacts and the palm.
 
-        They follow from the kinematics (every hand point lies within a known distance of
-        the palm origin and of the other contact points) and let interval contraction
-        discard at once the boxes in which the object's contact regions are farther apart
-        than the hand can span.
+        Every hand region lies in a ball fixed to its link (:func:`reach_ball`); the
+        ball's centre is ``o`` for patches and points, and exactly ``o + r nu`` for a
+        sphere cap of radius ``r`` (the fingertip centre).  The distance between two
+        centres, or from a centre to the palm origin, is at most the hand's span
+        (:func:`prehension.hands.reach.span_bound_mm`) plus the balls' radii.  These
+        follow from the kinematics and let the relaxations discard at once the boxes in
+        which the object's contact regions are farther apart than the hand can reach.
         """
         task, b = self.task, self.b
-        points = self.object_points
+        points = self.reach_points
         pairs = [(a, None) for a in range(len(points))] + [
             (a, c) for a in range(len(points)) for c in range(a + 1, len(points))
         ]
@@ -326,7 +335,7 @@ class _Formulator:
             other = [Lin.var(i) for i in self.r0] if c is None else points[c]
             diff = [b.as_var(points[a][r] - other[r], f"d{a}{'' if c is None else c}[{r}]") for r in range(3)]
             sq = lin_sum(Lin.var(b.square(i)) for i, _ in diff)
-            b.inequality(sq - Lin.constant(contact_reach(task, a, c) ** 2))
+            b.inequality(sq - Lin.constant(_ball_reach(task, a, c) ** 2))
 
     def dot_lin(self, u: list[Lin], v: list[Lin], name: str) -> Lin:
         """``u . v`` for linear expressions (linear when one side is constant)."""
@@ -339,53 +348,40 @@ class _Formulator:
         return self.b.dot(uu, vv)
 
 
-def _chain(task: Task, link: str) -> list[Joint]:
-    """Joints from the palm to ``link``, palm first."""
-    out, joint = [], task.hand.joint_of_link(link)
-    while joint is not None:
-        out.insert(0, joint)
-        joint = task.hand.joint_of_link(joint.parent)
-    return out
+def reach_ball(task: Task, a: int) -> tuple[str, np.ndarray, float]:
+    """The ball of contact ``a``'s hand region: ``(link, centre in the link frame [mm],
+    slack [mm])``; the slack is 0 for a sphere cap, whose centre the system knows exactly."""
+    region = task.hand_region(task.contacts[a])
+    centre, radius = _region_ball(region.region)
+    return region.link, centre, 0.0 if isinstance(region.region, SphereCap) else radius
 
 
-def _reach_below(joints: list[Joint], region) -> float:
-    """Bound on |point of region - first joint centre| along a chain [mm]."""
-    total = _region_extent(region)
-    for k, joint in enumerate(joints):
-        total += np.linalg.norm(joint.origin_in_child)
-        if k + 1 < len(joints):
-            total += np.linalg.norm(joints[k + 1].origin_in_parent)
-    return total
+def _ball_reach(task: Task, a: int, b: int | None) -> float:
+    link_a, centre_a, slack_a = reach_ball(task, a)
+    if b is None:
+        return span_bound_mm(task.hand, link_a, centre_a) + slack_a
+    link_b, centre_b, slack_b = reach_ball(task, b)
+    return span_bound_mm(task.hand, link_a, centre_a, link_b, centre_b) + slack_a + slack_b
 
 
 def contact_reach(task: Task, a: int, b: int | None = None) -> float:
-    """A bound on the distance [mm] between the hand points of contacts ``a`` and ``b``
-    (``b=None``: between contact ``a`` and the palm origin), over all configurations.
+    """A proven bound on the distance [mm] between the hand points of contacts ``a`` and
+    ``b`` (``b=None``: between contact ``a`` and the palm origin), over all configurations
+    within the joint limits.
 
-    Through the deepest common link: the two first joint centres below it are fixed in
-    that link, and every later joint adds at most |Q| + |next P|.
+    Each hand region lies in a ball fixed to its link (:func:`_region_ball`); the distance
+    between the ball centres is bounded by branch and bound over the joint angles
+    (:func:`prehension.hands.reach.max_point_distance`, within 1 mm of the true maximum,
+    remembered per hand).
     """
+    hand = task.hand
     ra = task.hand_region(task.contacts[a])
-    chain_a = _chain(task, ra.link)
+    centre_a, radius_a = _region_ball(ra.region)
     if b is None:
-        if not chain_a:
-            return _region_extent(ra.region)
-        return float(np.linalg.norm(chain_a[0].origin_in_parent) + _reach_below(chain_a, ra.region))
+        return span_bound_mm(hand, ra.link, centre_a) + radius_a
     rb = task.hand_region(task.contacts[b])
-    chain_b = _chain(task, rb.link)
-    k = 0
-    while k < min(len(chain_a), len(chain_b)) and chain_a[k] is chain_b[k]:
-        k += 1
-    rest_a, rest_b = chain_a[k:], chain_b[k:]
-    first_a = rest_a[0].origin_in_parent if rest_a else np.zeros(3)
-    first_b = rest_b[0].origin_in_parent if rest_b else np.zeros(3)
-    reach = float(np.linalg.norm(first_a - first_b))
-    for rest, region, first in ((rest_a, ra.region, first_a), (rest_b, rb.region, first_b)):
-        if rest:
-            reach += _reach_below(rest, region)
-        else:  # the region sits on the common link itself
-            reach += _region_extent(region)
-    return reach
+    centre_b, radius_b = _region_ball(rb.region)
+    return span_bound_mm(hand, ra.link, centre_a, rb.link, centre_b) + radius_a + radius_b
 
 
 def _palm_reach(task: Task) -> float:
@@ -393,12 +389,15 @@ def _palm_reach(task: Task) -> float:
     return max(contact_reach(task, a) for a in range(len(task.contacts)))
 
 
-def _region_extent(region) -> float:
+def _region_ball(region) -> tuple[np.ndarray, float]:
+    """A ball (centre in the link frame [mm], radius [mm]) holding every point of a hand region."""
     if isinstance(region, SphereCap):
-        return float(np.linalg.norm(region.center) + region.radius)
+        return np.asarray(region.center, dtype=float), float(region.radius)
     if isinstance(region, PointRegion):
-        return float(np.linalg.norm(region.point))
-    return float(np.linalg.norm(region.patch.control_points, axis=2).max())
+        return np.asarray(region.point, dtype=float), 0.0
+    points = region.patch.control_points.reshape(-1, 3)  # the patch lies in their convex hull
+    centre = 0.5 * (points.min(axis=0) + points.max(axis=0))
+    return centre, float(np.linalg.norm(points - centre, axis=1).max())
 
 
 def _object_box(task: Task) -> tuple[np.ndarray, np.ndarray]:

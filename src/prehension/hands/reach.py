@@ -1,0 +1,293 @@
+"""Rigorous bounds on how far apart two points of a hand can be (its *span*).
+
+The complete solver adds redundant constraints ``|o_a - o_b| <= span_ab`` between contact
+points; the tighter ``span_ab``, the sooner a task whose object regions lie beyond the
+hand's reach is certified infeasible.  Summing link lengths along the chains gives a valid
+but loose bound (540 mm between the SA hand's thumb and index tips, whose true span is
+about 206 mm).  :func:`max_point_distance` computes a bound within ``tol_mm`` of the true
+maximum by branch and bound over the joint angles:
+
+* the joints above the deepest link common to both chains move both points rigidly, so
+  they do not change the distance and are left out;
+* on a box of angles with centre ``q_c`` and half-widths ``h``, a point moves at most
+  ``sum_k R_k h_k`` away from its position at ``q_c``, where ``R_k`` bounds the distance
+  from joint ``k``'s centre to the point over *all* configurations (a rotation by ``dt``
+  about an axis through the joint centre moves the point along an arc of length at most
+  ``R_k |dt|``; integrate along a coordinate path);
+* so ``|p_a(q) - p_b(q)| <= |p_a(q_c) - p_b(q_c)| + sum_k (R^a_k + R^b_k) h_k``;
+* the same argument bounds second derivatives: ``|d2 p / dt_k dt_l| <= R_m`` with ``m`` the
+  more distal of the two joints, so with ``d = p_a - p_b`` and its Jacobian ``J`` at
+  ``q_c``, ``|d(q)| <= |d + J D| + 1/2 sum_kl M_kl h_k h_l`` for ``|D_k| <= h_k``, and
+  ``|d + J D|^2 <= |d|^2 + 2 sum_k |d . J_k| h_k + (sum_k |J_k| h_k)^2``.  Near the maximum
+  ``d . J_k`` vanishes, so this bound converges quadratically;
+* boxes are split through their largest first-order term ``|J_k| h_k`` until no box can
+  beat the best distance seen by more than ``tol_mm``.
+
+Coupled angles follow their source inside the chains (the bound only needs a superset of
+the reachable configurations: a coupled angle whose source is outside the chains is
+treated as free within its limits, and limits of coupled angles are not imposed).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import heapq
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..geometry.rotations import axis_angle_to_matrix
+from .model import Hand, Joint
+
+__all__ = ["SpanBound", "chain_joints", "lever_arms_mm", "max_point_distance", "span_bound_mm"]
+
+_ROUNDING = 1e-9  # relative outward margin for floating-point rounding
+
+
+@dataclass(frozen=True)
+class SpanBound:
+    """Result of :func:`max_point_distance`.
+
+    Attributes:
+        upper_mm: a proven upper bound on the distance [mm].
+        lower_mm: the largest distance found at a configuration (a lower bound).
+        boxes: boxes of angles evaluated.
+    """
+
+    upper_mm: float
+    lower_mm: float
+    boxes: int
+
+
+def chain_joints(hand: Hand, link: str) -> list[Joint]:
+    """The joints from the palm to ``link``, palm first."""
+    out, joint = [], hand.joint_of_link(link)
+    while joint is not None:
+        out.insert(0, joint)
+        joint = hand.joint_of_link(joint.parent)
+    return out
+
+
+def lever_arms_mm(chain: list[Joint], point_in_link: np.ndarray) -> list[float]:
+    """Per joint of ``chain``: a bound on the distance [mm] from its centre to a point
+    fixed in the chain's last link, valid in every configuration."""
+    arms: list[float] = []
+    reach = 0.0
+    target = np.asarray(point_in_link, dtype=float)
+    for joint in reversed(chain):
+        reach += float(np.linalg.norm(target - joint.origin_in_child))
+        arms.insert(0, reach)
+        target = joint.origin_in_parent  # the next centre up, fixed in this joint's parent
+    return arms
+
+
+def _common_prefix(a: list[Joint], b: list[Joint]) -> int:
+    k = 0
+    while k < min(len(a), len(b)) and a[k] is b[k]:
+        k += 1
+    return k
+
+
+@dataclass(frozen=True)
+class _Problem:
+    """The angles of a span problem: which dofs vary, their bounds and limits."""
+
+    sources: np.ndarray  # dof index of each searched angle
+    weights_mm: np.ndarray  # per searched angle: sum of lever arms of the dofs it drives
+    curvature_mm: np.ndarray  # (n, n) bounds M on the second derivatives of p_a - p_b
+    lower: np.ndarray
+    upper: np.ndarray
+    driven: tuple  # (dof, source position, ratio, offset) for every chain dof
+
+
+def _problem(hand: Hand, chains: list[dict[int, float]]) -> _Problem:
+    """Searched angles for the dofs of ``chains`` (per point: ``{dof: lever arm [mm]}``),
+    couplings folded in."""
+    arms: dict[int, float] = {}
+    for chain in chains:
+        for dof, arm in chain.items():
+            arms[dof] = arms.get(dof, 0.0) + arm
+    coupling = {hand.dof_index(c.dof): c for c in hand.couplings}
+    sources: list[int] = []
+    driven = []
+    for dof in sorted(arms):
+        c = coupling.get(dof)
+        src, ratio, offset = dof, 1.0, 0.0
+        if c is not None and hand.dof_index(c.source) in arms:
+            src, ratio, offset = hand.dof_index(c.source), c.ratio, c.offset
+        if src not in sources:
+            sources.append(src)
+        driven.append((dof, sources.index(src), ratio, offset))
+    weights = np.zeros(len(sources))
+    for dof, pos, ratio, _ in driven:
+        weights[pos] += abs(ratio) * arms[dof]
+    curvature = np.zeros((len(sources), len(sources)))
+    for chain in chains:  # d2 p / dt_d dt_e: at most the more distal joint's lever arm
+        for d, pd, rd, _ in driven:
+            for e, pe, re, _ in driven:
+                if d in chain and e in chain:
+                    curvature[pd, pe] += abs(rd * re) * min(chain[d], chain[e])
+    src = np.array(sources, dtype=int)
+    return _Problem(src, weights, curvature, hand.lower[src], hand.upper[src], tuple(driven))
+
+
+def max_point_distance(
+    hand: Hand,
+    link_a: str,
+    point_a_mm,
+    link_b: str | None = None,
+    point_b_mm=None,
+    *,
+    tol_mm: float = 1.0,
+    max_boxes: int = 200_000,
+) -> SpanBound:
+    """A proven upper bound on ``max_q |p_a(q) - p_b(q)|`` over the joint limits.
+
+    ``p_a`` is the point ``point_a_mm`` fixed in link ``link_a``; ``p_b`` likewise, or the
+    palm origin when ``link_b`` is None.  The bound is within ``tol_mm`` of the maximum
+    unless ``max_boxes`` runs out first (then it is looser, never invalid).
+    """
+    point_a = np.asarray(point_a_mm, dtype=float)
+    link_b = hand.palm if link_b is None else link_b
+    point_b = np.zeros(3) if point_b_mm is None else np.asarray(point_b_mm, dtype=float)
+    chain_a, chain_b = chain_joints(hand, link_a), chain_joints(hand, link_b)
+    k = _common_prefix(chain_a, chain_b)
+    chains = []
+    for chain, point in ((chain_a, point_a), (chain_b, point_b)):
+        own: dict[int, float] = {}
+        for joint, arm in list(zip(chain, lever_arms_mm(chain, point)))[k:]:
+            first = hand.dof_offsets[hand.joints.index(joint)]
+            own.update({dof: arm for dof in range(first, first + joint.n_dof)})
+        chains.append(own)
+    problem = _problem(hand, chains)
+    difference = _difference_function(hand, problem, chain_a[k:], point_a, chain_b[k:], point_b)
+    return _branch_and_bound(problem, difference, tol_mm, max_boxes)
+
+
+def _chain_point(joints: list[Joint], offsets: list[int], point: np.ndarray, q: np.ndarray, n: int):
+    """Point fixed in the last link of ``joints`` and d point / d q (B, 3, n_dof), in the
+    frame of the first joint's parent (only the chain's own joints are computed)."""
+    B = len(q)
+    R = np.repeat(np.eye(3)[None], B, axis=0)
+    r = np.zeros((B, 3))
+    axes, centres, dofs = [], [], []
+    for joint, off in zip(joints, offsets):
+        centre = R @ joint.origin_in_parent + r
+        axes.append(R @ joint.axis_in_parent)
+        R = R @ axis_angle_to_matrix(joint.axis_in_parent, q[:, off]) @ joint.R_parent_child_zero
+        centres.append(centre)
+        dofs.append(off)
+        if joint.kind == "universal":
+            axes.append(R @ joint.axis_in_child)
+            R = R @ axis_angle_to_matrix(joint.axis_in_child, q[:, off + 1])
+            centres.append(centre)
+            dofs.append(off + 1)
+        r = centre - R @ joint.origin_in_child
+    p = R @ point + r
+    J = np.zeros((B, 3, n))
+    for axis, centre, dof in zip(axes, centres, dofs):
+        J[:, :, dof] = np.cross(axis, p - centre)
+    return p, J
+
+
+def _difference_function(hand: Hand, problem: _Problem, rest_a: list[Joint], point_a, rest_b: list[Joint], point_b):
+    """``angles (B, n) -> (d (B, 3), J (B, 3, n))``: ``p_a - p_b`` and its Jacobian, in the
+    frame of the deepest link common to both chains."""
+    base = np.clip(np.zeros(hand.n_dof), hand.lower, hand.upper)
+    gather = np.zeros((hand.n_dof, len(problem.sources)))  # d q / d angles
+    for dof, pos, ratio, _ in problem.driven:
+        gather[dof, pos] = ratio
+    offsets = {id(j): off for j, off in zip(hand.joints, hand.dof_offsets)}
+    off_a, off_b = [offsets[id(j)] for j in rest_a], [offsets[id(j)] for j in rest_b]
+
+    def difference(angles: np.ndarray):
+        q = np.repeat(base[None], len(angles), axis=0)
+        for dof, pos, ratio, offset in problem.driven:
+            q[:, dof] = ratio * angles[:, pos] + offset
+        pa, Ja = _chain_point(rest_a, off_a, point_a, q, hand.n_dof)
+        pb, Jb = _chain_point(rest_b, off_b, point_b, q, hand.n_dof)
+        return pa - pb, (Ja - Jb) @ gather
+
+    return difference
+
+
+def _branch_and_bound(problem: _Problem, difference, tol_mm: float, max_boxes: int, batch: int = 256) -> SpanBound:
+    if problem.sources.size == 0:
+        d = float(np.linalg.norm(difference(np.zeros((1, 0)))[0][0]))
+        return SpanBound(d * (1 + _ROUNDING) + _ROUNDING, d, 1)
+    lo, hi = problem.lower[None].copy(), problem.upper[None].copy()
+    best, heap, boxes, counter = 0.0, [], 0, 0
+    while True:
+        d, J = difference(0.5 * (lo + hi))
+        boxes += len(lo)
+        best = max(best, float(np.linalg.norm(d, axis=1).max()))
+        columns = np.linalg.norm(J, axis=1)
+        for ub, a, b, col in zip(_bounds(problem, d, J, 0.5 * (hi - lo)), lo, hi, columns):
+            if ub > best + tol_mm:
+                heapq.heappush(heap, (-ub, counter, a, b, col))
+                counter += 1
+        take = []
+        while heap and len(take) < batch and -heap[0][0] > best + tol_mm and boxes < max_boxes:
+            take.append(heapq.heappop(heap))
+        if not take:
+            break
+        lo, hi = _split(problem, *(np.array([t[i] for t in take]) for i in (2, 3, 4)))
+        if boxes + len(lo) > max_boxes:  # out of budget: these boxes still count
+            heap.extend(take)
+            heapq.heapify(heap)
+            break
+    open_max = max((-h[0] for h in heap), default=-np.inf)
+    upper_mm = max(best + tol_mm, open_max) if np.isfinite(open_max) and open_max > best + tol_mm else best + tol_mm
+    return SpanBound(upper_mm * (1 + _ROUNDING) + _ROUNDING, best, boxes)
+
+
+def _bounds(problem: _Problem, d: np.ndarray, J: np.ndarray, half: np.ndarray) -> np.ndarray:
+    """Upper bounds of ``|p_a - p_b|`` over boxes (see the module docstring)."""
+    dot = np.abs(np.einsum("bi,bik->bk", d, J))
+    first = np.einsum("bk,bk->b", np.linalg.norm(J, axis=1), half)
+    linear = np.sqrt(np.einsum("bi,bi->b", d, d) + 2 * np.einsum("bk,bk->b", dot, half) + first**2)
+    second = 0.5 * np.einsum("bk,kl,bl->b", half, problem.curvature_mm, half)
+    lipschitz = np.linalg.norm(d, axis=1) + half @ problem.weights_mm
+    return np.minimum(linear + second, lipschitz)
+
+
+def _split(problem: _Problem, lo: np.ndarray, hi: np.ndarray, column_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Both halves of every box, through its largest first-order term ``|J_k| (hi_k - lo_k)``."""
+    score = np.maximum(column_mm, 1e-3 * problem.weights_mm) * (hi - lo)
+    k = np.argmax(score, axis=1)
+    rows = np.arange(len(lo))
+    mid = 0.5 * (lo[rows, k] + hi[rows, k])
+    left_hi, right_lo = hi.copy(), lo.copy()
+    left_hi[rows, k] = mid
+    right_lo[rows, k] = mid
+    return np.concatenate([lo, right_lo]), np.concatenate([left_hi, hi])
+
+
+# -- a cache: tasks of one hand ask for the same spans again and again ------------------------
+_CACHE: dict = {}
+_CACHE_SIZE = 4096
+
+
+def _fingerprint(hand: Hand) -> str:
+    """A digest of everything in the hand that moves points: joints, limits, couplings."""
+    h = hashlib.sha256()
+    for j in hand.joints:
+        h.update(f"{j.name}|{j.kind}|{j.parent}|{j.child}|{j.lower}|{j.upper}".encode())
+        for a in (j.origin_in_parent, j.origin_in_child, j.axis_in_parent, j.R_parent_child_zero, j.axis_in_child):
+            h.update(b"-" if a is None else np.ascontiguousarray(a, dtype=float).tobytes())
+    for c in hand.couplings:
+        h.update(f"{c.dof}|{c.source}|{c.ratio!r}|{c.offset!r}".encode())
+    return h.hexdigest()
+
+
+def span_bound_mm(hand: Hand, link_a: str, point_a_mm, link_b: str | None = None, point_b_mm=None,
+                  *, tol_mm: float = 1.0) -> float:  # fmt: skip
+    """:attr:`SpanBound.upper_mm` of :func:`max_point_distance`, remembered per hand and points."""
+    pa = tuple(float(v) for v in np.asarray(point_a_mm, dtype=float))
+    pb = None if point_b_mm is None else tuple(float(v) for v in np.asarray(point_b_mm, dtype=float))
+    key = (_fingerprint(hand), link_a, pa, link_b, pb, float(tol_mm))
+    if key not in _CACHE:
+        if len(_CACHE) >= _CACHE_SIZE:
+            _CACHE.clear()
+        _CACHE[key] = max_point_distance(hand, link_a, pa, link_b, pb, tol_mm=tol_mm).upper_mm
+    return _CACHE[key]
