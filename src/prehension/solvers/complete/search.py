@@ -11,8 +11,10 @@ solution box (``all_solutions``).  When every box is pruned the answer is **infe
 with the numbers of boxes and linear programs as its certificate.
 
 Boxes are independent, so :func:`solve_complete` can process them on any
-``concurrent.futures.Executor``; the open boxes can be saved to a checkpoint file and
-the search resumed from it.
+``concurrent.futures.Executor`` (a process pool, a Dask cluster's executor): workers
+process the next boxes of the one-process order ahead of time, and outcomes are taken in
+that order, so every executor and worker count gives the same boxes, counts and answer.
+The open boxes can be saved to a checkpoint file and the search resumed from it.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ import json
 import time
 import zlib
 from collections import deque
-from concurrent.futures import FIRST_COMPLETED, Executor, wait
+from concurrent.futures import Executor
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Callable, Literal
@@ -272,28 +274,45 @@ def _saved_note(checkpoint) -> str:
 
 
 def _run(form, state, options, executor, workers, started, progress) -> str:
-    """Process boxes until done; returns why it stopped early ('' when it finished)."""
-    in_flight: dict = {}
-    while state.open or in_flight:
-        if _done(state, options):
-            return ""
-        reason = _limits_hit(state, options, started)
-        if reason:
-            return reason
-        while state.open and len(in_flight) < (workers if executor else 1):
-            lo, hi, depth = state.open.pop()  # depth: last pushed; breadth: oldest (children go left)
+    """Process boxes until done; returns why it stopped early ('' when it finished).
+
+    The boxes are taken in the order of the one-process search (the right end of
+    ``state.open``), and each outcome is recorded in that order, so the search visits
+    the same boxes and returns the same answer with any executor and any number of
+    workers.  An executor only works *ahead*: the next ``workers`` boxes in that order
+    are submitted before their turn (speculatively: in depth-first order they may be
+    needed later than the boxes their predecessors split into, or not at all once a
+    solution is found).
+    """
+    ahead: dict[int, object] = {}  # id of an entry of state.open -> its future
+    try:
+        while state.open:
+            if _done(state, options):
+                return ""
+            reason = _limits_hit(state, options, started)
+            if reason:
+                return reason
+            entry = state.open[-1]
             if executor is None:
-                _record(state, process_box(form, lo, hi, depth, options), options)
-                _report(progress, state, 0)
-                break
-            in_flight[executor.submit(process_box, form, lo, hi, depth, options)] = (lo, hi, depth)
-        if executor is not None and in_flight:
-            finished, _ = wait(in_flight, return_when=FIRST_COMPLETED)
-            for fut in finished:
-                in_flight.pop(fut)
-                _record(state, fut.result(), options)
-            _report(progress, state, len(in_flight))
-    return ""
+                outcome = process_box(form, *entry, options)
+            else:
+                _submit_ahead(form, state, options, executor, workers, ahead)
+                outcome = ahead.pop(id(entry)).result()
+            state.open.pop()
+            _record(state, outcome, options)
+            _report(progress, state, len(ahead))
+        return ""
+    finally:
+        for future in ahead.values():
+            future.cancel()
+
+
+def _submit_ahead(form, state: _State, options, executor: Executor, workers: int, ahead: dict) -> None:
+    """Make sure the next ``workers`` boxes in the search order are submitted."""
+    for k in range(1, min(workers, len(state.open)) + 1):
+        entry = state.open[-k]
+        if id(entry) not in ahead:
+            ahead[id(entry)] = executor.submit(process_box, form, *entry, options)
 
 
 def _report(progress, state: _State, in_flight: int) -> None:
