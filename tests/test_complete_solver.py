@@ -100,3 +100,32 @@ def test_builtin_task_first_solution(capsys):
     result = solve_complete(load_builtin_task("scalpel-upholding"), BranchAndPruneOptions(time_limit_s=300))
     assert result.status == Status.SOLVED
     assert result.solutions[0].report.worst("contact_distance") < 1e-6
+
+
+def test_all_solutions_mode_reports_each_solution_in_its_own_box():
+    result = solve_complete(pincer_task(30.0), BranchAndPruneOptions(sigma=0.3, order="breadth", all_solutions=True))
+    assert result.status == Status.SOLVED and len(result.solutions) >= 1
+    assert result.stats["boxes"] > 1  # a verified point does not end the description of the set
+    assert "solution box(es)" in result.message
+    for solution in result.solutions:
+        assert make_solution(result.task, solution.configuration()) is not None
+
+
+def test_workers_visit_the_same_boxes_as_one_process():
+    """Outcomes are taken in one-process order: any executor gives the same search."""
+    task = pincer_task(50.0)
+    alone = solve_complete(task, FAST)
+    with ThreadPoolExecutor(max_workers=3) as pool:
+        shared = solve_complete(task, FAST, executor=pool, workers=3)
+    assert (alone.status, alone.stats["boxes"], alone.stats["lps"]) == (shared.status, shared.stats["boxes"], shared.stats["lps"])
+
+
+def test_regions_just_beyond_reach_are_certified_and_just_within_are_solved():
+    from prehension.tasks.library import load_builtin_task
+    from prehension.tasks.variants import move_object_region
+
+    lid = load_builtin_task("teapot-lid-lifting")
+    beyond = solve_complete(move_object_region(lid, "knob_back", (0, 0, 180)), FAST)
+    assert beyond.status == Status.INFEASIBLE
+    within = solve_complete(move_object_region(lid, "knob_back", (0, 0, 150)), FAST)
+    assert within.status == Status.SOLVED

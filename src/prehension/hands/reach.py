@@ -20,8 +20,9 @@ maximum by branch and bound over the joint angles:
   ``q_c``, ``|d(q)| <= |d + J D| + 1/2 sum_kl M_kl h_k h_l`` for ``|D_k| <= h_k``, and
   ``|d + J D|^2 <= |d|^2 + 2 sum_k |d . J_k| h_k + (sum_k |J_k| h_k)^2``.  Near the maximum
   ``d . J_k`` vanishes, so this bound converges quadratically;
-* boxes are split through their largest first-order term ``|J_k| h_k`` until no box can
-  beat the best distance seen by more than ``tol_mm``.
+* boxes are split through the angle with the largest share of that bound, until no box
+  can beat the best distance seen by more than ``tol_mm`` (or a box budget runs out: the
+  bound is then looser, never invalid).
 
 Coupled angles follow their source inside the chains (the bound only needs a superset of
 the reachable configurations: a coupled angle whose source is outside the chains is
@@ -252,8 +253,10 @@ def _bounds(problem: _Problem, d: np.ndarray, J: np.ndarray, half: np.ndarray) -
 
 
 def _split(problem: _Problem, lo: np.ndarray, hi: np.ndarray, column_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Both halves of every box, through its largest first-order term ``|J_k| (hi_k - lo_k)``."""
-    score = np.maximum(column_mm, 1e-3 * problem.weights_mm) * (hi - lo)
+    """Both halves of every box, through the angle with the largest share of its bound:
+    ``(|J_k| + 1/2 sum_l M_kl h_l) (hi_k - lo_k)`` (first and second order)."""
+    half = 0.5 * (hi - lo)
+    score = (np.maximum(column_mm, 1e-3 * problem.weights_mm) + 0.5 * half @ problem.curvature_mm) * (hi - lo)
     k = np.argmax(score, axis=1)
     rows = np.arange(len(lo))
     mid = 0.5 * (lo[rows, k] + hi[rows, k])
@@ -281,13 +284,13 @@ def _fingerprint(hand: Hand) -> str:
 
 
 def span_bound_mm(hand: Hand, link_a: str, point_a_mm, link_b: str | None = None, point_b_mm=None,
-                  *, tol_mm: float = 1.0) -> float:  # fmt: skip
+                  *, tol_mm: float = 1.0, max_boxes: int = 60_000) -> float:  # fmt: skip
     """:attr:`SpanBound.upper_mm` of :func:`max_point_distance`, remembered per hand and points."""
     pa = tuple(float(v) for v in np.asarray(point_a_mm, dtype=float))
     pb = None if point_b_mm is None else tuple(float(v) for v in np.asarray(point_b_mm, dtype=float))
-    key = (_fingerprint(hand), link_a, pa, link_b, pb, float(tol_mm))
+    key = (_fingerprint(hand), link_a, pa, link_b, pb, float(tol_mm), int(max_boxes))
     if key not in _CACHE:
         if len(_CACHE) >= _CACHE_SIZE:
             _CACHE.clear()
-        _CACHE[key] = max_point_distance(hand, link_a, pa, link_b, pb, tol_mm=tol_mm).upper_mm
+        _CACHE[key] = max_point_distance(hand, link_a, pa, link_b, pb, tol_mm=tol_mm, max_boxes=max_boxes).upper_mm
     return _CACHE[key]

@@ -371,8 +371,8 @@ def contact_reach(task: Task, a: int, b: int | None = None) -> float:
 
     Each hand region lies in a ball fixed to its link (:func:`_region_ball`); the distance
     between the ball centres is bounded by branch and bound over the joint angles
-    (:func:`prehension.hands.reach.max_point_distance`, within 1 mm of the true maximum,
-    remembered per hand).
+    (:func:`prehension.hands.reach.max_point_distance`: within 1 mm of the true maximum,
+    or looser when its box budget runs out; remembered per hand).
     """
     hand = task.hand
     ra = task.hand_region(task.contacts[a])

@@ -37,7 +37,7 @@ from ...tasks.model import Task
 from ...tasks.residuals import Tolerances
 from ..local.options import LocalOptions
 from ..local.solver import refine_local
-from .embedding import configuration_from_point
+from .embedding import configuration_from_point, embed
 from .formulation import Formulation, build_system
 from .contract import contract
 from .shrink import ShrinkOptions, shrink_box
@@ -135,17 +135,21 @@ def _verify(form: Formulation, lower, upper, options: BranchAndPruneOptions) -> 
 def process_box(form: Formulation, lower, upper, depth: int, options: BranchAndPruneOptions) -> BoxOutcome:
     """Contract, try to verify, shrink, then split or keep one box (a pure function).
 
-    Verification comes before the linear programs: in the large solution sets of grasp
-    problems local iterations from a few points of the box often succeed at once (a few ms),
-    far less than a round of LPs.
+    Looking for one solution, verification comes before the linear programs: in the
+    large solution sets of grasp problems local iterations from a few points of the box
+    often succeed at once (a few ms), far less than a round of LPs.  Describing the
+    solution set (``all_solutions``), boxes are split down to ``sigma`` and only those
+    leaves are verified, by a solution that lies in the leaf itself, so that each
+    solution box reports its own solution.
     """
     lower, upper, empty = contract(form.system, lower, upper, tol=options.shrink.contract_tol,
                                    max_iter=options.shrink.contract_max_iter)  # fmt: skip
     if empty:
         return BoxOutcome("empty", lower, upper, depth, 0)
-    solution = _verify(form, lower, upper, options)
-    if solution is not None:
-        return BoxOutcome("solution", lower, upper, depth, 0, solution)
+    if not options.all_solutions:
+        solution = _verify(form, lower, upper, options)
+        if solution is not None:
+            return BoxOutcome("solution", lower, upper, depth, 0, solution)
     shrink_options = replace(options.shrink, variables=tuple(_base_indices(form).tolist()))
     shrunk = shrink_box(form.system, lower, upper, shrink_options)
     if shrunk.empty:
@@ -153,12 +157,23 @@ def process_box(form: Formulation, lower, upper, depth: int, options: BranchAndP
     lo, hi = shrunk.lower, shrunk.upper
     widths = _scaled_widths(form, lo, hi)
     if widths.max() < options.sigma:
+        solution = _verify(form, lo, hi, options) if options.all_solutions else None
+        if solution is not None and _inside(form, solution, lo, hi):
+            return BoxOutcome("solution", lo, hi, depth, shrunk.n_lps, solution)
         return BoxOutcome("small", lo, hi, depth, shrunk.n_lps)
     k = _base_indices(form)[int(np.argmax(widths))]
     mid = 0.5 * (lo[k] + hi[k])
     left_hi, right_lo = hi.copy(), lo.copy()
     left_hi[k], right_lo[k] = mid, mid
     return BoxOutcome("split", lo, hi, depth, shrunk.n_lps, children=((lo, left_hi), (right_lo, hi)))
+
+
+def _inside(form: Formulation, solution: Solution, lower, upper) -> bool:
+    """Whether a solution's base coordinates lie in the box (to rounding)."""
+    x = embed(form, solution.configuration())
+    base = _base_indices(form)
+    slack = 1e-9 * np.maximum(form.system.upper - form.system.lower, 1.0)[base]
+    return bool(np.all(x[base] >= lower[base] - slack) and np.all(x[base] <= upper[base] + slack))
 
 
 # -- the driver -------------------------------------------------------------------------
@@ -325,7 +340,11 @@ def _result(task, form, state: _State, options, started: float, stop: str) -> So
     stats = {"boxes": state.boxes, "lps": state.lps, "max_depth": state.max_depth, "open_boxes": len(state.open),
              "n_variables": form.system.n, "n_equations": form.system.n_equations, "options": _options_dict(options)}  # fmt: skip
     small = tuple(state.small)
-    if state.solutions:
+    if state.solutions and options.all_solutions:
+        status = Status.SOLVED
+        msg = (f"{len(state.solutions)} solution box(es) with a verified solution and {len(small)} without, "
+               f"after {state.boxes} boxes and {state.lps} LPs" + (f" (stopped: {stop})" if stop else ""))  # fmt: skip
+    elif state.solutions:
         status, msg = Status.SOLVED, f"verified solution found after {state.boxes} boxes and {state.lps} LPs"
     elif stop:
         status, msg = Status.GAVE_UP, f"stopped: {stop}"
