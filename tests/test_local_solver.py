@@ -320,3 +320,24 @@ def test_another_hand_from_urdf_with_fingertip_caps():
             result = rec.to_result(pp.task(rec.index))
             assert result.success
             _check_solution(pp.task(rec.index), result.solutions[0])
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_refine_local_reaches_a_verified_configuration_near_a_known_one(sa_hand, seed):
+    """The complete solver's verification: iterations from a perturbed known solution."""
+    from dataclasses import replace
+
+    from prehension.solvers.local import refine_local
+
+    rng = np.random.default_rng(3000 + seed)
+    case = build_fk_case(sa_hand, rng, palm=False)
+    task = case.task
+    noisy = replace(case.config, joint_angles=np.clip(
+        case.config.joint_angles + np.where(task.active_mask, rng.normal(0, 0.05, sa_hand.n_dof), 0.0),
+        sa_hand.lower, sa_hand.upper))  # fmt: skip
+    reached = refine_local(task, [noisy, case.config])
+    assert any(r is not None for r in reached)
+    for config in reached:
+        if config is not None:
+            assert make_solution(task, config, Tolerances(penetration_mm=float("inf"))) is not None
+    assert refine_local(task, []) == []
