@@ -103,7 +103,7 @@ def test_cli_offline_writes_the_file_and_prints_table1(tmp_path):
 
     from rich.console import Console
 
-    from prehension.solvers.local.offline import cli_offline
+    from prehension.cli.offline import cli_offline
 
     out = tmp_path / "sa.json"
     buf = io.StringIO()

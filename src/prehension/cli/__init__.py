@@ -13,6 +13,7 @@ from rich.console import Console
 
 from .. import __version__
 from ..errors import PrehensionError
+from . import batch, offline
 from .codes import EXIT_BAD_INPUT, EXIT_CHECK_FAILED, EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK
 
 __all__ = [
@@ -36,15 +37,8 @@ def build_parser() -> argparse.ArgumentParser:
     check = sub.add_parser("check", help="re-verify a result file against its task")
     check.add_argument("result", type=Path, help="result file (.json) written by 'prehension solve'")
     _add_import(sub)
-    off = sub.add_parser("offline", help="local solver: compute a hand's sequence of initial poses (sec. 3.2)")
-    off.add_argument("hand", help="built-in hand name (schunk-sa)")
-    off.add_argument("-o", "--output", type=Path, required=True, help="sequence file to write (.json)")
-    off.add_argument("--M", type=int, default=5000, help="random problems per step (paper: 5000)")
-    off.add_argument("--N", type=int, default=30, help="grid values per lambda (paper: 30)")
-    off.add_argument("--imax", type=int, default=12, help="initial poses in the sequence (paper: 12)")
-    off.add_argument("--workers", type=int, default=1, help="processes")
-    off.add_argument("--seed", type=int, default=0)
-    off.add_argument("--force", action="store_true", help="overwrite the output file if it exists")
+    offline.add_parser(sub)
+    batch.add_parser(sub)
     return parser
 
 
@@ -56,7 +50,9 @@ def _add_solve(sub) -> None:
     p.add_argument("-o", "--output", type=Path, help="result file (default: TASK.result.json; an older one is kept as a backup)")
     p.add_argument("--all", action="store_true", help="complete solver: search the whole solution set (breadth first)")
     p.add_argument("--sigma", type=float, default=0.1, help="complete solver: solution-box size (fraction of the initial box)")
-    p.add_argument("--workers", type=int, default=1, help="complete solver: boxes processed in parallel (processes)")
+    p.add_argument("--workers", type=int, default=1,
+                   help="complete solver: boxes processed in parallel on a local Dask cluster of N processes")  # fmt: skip
+    p.add_argument("--scheduler", metavar="ADDR", help="complete solver: process boxes on a running Dask cluster (tcp://host:8786)")
     p.add_argument("--time-limit", type=float, default=None, metavar="SECONDS", help="give up after this long")
     p.add_argument("--max-boxes", type=int, default=None, help="complete solver: give up after this many boxes")
     p.add_argument("--checkpoint", type=Path, help="complete solver: save the open boxes here when stopped (Ctrl-C too)")
@@ -83,6 +79,7 @@ def _add_import(sub) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from .batch import cmd_batch
     from .check import cmd_check
     from .convert import cmd_import
     from .solve import cmd_solve
@@ -93,7 +90,7 @@ def main(argv: list[str] | None = None) -> int:
     console = Console(highlight=False, quiet=bool(getattr(args, "quiet", False)))
     commands = {
         "tasks": cmd_tasks, "show": cmd_show, "import-cuik": cmd_import, "solve": cmd_solve,
-        "check": cmd_check, "offline": _cmd_offline,
+        "check": cmd_check, "offline": _cmd_offline, "batch": cmd_batch,
     }  # fmt: skip
     if args.command is None:
         parser.print_help()
@@ -106,8 +103,6 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _cmd_offline(args, console: Console) -> int:
-    from ..solvers.local.offline import cli_offline
+    from .offline import cmd_offline
 
-    cli_offline(args.hand, args.output, M=args.M, N=args.N, imax=args.imax, workers=args.workers,
-                seed=args.seed, force=args.force, console=console)  # fmt: skip
-    return EXIT_OK
+    return cmd_offline(args, console)

@@ -46,6 +46,7 @@ def _options(args):
 
 
 def cmd_solve(args, console: Console) -> int:
+    from ..parallel import executor_for
     from ..solve import solve
     from ..tasks.library import resolve_task
 
@@ -53,29 +54,18 @@ def cmd_solve(args, console: Console) -> int:
     options = _options(args)
     if args.resume and args.checkpoint is None:
         raise PrehensionError("--resume needs --checkpoint FILE (the file the interrupted run saved)")
-    executor = _executor(args)
-    try:
+    with executor_for(args.scheduler, args.workers if args.workers > 1 else None) as executor:
         with _progress(console, args) as update:
             result = solve(
                 task, args.method, complete_options=options, seed=args.seed, executor=executor,
-                workers=args.workers, checkpoint=args.checkpoint, resume=args.resume, progress=update,
+                workers=executor.max_workers if executor is not None else 1, checkpoint=args.checkpoint,
+                resume=args.resume, progress=update,
             )  # fmt: skip
-    finally:
-        if executor is not None:
-            executor.shutdown(cancel_futures=True)
     path = _output_path(args, task.name)
     backup = _keep_previous(path)
     write_result(result, path)
     _report(console, args, result, path, backup)
     return EXIT_OF_STATUS[result.status]
-
-
-def _executor(args):
-    if args.workers <= 1:
-        return None
-    from concurrent.futures import ProcessPoolExecutor
-
-    return ProcessPoolExecutor(max_workers=args.workers)
 
 
 class _progress:

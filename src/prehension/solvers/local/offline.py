@@ -9,8 +9,12 @@
    the first in grid order).
 
 The grid points of a step are split in chunks, each run by ``executor.submit`` (any
-:class:`concurrent.futures.Executor`; default: run inline).  ``progress(done, total,
-message)`` is called after each chunk, for a progress bar.  The problems are the
+:class:`concurrent.futures.Executor`: a process pool, or a Dask cluster through
+:class:`prehension.parallel.DaskExecutor`; default: run inline).  Each grid point's count
+is computed alone on the same problems, so the sequence does not depend on the executor
+or the chunking: the same ``seed`` gives the same sequence.  ``progress(done, total,
+message)`` is called after each chunk, for a progress bar; the command line is
+:mod:`prehension.cli.offline`.  The problems are the
 paper's: four fingertip contacts, points with normals, made by forward kinematics
 (:func:`.problems.random_point_problems`).
 """
@@ -30,7 +34,7 @@ from .options import LocalOptions
 from .problems import SA_FOUR_TIPS, PointProblems, random_point_problems
 from .sequence import PAPER_TABLE1, InitialPoseSequence, principal_directions, sample_poses
 
-__all__ = ["offline_sequence", "grid_values", "compare_with_paper", "make_executor", "cli_offline"]
+__all__ = ["offline_sequence", "grid_values", "compare_with_paper"]
 
 Progress = Callable[[int, int, str], None]
 
@@ -85,6 +89,12 @@ def _evaluate_chunk(payload) -> np.ndarray:
         batch = solve_local_batch(problems, options, base.with_lambdas([lam]))
         counts[g] = int(batch.solved_after[0])
     return counts
+
+
+def _executor_workers(executor: Executor) -> int:
+    """Workers of an executor: ``max_workers`` (a Dask cluster, now) or a pool's ``_max_workers``."""
+    workers = getattr(executor, "max_workers", None) or getattr(executor, "_max_workers", 1)
+    return max(int(workers), 1)
 
 
 def _unsolved_problems(hand, regions, M, base, lambdas, options, rng, max_candidates):
@@ -145,7 +155,7 @@ def offline_sequence(
         n_samples: hand poses sampled for the PCA.
         hand_regions: the contacts of the random problems.
         chunks_per_step: chunks the grid is split into (default: ``4 x`` the executor's
-            workers, or 1 inline).
+            workers, or 1 inline); the answer does not depend on it.
 
     Returns:
         An :class:`InitialPoseSequence` with the lambdas, the success grid of every step
@@ -165,8 +175,7 @@ def offline_sequence(
     values = grid_values(N)
     grid = np.array([(a, b) for a in values for b in values])
     if chunks_per_step is None:
-        workers = getattr(executor, "_max_workers", 1) if executor is not None else 1
-        chunks_per_step = 1 if executor is None else 4 * max(int(workers), 1)
+        chunks_per_step = 1 if executor is None else 4 * _executor_workers(executor)
     chunks = [c for c in np.array_split(np.arange(len(grid)), min(chunks_per_step, len(grid))) if len(c)]
     total = imax * len(chunks)
     done = 0
@@ -227,61 +236,3 @@ def compare_with_paper(sequence: InitialPoseSequence) -> list[tuple[int, tuple |
         paper = tuple(float(v) for v in PAPER_TABLE1[i]) if i < len(PAPER_TABLE1) else None
         rows.append((i + 1, ours, paper))
     return rows
-
-
-def make_executor(workers: int | None):
-    """A process pool for ``workers > 1``, else ``None`` (inline)."""
-    if workers is None or workers <= 1:
-        return None
-    from concurrent.futures import ProcessPoolExecutor
-
-    return ProcessPoolExecutor(max_workers=int(workers))
-
-
-def cli_offline(hand_name: str, output, *, M: int = 5000, N: int = 30, imax: int = 12, workers: int = 1,
-                seed: int = 0, force: bool = False, console=None) -> InitialPoseSequence:  # fmt: skip
-    """What ``prehension offline HAND`` does: search with a rich progress bar, write the file,
-    print the sequence beside the paper's Table 1."""
-    from pathlib import Path
-
-    from rich.console import Console
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
-    from rich.table import Table
-
-    from ...hands.sa_hand import schunk_sa_hand
-
-    console = console or Console()
-    output = Path(output)
-    if output.exists() and not force:
-        raise PrehensionError(f"{output} already exists; pass --force to overwrite it")
-    if hand_name not in ("schunk-sa", "sa"):
-        raise PrehensionError(f"unknown hand {hand_name!r}; hands with an off-line search: schunk-sa")
-    executor = make_executor(workers)
-    try:
-        with Progress(
-            TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total} chunks"),
-            TimeElapsedColumn(), TimeRemainingColumn(), console=console,
-        ) as bar:  # fmt: skip
-            task_id = bar.add_task("off-line search", total=None)
-
-            def progress(done, total, message):
-                bar.update(task_id, completed=done, total=total, description=f"off-line search, {message}")
-
-            seq = offline_sequence(schunk_sa_hand(), M, N, imax, executor, progress, seed)
-    finally:
-        if executor is not None:
-            executor.shutdown()
-    seq.save(output)
-    table = Table(title=f"Initial poses: ours (M={M}, N={N}) beside Table 1 of Claret & Suárez (M=5000, N=30)")
-    for col in ("i", "ours l1", "ours l2", "E_i (ours)", "paper l1", "paper l2"):
-        table.add_column(col, justify="right")
-    rates = seq.meta.get("best_rate_per_step", [])
-    for i, ours, paper in compare_with_paper(seq):
-        e = f"{100 * rates[i - 1]:.1f}%" if i - 1 < len(rates) else ""
-        table.add_row(
-            str(i), *(f"{v:.3f}" for v in ours) if ours else ("", ""), e,
-            *(f"{v:.3f}" for v in paper) if paper else ("", ""),
-        )  # fmt: skip
-    console.print(table)
-    console.print(f"wrote {output} ({seq.meta['seconds']:.0f} s)")
-    return seq

@@ -1,0 +1,107 @@
+"""``prehension batch``: solve every task of a ``.jsonl`` file or a folder on a Dask cluster.
+
+Exit codes: 0 every task of the input has a done record (solved, infeasible or gave up);
+2 bad input (a malformed line, named by file and line, or tasks recorded ``invalid``);
+1 some task ended in ``error`` (a crash; its record says which); 130 stopped by Ctrl-C
+(what finished is saved: run the same command again to go on).  Tasks left by
+``--max-tasks`` also give 1.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, ProgressColumn, TextColumn, TimeElapsedColumn
+from rich.progress import TimeRemainingColumn
+from rich.text import Text
+
+from .codes import EXIT_BAD_INPUT, EXIT_OK
+
+__all__ = ["add_parser", "cmd_batch"]
+
+EXIT_ERRORS = 1
+EXIT_INTERRUPTED = 130
+
+
+def add_parser(sub) -> None:
+    """The ``batch`` sub-command."""
+    p = sub.add_parser("batch", help="solve many tasks on a Dask cluster, resumable (docs/batch.md)")
+    p.add_argument("input", type=Path, help="tasks: a .jsonl file (one task per line) or a folder of task files")
+    p.add_argument("-o", "--output", type=Path, required=True, help="results (.jsonl): appended as tasks finish; "
+                   "tasks already in it are skipped")  # fmt: skip
+    p.add_argument("--method", choices=("auto", "local", "complete"), default="auto",
+                   help="auto (default): the local solver, then the complete one if it fails")  # fmt: skip
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--scheduler", metavar="ADDR", help="a running Dask scheduler, e.g. tcp://host:8786")
+    where.add_argument("--workers", type=int, help="size of the local cluster (processes; default: the cores)")
+    p.add_argument("--seed", type=int, default=0, help="base seed; each task's seed is derived from it and its id")
+    p.add_argument("--time-limit", type=float, default=None, metavar="SECONDS",
+                   help="complete solver: give up on a task after this long")  # fmt: skip
+    p.add_argument("--chunk-size", type=int, default=None, help="tasks per Dask task (default: 8 local, 1 otherwise)")
+    p.add_argument("--retry-gave-up", action="store_true", help="solve again the tasks recorded as gave_up")
+    p.add_argument("--max-tasks", type=int, default=None, help="stop after this many tasks (re-run to go on)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar or summary, only errors")
+
+
+class _RateColumn(ProgressColumn):
+    """Tasks per second, averaged by rich over the last 30 s."""
+
+    def render(self, task) -> Text:
+        return Text(f"{task.speed:.1f} tasks/s" if task.speed else "- tasks/s", style="progress.data.speed")
+
+
+def _bar(console: Console) -> Progress:
+    return Progress(
+        TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), _RateColumn(),
+        TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(), console=console,
+    )  # fmt: skip
+
+
+def cmd_batch(args, console: Console) -> int:
+    from ..batch import BatchOptions, read_inputs, run_batch
+    from ..batch.run import check_output
+    from ..parallel import check_where, cluster
+
+    options = BatchOptions(
+        method=args.method, seed=args.seed, time_limit_s=args.time_limit, chunk_size=args.chunk_size,
+        retry_gave_up=args.retry_gave_up, max_tasks=args.max_tasks,
+    )  # fmt: skip
+    check_where(args.scheduler, args.workers)
+    check_output(args.input, args.output)
+    entries = read_inputs(args.input)  # bad input fails here, before a cluster starts
+    with _bar(console) as bar, cluster(args.scheduler, args.workers) as client:
+        bar_id = bar.add_task("starting the cluster", total=None)
+
+        def progress(p) -> None:
+            text = ", ".join(f"{n} {s}" for s, n in sorted(p.counts.items())) or "starting"
+            bar.update(bar_id, total=p.total, completed=p.done, description=f"batch ({text})")
+
+        summary = run_batch(entries, args.output, client, options, progress)
+    _report(console, summary)
+    return _exit_code(summary)
+
+
+def _report(console: Console, summary) -> None:
+    for note in summary.notes:
+        console.print(f"[yellow]journal:[/] {note}")
+    labels = {"solved": "solved", "infeasible": "proven infeasible", "gave_up": "gave up", "invalid": "invalid", "error": "error"}
+    parts = [f"{summary.counts[s]} {label}" for s, label in labels.items() if summary.counts.get(s)]
+    console.print(
+        f"{summary.tasks} tasks: {', '.join(parts) or 'none solved in this run'}; {summary.skipped} already done, "
+        f"{summary.remaining} left; {summary.seconds:.1f} s -> {summary.output}"
+    )
+    if summary.interrupted:
+        console.print("[bold yellow]interrupted[/]: what finished is saved; run the same command again to go on")
+    if summary.counts.get("invalid") or summary.counts.get("error"):
+        console.print("tasks recorded invalid or error (their message says why) are solved again by the next run")
+
+
+def _exit_code(summary) -> int:
+    if summary.interrupted:
+        return EXIT_INTERRUPTED
+    if summary.counts.get("invalid"):
+        return EXIT_BAD_INPUT
+    if summary.counts.get("error") or summary.remaining:
+        return EXIT_ERRORS
+    return EXIT_OK

@@ -1,0 +1,95 @@
+"""``prehension offline HAND``: search a hand's sequence of initial poses (local solver, sec. 3.2).
+
+The grid points of each step run on a Dask cluster (``--scheduler ADDR`` or
+``--workers N``) or inline (the default); the sequence is the same either way for the
+same ``--seed``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+from rich.table import Table
+
+from ..errors import PrehensionError
+from .codes import EXIT_OK
+
+__all__ = ["add_parser", "cmd_offline", "cli_offline"]
+
+HANDS = ("schunk-sa", "sa")
+
+
+def add_parser(sub) -> None:
+    """The ``offline`` sub-command."""
+    off = sub.add_parser("offline", help="local solver: compute a hand's sequence of initial poses (sec. 3.2)")
+    off.add_argument("hand", help="built-in hand name (schunk-sa)")
+    off.add_argument("-o", "--output", type=Path, required=True, help="sequence file to write (.json)")
+    off.add_argument("--M", type=int, default=5000, help="random problems per step (paper: 5000)")
+    off.add_argument("--N", type=int, default=30, help="grid values per lambda (paper: 30)")
+    off.add_argument("--imax", type=int, default=12, help="initial poses in the sequence (paper: 12)")
+    where = off.add_mutually_exclusive_group()
+    where.add_argument("--scheduler", metavar="ADDR", help="a running Dask scheduler, e.g. tcp://host:8786")
+    where.add_argument("--workers", type=int, default=None, help="local cluster of N processes (default: run inline)")
+    off.add_argument("--seed", type=int, default=0)
+    off.add_argument("--force", action="store_true", help="overwrite the output file if it exists")
+
+
+def cmd_offline(args, console: Console) -> int:
+    cli_offline(args.hand, args.output, M=args.M, N=args.N, imax=args.imax, workers=args.workers,
+                scheduler=args.scheduler, seed=args.seed, force=args.force, console=console)  # fmt: skip
+    return EXIT_OK
+
+
+def _search(M, N, imax, seed, executor, console: Console):
+    from ..hands.sa_hand import schunk_sa_hand
+    from ..solvers.local.offline import offline_sequence
+
+    with Progress(
+        TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total} chunks"),
+        TimeElapsedColumn(), TimeRemainingColumn(), console=console,
+    ) as bar:  # fmt: skip
+        task_id = bar.add_task("off-line search", total=None)
+
+        def progress(done, total, message):
+            bar.update(task_id, completed=done, total=total, description=f"off-line search, {message}")
+
+        return offline_sequence(schunk_sa_hand(), M, N, imax, executor, progress, seed)
+
+
+def _table(seq, M: int, N: int) -> Table:
+    from ..solvers.local.offline import compare_with_paper
+
+    table = Table(title=f"Initial poses: ours (M={M}, N={N}) beside Table 1 of Claret & Suárez (M=5000, N=30)")
+    for col in ("i", "ours l1", "ours l2", "E_i (ours)", "paper l1", "paper l2"):
+        table.add_column(col, justify="right")
+    rates = seq.meta.get("best_rate_per_step", [])
+    for i, ours, paper in compare_with_paper(seq):
+        e = f"{100 * rates[i - 1]:.1f}%" if i - 1 < len(rates) else ""
+        table.add_row(
+            str(i), *(f"{v:.3f}" for v in ours) if ours else ("", ""), e,
+            *(f"{v:.3f}" for v in paper) if paper else ("", ""),
+        )  # fmt: skip
+    return table
+
+
+def cli_offline(hand_name: str, output, *, M: int = 5000, N: int = 30, imax: int = 12, workers: int | None = None,
+                scheduler: str | None = None, seed: int = 0, force: bool = False, console=None):  # fmt: skip
+    """What ``prehension offline HAND`` does: search with a rich progress bar (on a Dask
+    cluster when ``scheduler`` or ``workers > 1``), write the file, print the sequence
+    beside the paper's Table 1.  Returns the :class:`InitialPoseSequence`."""
+    from ..parallel import executor_for
+
+    console = console or Console()
+    output = Path(output)
+    if output.exists() and not force:
+        raise PrehensionError(f"{output} already exists; pass --force to overwrite it")
+    if hand_name not in HANDS:
+        raise PrehensionError(f"unknown hand {hand_name!r}; hands with an off-line search: schunk-sa")
+    with executor_for(scheduler, workers) as executor:
+        seq = _search(M, N, imax, seed, executor, console)
+    seq.save(output)
+    console.print(_table(seq, M, N))
+    console.print(f"wrote {output} ({seq.meta['seconds']:.0f} s)")
+    return seq

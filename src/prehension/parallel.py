@@ -1,0 +1,160 @@
+"""Running prehension on Dask distributed: a local cluster, or a running scheduler.
+
+One option picks where work runs, for every command that runs much of it:
+
+* ``scheduler="tcp://host:8786"``: a running Dask scheduler (``dask scheduler`` on one
+  machine, ``dask worker tcp://host:8786`` on each of the others);
+* else ``workers=N``: a :class:`distributed.LocalCluster` of ``N`` worker *processes* with
+  one thread each (numba and numpy release the GIL only in parts, and every solver holds
+  its state per process), ``N`` defaulting to the number of cores.
+
+:func:`cluster` yields a :class:`distributed.Client`; :class:`DaskExecutor` wraps it as a
+:class:`concurrent.futures.Executor` for code that takes one (the complete solver's box
+search, the off-line sequence search); :func:`executor_for` does both for a command.
+Dask distributed is imported here only, and only when a cluster is asked for.
+
+Dask does the scheduling: work stealing, rescheduling the tasks of a lost worker
+(``distributed.scheduler.allowed-failures`` deaths of one task before it gives up with
+``KilledWorker``), and back-pressure is left to the caller (keep a bounded number of
+futures in flight, see :mod:`prehension.batch`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+from concurrent.futures import Executor
+from typing import Iterator
+
+from .errors import PrehensionError
+
+__all__ = ["cluster", "DaskExecutor", "executor_for", "worker_count", "default_workers", "check_where"]
+
+_CONNECT_TIMEOUT_S = 20
+
+
+def _distributed():
+    try:
+        import distributed
+    except ImportError:  # pragma: no cover - a declared dependency
+        raise PrehensionError("running on a cluster needs Dask distributed: pip install 'dask[distributed]'") from None
+    return distributed
+
+
+def default_workers() -> int:
+    """The cores this process may use (the default size of a local cluster)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not on Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def check_where(scheduler: str | None, workers: int | None) -> None:
+    """Raise a :class:`PrehensionError` unless ``scheduler`` / ``workers`` make sense together."""
+    if scheduler is not None and workers is not None:
+        raise PrehensionError(
+            "give either --scheduler (a running Dask cluster, whose workers are started with "
+            "'dask worker') or --workers (a local cluster of N processes), not both"
+        )
+    if workers is not None and (not isinstance(workers, int) or workers < 1):
+        raise PrehensionError(f"--workers must be an integer >= 1, got {workers!r}")
+    if scheduler is not None and not str(scheduler).strip():
+        raise PrehensionError("--scheduler needs an address such as tcp://host:8786")
+
+
+@contextlib.contextmanager
+def cluster(scheduler: str | None = None, workers: int | None = None, *, dashboard: bool = False) -> Iterator:
+    """A :class:`distributed.Client` on a running scheduler, or on a new local cluster.
+
+    Args:
+        scheduler: address of a running Dask scheduler (``tcp://host:8786``); the
+            cluster's workers are whatever joined it.
+        workers: size of the local cluster started when ``scheduler`` is ``None``
+            (processes, one thread each; default: :func:`default_workers`).
+        dashboard: Dask's dashboard on port 8787 (local cluster only; needs bokeh);
+            else the scheduler's HTTP server takes a free port (several clusters at once).
+
+    Raises:
+        PrehensionError: both or bad arguments, or the scheduler cannot be reached.
+    """
+    check_where(scheduler, workers)
+    distributed = _distributed()
+    if scheduler is not None:
+        with _connect(distributed, str(scheduler).strip()) as client:
+            yield client
+        return
+    with distributed.LocalCluster(
+        n_workers=workers or default_workers(), threads_per_worker=1, processes=True,
+        dashboard_address=":8787" if dashboard else ":0", silence_logs=logging.ERROR,
+    ) as local, distributed.Client(local) as client:  # fmt: skip
+        yield client
+
+
+def _connect(distributed, address: str):
+    try:
+        return distributed.Client(address, timeout=f"{_CONNECT_TIMEOUT_S}s")
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise PrehensionError(
+            f"cannot reach the Dask scheduler at {address} ({exc}); start one with "
+            "'dask scheduler' and its workers with 'dask worker tcp://HOST:8786', or drop --scheduler "
+            "to run on a local cluster"
+        ) from None
+
+
+def worker_count(client) -> int:
+    """Worker threads on the cluster now (at least 1, so that work can be queued before
+    the workers of a remote cluster have joined)."""
+    return max(1, sum(client.nthreads().values()))
+
+
+class DaskExecutor(Executor):
+    """``client.get_executor()`` with the standard ``shutdown`` signature and a worker count.
+
+    Futures are :class:`concurrent.futures.Future` (``wait`` and ``as_completed`` from
+    :mod:`concurrent.futures` work on them); calls are submitted with ``pure=False`` (no
+    hashing of large arguments) and Dask retries ``retries`` times a call that raised.
+    """
+
+    def __init__(self, client, *, retries: int = 0):
+        self.client = client
+        self._inner = client.get_executor(pure=False, retries=retries)
+
+    @property
+    def max_workers(self) -> int:
+        """Worker threads on the cluster now (see :func:`worker_count`)."""
+        return worker_count(self.client)
+
+    _max_workers = max_workers  # what ProcessPoolExecutor calls it
+
+    def submit(self, fn, /, *args, **kwargs):
+        return self._inner.submit(fn, *args, **kwargs)
+
+    def map(self, fn, *iterables, timeout=None, chunksize=1):
+        return self._inner.map(fn, *iterables, timeout=timeout)
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        self._inner.shutdown(wait=wait and not cancel_futures)
+
+
+@contextlib.contextmanager
+def executor_for(scheduler: str | None, workers: int | None) -> Iterator[DaskExecutor | None]:
+    """For a command that takes an Executor: ``None`` (run inline) when there is no
+    scheduler and ``workers`` is ``None`` or 1, else a :class:`DaskExecutor` on
+    :func:`cluster`; its ``max_workers`` says how many calls to keep in flight.
+
+    Example (``prehension solve --scheduler``)::
+
+        with executor_for(args.scheduler, args.workers) as ex:
+            result = solve(task, "complete", executor=ex, workers=ex.max_workers if ex else 1)
+    """
+    check_where(scheduler, workers)
+    if scheduler is None and (workers is None or workers == 1):
+        yield None
+        return
+    with cluster(scheduler, workers) as client:
+        ex = DaskExecutor(client)
+        try:
+            yield ex
+        finally:
+            ex.shutdown(cancel_futures=True)

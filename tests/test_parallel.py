@@ -1,0 +1,39 @@
+"""prehension.parallel: where work runs (the cluster itself is exercised in test_batch.py)."""
+
+from __future__ import annotations
+
+import pytest
+
+from prehension.errors import PrehensionError
+from prehension.parallel import check_where, cluster, default_workers, executor_for
+
+
+def test_scheduler_and_workers_exclude_each_other():
+    with pytest.raises(PrehensionError, match="either --scheduler .* or --workers"):
+        check_where("tcp://head:8786", 2)
+    with pytest.raises(PrehensionError, match="--workers must be an integer >= 1"):
+        check_where(None, 0)
+    with pytest.raises(PrehensionError, match="--scheduler needs an address"):
+        check_where(" ", None)
+    check_where(None, None)
+    assert default_workers() >= 1
+
+
+def test_one_worker_runs_inline():
+    for workers in (None, 1):
+        with executor_for(None, workers) as executor:
+            assert executor is None
+
+
+def test_an_unreachable_scheduler_is_bad_input():
+    with pytest.raises(PrehensionError, match="cannot reach the Dask scheduler at foo:bar"):
+        with cluster("foo:bar"):
+            pass
+
+
+def test_importing_prehension_does_not_import_dask():
+    import subprocess
+    import sys
+
+    code = "import sys, prehension, prehension.batch, prehension.parallel, prehension.cli; print('distributed' in sys.modules)"
+    assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip() == "False"
