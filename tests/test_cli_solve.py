@@ -78,3 +78,19 @@ def test_check_refuses_a_result_of_another_task(pincer_file, tmp_path, capsys):
     out.write_text(json.dumps(data))
     assert main(["check", str(out)]) == EXIT_CHECK_FAILED
     assert "DOES NOT HOLD" in capsys.readouterr().out
+
+
+def test_solve_writes_the_view_with_html(pincer_file, tmp_path, capsys):
+    out, html = tmp_path / "r.json", tmp_path / "grasp.html"
+    assert main(["solve", str(pincer_file(30.0)), "-o", str(out), "--html", str(html)]) == EXIT_OK
+    assert "3-D view written" in capsys.readouterr().out
+    page = html.read_text()
+    assert page.startswith("<!DOCTYPE html>") and "pincer-30" in page
+    # an infeasible task still gets a view: the task alone, saying so
+    assert main(["solve", str(pincer_file(60.0)), "--method", "complete", "-o", str(out), "--html", str(html)]) == EXIT_INFEASIBLE
+    assert "infeasible" in html.read_text()
+
+
+def test_error_messages_keep_square_brackets(capsys):
+    assert main(["solve", "no-such-task[1]"]) == EXIT_BAD_INPUT
+    assert "no-such-task[1]" in capsys.readouterr().err

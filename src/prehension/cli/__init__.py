@@ -10,10 +10,11 @@ import argparse
 from pathlib import Path
 
 from rich.console import Console
+from rich.markup import escape
 
 from .. import __version__
 from ..errors import PrehensionError
-from . import batch, offline
+from . import batch, offline, view
 from .codes import EXIT_BAD_INPUT, EXIT_CHECK_FAILED, EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK
 
 __all__ = [
@@ -39,6 +40,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_import(sub)
     offline.add_parser(sub)
     batch.add_parser(sub)
+    view.add_parsers(sub)
     return parser
 
 
@@ -60,6 +62,7 @@ def _add_solve(sub) -> None:
     p.add_argument("--seed", type=int, default=0, help="random seed (local solver)")
     p.add_argument("--quiet", action="store_true", help="no progress or tables, only errors")
     p.add_argument("--json", action="store_true", help="print the result summary as JSON on stdout")
+    p.add_argument("--html", type=Path, metavar="FILE", help="also write the 3-D view of the grasp (as 'prehension view')")
 
 
 def _add_import(sub) -> None:
@@ -84,6 +87,7 @@ def main(argv: list[str] | None = None) -> int:
     from .convert import cmd_import
     from .solve import cmd_solve
     from .tables import cmd_show, cmd_tasks
+    from .view import cmd_render, cmd_view
 
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -91,6 +95,7 @@ def main(argv: list[str] | None = None) -> int:
     commands = {
         "tasks": cmd_tasks, "show": cmd_show, "import-cuik": cmd_import, "solve": cmd_solve,
         "check": cmd_check, "offline": _cmd_offline, "batch": cmd_batch,
+        "view": cmd_view, "render": cmd_render,
     }  # fmt: skip
     if args.command is None:
         parser.print_help()
@@ -98,7 +103,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return commands[args.command](args, console)
     except PrehensionError as exc:
-        Console(stderr=True, highlight=False).print(f"[bold red]error:[/] {exc}", markup=True, soft_wrap=True)
+        Console(stderr=True, highlight=False).print(f"[bold red]error:[/] {escape(str(exc))}", markup=True, soft_wrap=True)
         return EXIT_BAD_INPUT
 
 

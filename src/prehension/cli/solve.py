@@ -65,7 +65,22 @@ def cmd_solve(args, console: Console) -> int:
     backup = _keep_previous(path)
     write_result(result, path)
     _report(console, args, result, path, backup)
+    if args.html is not None:
+        _write_view(console, args, result)
+    elif not (args.quiet or args.json):
+        console.print(f"see it: prehension view {path} -o grasp.html")
     return EXIT_OF_STATUS[result.status]
+
+
+def _write_view(console: Console, args, result) -> None:
+    """The 3-D view of the first solution (or of the task, when there is none)."""
+    from ..viewer import build_scene, write_html
+
+    grasp = result.solutions[0] if result.solutions else None
+    scene = build_scene(result.task, grasp, status=None if grasp is not None else str(result.status))
+    html = write_html(scene, args.html)
+    if not args.json:
+        console.print(f"3-D view written to {html} (open it in a browser; it works offline)")
 
 
 class _progress:

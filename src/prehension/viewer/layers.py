@@ -1,0 +1,144 @@
+"""The layers of a grasp scene, one function each (palm frame, mm).
+
+Each function takes the task and the poses (``T_palm_link`` by link name, ``T_palm_object``)
+and returns a :class:`~prehension.viewer.scene.Layer`.
+"""
+
+from __future__ import annotations
+
+from typing import Mapping
+
+import numpy as np
+
+from ..objects.meshes import Mesh
+from ..tasks.model import Task
+from . import scene as S
+from .grasp import GraspPose
+from .tessellate import capsule_mesh, region_center, region_mesh
+
+__all__ = [
+    "hand_layer", "object_layer", "hand_region_layer", "object_region_layer", "contact_layer", "frame_layer",
+    "object_extent_mm",
+]  # fmt: skip
+
+
+def _transform(T: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """``points (N, 3)`` in a body frame -> palm frame, with ``T_palm_body (4, 4)``."""
+    return np.asarray(points, float) @ T[:3, :3].T + T[:3, 3]
+
+
+def _rotate(T: np.ndarray, directions: np.ndarray) -> np.ndarray:
+    return np.asarray(directions, float) @ T[:3, :3].T
+
+
+def _merged(meshes_in_palm: list[Mesh], color: str, opacity: float = 1.0, closed: bool = False):
+    """One :class:`TriangleMesh` of several meshes already in the palm frame (or ``None``)."""
+    mesh = Mesh.concatenate(meshes_in_palm)
+    if len(mesh.faces) == 0:
+        return None
+    return S.TriangleMesh(mesh.vertices, mesh.faces, color, opacity, closed)
+
+
+def hand_layer(task: Task, T_palm_link: Mapping[str, np.ndarray]) -> "S.Layer":
+    """Every link's collision capsules; a thin segment between joint centres for links without any."""
+    hand = task.hand
+    palm, fingers, lines = [], [], []
+    for link in hand.links:
+        T = T_palm_link[link.name]
+        placed = [capsule_mesh(c).transformed(T) for c in link.collision]
+        (palm if link.name == hand.palm else fingers).extend(placed)
+        if not link.collision:
+            lines.extend(_skeleton(task, link.name, T))
+    meshes = (_merged(palm, S.PALM_COLOR, closed=True), _merged(fingers, S.HAND_COLOR, closed=True))
+    return S.Layer("hand", "hand", tuple(m for m in meshes if m is not None), tuple(lines))
+
+
+def _skeleton(task: Task, link: str, T: np.ndarray) -> list["S.Polyline"]:
+    """Segments from a shapeless link's joint centre to the centres of its child joints."""
+    hand = task.hand
+    own = hand.joint_of_link(link)
+    start = own.origin_in_child if own is not None else np.zeros(3)
+    ends = [j.origin_in_parent for j in hand.joints if j.parent == link]
+    return [S.Polyline(_transform(T, np.array([start, end])), S.PALM_COLOR, 3.0) for end in ends]
+
+
+def object_extent_mm(task: Task) -> tuple[np.ndarray, np.ndarray]:
+    """``(lower (3,), upper (3,))`` of the object's display mesh and regions, object frame [mm]."""
+    parts = [task.object.display_mesh().vertices] + [region_mesh(r).vertices for r in task.object.regions.values()]
+    parts += [region_center(r)[0][None] for r in task.object.regions.values()]
+    pts = np.concatenate(parts)
+    if len(pts) == 0:
+        return np.zeros(3), np.zeros(3)
+    return pts.min(axis=0), pts.max(axis=0)
+
+
+def object_layer(task: Task, T_palm_object: np.ndarray) -> "S.Layer":
+    """The object's display mesh, translucent (nothing when the object has none)."""
+    mesh = _merged([task.object.display_mesh().transformed(T_palm_object)], S.OBJECT_COLOR, S.OBJECT_OPACITY)
+    return S.Layer("object", task.object.name, () if mesh is None else (mesh,))
+
+
+def hand_region_layer(task: Task, T_palm_link: Mapping[str, np.ndarray], colors: Mapping[str, str]) -> "S.Layer":
+    """The hand regions the contacts name, each in its contact's colour."""
+    meshes, seen = [], set()
+    for contact in task.contacts:
+        if contact.hand_region in seen:
+            continue
+        seen.add(contact.hand_region)
+        hr = task.hand.region(contact.hand_region)
+        mesh = _merged([region_mesh(hr.region).transformed(T_palm_link[hr.link])], colors[contact.name])
+        meshes += [mesh] if mesh is not None else []
+    return S.Layer("hand_regions", "hand regions", tuple(meshes))
+
+
+def object_region_layer(task: Task, T_palm_object: np.ndarray, colors: Mapping[str, str]) -> "S.Layer":
+    """Every object region: in its contact's colour, or pale blue-grey when no contact names it."""
+    color_of = {}
+    for contact in task.contacts:
+        color_of.setdefault(contact.object_region, colors[contact.name])
+    meshes = []
+    for name, region in task.object.regions.items():
+        mesh = _merged([region_mesh(region).transformed(T_palm_object)], color_of.get(name, S.SPARE_REGION_COLOR))
+        meshes += [mesh] if mesh is not None else []
+    return S.Layer("object_regions", "object regions", tuple(meshes))
+
+
+def contact_layer(task: Task, pose: GraspPose, colors: Mapping[str, str], length_mm: float) -> "S.Layer":
+    """Contact points and normals; for a task alone, each region's centre, its normal, and a
+    dashed line joining the two regions each contact pairs."""
+    if pose.has_solution:
+        markers = [(colors.get(c.name, S.CONTACT_COLORS[0]), c.hand_point, c.hand_normal, c.object_point, c.object_normal)
+                   for c in pose.contacts]  # fmt: skip
+        lines = ()
+    else:
+        markers = [(colors[c.name], *_region_centres(task, c, pose)) for c in task.contacts]
+        lines = tuple(S.Polyline(np.array([m[1], m[3]]), m[0], 1.5, dashed=True) for m in markers)
+    points, arrows = [], []
+    for color, hand_p, hand_n, obj_p, obj_n in markers:
+        points.append(S.PointSet(np.array([hand_p, obj_p]), color, 7.0))
+        arrows.append(S.ArrowSet(np.array([hand_p]), length_mm * np.array([hand_n]), color))
+        arrows.append(S.ArrowSet(np.array([obj_p]), length_mm * np.array([obj_n]), S.OBJECT_NORMAL_COLOR))
+    label = "contact points, normals" if pose.has_solution else "regions to touch (pairs), normals"
+    return S.Layer("contacts", label, (), lines, tuple(points), tuple(arrows), on_top=True)
+
+
+def _region_centres(task: Task, contact, pose: GraspPose):
+    """Hand and object region centres and normals of ``contact``, palm frame."""
+    hr = task.hand.region(contact.hand_region)
+    T_link = pose.T_palm_link[hr.link]
+    hand_p, hand_n = region_center(hr.region)
+    obj_p, obj_n = region_center(task.object.region(contact.object_region))
+    T_obj = pose.T_palm_object
+    return (_transform(T_link, hand_p[None])[0], _rotate(T_link, hand_n[None])[0],
+            _transform(T_obj, obj_p[None])[0], _rotate(T_obj, obj_n[None])[0])  # fmt: skip
+
+
+def frame_layer(task: Task, pose: GraspPose, length_mm: float) -> "S.Layer":
+    """Axes x, y, z (red, green, blue) of the palm (long), the object and every link (short)."""
+    frames = [(np.eye(4), 2.0 * length_mm), (pose.T_palm_object, 1.5 * length_mm)]
+    frames += [(pose.T_palm_link[name], 0.6 * length_mm) for name in task.hand.link_names[1:]]
+    lines = []
+    for T, size in frames:
+        for axis, color in enumerate(S.AXIS_COLORS):
+            lines.append(S.Polyline(np.array([T[:3, 3], T[:3, 3] + size * T[:3, axis]]), color, 2.0))
+    return S.Layer("frames", "frames (x y z = red green blue)", (), tuple(lines), visible=False, on_top=True)
