@@ -9,7 +9,9 @@ touched by the pad, B (normal -x) touched by the fingertip.
 The pad fixes A at the pad and the object's x axis along the palm's, so B's contact point
 is at (10 + d, 0, 100) and the fingertip centre at (2 + d, 0, 100), which the finger
 reaches iff its distance from the first joint, sqrt((2 + d)^2 + 50^2), is at most 70 mm:
-**feasible iff d <= 47 mm** (the cone allows it: the finger turns by less than 90 deg).
+**infeasible for d > 47 mm**, feasible up to it (the cone allows it: the finger turns by
+less than 90 deg) down to some lower bound: for small d the first joint would have to
+turn below its limit (d = 20 mm needs j1 = -8.9 deg), so the tests use d from 30 to 46 mm.
 """
 
 from __future__ import annotations
