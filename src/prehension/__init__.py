@@ -25,10 +25,13 @@ from .hands.model import Capsule, Coupling, Finger, Hand, HandRegion, Joint, Lin
 from .hands.sa_hand import schunk_sa_hand
 from .hands.urdf import hand_from_urdf
 from .objects.model import GraspObject
+from .results import Solution, SolveResult, Status, make_solution, read_result, write_result
+from .solve import solve
 from .tasks.cuik_import import import_world
 from .tasks.library import builtin_task_names, load_builtin_task, resolve_task
 from .tasks.model import Configuration, Contact, Task
 from .tasks.residuals import ResidualReport, Tolerances, evaluate
+from .tasks.variants import move_object_region, turn_object_region
 from .tasks.yaml_io import dump_task, dumps_task, load_task, loads_task
 
 try:
@@ -50,5 +53,7 @@ __all__ = [
     "GraspObject", "Task", "Contact", "Configuration",
     "evaluate", "Tolerances", "ResidualReport",
     "load_task", "loads_task", "dump_task", "dumps_task", "import_world",
-    "builtin_task_names", "load_builtin_task", "resolve_task",
+    "builtin_task_names", "load_builtin_task", "resolve_task", "move_object_region", "turn_object_region",
+    # solving and results
+    "solve", "SolveResult", "Solution", "Status", "make_solution", "write_result", "read_result",
 ]  # fmt: skip
