@@ -18,8 +18,8 @@ from prehension.batch.journal import open_journal
 from prehension.cli import EXIT_BAD_INPUT, EXIT_OK, main
 from prehension.errors import PrehensionError
 from prehension.solve import solve
-from prehension.tasks.library import builtin_task_names, resolve_task
-from prehension.tasks.yaml_io import dumps_task, task_from_dict, task_to_dict
+from prehension.tasks.library import builtin_task_names
+from prehension.tasks.yaml_io import dumps_task, task_to_dict
 from tiny_tasks import pincer_task
 
 PINCER_MM = (30.0, 35.0, 40.0, 44.0, 46.0, 60.0)  # 60 mm: beyond reach, the local solver gives up

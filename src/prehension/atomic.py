@@ -8,10 +8,11 @@ import os
 import secrets
 import stat
 from pathlib import Path
+from typing import BinaryIO, Iterator
 
 import numpy as np
 
-__all__ = ["write_text_atomic", "to_plain", "write_json_atomic", "read_json"]
+__all__ = ["open_atomic", "write_text_atomic", "write_bytes_atomic", "to_plain", "write_json_atomic", "read_json"]
 
 
 def _fsync_dir(directory: Path) -> None:
@@ -23,13 +24,16 @@ def _fsync_dir(directory: Path) -> None:
             os.close(fd)
 
 
-def write_text_atomic(path: Path, text: str) -> None:
-    """Write via a temporary file in the same folder, fsync it, then ``os.replace``."""
+@contextlib.contextmanager
+def open_atomic(path) -> Iterator[BinaryIO]:
+    """A binary file to write ``path`` through: a temporary file in the same folder,
+    fsynced and moved over ``path`` when the block ends; removed if the block raises."""
+    path = Path(path)
     tmp = path.parent / f".{path.name}.{secrets.token_hex(6)}.tmp"
     fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
     try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
+        with os.fdopen(fd, "wb") as fh:
+            yield fh
             fh.flush()
             os.fsync(fh.fileno())
         with contextlib.suppress(OSError):  # keep an existing file's permissions
@@ -40,6 +44,18 @@ def write_text_atomic(path: Path, text: str) -> None:
             os.unlink(tmp)
         raise
     _fsync_dir(path.parent)
+
+
+def write_text_atomic(path: Path, text: str) -> None:
+    """Write ``text`` (UTF-8) atomically (see :func:`open_atomic`)."""
+    with open_atomic(path) as fh:
+        fh.write(text.encode("utf-8"))
+
+
+def write_bytes_atomic(path: Path, data: bytes) -> None:
+    """Write ``data`` atomically (see :func:`open_atomic`)."""
+    with open_atomic(path) as fh:
+        fh.write(data)
 
 
 def to_plain(value):

@@ -32,12 +32,11 @@ from __future__ import annotations
 import contextlib
 import json
 import os
-import secrets
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterable, Iterator, Mapping
 
-from ..atomic import _fsync_dir
+from ..atomic import open_atomic
 from ..errors import PrehensionError
 
 __all__ = ["RECORD_TAG", "DONE", "JournalState", "open_journal", "read_records", "is_done"]
@@ -150,21 +149,11 @@ def _selection(lines: list[_Line], retry_gave_up: bool) -> tuple[list[bool], dic
 
 
 def _rewrite(path: Path, keep: list[bool]) -> None:
-    """Rewrite the journal with the kept lines only, atomically (as :mod:`prehension.atomic`)."""
-    tmp = path.parent / f".{path.name}.{secrets.token_hex(6)}.tmp"
-    try:
-        with open(path, "rb") as src, open(tmp, "xb") as dst:
-            for raw, kept in zip(src, keep):
-                if kept:
-                    dst.write(raw)
-            dst.flush()
-            os.fsync(dst.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
-    _fsync_dir(path.parent)
+    """Rewrite the journal with the kept lines only, atomically."""
+    with open(path, "rb") as src, open_atomic(path) as dst:
+        for raw, kept in zip(src, keep):
+            if kept:
+                dst.write(raw)
 
 
 def _truncate(path: Path, lines: int) -> None:

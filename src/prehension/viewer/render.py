@@ -9,15 +9,13 @@ shaded as in the HTML viewer (:func:`~prehension.viewer.scene.shade_faces`); mar
 
 from __future__ import annotations
 
-import contextlib
 import io
-import os
-import secrets
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from ..atomic import write_bytes_atomic
 from ..errors import PrehensionError
 from .scene import BACKGROUND, Layer, Scene, camera_basis, shade_faces
 
@@ -73,7 +71,7 @@ def render_png(
     _annotate(fig, scene, columns)
     buffer = io.BytesIO()
     fig.savefig(buffer, format="png", dpi=dpi, facecolor=BACKGROUND)
-    _write_bytes_atomic(path, buffer.getvalue())
+    write_bytes_atomic(path, buffer.getvalue())
     return path
 
 
@@ -205,18 +203,3 @@ def _annotate(fig, scene: Scene, columns: int) -> None:
     handles = [Patch(facecolor=e.color, edgecolor="#00000040", label=e.label) for e in scene.legend]
     fig.legend(handles=handles, loc="lower left", bbox_to_anchor=(0.01, 0.005), ncol=columns, frameon=False, fontsize=8.5,
                columnspacing=2.5)  # fmt: skip
-
-
-def _write_bytes_atomic(path: Path, data: bytes) -> None:
-    """Write via a temporary file in the same folder, then ``os.replace`` (never half a file)."""
-    tmp = path.parent / f".{path.name}.{secrets.token_hex(6)}.tmp"
-    try:
-        with open(tmp, "xb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise

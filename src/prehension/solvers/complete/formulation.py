@@ -41,7 +41,6 @@ import numpy as np
 
 from ...errors import InvalidTask
 from ...geometry.regions import BezierRegion, PointRegion, SphereCap
-from ...geometry.rotations import rotation_about
 from ...hands.model import Joint
 from ...hands.reach import span_bound_mm
 from ...tasks.model import Task
