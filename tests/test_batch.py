@@ -293,3 +293,18 @@ def test_a_killed_worker_loses_nothing_and_duplicates_nothing(client, tmp_path):
     assert address not in client.run(os.getpid)  # it is gone (the nanny starts a new one)
     assert summary.remaining == 0 and summary.written == 11 and "error" not in summary.counts
     assert_same_as_alone(read_records(out), read_inputs(tasks))
+
+
+def test_complete_box_search_on_the_cluster_is_the_one_process_search(client):
+    """Issue 6: the box search on Dask visits the same boxes and gives the same answer."""
+    from prehension.parallel import DaskExecutor
+    from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
+
+    options = BranchAndPruneOptions(time_limit_s=300)
+    for task in (pincer_task(50.0), pincer_task(40.0)):  # infeasible after tens of boxes; solved
+        alone = solve_complete(task, options)
+        spread = solve_complete(task, options, executor=DaskExecutor(client), workers=2)
+        assert (spread.status, spread.stats["boxes"], spread.stats["lps"]) == (
+            alone.status, alone.stats["boxes"], alone.stats["lps"])  # fmt: skip
+        if alone.solutions:
+            np.testing.assert_array_equal(spread.solutions[0].q, alone.solutions[0].q)
