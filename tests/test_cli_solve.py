@@ -94,3 +94,22 @@ def test_solve_writes_the_view_with_html(pincer_file, tmp_path, capsys):
 def test_error_messages_keep_square_brackets(capsys):
     assert main(["solve", "no-such-task[1]"]) == EXIT_BAD_INPUT
     assert "no-such-task[1]" in capsys.readouterr().err
+
+
+def test_check_reverifies_every_record_of_a_batch_output(tmp_path, capsys):
+    from prehension.results import result_to_dict
+    from prehension.solve import solve
+
+    good = result_to_dict(solve(pincer_task(30.0), "complete"))
+    records = [{"id": "a", "status": "solved", "result": good}, {"id": "b", "status": "invalid", "message": "bad field"}]
+    out = tmp_path / "results.jsonl"
+    out.write_text("".join(json.dumps(r) + "\n" for r in records))
+    assert main(["check", str(out)]) == EXIT_OK
+    assert "holds" in capsys.readouterr().out
+    tampered = json.loads(json.dumps(good))
+    tampered["solutions"][0]["joint_angles_rad"]["j1"] += 0.1
+    out.write_text(json.dumps({"id": "c", "status": "solved", "result": tampered}) + "\n")
+    assert main(["check", str(out)]) == EXIT_CHECK_FAILED
+    out.write_text("{not json\n")
+    assert main(["check", str(out)]) == EXIT_BAD_INPUT
+    assert "results.jsonl:1: not valid JSON" in capsys.readouterr().err

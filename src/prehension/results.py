@@ -34,6 +34,7 @@ __all__ = [
     "result_to_dict",
     "write_result",
     "read_result",
+    "result_task",
     "RESULT_TAG",
 ]
 
@@ -201,10 +202,15 @@ def write_result(result: SolveResult, path) -> None:
 
 def read_result(path) -> tuple[Task, dict]:
     """The task embedded in a result file and the file's dict (for re-checking)."""
+    path = Path(path)
+    return result_task(read_json(path, "result file"), str(path), path.parent)
+
+
+def result_task(data, source: str, base_dir: Path) -> tuple[Task, dict]:
+    """The task embedded in a result dict (read from ``source``) and the dict itself."""
     from .tasks.yaml_io import task_from_dict
 
-    path = Path(path)
-    data = read_json(path, "result file")
     if not isinstance(data, dict) or data.get("prehension") != RESULT_TAG:
-        raise InvalidTask(f"{path}: not a prehension result file (expected 'prehension: {RESULT_TAG}')")
-    return task_from_dict(data["task"], base_dir=path.parent, source=f"{path} (embedded task)"), data
+        raise InvalidTask(f"{source}: not a prehension result file (expected 'prehension: {RESULT_TAG}')")
+    return task_from_dict(data["task"], base_dir=base_dir, source=f"{source} (embedded task)"), data
+

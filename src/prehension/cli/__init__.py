@@ -36,7 +36,7 @@ def build_parser() -> argparse.ArgumentParser:
     show.add_argument("task", help=TASK_HELP)
     _add_solve(sub)
     check = sub.add_parser("check", help="re-verify a result file against its task")
-    check.add_argument("result", type=Path, help="result file (.json) written by 'prehension solve'")
+    check.add_argument("result", type=Path, help="result file (.json) of 'prehension solve', or the output (.jsonl) of 'prehension batch'")
     _add_import(sub)
     offline.add_parser(sub)
     batch.add_parser(sub)
