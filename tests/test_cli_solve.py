@@ -101,7 +101,7 @@ def test_check_reverifies_every_record_of_a_batch_output(tmp_path, capsys):
     from prehension.solve import solve
 
     good = result_to_dict(solve(pincer_task(30.0), "complete"))
-    records = [{"id": "a", "status": "solved", "result": good}, {"id": "b", "status": "invalid", "message": "bad field"}]
+    records = [{"id": "a", "status": "solved", "result": good}, {"id": "b", "status": "invalid", "result": None}]
     out = tmp_path / "results.jsonl"
     out.write_text("".join(json.dumps(r) + "\n" for r in records))
     assert main(["check", str(out)]) == EXIT_OK

@@ -69,7 +69,7 @@ def _check_batch(path, console: Console) -> int:
         table.add_column(col)
     ok = True
     for line, record in _records(path):
-        if "result" not in record:
+        if not record.get("result"):
             table.add_row(str(record.get("id")), str(record.get("status")), "-", "", "", "no result stored")
             continue
         task, data = result_task(record["result"], f"{path}:{line}", path.parent)
