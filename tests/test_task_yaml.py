@@ -22,7 +22,7 @@ from prehension.hands.model import Capsule, Coupling, Finger, Hand, HandRegion, 
 from prehension.hands.sa_hand import SA_TIP_AXIS, SA_TIP_CENTER_MM, schunk_sa_hand
 from prehension.objects.meshes import Box, Cylinder, Ellipsoid, Sphere, Torus
 from prehension.objects.model import GraspObject
-from prehension.tasks import yaml_io
+from prehension.tasks.format.schema import PRIMITIVES
 from prehension.tasks.model import Contact, Task
 from prehension.tasks.yaml_io import (
     BUILTIN_HANDS,
@@ -373,7 +373,7 @@ def test_builtin_hands_table_and_primitive_schema_match_meshes():
     assert FORMAT_TAG == "task/1"
     assert list(BUILTIN_HANDS) == ["schunk-sa"]
     assert BUILTIN_HANDS["schunk-sa"]().n_dof == 17
-    for key, (spec, cls) in yaml_io._PRIMITIVES.items():
+    for key, (spec, cls) in PRIMITIVES.items():
         assert set(spec.model_fields) == {f.name for f in dataclasses.fields(cls)}, key
 
 

@@ -1,0 +1,270 @@
+"""The schema of a task file (pydantic v2): one model a mapping, ``extra="forbid"``.
+
+Besides the models, the names a file may use: the format tag, the built-in hands that
+``hand:`` may name, and the display primitives of ``object.display.primitives``.
+"""
+
+from __future__ import annotations
+
+import difflib
+from typing import Annotated, Any, Callable, Literal
+
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, field_validator, model_validator
+
+from ...hands.model import Hand
+from ...hands.sa_hand import schunk_sa_hand
+from ...objects.meshes import Box, Cylinder, Ellipsoid, Sphere, Torus
+
+FORMAT_TAG = "task/1"
+BUILTIN_HANDS: dict[str, Callable[[], Hand]] = {"schunk-sa": schunk_sa_hand}
+
+
+def _list_of(n: int, what: str):
+    def check(value):
+        if not isinstance(value, (list, tuple)) or len(value) != n:
+            raise ValueError(f"expected a list of {n} {what}, got {value!r}")
+        return value
+
+    return BeforeValidator(check)
+
+
+Num = Annotated[float, Field(strict=True, allow_inf_nan=False)]
+PosNum = Annotated[float, Field(strict=True, allow_inf_nan=False, gt=0)]
+Vec3 = Annotated[list[Num], _list_of(3, "numbers [x, y, z]")]
+PosVec3 = Annotated[list[PosNum], _list_of(3, "positive numbers")]
+Mat3 = Annotated[list[Vec3], _list_of(3, "rows of 3 numbers")]
+Pair = Annotated[list[Num], _list_of(2, "numbers [lower, upper]")]
+Name = Annotated[str, Field(strict=True, min_length=1)]
+Text = Annotated[str, Field(strict=True)]
+Resolution = Annotated[int, Field(strict=True, ge=3, le=1024)]
+ControlNet = Annotated[list[Annotated[list[Vec3], Field(min_length=1)]], Field(min_length=1)]
+
+
+class _Spec(BaseModel):
+    """Base of every schema mapping: unknown keys are errors that list the allowed ones."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _known_keys(cls, data):
+        if isinstance(data, dict):
+            allowed = list(cls.model_fields)
+            extra = [k for k in data if k not in allowed]
+            if extra:
+                hint = difflib.get_close_matches(str(extra[0]), allowed, n=1)
+                raise ValueError(
+                    f"extra key {extra[0]!r} not allowed here; allowed keys: {', '.join(allowed)}"
+                    + (f" (did you mean {hint[0]!r}?)" if hint else "")
+                )
+        return data
+
+
+def _exactly_one(spec: BaseModel, keys: tuple[str, ...]) -> str:
+    given = [k for k in keys if getattr(spec, k) is not None]
+    if len(given) != 1:
+        got = f" (got {', '.join(given)})" if given else ""
+        raise ValueError(f"give exactly one of {', '.join(keys)}{got}")
+    return given[0]
+
+
+class SphereCapSpec(_Spec):
+    center: Vec3
+    radius: PosNum
+    axis: Vec3
+    half_angle_deg: Annotated[float, Field(strict=True, ge=0, le=180)]
+
+
+class RegionSpec(_Spec):
+    bezier: ControlNet | None = None
+    sphere_cap: SphereCapSpec | None = None
+    point: Vec3 | None = None
+    normal: Vec3 | None = None
+
+    @field_validator("bezier")
+    @classmethod
+    def _rectangular(cls, net):
+        if net is not None:
+            for i, row in enumerate(net):
+                if len(row) != len(net[0]):
+                    raise ValueError(
+                        f"control net is ragged: row 0 has {len(net[0])} points but row {i} has {len(row)}; "
+                        "give an (M+1) x (N+1) grid of [x, y, z] points"
+                    )
+        return net
+
+    @model_validator(mode="after")
+    def _one_kind(self):
+        kind = _exactly_one(self, ("bezier", "sphere_cap", "point"))
+        if kind == "point" and self.normal is None:
+            raise ValueError("a point region needs 'normal' (the outward normal) besides 'point'")
+        if kind != "point" and self.normal is not None:
+            raise ValueError("'normal' belongs to a point region (give 'point' and 'normal')")
+        return self
+
+
+class HandRegionSpec(RegionSpec):
+    link: Name
+
+
+class CollisionSpec(_Spec):
+    a: Vec3 | None = None
+    b: Vec3 | None = None
+    center: Vec3 | None = None
+    radius: PosNum
+
+    @model_validator(mode="after")
+    def _capsule_or_sphere(self):
+        capsule = self.a is not None and self.b is not None
+        if capsule == (self.center is not None) or (self.a is None) != (self.b is None):
+            raise ValueError("give either a, b and radius (a capsule) or center and radius (a sphere)")
+        return self
+
+
+class LinkSpec(_Spec):
+    name: Name
+    collision: list[CollisionSpec] = []
+
+
+class AngleSpec(_Spec):
+    name: Name
+    lower_deg: Num
+    upper_deg: Num
+
+    @model_validator(mode="after")
+    def _ordered(self):
+        if self.lower_deg > self.upper_deg:
+            raise ValueError(f"lower_deg ({self.lower_deg}) must not exceed upper_deg ({self.upper_deg})")
+        return self
+
+
+class JointSpec(_Spec):
+    name: Name
+    type: Literal["revolute", "universal"]
+    parent: Name
+    child: Name
+    origin_in_parent: Vec3
+    origin_in_child: Vec3 = [0.0, 0.0, 0.0]
+    axis_in_parent: Vec3
+    axis_in_child: Vec3 | None = None
+    rotation_zero: Mat3 | None = None
+    angles: list[AngleSpec]
+
+    @model_validator(mode="after")
+    def _angles_fit_type(self):
+        n = 1 if self.type == "revolute" else 2
+        if len(self.angles) != n:
+            raise ValueError(f"a {self.type} joint has {n} angle(s); got {len(self.angles)} in 'angles'")
+        if self.type == "universal" and self.axis_in_child is None:
+            raise ValueError("a universal joint needs axis_in_child (its second axis, child frame)")
+        if self.type == "revolute" and self.axis_in_child is not None:
+            raise ValueError("a revolute joint has no axis_in_child")
+        return self
+
+
+class CouplingSpec(_Spec):
+    angle: Name
+    source: Name
+    ratio: Num = 1.0
+    offset_deg: Num = 0.0
+
+
+class FingerSpec(_Spec):
+    name: Name
+    links: Annotated[list[Name], Field(min_length=1)]
+
+
+class HandSpec(_Spec):
+    name: Name
+    links: Annotated[list[LinkSpec], Field(min_length=1)]
+    joints: list[JointSpec] = []
+    couplings: list[CouplingSpec] = []
+    fingers: list[FingerSpec] = []
+    regions: dict[Name, HandRegionSpec] = {}
+    collision_exclusions: list[Annotated[list[Name], _list_of(2, "link names")]] = []
+
+
+class BoxSpec(_Spec):
+    center: Vec3
+    size: PosVec3
+
+
+class SphereSpec(_Spec):
+    center: Vec3
+    radius: PosNum
+
+
+class EllipsoidSpec(_Spec):
+    center: Vec3
+    radii: PosVec3
+    resolution: Resolution | None = None
+
+
+class CylinderSpec(_Spec):
+    start: Vec3
+    end: Vec3
+    radius: PosNum
+    end_radius: PosNum | None = None
+    resolution: Resolution | None = None
+
+
+class TorusSpec(_Spec):
+    center: Vec3
+    axis: Vec3
+    major: PosNum
+    minor: PosNum
+    resolution: Resolution | None = None
+
+
+# File key -> (schema, display primitive class of objects/meshes.py).
+PRIMITIVES = {
+    "box": (BoxSpec, Box),
+    "sphere": (SphereSpec, Sphere),
+    "ellipsoid": (EllipsoidSpec, Ellipsoid),
+    "cylinder": (CylinderSpec, Cylinder),
+    "torus": (TorusSpec, Torus),
+}
+
+
+class PrimitiveSpec(_Spec):
+    box: BoxSpec | None = None
+    sphere: SphereSpec | None = None
+    ellipsoid: EllipsoidSpec | None = None
+    cylinder: CylinderSpec | None = None
+    torus: TorusSpec | None = None
+
+    @model_validator(mode="after")
+    def _one_kind(self):
+        _exactly_one(self, tuple(PRIMITIVES))
+        return self
+
+
+class DisplaySpec(_Spec):
+    primitives: list[PrimitiveSpec] = []
+    mesh_file: Name | None = None
+
+
+class ObjectSpec(_Spec):
+    name: Name
+    regions: Annotated[dict[Name, RegionSpec], Field(min_length=1)]
+    display: DisplaySpec | None = None
+
+
+class ContactSpec(_Spec):
+    name: Text = ""
+    hand: Name
+    object: Name
+
+
+class TaskSpec(_Spec):
+    prehension: Literal["task/1"]
+    name: Name
+    description: Text = ""
+    hand: Any  # built-in name | inline hand | {file: path}: dispatched by read._base_hand
+    hand_limits_deg: dict[Name, Pair] = {}
+    hand_couplings: Annotated[bool, Field(strict=True)] = True
+    hand_regions: dict[Name, HandRegionSpec] = {}
+    object: ObjectSpec
+    contacts: Annotated[list[ContactSpec], Field(min_length=1)]
+    fingers: list[Name]
+    idle_angles_deg: dict[Name, Num] = {}

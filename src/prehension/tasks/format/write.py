@@ -1,0 +1,256 @@
+"""Writing: tasks, hands and regions -> plain dicts (lists, floats, ints, bools, strings).
+
+A hand that differs from a built-in one only in limits, regions or by having no couplings
+is written as the built-in name plus just the differences; angles are written in degrees
+rounded to ``_DEG_DECIMALS`` decimals, and unit vectors so that reading and writing again
+gives the same numbers (see :func:`_settled`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from ...errors import InvalidTask
+from ...geometry.regions import BezierRegion, PointRegion, Region, SphereCap
+from ...hands.model import Capsule, Coupling, Hand, HandRegion, Joint, Link
+from ...objects.model import GraspObject
+from ..model import Contact, Task
+from .schema import BUILTIN_HANDS, FORMAT_TAG, PRIMITIVES
+
+_DEG_DECIMALS = 12  # degrees are written rounded to this many decimals (1e-12 deg ~ 2e-14 rad)
+_BUILTIN_TOL = 1e-9  # a hand "is" the built-in one when its numbers agree to this [mm, unitless]
+
+
+def _deg(rad: float) -> float:
+    return round(math.degrees(float(rad)), _DEG_DECIMALS) + 0.0  # "+ 0.0" turns -0.0 into 0.0
+
+
+def _floats(values) -> list:
+    """A (nested) list of plain floats, without negative zeros."""
+    arr = np.asarray(values, dtype=float) + 0.0
+    return arr.tolist()
+
+
+def _settled(vector, canon: Callable[[np.ndarray], np.ndarray]) -> list[float]:
+    """A unit vector within a few ulps of ``vector`` that ``canon`` (the model's own
+    normalisation) maps exactly onto itself, so that writing, reading and writing again
+    gives the same numbers.  Deterministic; falls back to ``canon(vector)``."""
+    y = canon(np.asarray(vector, dtype=float))
+    for _ in range(8):
+        z = canon(y)
+        if np.array_equal(z, y):
+            return _floats(y)
+        y = z
+    rng = np.random.default_rng(0)
+    for _ in range(500):
+        cand = canon(y + rng.integers(-2, 3, size=y.shape) * (y != 0) * np.spacing(y))
+        if np.array_equal(canon(cand), cand):
+            return _floats(cand)
+    return _floats(y)
+
+
+_ZERO3 = np.zeros(3)
+
+
+def _joint_axis(v):
+    return Joint("axis", "revolute", "p", "c", _ZERO3, _ZERO3, v, np.eye(3), ("q",), (0.0,), (0.0,)).axis_in_parent
+
+
+def _cap_axis(v):
+    return SphereCap(_ZERO3, 1.0, v, 0.0).axis
+
+
+def _point_normal(v):
+    return PointRegion(_ZERO3, v).normal
+
+
+def region_to_dict(region: Region) -> dict:
+    """The file mapping of a contact region (inverse of :func:`region_from_dict`)."""
+    if isinstance(region, BezierRegion):
+        return {"bezier": _floats(region.patch.control_points)}
+    if isinstance(region, SphereCap):
+        cap = {
+            "center": _floats(region.center),
+            "radius": float(region.radius),
+            "axis": _settled(region.axis, _cap_axis),
+            "half_angle_deg": _deg(region.half_angle),
+        }
+        return {"sphere_cap": cap}
+    if isinstance(region, PointRegion):
+        return {"point": _floats(region.point), "normal": _settled(region.normal, _point_normal)}
+    kind = type(region).__name__
+    raise InvalidTask(f"cannot write a region of type {kind}; task files hold bezier, sphere_cap, point")
+
+
+def _hand_region_to_dict(hr: HandRegion) -> dict:
+    return {"link": hr.link, **region_to_dict(hr.region)}
+
+
+def _capsule_to_dict(c: Capsule) -> dict:
+    if np.array_equal(c.a, c.b):
+        return {"center": _floats(c.a), "radius": float(c.radius)}
+    return {"a": _floats(c.a), "b": _floats(c.b), "radius": float(c.radius)}
+
+
+def _link_to_dict(link: Link) -> dict:
+    out: dict = {"name": link.name}
+    if link.collision:
+        out["collision"] = [_capsule_to_dict(c) for c in link.collision]
+    return out
+
+
+def _joint_to_dict(j: Joint) -> dict:
+    out: dict = {"name": j.name, "type": j.kind, "parent": j.parent, "child": j.child}
+    out["origin_in_parent"] = _floats(j.origin_in_parent)
+    if np.any(j.origin_in_child != 0):
+        out["origin_in_child"] = _floats(j.origin_in_child)
+    out["axis_in_parent"] = _settled(j.axis_in_parent, _joint_axis)
+    if j.kind == "universal":
+        out["axis_in_child"] = _settled(j.axis_in_child, _joint_axis)
+    if not np.array_equal(j.R_parent_child_zero, np.eye(3)):
+        out["rotation_zero"] = _floats(j.R_parent_child_zero)
+    out["angles"] = [
+        {"name": d, "lower_deg": _deg(lo), "upper_deg": _deg(hi)} for d, lo, hi in zip(j.dof_names, j.lower, j.upper)
+    ]
+    return out
+
+
+def _coupling_to_dict(c: Coupling) -> dict:
+    return {"angle": c.dof, "source": c.source, "ratio": float(c.ratio), "offset_deg": _deg(c.offset)}
+
+
+def hand_to_dict(hand: Hand) -> dict:
+    """The inline hand mapping of ``hand`` (plain Python types; inverse of :func:`hand_from_dict`)."""
+    out: dict = {
+        "name": hand.name,
+        "links": [_link_to_dict(link) for link in hand.links],
+        "joints": [_joint_to_dict(j) for j in hand.joints],
+    }
+    if hand.couplings:
+        out["couplings"] = [_coupling_to_dict(c) for c in hand.couplings]
+    if hand.fingers:
+        out["fingers"] = [{"name": f.name, "links": list(f.links)} for f in hand.fingers]
+    if hand.regions:
+        out["regions"] = {name: _hand_region_to_dict(r) for name, r in hand.regions.items()}
+    if hand.collision_exclusions:
+        out["collision_exclusions"] = [list(p) for p in hand.collision_exclusions]
+    return out
+
+
+def _close(a, b, tol: float = _BUILTIN_TOL) -> bool:
+    """Structural equality of plain dicts/lists, floats compared to ``tol``."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(_close(a[k], b[k], tol) for k in a)
+    if isinstance(a, list) and isinstance(b, list):
+        return len(a) == len(b) and all(_close(x, y, tol) for x, y in zip(a, b))
+    if isinstance(a, float) and isinstance(b, float):
+        return abs(a - b) <= tol
+    return type(a) is type(b) and a == b
+
+
+def _core(hand_dict: dict) -> dict:
+    """A hand mapping without what a task may change: regions, couplings, limits."""
+    core = {k: v for k, v in hand_dict.items() if k not in ("regions", "couplings")}
+    core["joints"] = [
+        {**j, "angles": [a["name"] for a in j["angles"]]} for j in hand_dict["joints"]
+    ]
+    return core
+
+
+def _limits(hand_dict: dict) -> dict[str, list[float]]:
+    return {a["name"]: [a["lower_deg"], a["upper_deg"]] for j in hand_dict["joints"] for a in j["angles"]}
+
+
+def _builtin_entries(name: str, full: dict, builtin: dict) -> dict | None:
+    """``hand: <name>`` plus the differences from the built-in hand, or None if not expressible."""
+    if not _close(_core(full), _core(builtin)):
+        return None
+    out: dict = {"hand": name}
+    base_limits = _limits(builtin)
+    limits = {d: lim for d, lim in _limits(full).items() if lim != base_limits[d]}
+    if limits:
+        out["hand_limits_deg"] = limits
+    couplings, base_couplings = full.get("couplings", []), builtin.get("couplings", [])
+    if not _close(couplings, base_couplings):
+        if couplings:
+            return None
+        out["hand_couplings"] = False
+    regions, base_regions = full.get("regions", {}), builtin.get("regions", {})
+    if not set(base_regions) <= set(regions):
+        return None  # a task can add or replace built-in regions, not remove them
+    changed = {k: r for k, r in regions.items() if k not in base_regions or not _close(r, base_regions[k])}
+    if changed:
+        out["hand_regions"] = changed
+    return out
+
+
+def _hand_entries(hand: Hand) -> dict:
+    full = hand_to_dict(hand)
+    make = BUILTIN_HANDS.get(hand.name)
+    if make is not None:
+        entries = _builtin_entries(hand.name, full, hand_to_dict(make()))
+        if entries is not None:
+            return entries
+    return {"hand": full}
+
+
+def _primitive_to_dict(prim) -> dict:
+    for key, (_, cls) in PRIMITIVES.items():
+        if type(prim) is cls:
+            fields = {}
+            for f in dataclasses.fields(cls):
+                value = getattr(prim, f.name)
+                if f.default is not dataclasses.MISSING and value == f.default:
+                    continue
+                fields[f.name] = int(value) if f.name == "resolution" else _floats(value)
+            return {key: fields}
+    raise InvalidTask(f"cannot write a display primitive of type {type(prim).__name__}; use {', '.join(PRIMITIVES)}")
+
+
+def _mesh_path(mesh_file: str, base_dir) -> str:
+    if base_dir is None:
+        return str(mesh_file)
+    try:
+        return Path(os.path.relpath(Path(mesh_file).resolve(), Path(base_dir).resolve())).as_posix()
+    except ValueError:  # another drive (Windows): keep it absolute
+        return str(mesh_file)
+
+
+def _object_to_dict(obj: GraspObject, base_dir) -> dict:
+    out: dict = {"name": obj.name, "regions": {name: region_to_dict(r) for name, r in obj.regions.items()}}
+    display: dict = {}
+    if obj.primitives:
+        display["primitives"] = [_primitive_to_dict(p) for p in obj.primitives]
+    if obj.mesh_file:
+        display["mesh_file"] = _mesh_path(obj.mesh_file, base_dir)
+    if display:
+        out["display"] = display
+    return out
+
+
+def _contact_to_dict(c: Contact) -> dict:
+    out = {"name": c.name} if c.name != f"{c.hand_region}->{c.object_region}" else {}
+    return {**out, "hand": c.hand_region, "object": c.object_region}
+
+
+def task_to_dict(task: Task, *, base_dir: Path | str | None = None) -> dict:
+    """The task-file mapping of ``task``: plain lists, floats, ints, bools and strings.
+
+    ``base_dir``: write ``mesh_file`` relative to this folder (default: as stored, absolute).
+    """
+    out: dict = {"prehension": FORMAT_TAG, "name": task.name}
+    if task.description:
+        out["description"] = task.description
+    out.update(_hand_entries(task.hand))
+    out["object"] = _object_to_dict(task.object, base_dir)
+    out["contacts"] = [_contact_to_dict(c) for c in task.contacts]
+    out["fingers"] = list(task.fingers)
+    if task.idle_angles:
+        out["idle_angles_deg"] = {dof: _deg(v) for dof, v in task.idle_angles.items()}
+    return out
