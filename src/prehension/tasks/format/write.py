@@ -9,6 +9,7 @@ gives the same numbers (see :func:`_settled`).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import os
 from pathlib import Path
@@ -18,7 +19,7 @@ import numpy as np
 
 from ...errors import InvalidTask
 from ...geometry.regions import BezierRegion, PointRegion, Region, SphereCap
-from ...hands.model import Capsule, Coupling, Hand, HandRegion, Joint, Link
+from ...hands.model import Capsule, Coupling, Hand, HandRegion, Joint, Link, _unit3
 from ...objects.model import GraspObject
 from ..model import Contact, Task
 from .schema import BUILTIN_HANDS, FORMAT_TAG, PRIMITIVES
@@ -59,7 +60,7 @@ _ZERO3 = np.zeros(3)
 
 
 def _joint_axis(v):
-    return Joint("axis", "revolute", "p", "c", _ZERO3, _ZERO3, v, np.eye(3), ("q",), (0.0,), (0.0,)).axis_in_parent
+    return _unit3(v, "axis")  # what Joint does to both of its axes
 
 
 def _cap_axis(v):
@@ -192,12 +193,17 @@ def _builtin_entries(name: str, full: dict, builtin: dict) -> dict | None:
 
 def _hand_entries(hand: Hand) -> dict:
     full = hand_to_dict(hand)
-    make = BUILTIN_HANDS.get(hand.name)
-    if make is not None:
-        entries = _builtin_entries(hand.name, full, hand_to_dict(make()))
+    if hand.name in BUILTIN_HANDS:
+        entries = _builtin_entries(hand.name, full, _builtin_hand_dict(hand.name))
         if entries is not None:
             return entries
     return {"hand": full}
+
+
+@functools.lru_cache(maxsize=None)
+def _builtin_hand_dict(name: str) -> dict:
+    """:func:`hand_to_dict` of a built-in hand (computed once; do not modify)."""
+    return hand_to_dict(BUILTIN_HANDS[name]())
 
 
 def _primitive_to_dict(prim) -> dict:
