@@ -129,3 +129,17 @@ def test_regions_just_beyond_reach_are_certified_and_just_within_are_solved():
     assert beyond.status == Status.INFEASIBLE
     within = solve_complete(move_object_region(lid, "knob_back", (0, 0, 150)), FAST)
     assert within.status == Status.SOLVED
+
+
+def test_solutions_found_before_a_stop_survive_the_resume(tmp_path):
+    options = dict(sigma=0.3, order="breadth", all_solutions=True)
+    whole = solve_complete(pincer_task(30.0), BranchAndPruneOptions(**options))
+    ckpt = tmp_path / "all.json"
+    first = solve_complete(pincer_task(30.0), BranchAndPruneOptions(max_boxes=26, **options), checkpoint=ckpt)
+    assert first.solutions and first.stats["open_boxes"] > 0  # stopped with a solution in hand
+    assert len(first.solutions) < len(whole.solutions)
+    resumed = solve_complete(pincer_task(30.0), BranchAndPruneOptions(**options), checkpoint=ckpt, resume=True)
+    assert resumed.stats["boxes"] == whole.stats["boxes"]
+    assert len(resumed.solutions) == len(whole.solutions) >= 1
+    for a, b in zip(resumed.solutions, whole.solutions):
+        np.testing.assert_allclose(a.q, b.q, atol=1e-12)

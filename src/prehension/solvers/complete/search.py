@@ -33,7 +33,7 @@ import numpy as np
 from ...atomic import write_text_atomic
 from ...errors import PrehensionError
 from ...results import Solution, SolveResult, Status, make_solution
-from ...tasks.model import Task
+from ...tasks.model import Configuration, Task
 from ...tasks.residuals import Tolerances
 from ..local.options import LocalOptions
 from ..local.solver import refine_local
@@ -193,14 +193,31 @@ class _State:
             "lps": self.lps,
             "max_depth": self.max_depth,
             "small": [{"lower": lo.tolist(), "upper": hi.tolist()} for lo, hi in self.small],
+            "solutions": [_configuration_to_json(s.configuration()) for s in self.solutions],
         }
 
     @staticmethod
-    def from_json(data: dict) -> "_State":
+    def from_json(data: dict, task: Task, tolerances: Tolerances) -> "_State":
+        """The saved state; saved solutions are verified again (any that fails is dropped)."""
         open_ = deque((np.array(b["lower"]), np.array(b["upper"]), int(b["depth"])) for b in data["open"])
         state = _State(open_, data["boxes"], data["lps"], data["max_depth"])
         state.small = [(np.array(b["lower"]), np.array(b["upper"])) for b in data["small"]]
+        again = (make_solution(task, _configuration_from_json(c), tolerances) for c in data.get("solutions", []))
+        state.solutions = [s for s in again if s is not None]
         return state
+
+
+def _configuration_to_json(config: Configuration) -> dict:
+    return {
+        "joint_angles": config.joint_angles.tolist(),
+        "T_palm_object": config.T_palm_object.tolist(),
+        "contact_params": [[h.tolist(), o.tolist()] for h, o in config.contact_params],
+    }
+
+
+def _configuration_from_json(data: dict) -> Configuration:
+    params = tuple((np.array(h, dtype=float), np.array(o, dtype=float)) for h, o in data["contact_params"])
+    return Configuration(np.array(data["joint_angles"]), np.array(data["T_palm_object"]), params)
 
 
 def _record(state: _State, out: BoxOutcome, options: BranchAndPruneOptions) -> None:
@@ -254,7 +271,7 @@ def solve_complete(
     """
     started = time.perf_counter()
     form = build_system(task)
-    state = _initial_state(form, checkpoint, resume)
+    state = _initial_state(form, checkpoint, resume, options)
     try:
         stop = _run(form, state, options, executor, max(1, workers), started, progress)
     except KeyboardInterrupt:
@@ -266,14 +283,14 @@ def solve_complete(
     return _result(task, form, state, options, started, stop)
 
 
-def _initial_state(form: Formulation, checkpoint, resume: bool) -> _State:
+def _initial_state(form: Formulation, checkpoint, resume: bool, options: BranchAndPruneOptions) -> _State:
     if resume:
         if checkpoint is None or not Path(checkpoint).is_file():
             raise PrehensionError(f"cannot resume: no checkpoint file {checkpoint}")
         data = json.loads(Path(checkpoint).read_text())
         if data.get("n_variables") != form.system.n:
             raise PrehensionError(f"checkpoint {checkpoint} belongs to another task (variable count differs)")
-        return _State.from_json(data)
+        return _State.from_json(data, form.task, options.tolerances)
     return _State(deque([(form.system.lower.copy(), form.system.upper.copy(), 0)]))
 
 
