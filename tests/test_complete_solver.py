@@ -143,3 +143,13 @@ def test_solutions_found_before_a_stop_survive_the_resume(tmp_path):
     assert len(resumed.solutions) == len(whole.solutions) >= 1
     for a, b in zip(resumed.solutions, whole.solutions):
         np.testing.assert_allclose(a.q, b.q, atol=1e-12)
+
+
+def test_progress_reports_boxes_open_depth_and_best_residual():
+    seen = []
+    result = solve_complete(pincer_task(50.0), FAST, progress=seen.append)
+    assert len(seen) == result.stats["boxes"]
+    assert {"boxes", "open", "depth", "lps", "best residual"} <= set(seen[-1])
+    assert seen[-1]["best residual"].endswith("deg")  # how close the closest verification came
+    best = result.stats["best_residual"]
+    assert best["contact_mm"] > 0 or best["normal_deg"] > 0  # infeasible: never zero

@@ -336,8 +336,10 @@ def test_refine_local_reaches_a_verified_configuration_near_a_known_one(sa_hand,
         case.config.joint_angles + np.where(task.active_mask, rng.normal(0, 0.05, sa_hand.n_dof), 0.0),
         sa_hand.lower, sa_hand.upper))  # fmt: skip
     reached = refine_local(task, [noisy, case.config])
-    assert any(r is not None for r in reached)
-    for config in reached:
+    assert any(r is not None for r in reached.configurations)
+    for config, contact_mm in zip(reached.configurations, reached.contact_mm):
         if config is not None:
             assert make_solution(task, config, Tolerances(penetration_mm=float("inf"))) is not None
-    assert refine_local(task, []) == []
+            assert contact_mm < 1e-6
+    assert max(reached.best()) < 1e-6
+    assert refine_local(task, []).configurations == ()

@@ -94,6 +94,7 @@ class BoxOutcome:
     n_lps: int
     solution: Solution | None = None
     children: tuple[tuple[np.ndarray, np.ndarray], ...] = ()
+    best: tuple = (float("inf"), float("inf"))  # (contact_mm, normal_deg) the verification came closest to
 
 
 def _base_indices(form: Formulation) -> np.ndarray:
@@ -115,21 +116,22 @@ def _verification_points(lower: np.ndarray, upper: np.ndarray, n: int) -> np.nda
     return np.vstack([0.5 * (lower + upper), lower + u * (upper - lower)])
 
 
-def _verify(form: Formulation, lower, upper, options: BranchAndPruneOptions) -> Solution | None:
-    """A verified solution reached by local iterations from points of the box, or None.
+def _verify(form: Formulation, lower, upper, options: BranchAndPruneOptions) -> tuple[Solution | None, tuple]:
+    """A verified solution reached by local iterations from points of the box (or None),
+    and how close the closest of them came: ``(contact_mm, normal_deg)``.
 
     The iterations (:func:`prehension.solvers.local.refine_local`) work on the original
     constraints and may leave the box; whatever they reach is judged by
     :func:`make_solution` alone, so a returned solution is a solution of the task.
     """
     points = _verification_points(lower, upper, options.verify_starts)
-    starts = [configuration_from_point(form, x) for x in points]
-    for config in refine_local(form.task, starts, options.refine):
+    reached = refine_local(form.task, [configuration_from_point(form, x) for x in points], options.refine)
+    for config in reached.configurations:
         if config is not None:
             solution = make_solution(form.task, config, options.tolerances)
             if solution is not None:
-                return solution
-    return None
+                return solution, reached.best()
+    return None, reached.best()
 
 
 def process_box(form: Formulation, lower, upper, depth: int, options: BranchAndPruneOptions) -> BoxOutcome:
@@ -146,26 +148,28 @@ def process_box(form: Formulation, lower, upper, depth: int, options: BranchAndP
                                    max_iter=options.shrink.contract_max_iter)  # fmt: skip
     if empty:
         return BoxOutcome("empty", lower, upper, depth, 0)
+    best = (float("inf"), float("inf"))
     if not options.all_solutions:
-        solution = _verify(form, lower, upper, options)
+        solution, best = _verify(form, lower, upper, options)
         if solution is not None:
-            return BoxOutcome("solution", lower, upper, depth, 0, solution)
+            return BoxOutcome("solution", lower, upper, depth, 0, solution, best=best)
     shrink_options = replace(options.shrink, variables=tuple(_base_indices(form).tolist()))
     shrunk = shrink_box(form.system, lower, upper, shrink_options)
     if shrunk.empty:
-        return BoxOutcome("empty", shrunk.lower, shrunk.upper, depth, shrunk.n_lps)
+        return BoxOutcome("empty", shrunk.lower, shrunk.upper, depth, shrunk.n_lps, best=best)
     lo, hi = shrunk.lower, shrunk.upper
     widths = _scaled_widths(form, lo, hi)
     if widths.max() < options.sigma:
-        solution = _verify(form, lo, hi, options) if options.all_solutions else None
-        if solution is not None and _inside(form, solution, lo, hi):
-            return BoxOutcome("solution", lo, hi, depth, shrunk.n_lps, solution)
-        return BoxOutcome("small", lo, hi, depth, shrunk.n_lps)
+        if options.all_solutions:
+            solution, best = _verify(form, lo, hi, options)
+            if solution is not None and _inside(form, solution, lo, hi):
+                return BoxOutcome("solution", lo, hi, depth, shrunk.n_lps, solution, best=best)
+        return BoxOutcome("small", lo, hi, depth, shrunk.n_lps, best=best)
     k = _base_indices(form)[int(np.argmax(widths))]
     mid = 0.5 * (lo[k] + hi[k])
     left_hi, right_lo = hi.copy(), lo.copy()
     left_hi[k], right_lo[k] = mid, mid
-    return BoxOutcome("split", lo, hi, depth, shrunk.n_lps, children=((lo, left_hi), (right_lo, hi)))
+    return BoxOutcome("split", lo, hi, depth, shrunk.n_lps, children=((lo, left_hi), (right_lo, hi)), best=best)
 
 
 def _inside(form: Formulation, solution: Solution, lower, upper) -> bool:
@@ -185,6 +189,7 @@ class _State:
     max_depth: int = 0
     solutions: list = field(default_factory=list)
     small: list = field(default_factory=list)
+    best: tuple = (float("inf"), float("inf"))  # closest miss (contact_mm, normal_deg) so far
 
     def to_json(self) -> dict:
         return {
@@ -223,6 +228,7 @@ def _configuration_from_json(data: dict) -> Configuration:
 def _record(state: _State, out: BoxOutcome, options: BranchAndPruneOptions) -> None:
     state.boxes += 1
     state.lps += out.n_lps
+    state.best = min(state.best, out.best, key=lambda b: max(b))
     state.max_depth = max(state.max_depth, out.depth)
     if out.kind == "solution":
         state.solutions.append(out.solution)
@@ -349,13 +355,16 @@ def _submit_ahead(form, state: _State, options, executor: Executor, workers: int
 
 def _report(progress, state: _State, in_flight: int) -> None:
     if progress is not None:
-        progress({"boxes": state.boxes, "open": len(state.open) + in_flight, "depth": state.max_depth, "lps": state.lps})
+        best = f"{state.best[0]:.3g} mm, {state.best[1]:.3g} deg" if np.isfinite(max(state.best)) else "-"
+        progress({"boxes": state.boxes, "open": len(state.open) + in_flight, "depth": state.max_depth, "lps": state.lps,
+                  "best residual": best})  # fmt: skip
 
 
 def _result(task, form, state: _State, options, started: float, stop: str) -> SolveResult:
     seconds = time.perf_counter() - started
     stats = {"boxes": state.boxes, "lps": state.lps, "max_depth": state.max_depth, "open_boxes": len(state.open),
-             "n_variables": form.system.n, "n_equations": form.system.n_equations, "options": _options_dict(options)}  # fmt: skip
+             "n_variables": form.system.n, "n_equations": form.system.n_equations, "options": _options_dict(options),
+             "best_residual": {"contact_mm": state.best[0], "normal_deg": state.best[1]} if np.isfinite(max(state.best)) else None}  # fmt: skip
     small = tuple(state.small)
     if state.solutions and options.all_solutions:
         status = Status.SOLVED

@@ -15,13 +15,14 @@ See ``docs/local-solver.md``.
 from .options import LocalOptions
 from .problems import PointProblems, random_point_problems
 from .sequence import PAPER_TABLE1, InitialPoseSequence, default_sequence
-from .solver import LocalBatch, LocalRecord, refine_local, solve_local, solve_local_batch
+from .solver import LocalBatch, LocalRecord, Refinement, refine_local, solve_local, solve_local_batch
 
 __all__ = [
     "LocalOptions",
     "solve_local",
     "solve_local_batch",
     "refine_local",
+    "Refinement",
     "LocalBatch",
     "LocalRecord",
     "PointProblems",

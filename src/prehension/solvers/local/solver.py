@@ -42,7 +42,7 @@ from .options import LocalOptions
 from .problems import PointProblems, group_from_tasks, structure_key
 from .sequence import InitialPoseSequence, default_sequence
 
-__all__ = ["solve_local", "solve_local_batch", "refine_local", "LocalRecord", "LocalBatch", "STRICT"]
+__all__ = ["solve_local", "solve_local_batch", "refine_local", "Refinement", "LocalRecord", "LocalBatch", "STRICT"]
 
 STRICT = Tolerances()
 
@@ -472,21 +472,44 @@ def _unknowns_of(group: Group, starts: Sequence[Configuration]) -> np.ndarray:
     return np.clip(x0, group.lo, group.hi)
 
 
-def refine_local(
-    task: Task, starts: Sequence[Configuration], options: LocalOptions = LocalOptions()
-) -> list[Configuration | None]:
+@dataclass(frozen=True, eq=False)
+class Refinement:
+    """What :func:`refine_local` reached from each start.
+
+    Attributes:
+        configurations: per start, the configuration reached when it meets the strict
+            tolerances, else ``None``.
+        contact_mm: per start, the largest contact distance at the end of the
+            iterations [mm] (also for starts that failed: how close they came).
+        normal_deg: per start, the largest normal misalignment at the end [deg].
+    """
+
+    configurations: tuple
+    contact_mm: np.ndarray
+    normal_deg: np.ndarray
+
+    def best(self) -> tuple[float, float]:
+        """``(contact_mm, normal_deg)`` of the start that came closest (a 1 mm miss
+        weighs as much as a 1 degree one); ``(inf, inf)`` without starts."""
+        if not self.contact_mm.size:
+            return float("inf"), float("inf")
+        k = int(np.argmin(np.maximum(self.contact_mm, self.normal_deg)))
+        return float(self.contact_mm[k]), float(self.normal_deg[k])
+
+
+def refine_local(task: Task, starts: Sequence[Configuration], options: LocalOptions = LocalOptions()) -> Refinement:
     """Run the local iterations (Jacobian steps, polishing, collision repair) from given starts.
 
     The complete solver verifies its boxes with this: ``starts`` are points read from
     boxes (joint angles and contact parameters; each start must carry
-    ``contact_params``).  Returns, per start, the configuration reached when it meets
-    the strict tolerances (limits, couplings, contacts and collisions checked as in
-    :func:`solve_local`), else ``None``.  The iterations may leave the region of the
-    start; callers re-verify with :func:`~prehension.results.make_solution`.
+    ``contact_params``).  A start's configuration is kept when it meets the strict
+    tolerances (limits, couplings, contacts and collisions checked as in
+    :func:`solve_local`).  The iterations may leave the region of the start; callers
+    re-verify with :func:`~prehension.results.make_solution`.
     """
     starts = list(starts)
     if not starts:
-        return []
+        return Refinement((), np.zeros(0), np.zeros(0))
     group = group_from_tasks([task], options.joint_scale_mm)
     S = len(starts)
     x0 = _unknowns_of(group, starts)
@@ -497,13 +520,15 @@ def refine_local(
                  options.kernel_array(), status, it, pit, xo, Ro, to, eo)  # fmt: skip
     out: list[Configuration | None] = [None] * S
     sel = np.flatnonzero((status == K.SOLVED_STRICT) | (status == K.SOLVED_DMIN))
-    if sel.size == 0:
-        return out
-    idx = np.zeros(sel.size, dtype=np.int64)
-    level, q, T, params, _, _ = _check(
-        group, lambda i, pose, T_, prm: _contact_checks_tasks([task], i, pose, T_, prm), idx, xo[sel], Ro[sel], to[sel], options
-    )  # fmt: skip
-    for k, s in enumerate(sel):
-        if level[k] == 2:
-            out[s] = Configuration(q[k].copy(), T[k].copy(), tuple((h[k].copy(), o[k].copy()) for h, o in params))
-    return out
+    if sel.size:
+        idx = np.zeros(sel.size, dtype=np.int64)
+        level, q, T, params, _, _ = _check(
+            group, lambda i, pose, T_, prm: _contact_checks_tasks([task], i, pose, T_, prm), idx, xo[sel], Ro[sel],
+            to[sel], options,
+        )  # fmt: skip
+        for k, s in enumerate(sel):
+            if level[k] == 2:
+                out[s] = Configuration(q[k].copy(), T[k].copy(), tuple((h[k].copy(), o[k].copy()) for h, o in params))
+    # eo[:, 1] = w_n |n_hand + n_object| [mm], and |n_h + n_o| = 2 sin(angle / 2)
+    chord = np.clip(eo[:, 1] / (2.0 * options.normal_weight_mm), 0.0, 1.0)
+    return Refinement(tuple(out), eo[:, 0].copy(), np.degrees(2.0 * np.arcsin(chord)))
