@@ -116,20 +116,23 @@ def _verification_points(lower: np.ndarray, upper: np.ndarray, n: int) -> np.nda
     return np.vstack([0.5 * (lower + upper), lower + u * (upper - lower)])
 
 
-def _verify(form: Formulation, lower, upper, options: BranchAndPruneOptions) -> tuple[Solution | None, tuple]:
+def _verify(
+    form: Formulation, lower, upper, options: BranchAndPruneOptions, *, in_box: bool = False
+) -> tuple[Solution | None, tuple]:
     """A verified solution reached by local iterations from points of the box (or None),
     and how close the closest of them came: ``(contact_mm, normal_deg)``.
 
     The iterations (:func:`prehension.solvers.local.refine_local`) work on the original
     constraints and may leave the box; whatever they reach is judged by
     :func:`make_solution` alone, so a returned solution is a solution of the task.
+    ``in_box``: only a solution inside the box counts (describing the solution set).
     """
     points = _verification_points(lower, upper, options.verify_starts)
     reached = refine_local(form.task, [configuration_from_point(form, x) for x in points], options.refine)
     for config in reached.configurations:
         if config is not None:
             solution = make_solution(form.task, config, options.tolerances)
-            if solution is not None:
+            if solution is not None and (not in_box or _inside(form, solution, lower, upper)):
                 return solution, reached.best()
     return None, reached.best()
 
@@ -161,8 +164,8 @@ def process_box(form: Formulation, lower, upper, depth: int, options: BranchAndP
     widths = _scaled_widths(form, lo, hi)
     if widths.max() < options.sigma:
         if options.all_solutions:
-            solution, best = _verify(form, lo, hi, options)
-            if solution is not None and _inside(form, solution, lo, hi):
+            solution, best = _verify(form, lo, hi, options, in_box=True)
+            if solution is not None:
                 return BoxOutcome("solution", lo, hi, depth, shrunk.n_lps, solution, best=best)
         return BoxOutcome("small", lo, hi, depth, shrunk.n_lps, best=best)
     k = _base_indices(form)[int(np.argmax(widths))]
