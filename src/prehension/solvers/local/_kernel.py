@@ -494,6 +494,16 @@ def _errors(f, C, perr, nerr):
 
 
 @njit(cache=True)
+def _scaled_back(Ms, y, n, nx, Dinv, frozen, dx):
+    """``dx = -Dinv Ms^T y`` over the first ``n`` rows (frozen unknowns stay put)."""
+    for k in range(nx):
+        s = 0.0
+        for r in range(n):
+            s += Ms[r, k] * y[r]
+        dx[k] = -s * (0.0 if frozen[k] else Dinv[k])
+
+
+@njit(cache=True)
 def _dls_step(J, f, C, nx, Dinv, frozen, pcols, pn, mu2, A, L, y, dx, Js):
     """``dx = -Dinv J~^T (J~ J~^T + mu2 I)^-1 f`` with ``J~ = J Dinv`` (frozen columns removed)."""
     n = 6 * C
@@ -526,11 +536,7 @@ def _dls_step(J, f, C, nx, Dinv, frozen, pcols, pn, mu2, A, L, y, dx, Js):
         for k in range(nx):
             dx[k] = 0.0
         return False
-    for k in range(nx):
-        s = 0.0
-        for r in range(n):
-            s += Js[r, k] * y[r]
-        dx[k] = -s * (0.0 if frozen[k] else Dinv[k])
+    _scaled_back(Js, y, n, nx, Dinv, frozen, dx)
     return True
 
 
@@ -800,11 +806,7 @@ def _dense_step(M, g, n, nx, Dinv, frozen, mu2, A, L, y, dx, Ms):
         A[i, i] += mu2 + 1e-12
     if not _cholesky_solve(A, g, n, L, y):
         return False
-    for k in range(nx):
-        s = 0.0
-        for r in range(n):
-            s += Ms[r, k] * y[r]
-        dx[k] = -s * (0.0 if frozen[k] else Dinv[k])
+    _scaled_back(Ms, y, n, nx, Dinv, frozen, dx)
     return True
 
 
