@@ -347,19 +347,21 @@ class _Formulator:
         return self.b.dot(uu, vv)
 
 
-def reach_ball(task: Task, a: int) -> tuple[str, np.ndarray, float]:
+def reach_ball(task: Task, a: int, *, exact_caps: bool = True) -> tuple[str, np.ndarray, float]:
     """The ball of contact ``a``'s hand region: ``(link, centre in the link frame [mm],
-    slack [mm])``; the slack is 0 for a sphere cap, whose centre the system knows exactly."""
+    slack [mm])``.  The slack is the ball's radius, or 0 for a sphere cap when
+    ``exact_caps`` (the system knows the cap's centre exactly: ``o + r nu``)."""
     region = task.hand_region(task.contacts[a])
     centre, radius = _region_ball(region.region)
-    return region.link, centre, 0.0 if isinstance(region.region, SphereCap) else radius
+    exact = exact_caps and isinstance(region.region, SphereCap)
+    return region.link, centre, 0.0 if exact else radius
 
 
-def _ball_reach(task: Task, a: int, b: int | None) -> float:
-    link_a, centre_a, slack_a = reach_ball(task, a)
+def _ball_reach(task: Task, a: int, b: int | None, *, exact_caps: bool = True) -> float:
+    link_a, centre_a, slack_a = reach_ball(task, a, exact_caps=exact_caps)
     if b is None:
         return span_bound_mm(task.hand, link_a, centre_a) + slack_a
-    link_b, centre_b, slack_b = reach_ball(task, b)
+    link_b, centre_b, slack_b = reach_ball(task, b, exact_caps=exact_caps)
     return span_bound_mm(task.hand, link_a, centre_a, link_b, centre_b) + slack_a + slack_b
 
 
@@ -371,16 +373,9 @@ def contact_reach(task: Task, a: int, b: int | None = None) -> float:
     Each hand region lies in a ball fixed to its link (:func:`_region_ball`); the distance
     between the ball centres is bounded by branch and bound over the joint angles
     (:func:`prehension.hands.reach.max_point_distance`: within 1 mm of the true maximum,
-    or looser when its box budget runs out; remembered per hand).
+    or looser when its box budget runs out; remembered per hand), plus the radii.
     """
-    hand = task.hand
-    ra = task.hand_region(task.contacts[a])
-    centre_a, radius_a = _region_ball(ra.region)
-    if b is None:
-        return span_bound_mm(hand, ra.link, centre_a) + radius_a
-    rb = task.hand_region(task.contacts[b])
-    centre_b, radius_b = _region_ball(rb.region)
-    return span_bound_mm(hand, ra.link, centre_a, rb.link, centre_b) + radius_a + radius_b
+    return _ball_reach(task, a, b, exact_caps=False)
 
 
 def _palm_reach(task: Task) -> float:
