@@ -237,8 +237,7 @@ def _branch_and_bound(problem: _Problem, difference, tol_mm: float, max_boxes: i
             heap.extend(take)
             heapq.heapify(heap)
             break
-    open_max = max((-h[0] for h in heap), default=-np.inf)
-    upper_mm = max(best + tol_mm, open_max) if np.isfinite(open_max) and open_max > best + tol_mm else best + tol_mm
+    upper_mm = max([best + tol_mm] + [-h[0] for h in heap])  # open boxes when the budget ran out
     return SpanBound(upper_mm * (1 + _ROUNDING) + _ROUNDING, best, boxes)
 
 
