@@ -46,7 +46,7 @@ def _options(args):
 
 
 def cmd_solve(args, console: Console) -> int:
-    from ..parallel import executor_for
+    from ..parallel import check_where, executor_for
     from ..solve import solve
     from ..tasks.library import resolve_task
 
@@ -54,7 +54,11 @@ def cmd_solve(args, console: Console) -> int:
     options = _options(args)
     if args.resume and args.checkpoint is None:
         raise PrehensionError("--resume needs --checkpoint FILE (the file the interrupted run saved)")
-    with executor_for(args.scheduler, args.workers if args.workers > 1 else None) as executor:
+    where = (args.scheduler, args.workers if args.workers > 1 else None)
+    check_where(*where)
+    if args.method == "local":  # the cluster only serves the complete solver's boxes
+        where = (None, None)
+    with executor_for(*where) as executor:
         with _progress(console, args) as update:
             result = solve(
                 task, args.method, complete_options=options, seed=args.seed, executor=executor,
