@@ -249,8 +249,8 @@ def test_an_unreachable_problem_gives_up_with_a_clear_message(sa_hand):
 
 def test_couplings_are_exact_and_limits_hold_in_every_answer(sa_hand):
     pp = random_point_problems(30, sa_hand, seed=21)
-    batch = solve_local_batch(pp, LocalOptions(polish=False))  # d_min answers too
-    answers = [r for r in batch if r.success]
+    batch = solve_local_batch(pp, LocalOptions(polish=False, approximate=True))  # d_min answers too
+    answers = [r for r in batch if r.joint_angles is not None]
     assert answers
     q = np.array([r.joint_angles for r in answers])
     assert coupling_violations(sa_hand, q).max() <= 1e-12
@@ -279,6 +279,29 @@ def test_empty_batches_and_bad_input():
         LocalOptions(psi_rule="best")
     with pytest.raises(PrehensionError, match=r"shape \(P, 4, 3\)"):
         PointProblems(random_point_problems(1).hand, ("thumb_tip", "index_tip", "middle_tip", "ring_tip"), np.zeros((2, 3, 3)), np.zeros((2, 3, 3)))
+
+
+def test_without_approximate_every_answer_is_strict_and_loose_ones_are_only_closest_misses(sa_hand):
+    pp = random_point_problems(30, sa_hand, seed=21)
+    loose = solve_local_batch(pp, LocalOptions(polish=False, approximate=True, strict_retries=0))
+    strict = solve_local_batch(pp, LocalOptions(polish=False, strict_retries=0))
+    approx = [r for r in loose if r.status == Status.APPROXIMATE]
+    assert approx, "unpolished iterations should leave some answers within d_min only"
+    for rec in strict:
+        result = rec.to_result(pp.task(rec.index))
+        assert result.status in (Status.SOLVED, Status.GAVE_UP)
+        if result.success:
+            assert make_solution(pp.task(rec.index), result.solutions[0].configuration()) is not None
+        elif rec.tolerance is None and np.isfinite(rec.max_distance_mm):  # a closest miss, reported only
+            assert "the closest came within" in result.message and result.solutions == ()
+    for rec in approx:
+        task = pp.task(rec.index)
+        result = rec.to_result(task, LocalOptions(approximate=True))
+        assert result.status == Status.APPROXIMATE and not result.success
+        (sol,) = result.solutions
+        assert make_solution(task, sol.configuration(), LocalOptions().acceptance) is not None
+        assert make_solution(task, sol.configuration()) is None  # not strict: never "solved"
+        assert result.stats["acceptance"]["contact_mm"] == 1.5
 
 
 def test_options_acceptance_follows_d_min():

@@ -44,9 +44,12 @@ RESULT_TAG = "result/1"
 class Status:
     """``SolveResult.status`` values (also the CLI's exit codes, see ``prehension.cli``)."""
 
-    SOLVED = "solved"
+    SOLVED = "solved"  # every constraint within the strict default Tolerances
     INFEASIBLE = "infeasible"  # proven: every box pruned (complete solver only)
     GAVE_UP = "gave_up"  # limits reached without a verified solution or a proof
+    APPROXIMATE = "approximate"  # only when asked for: within looser tolerances, never "solved"
+
+    ALL = (SOLVED, INFEASIBLE, GAVE_UP, APPROXIMATE)
 
 
 @dataclass(frozen=True, eq=False)

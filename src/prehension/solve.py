@@ -3,6 +3,13 @@
 ``method="auto"`` runs the local solver first (milliseconds when it succeeds) and falls
 back to the complete solver, which always finds a solution when one exists and can prove
 that none does; the result's message says which solver answered.
+
+"solved" means the same everywhere: every constraint within the strict default
+:class:`~prehension.tasks.residuals.Tolerances`.  A looser answer (the local solver's
+``d_min`` acceptance) is returned only when ``LocalOptions(approximate=True)`` asks for it,
+with the status ``"approximate"``; ``auto`` then still runs the complete solver first and
+returns the approximate answer only when the complete solver neither solves the task nor
+proves it infeasible.
 """
 
 from __future__ import annotations
@@ -12,7 +19,7 @@ from dataclasses import replace
 from typing import Callable, Literal
 
 from .errors import PrehensionError
-from .results import SolveResult
+from .results import SolveResult, Status
 from .tasks.model import Task
 
 __all__ = ["solve"]
@@ -46,9 +53,13 @@ def solve(
         checkpoint=checkpoint, resume=resume, progress=progress,
     )  # fmt: skip
     if method == "auto":
+        seconds = time.perf_counter() - started
+        if local.status == Status.APPROXIMATE and result.status == Status.GAVE_UP:
+            note = f"{local.message}; the complete solver neither solved nor disproved the task: {result.message}"
+            return replace(local, message=note, seconds=seconds, stats=dict(local.stats, complete=dict(result.stats)))
         note = f"the local solver found no solution ({local.message}); complete solver: {result.message}"
         stats = dict(result.stats, local=dict(local.stats))
-        result = replace(result, message=note, seconds=time.perf_counter() - started, stats=stats)
+        result = replace(result, message=note, seconds=seconds, stats=stats)
     return result
 
 

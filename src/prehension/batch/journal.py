@@ -47,7 +47,7 @@ DONE = ("solved", "infeasible")  # plus "gave_up" unless retried
 
 def is_done(status: str, retry_gave_up: bool = False) -> bool:
     """Whether a record with ``status`` counts as done (its task is skipped on a re-run)."""
-    return status in DONE or (status == "gave_up" and not retry_gave_up)
+    return status in DONE or (status in ("gave_up", "approximate") and not retry_gave_up)
 
 
 @dataclass(frozen=True)

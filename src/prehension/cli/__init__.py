@@ -1,7 +1,8 @@
 """The ``prehension`` command line.
 
 Exit codes (``prehension.cli.codes``): 0 done / solved, 2 bad input (the message names
-the problem), 3 proven infeasible, 4 gave up, 5 a checked result does not hold.
+the problem), 3 proven infeasible, 4 gave up, 5 a checked result does not hold,
+6 only an approximate answer (``solve --approximate``).
 """
 
 from __future__ import annotations
@@ -15,10 +16,11 @@ from rich.markup import escape
 from .. import __version__
 from ..errors import PrehensionError
 from . import batch, offline, view
-from .codes import EXIT_BAD_INPUT, EXIT_CHECK_FAILED, EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK
+from .codes import EXIT_APPROXIMATE, EXIT_BAD_INPUT, EXIT_CHECK_FAILED, EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK
 
 __all__ = [
     "main", "build_parser", "EXIT_OK", "EXIT_BAD_INPUT", "EXIT_INFEASIBLE", "EXIT_GAVE_UP", "EXIT_CHECK_FAILED",
+    "EXIT_APPROXIMATE",
 ]  # fmt: skip
 
 TASK_HELP = "built-in task name, task file (.yaml) or CuikSuite file (.world)"
@@ -60,6 +62,9 @@ def _add_solve(sub) -> None:
     p.add_argument("--checkpoint", type=Path, help="complete solver: save the open boxes here when stopped (Ctrl-C too)")
     p.add_argument("--resume", action="store_true", help="complete solver: continue from --checkpoint")
     p.add_argument("--seed", type=int, default=0, help="random seed (local solver)")
+    p.add_argument("--approximate", action="store_true",
+                   help="accept an answer within the paper's d_min tolerances (1.5 mm) when no strict solution is found: "
+                        "status 'approximate', exit code 6, never 'solved'")  # fmt: skip
     p.add_argument("--quiet", action="store_true", help="no progress or tables, only errors")
     p.add_argument("--json", action="store_true", help="print the result summary as JSON on stdout")
     p.add_argument("--html", type=Path, metavar="FILE", help="also write the 3-D view of the grasp (as 'prehension view')")

@@ -5,3 +5,4 @@ EXIT_BAD_INPUT = 2  # bad task, file or option: the message names it (argparse u
 EXIT_INFEASIBLE = 3  # proven: no configuration satisfies the task
 EXIT_GAVE_UP = 4  # limits reached with neither a solution nor a proof
 EXIT_CHECK_FAILED = 5  # check: a stored solution does not satisfy its task
+EXIT_APPROXIMATE = 6  # solve --approximate: only an answer within the looser (d_min) tolerances was found

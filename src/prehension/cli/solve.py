@@ -13,9 +13,12 @@ from rich.table import Table
 
 from ..errors import PrehensionError
 from ..results import Status, result_to_dict, write_result
-from .codes import EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK
+from .codes import EXIT_APPROXIMATE, EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK
 
-EXIT_OF_STATUS = {Status.SOLVED: EXIT_OK, Status.INFEASIBLE: EXIT_INFEASIBLE, Status.GAVE_UP: EXIT_GAVE_UP}
+EXIT_OF_STATUS = {
+    Status.SOLVED: EXIT_OK, Status.INFEASIBLE: EXIT_INFEASIBLE, Status.GAVE_UP: EXIT_GAVE_UP,
+    Status.APPROXIMATE: EXIT_APPROXIMATE,
+}  # fmt: skip
 
 
 def _output_path(args, task_name: str) -> Path:
@@ -45,6 +48,12 @@ def _options(args):
     )  # fmt: skip
 
 
+def _local_options(args):
+    from ..solvers.local import LocalOptions
+
+    return LocalOptions(approximate=args.approximate)
+
+
 def cmd_solve(args, console: Console) -> int:
     from ..parallel import check_where, executor_for
     from ..solve import solve
@@ -62,6 +71,7 @@ def cmd_solve(args, console: Console) -> int:
         with _progress(console, args) as update:
             result = solve(
                 task, args.method, complete_options=options, seed=args.seed, executor=executor,
+                local_options=_local_options(args),
                 workers=executor.max_workers if executor is not None else 1, checkpoint=args.checkpoint,
                 resume=args.resume, progress=update,
             )  # fmt: skip
@@ -119,7 +129,7 @@ def _report(console: Console, args, result, path: Path, backup: Path | None) -> 
             summary["joint_angles_deg"] = {k: float(np.degrees(v)) for k, v in result.solutions[0].joint_angles.items()}
         print(json.dumps(summary, indent=1))
         return
-    style = {"solved": "bold green", "infeasible": "bold yellow", "gave_up": "bold red"}[result.status]
+    style = {"solved": "bold green", "infeasible": "bold yellow", "gave_up": "bold red", "approximate": "bold magenta"}[result.status]
     console.print(f"[{style}]{result.status}[/] ({result.method}, {result.seconds:.2f} s): {result.message}")
     if result.solutions:
         console.print(_solution_table(result.solutions[0]))

@@ -24,13 +24,17 @@ spherical fingertip and also makes sense for regions that are not spheres.
 
 **Acceptance.**  A configuration whose contacts are within ``d_min`` is a *local*
 solution in the paper's sense; the solver then *polishes* it with a few Gauss-Newton
-iterations, which usually drive the contacts to ~1e-10 mm, and returns it verified with
-the **strict** default :class:`~prehension.tasks.residuals.Tolerances` whenever it passes
-them.  Otherwise (polishing off, or it did not converge) the configuration is verified
-with :attr:`LocalOptions.acceptance` -- contacts within ``d_min``, normals within the angle
-that ``d_min`` allows (``2 asin(d_min / 2 w_n)``, 6.6 deg), limits, couplings and
-self-collision exact -- and the result says which tolerances it met and the residuals it
-achieved.
+iterations, which usually drive the contacts to ~1e-10 mm.  Only a configuration that
+passes the **strict** default :class:`~prehension.tasks.residuals.Tolerances` is a
+solution (status ``"solved"``); a local solution that polishing could not make strict is
+not one, and the solver goes on to its next initial pose.
+
+**Approximate answers, only when asked for.**  With ``approximate=True`` a configuration
+that meets only :attr:`LocalOptions.acceptance` -- contacts within ``d_min``, normals
+within the angle that ``d_min`` allows (``2 asin(d_min / 2 w_n)``, 6.6 deg), limits,
+couplings and self-collision exact: the paper's notion of success -- is returned with the
+status ``"approximate"`` (never ``"solved"``) when no strict one is found within
+``strict_retries`` further initial poses.
 """
 
 from __future__ import annotations
@@ -70,9 +74,12 @@ class LocalOptions:
         polish: run Gauss-Newton polishing on every local solution.
         polish_iterations: most polishing iterations.
         polish_tol_mm: polishing target for contact distances and weighted normals [mm].
-        strict_retries: after a local solution that meets only the ``d_min`` tolerances,
-            try this many more initial poses for one that meets the strict tolerances
-            (the first ``d_min`` solution is returned if none does).
+        approximate: return a configuration that meets only :attr:`acceptance` (status
+            ``"approximate"``) when no strict one is found; off by default, so that the
+            local solver answers ``"solved"`` or ``"gave_up"`` only.
+        strict_retries: with ``approximate``: after a local solution that meets only the
+            ``d_min`` tolerances, try this many more initial poses for one that meets the
+            strict tolerances (the first ``d_min`` solution is returned if none does).
         psi_rule: ``"paper"``: the rotation about the anchor normal aligns the index ->
             ring direction (or the first -> last other contact); ``"procrustes"``: it
             best aligns every other contact seen from the anchor.
@@ -104,6 +111,7 @@ class LocalOptions:
     polish: bool = True
     polish_iterations: int = 10
     polish_tol_mm: float = 1e-9
+    approximate: bool = False
     strict_retries: int = 2
     psi_rule: str = "procrustes"
     initial: str = "sequence"
@@ -141,6 +149,7 @@ class LocalOptions:
             need(np.isfinite(v) and v >= 0, f"{name} must be a number >= 0, got {v!r}")
         need(self.psi_rule in ("paper", "procrustes"), f"psi_rule must be 'paper' or 'procrustes', got {self.psi_rule!r}")
         need(self.initial in ("sequence", "random"), f"initial must be 'sequence' or 'random', got {self.initial!r}")
+        need(isinstance(self.approximate, (bool, np.bool_)), f"approximate must be True or False, got {self.approximate!r}")
         need(self.tolerances is None or isinstance(self.tolerances, Tolerances), "tolerances must be a Tolerances or None")
 
     @property

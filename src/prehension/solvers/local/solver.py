@@ -14,17 +14,19 @@ local solutions are checked with the foundation's own batch functions
 :mod:`prehension.tasks.residuals`); a problem whose local solution fails them goes on to
 its next initial pose, as in the paper after a collision.
 
-A solution is reported with the tolerances it met: ``"strict"`` (the default
-:class:`~prehension.tasks.residuals.Tolerances`) or ``"d_min"``
-(:attr:`LocalOptions.acceptance`).  :meth:`LocalRecord.to_result` re-checks it with
-:func:`~prehension.results.make_solution`, so a :class:`SolveResult` never holds an
-unverified configuration.
+A problem is *solved* only by a configuration that meets the strict default
+:class:`~prehension.tasks.residuals.Tolerances`.  A configuration that meets only the
+paper's ``d_min`` tolerances (:attr:`LocalOptions.acceptance`) is returned, with the status
+``"approximate"``, only when :attr:`LocalOptions.approximate` asks for it; otherwise it is
+the problem's *closest miss*, reported in ``stats``.  :meth:`LocalRecord.to_result`
+re-checks every configuration with :func:`~prehension.results.make_solution`, so a
+:class:`SolveResult` never holds an unverified configuration.
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from typing import Any, Mapping, Sequence
 
 import numpy as np
@@ -53,16 +55,20 @@ class LocalRecord:
 
     Attributes:
         index: position of the problem in the batch.
-        success: a configuration passed the checks.
-        tolerance: ``"strict"`` or ``"d_min"`` (which tolerances it met), else ``None``.
-        joint_angles, T_palm_object, contact_params: the configuration (when solved).
+        success: a configuration passed the checks with the strict tolerances.
+        tolerance: ``"strict"`` (solved), ``"d_min"`` (an approximate answer, held only
+            with :attr:`LocalOptions.approximate`), else ``None``.
+        joint_angles, T_palm_object, contact_params: the configuration held (strict or
+            approximate), else ``None``.
         solved_with_pose: 1-based index of the initial pose that gave it (0: none).
         initial_poses_tried: initial poses started.
         iterations: Jacobian iterations over all initial poses.
         per_pose_iterations: Jacobian iterations of each initial pose tried.
         polish_iterations: Gauss-Newton polishing iterations of the answer.
         collision_rejections: local solutions rejected for self-collision (or a failed check).
-        max_distance_mm, max_normal_deg: achieved contact residuals of the answer.
+        max_distance_mm, max_normal_deg: achieved contact residuals of the answer held;
+            without one, of the closest miss (a local solution within ``d_min`` that
+            was not strict), ``nan`` when there was none.
     """
 
     index: int
@@ -83,17 +89,23 @@ class LocalRecord:
 
     @property
     def status(self) -> str:
-        return Status.SOLVED if self.success else Status.GAVE_UP
+        if self.success:
+            return Status.SOLVED
+        return Status.APPROXIMATE if self.tolerance == "d_min" else Status.GAVE_UP
 
     @property
     def message(self) -> str:
-        if self.success:
+        if self.joint_angles is not None:
+            what = "solved" if self.success else "approximate answer (no strict solution found)"
             return (
-                f"solved with initial pose {self.solved_with_pose} of {self.i_max} after {self.iterations} "
+                f"{what} with initial pose {self.solved_with_pose} of {self.i_max} after {self.iterations} "
                 f"Jacobian iterations in all (+{self.polish_iterations} polishing); contacts within "
                 f"{self.max_distance_mm:.2g} mm and {self.max_normal_deg:.2g} deg ({self.tolerance} tolerances)"
             )
         extra = f"; {self.collision_rejections} local solution(s) rejected by the checks" if self.collision_rejections else ""
+        if np.isfinite(self.max_distance_mm):
+            extra += (f"; the closest came within {self.max_distance_mm:.2g} mm and {self.max_normal_deg:.2g} deg "
+                      f"(not a solution: the strict tolerances are 1e-6 mm and 1e-6 deg)")  # fmt: skip
         return (
             f"no solution found after {self.initial_poses_tried} initial poses and {self.iterations} "
             f"Jacobian iterations{extra}"
@@ -109,35 +121,46 @@ class LocalRecord:
             "solved_with_pose": self.solved_with_pose,
             "collision_rejections": self.collision_rejections,
             "tolerances": self.tolerance,
-            "max_contact_distance_mm": self.max_distance_mm,
-            "max_normal_angle_deg": self.max_normal_deg,
+            "max_contact_distance_mm": _finite_or_none(self.max_distance_mm),
+            "max_normal_angle_deg": _finite_or_none(self.max_normal_deg),
         }
 
     def configuration(self) -> Configuration | None:
-        if not self.success:
+        if self.joint_angles is None:
             return None
         return Configuration(self.joint_angles, self.T_palm_object, self.contact_params)
 
     def to_result(self, task: Task, options: LocalOptions = LocalOptions(), seconds: float = 0.0,
                   extra_stats: Mapping[str, Any] | None = None) -> SolveResult:  # fmt: skip
-        """A :class:`SolveResult` whose solution has been re-verified by :func:`make_solution`."""
+        """A :class:`SolveResult` whose solution has been re-verified by :func:`make_solution`.
+
+        ``"solved"`` only with the strict tolerances; an approximate answer (held only
+        with :attr:`LocalOptions.approximate`) is re-verified with
+        :attr:`LocalOptions.acceptance` and returned as ``"approximate"``, with those
+        tolerances in ``stats["acceptance"]``.
+        """
         stats = {**self.stats, **(extra_stats or {})}
-        if not self.success:
-            return SolveResult(task, "local", Status.GAVE_UP, self.message, (), seconds, stats)
         config = self.configuration()
-        sol = make_solution(task, config, STRICT) if self.tolerance == "strict" else None
-        level = "strict"
-        if sol is None:
-            sol, level = make_solution(task, config, options.acceptance), "d_min"
+        if config is None:
+            return SolveResult(task, "local", Status.GAVE_UP, self.message, (), seconds, stats)
+        sol = make_solution(task, config, STRICT)
+        status = Status.SOLVED
+        if sol is None and options.approximate:
+            sol, status = make_solution(task, config, options.acceptance), Status.APPROXIMATE
+            stats["acceptance"] = asdict(options.acceptance)
         if sol is None:  # the batch checks and evaluate() disagree: never call it a solution
             report_msg = "the local solution failed the re-check of the residual function"
             stats["tolerances"] = None
             return SolveResult(task, "local", Status.GAVE_UP, f"no solution found: {report_msg}", (), seconds, stats)
+        level = "strict" if status == Status.SOLVED else "d_min"
         stats["tolerances"] = level
         stats["max_contact_distance_mm"] = sol.report.worst("contact_distance")
         stats["max_normal_angle_deg"] = sol.report.worst("contact_normal")
-        msg = self.message if level == self.tolerance else self.message.replace(f"({self.tolerance} tolerances)", f"({level} tolerances)")
-        return SolveResult(task, "local", Status.SOLVED, msg, (sol,), seconds, stats)
+        msg = self.message
+        if level != self.tolerance:
+            msg = msg.replace(f"({self.tolerance} tolerances)", f"({level} tolerances)").replace(
+                "approximate answer (no strict solution found)", "solved")
+        return SolveResult(task, "local", status, msg, (sol,), seconds, stats)
 
 
 @dataclass(eq=False)
@@ -183,6 +206,11 @@ class LocalBatch:
         """Every record as a verified :class:`SolveResult` (``tasks`` in batch order)."""
         per = self.seconds / max(len(self.records), 1)
         return [r.to_result(t, self.options, per) for r, t in zip(self.records, tasks)]
+
+
+def _finite_or_none(value: float) -> float | None:
+    """A residual for a JSON file: ``None`` where there is none (never a literal NaN)."""
+    return float(value) if np.isfinite(value) else None
 
 
 # -- checks with the foundation's batch functions ------------------------------------------
@@ -275,6 +303,7 @@ def _solve_group(group: Group, contact_fn, options: LocalOptions, sequence: Init
     out_x = np.zeros((P, nx))
     out_d = np.zeros(P)
     out_a = np.zeros(P)
+    miss, miss_d, miss_a = np.full(P, np.inf), np.full(P, np.nan), np.full(P, np.nan)  # closest d_min miss
     wave_seconds = np.zeros(imax)
     todo = np.arange(P)
     kernel_s = check_s = 0.0
@@ -310,8 +339,11 @@ def _solve_group(group: Group, contact_fn, options: LocalOptions, sequence: Init
         if local.any():
             sel = np.flatnonzero(local)
             lev, q, T, params, dmax, amax = _check(group, contact_fn, todo[sel], xo[sel], Ro[sel], to[sel], options)
-            # keep a strict answer always; a d_min answer only when there is none yet
-            keep = (lev == 2) | ((lev == 1) & (level[todo[sel]] == 0))
+            closer = (lev == 1) & (np.maximum(dmax, amax) < miss[todo[sel]])
+            miss_d[todo[sel[closer]]], miss_a[todo[sel[closer]]] = dmax[closer], amax[closer]
+            miss[todo[sel[closer]]] = np.maximum(dmax, amax)[closer]
+            # keep a strict answer always; a d_min answer only when asked for and there is none yet
+            keep = (lev == 2) | ((lev == 1) & (level[todo[sel]] == 0) & options.approximate)
             g = sel[keep]
             pi = todo[g]
             solved_with[pi] = i + 1
@@ -335,19 +367,20 @@ def _solve_group(group: Group, contact_fn, options: LocalOptions, sequence: Init
     params_all = group.params_of(out_x)
     records = []
     for p in range(P):
-        ok = solved_with[p] > 0
+        held = solved_with[p] > 0
         n_tried = int(tried[p])
         records.append(
             LocalRecord(
-                p, bool(ok), ("strict" if level[p] == 2 else "d_min") if ok else None,
-                out_q[p].copy() if ok else None, out_T[p].copy() if ok else None,
-                tuple((h[p].copy(), o[p].copy()) for h, o in params_all) if ok else None,
+                p, bool(level[p] == 2), ("strict" if level[p] == 2 else "d_min") if held else None,
+                out_q[p].copy() if held else None, out_T[p].copy() if held else None,
+                tuple((h[p].copy(), o[p].copy()) for h, o in params_all) if held else None,
                 int(solved_with[p]), n_tried, int(iters[p, :n_tried].sum()),
                 tuple(int(v) for v in iters[p, :n_tried]), int(polish[p]), int(rejected[p]),
-                float(out_d[p]) if ok else float("nan"), float(out_a[p]) if ok else float("nan"), imax,
+                float(out_d[p] if held else miss_d[p]), float(out_a[p] if held else miss_a[p]), imax,
             )  # fmt: skip
         )
-    solved_after = np.array([(solved_with > 0) & (solved_with <= i + 1) for i in range(imax)]).sum(axis=1)
+    strict = level == 2
+    solved_after = np.array([strict & (solved_with <= i + 1) for i in range(imax)]).sum(axis=1)
     return records, wave_seconds, solved_after, {"kernel": kernel_s, "checks": check_s}
 
 
