@@ -10,8 +10,8 @@ import pytest
 
 from fk_tasks import build_fk_case
 from prehension.results import Status, make_solution
-from prehension.solvers.complete.embedding import embed
-from prehension.solvers.complete.formulation import build_system
+from prehension.system.embedding import embed
+from prehension.system.formulation import build_system
 from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
 from prehension.solvers.complete.shrink import ShrinkOptions, shrink_box
 from prehension.tasks.residuals import Tolerances

@@ -8,8 +8,8 @@ import pytest
 from fk_tasks import build_fk_case
 from prehension.errors import InvalidTask
 from prehension.hands.model import Coupling
-from prehension.solvers.complete.embedding import configuration_from_point, embed
-from prehension.solvers.complete.formulation import build_system
+from prehension.system.embedding import configuration_from_point, embed
+from prehension.system.formulation import build_system
 from prehension.tasks.library import load_builtin_task
 from prehension.tasks.model import Task
 from prehension.tasks.residuals import Tolerances, evaluate

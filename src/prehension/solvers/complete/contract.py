@@ -1,6 +1,6 @@
 r"""Cheap interval contraction of a box (HC4-style), with outward rounding.
 
-Given the box ``[l, u]`` of a :class:`~.system.System`, each constraint is used to
+Given the box ``[l, u]`` of a :class:`~prehension.system.System`, each constraint is used to
 narrow the intervals of its variables; every constraint type is processed for all its
 instances at once (vectorised, Jacobi style: candidates are computed from the box at
 the start of the step and then intersected with it, several constraints on one
@@ -40,7 +40,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .relaxations import EPS, TINY, bernstein_control_points, down, up
-from .system import System
+from ...system.canonical import System
 
 __all__ = ["Contraction", "contract", "contract_linear"]
 

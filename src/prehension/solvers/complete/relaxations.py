@@ -61,7 +61,7 @@ guarantees), so every entry of ``S_u, S_v`` is a sum of non-negative products an
 ``|fl(b') - b'| <= 8 (d_p + d_q + 4) eps (|S_u| |b| |S_v|^T)`` (about twice the
 standard a-priori bound).
 
-:func:`relaxation_rows` assembles all rows of a :class:`~.system.System` on a box.
+:func:`relaxation_rows` assembles all rows of a :class:`~prehension.system.System` on a box.
 """
 
 from __future__ import annotations
@@ -71,7 +71,7 @@ import scipy.sparse as sp
 from scipy.spatial import ConvexHull, QhullError
 
 from ...geometry.bezier import subdivision_matrix
-from .system import System
+from ...system.canonical import System
 
 __all__ = [
     "down",

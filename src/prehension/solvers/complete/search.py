@@ -37,8 +37,8 @@ from ...tasks.model import Configuration, Task
 from ...tasks.residuals import Tolerances
 from ..local.options import LocalOptions
 from ..local.solver import refine_local
-from .embedding import configuration_from_point, embed
-from .formulation import Formulation, build_system
+from ...system.embedding import configuration_from_point, embed
+from ...system.formulation import Formulation, build_system
 from .contract import contract
 from .shrink import ShrinkOptions, shrink_box
 

@@ -1,4 +1,4 @@
-"""Incremental construction of a canonical :class:`~.system.System`.
+"""Incremental construction of a canonical :class:`~.canonical.System`.
 
 A :class:`Builder` hands out variables with bounds, collects linear equations and
 inequalities over *linear expressions* (:class:`Lin`), and creates the auxiliary
@@ -16,8 +16,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from ...geometry.bezier import bernstein
-from .system import BernsteinEquation, System
+from ..geometry.bezier import bernstein
+from .canonical import BernsteinEquation, System
 
 __all__ = ["Lin", "Builder"]
 

@@ -39,13 +39,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ...errors import InvalidTask
-from ...geometry.regions import BezierRegion, PointRegion, SphereCap
-from ...hands.model import Joint
-from ...hands.reach import span_bound_mm
-from ...tasks.model import Task
+from ..errors import InvalidTask
+from ..geometry.regions import BezierRegion, PointRegion, SphereCap
+from ..hands.model import Joint
+from ..hands.reach import span_bound_mm
+from ..tasks.model import Task
 from .builder import Builder, Lin, lin_sum
-from .system import System
+from .canonical import System
 
 __all__ = ["Formulation", "DofAngle", "build_system"]
 

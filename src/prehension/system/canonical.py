@@ -10,7 +10,8 @@
 where each ``f`` is a polynomial in Bernstein form on the unit square: its two arguments
 are Bézier-patch parameters whose initial bounds lie inside ``[0, 1]``.  A :class:`System`
 is a plain frozen value; the formulation (:mod:`.formulation`) builds it from a task, and
-the relaxations, box shrinking and search consume it.
+the complete solver's relaxations, box shrinking and search
+(:mod:`prehension.solvers.complete`) consume it.
 """
 
 from __future__ import annotations
@@ -83,7 +84,7 @@ class System:
 
     def residuals(self, x: np.ndarray) -> np.ndarray:
         """All equation residuals at ``x (n,)`` (linear, squares, products, Bernstein)."""
-        from ...geometry.bezier import bernstein
+        from ..geometry.bezier import bernstein
 
         out = [self.A @ x - self.b]
         if len(self.squares):
@@ -98,7 +99,7 @@ class System:
 
     def jacobian(self, x: np.ndarray) -> sp.csr_matrix:
         """Jacobian of :meth:`residuals` at ``x``, sparse (n_equations, n)."""
-        from ...geometry.bezier import bernstein, bernstein_derivative
+        from ..geometry.bezier import bernstein, bernstein_derivative
 
         rows = [sp.csr_matrix(self.A)]
         n = self.n

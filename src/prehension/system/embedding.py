@@ -14,10 +14,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...geometry.regions import BezierRegion, SphereCap
-from ...geometry.rotations import signed_angle
-from ...hands.kinematics import forward_kinematics
-from ...tasks.model import Configuration
+from ..geometry.regions import BezierRegion, SphereCap
+from ..geometry.rotations import signed_angle
+from ..hands.kinematics import forward_kinematics
+from ..tasks.model import Configuration
 from .formulation import Formulation
 
 __all__ = ["embed", "configuration_from_point"]
