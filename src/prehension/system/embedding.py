@@ -19,17 +19,18 @@ from ..geometry.rotations import signed_angle
 from ..hands.kinematics import forward_kinematics
 from ..tasks.model import Configuration
 from .formulation import Formulation
+from .keys import BaseKey, ContactVariables, NormalLength, PalmOrigin, PatchParameter, RotationEntry, Side
 
 __all__ = ["embed", "configuration_from_point"]
 
 
-def _object_frame_rotations(form: Formulation, config: Configuration) -> tuple[dict, np.ndarray]:
-    """Link rotations and the palm origin in the object frame."""
+def _object_frame_pose(form: Formulation, config: Configuration) -> tuple[dict, np.ndarray]:
+    """``R_object_link`` for every link of the system, and ``p_palm_in_object`` [mm]."""
     hand = form.task.hand
     pose = forward_kinematics(hand, config.joint_angles)
-    R_po, t_po = config.T_palm_object[:3, :3], config.T_palm_object[:3, 3]
-    rot = {link: R_po.T @ pose.R_palm_link[0, hand.link_index(link)] for link in form.links}
-    return rot, R_po.T @ (-t_po)
+    R_palm_object, p_object_in_palm = config.T_palm_object[:3, :3], config.T_palm_object[:3, 3]
+    R_object_link = {link: R_palm_object.T @ pose.R_palm_link[0, hand.link_index(link)] for link in form.links}
+    return R_object_link, R_palm_object.T @ (-p_object_in_palm)
 
 
 def _patch_values(patch, st: np.ndarray) -> tuple[np.ndarray, float]:
@@ -41,39 +42,29 @@ def _patch_values(patch, st: np.ndarray) -> tuple[np.ndarray, float]:
 
 def embed(form: Formulation, config: Configuration) -> np.ndarray:
     """The system point of a configuration that carries its contact parameters."""
-    task = form.task
     if config.contact_params is None:
         raise ValueError("embed needs a configuration with contact parameters")
-    rot, r0 = _object_frame_rotations(form, config)
-    values: dict[int, float] = {}
-    for i, key in form.base_keys.items():
-        values[i] = _base_value(key, rot, r0, task, config)
+    R_object_link, p_palm_in_object = _object_frame_pose(form, config)
+    values = {i: _base_value(key, R_object_link, p_palm_in_object, form.task, config) for i, key in form.base_keys.items()}
     return form.builder.complete_point(values)
 
 
-def _base_value(key, rot, r0, task, config) -> float:
-    kind = key[0]
-    if kind == "R":
-        return float(rot[key[1]][key[2], key[3]])
-    if kind == "r0":
-        return float(r0[key[1]])
-    ci = key[1]
-    contact = task.contacts[ci]
-    hparams, oparams = config.contact_params[ci]
-    if kind in ("os", "ot"):
-        return float(oparams[0 if kind == "os" else 1])
-    if kind in ("hs", "ht"):
-        return float(hparams[0 if kind == "hs" else 1])
-    if kind in ("onu", "omu"):
-        region = task.object_region(contact)
-        if isinstance(region, SphereCap):
-            return float(region.normals(oparams[None])[0][key[2]])
-        nu, mu = _patch_values(region.patch, oparams)
-        return mu if kind == "omu" else float(nu[key[2]])
-    if kind in ("hnu", "hmu"):
-        nu, mu = _patch_values(task.hand_region(contact).region.patch, hparams)
-        return mu if kind == "hmu" else float(nu[key[2]])
-    raise KeyError(f"unknown base variable {key}")
+def _base_value(key: BaseKey, R_object_link: dict, p_palm_in_object: np.ndarray, task, config) -> float:
+    """The value of one base variable at a configuration (dispatch on the key's type)."""
+    if isinstance(key, RotationEntry):
+        return float(R_object_link[key.link][key.row, key.col])
+    if isinstance(key, PalmOrigin):
+        return float(p_palm_in_object[key.axis])
+    contact = task.contacts[key.contact]
+    hand_params, object_params = config.contact_params[key.contact]
+    params = object_params if key.side == Side.OBJECT else hand_params
+    if isinstance(key, PatchParameter):
+        return float(params[key.index])
+    region = task.object_region(contact) if key.side == Side.OBJECT else task.hand_region(contact).region
+    if isinstance(region, SphereCap):  # an object cap: its normal, no patch
+        return float(region.normals(params[None])[0][key.axis])
+    nu, mu = _patch_values(region.patch, params)
+    return mu if isinstance(key, NormalLength) else float(nu[key.axis])
 
 
 def _orthonormal(R: np.ndarray) -> np.ndarray:
@@ -84,23 +75,23 @@ def _orthonormal(R: np.ndarray) -> np.ndarray:
     return R
 
 
-def _joint_angles(form: Formulation, rot: dict[str, np.ndarray]) -> np.ndarray:
+def _joint_angles(form: Formulation, R_object_link: dict[str, np.ndarray]) -> np.ndarray:
     """Joint angles read from link rotations; angles outside the system keep idle values,
     clipped into the limits, and coupled angles follow their sources."""
     task, hand = form.task, form.task.hand
     q = task.idle_vector.copy()
     for joint, off in zip(hand.joints, hand.dof_offsets):
-        if joint.child not in rot:
+        if joint.child not in R_object_link:
             continue
-        R_rel = rot[joint.parent].T @ rot[joint.child]
+        R_parent_child = R_object_link[joint.parent].T @ R_object_link[joint.child]
         u, R0 = joint.axis_in_parent, joint.R_parent_child_zero
         if joint.kind == "revolute":
             a = np.cross(u, np.eye(3)[int(np.argmin(np.abs(u)))])
-            q[off] = float(signed_angle(a, R_rel @ R0.T @ a, u))
+            q[off] = float(signed_angle(a, R_parent_child @ R0.T @ a, u))
         else:
             v = joint.axis_in_child
-            q[off] = float(signed_angle(R0 @ v, R_rel @ v, u))
-            q[off + 1] = float(signed_angle(R_rel.T @ u, R0.T @ u, v))
+            q[off] = float(signed_angle(R0 @ v, R_parent_child @ v, u))
+            q[off + 1] = float(signed_angle(R_parent_child.T @ u, R0.T @ u, v))
     q = np.clip(q, hand.lower, hand.upper)
     for c in hand.couplings:
         q[hand.dof_index(c.dof)] = c.ratio * q[hand.dof_index(c.source)] + c.offset
@@ -109,44 +100,42 @@ def _joint_angles(form: Formulation, rot: dict[str, np.ndarray]) -> np.ndarray:
 
 def configuration_from_point(form: Formulation, x: np.ndarray) -> Configuration:
     """A configuration read from a system point (rotations re-orthonormalised)."""
-    rot = {link: _orthonormal(x[idx]) for link, idx in form.rot.items()}
-    R_op, r0 = rot[form.task.hand.palm], x[form.r0]
-    T = np.eye(4)
-    T[:3, :3], T[:3, 3] = R_op.T, -R_op.T @ r0  # T_palm_object = inverse of T_object_palm
+    R_object_link = {link: _orthonormal(x[idx]) for link, idx in form.R_object_link.items()}
+    R_object_palm, p_palm_in_object = R_object_link[form.task.hand.palm], x[form.p_palm_in_object]
+    T_palm_object = np.eye(4)  # the inverse of T_object_palm
+    T_palm_object[:3, :3], T_palm_object[:3, 3] = R_object_palm.T, -R_object_palm.T @ p_palm_in_object
     params = []
-    for ci, contact in enumerate(form.task.contacts):
-        info = form.contact_vars[ci]
-        params.append((_hand_params(form, ci, contact, info, x, rot), _object_params(form, contact, info, x)))
-    return Configuration(_joint_angles(form, rot), T, tuple(params))
+    for contact, variables in zip(form.task.contacts, form.contact_vars):
+        hand = _hand_params(form, contact, variables, x, R_object_link)
+        params.append((hand, _object_params(form, contact, variables, x)))
+    return Configuration(_joint_angles(form, R_object_link), T_palm_object, tuple(params))
 
 
-def _object_params(form, contact, info, x) -> np.ndarray:
+def _object_params(form: Formulation, contact, variables: ContactVariables, x) -> np.ndarray:
     region = form.task.object_region(contact)
     if isinstance(region, BezierRegion):
-        return np.clip(x[list(info["o_params"])], 0.0, 1.0)
+        return np.clip(x[list(variables.object_params)], 0.0, 1.0)
     if isinstance(region, SphereCap):
-        nu = x[info["object_nu"]]
+        nu = x[list(variables.object_normal)]
         return np.zeros(2) if np.linalg.norm(nu) < 1e-6 else region.params_for_normal(nu)[0]
     return np.zeros(0)
 
 
-def _hand_params(form, ci, contact, info, x, rot) -> np.ndarray:
+def _hand_params(form: Formulation, contact, variables: ContactVariables, x, R_object_link) -> np.ndarray:
     hreg = form.task.hand_region(contact)
     region = hreg.region
     if isinstance(region, BezierRegion):
-        return np.clip(x[list(info["h_params"])], 0.0, 1.0)
+        return np.clip(x[list(variables.hand_params)], 0.0, 1.0)
     if isinstance(region, SphereCap):
-        nu = _object_normal(form, contact, info, x)
+        nu = _object_normal(form, contact, variables, x)
         if np.linalg.norm(nu) < 1e-6:  # no direction in this point: the cap's axis
             return np.zeros(2)
-        return region.params_for_normal(rot[hreg.link].T @ -nu)[0]
+        return region.params_for_normal(R_object_link[hreg.link].T @ -nu)[0]
     return np.zeros(0)
 
 
-def _object_normal(form, contact, info, x) -> np.ndarray:
-    region = form.task.object_region(contact)
-    if "o_nu" in info:
-        return x[info["o_nu"]]
-    if "object_nu" in info:
-        return x[info["object_nu"]]
-    return region.normal
+def _object_normal(form: Formulation, contact, variables: ContactVariables, x) -> np.ndarray:
+    """The unit outward object normal in the object frame (constant for a point region)."""
+    if variables.object_normal is not None:
+        return x[list(variables.object_normal)]
+    return form.task.object_region(contact).normal

@@ -97,15 +97,10 @@ class BoxOutcome:
     best: tuple = (float("inf"), float("inf"))  # (contact_mm, normal_deg) the verification came closest to
 
 
-def _base_indices(form: Formulation) -> np.ndarray:
-    """Variables worth splitting: the base ones (rotations, palm position, parameters...)."""
-    return np.array(sorted(form.base_keys), dtype=int)
-
-
 def _scaled_widths(form: Formulation, lower, upper) -> np.ndarray:
     system = form.system
     ref = np.maximum(system.upper - system.lower, 1e-12)
-    base = _base_indices(form)
+    base = form.base_indices
     return (upper[base] - lower[base]) / ref[base]
 
 
@@ -156,7 +151,7 @@ def process_box(form: Formulation, lower, upper, depth: int, options: BranchAndP
         solution, best = _verify(form, lower, upper, options)
         if solution is not None:
             return BoxOutcome("solution", lower, upper, depth, 0, solution, best=best)
-    shrink_options = replace(options.shrink, variables=tuple(_base_indices(form).tolist()))
+    shrink_options = replace(options.shrink, variables=tuple(form.base_indices.tolist()))
     shrunk = shrink_box(form.system, lower, upper, shrink_options)
     if shrunk.empty:
         return BoxOutcome("empty", shrunk.lower, shrunk.upper, depth, shrunk.n_lps, best=best)
@@ -168,7 +163,7 @@ def process_box(form: Formulation, lower, upper, depth: int, options: BranchAndP
             if solution is not None:
                 return BoxOutcome("solution", lo, hi, depth, shrunk.n_lps, solution, best=best)
         return BoxOutcome("small", lo, hi, depth, shrunk.n_lps, best=best)
-    k = _base_indices(form)[int(np.argmax(widths))]
+    k = form.base_indices[int(np.argmax(widths))]
     mid = 0.5 * (lo[k] + hi[k])
     left_hi, right_lo = hi.copy(), lo.copy()
     left_hi[k], right_lo[k] = mid, mid
@@ -178,7 +173,7 @@ def process_box(form: Formulation, lower, upper, depth: int, options: BranchAndP
 def _inside(form: Formulation, solution: Solution, lower, upper) -> bool:
     """Whether a solution's base coordinates lie in the box (to rounding)."""
     x = embed(form, solution.configuration())
-    base = _base_indices(form)
+    base = form.base_indices
     slack = 1e-9 * np.maximum(form.system.upper - form.system.lower, 1.0)[base]
     return bool(np.all(x[base] >= lower[base] - slack) and np.all(x[base] <= upper[base] + slack))
 
