@@ -6,8 +6,6 @@ import numpy as np
 import pytest
 
 from fk_tasks import build_fk_case
-from prehension.errors import InvalidTask
-from prehension.hands.model import Coupling
 from prehension.system.embedding import configuration_from_point, embed
 from prehension.system.formulation import build_system
 from prehension.system.keys import NormalLength, PalmOrigin, PatchParameter, RotationEntry, Side, UnitNormal
@@ -68,16 +66,6 @@ def test_builtin_systems_have_the_expected_shape(name):
     assert len(system.bernstein) == 6 * len(form.task.contacts)  # point + normal patch, 3 each
     assert np.all(system.lower <= system.upper)
     assert np.all(np.isfinite(system.lower)) and np.all(np.isfinite(system.upper))
-
-
-def test_unsupported_coupling_ratio_is_refused(sa_hand):
-    rng = np.random.default_rng(3)
-    case = build_fk_case(sa_hand, rng, fingers=("thumb", "index"))
-    couplings = tuple(Coupling(c.dof, c.source, 0.5 if c.dof == "index_dip" else 1.0) for c in sa_hand.couplings)
-    hand = type(sa_hand)(sa_hand.name, sa_hand.links, sa_hand.joints, couplings, sa_hand.fingers, sa_hand.regions)
-    task = Task("half", hand, case.task.object, case.task.contacts, case.task.fingers)
-    with pytest.raises(InvalidTask, match="ratio \\+1 or -1"):
-        build_system(task)
 
 
 def test_system_jacobian_matches_finite_differences(sa_hand):

@@ -21,8 +21,10 @@ Choices (each keeps the system exact; see ``docs/complete-solver.md``):
   the angle about an axis ``w`` from a vector ``a`` to a vector ``b`` fixed in the two
   links: ``cos theta = a . b``, ``sin theta = (w x a) . b``, and the range
   ``[mid - h, mid + h]`` is ``cos(mid) cos theta + sin(mid) sin theta >= cos h`` (linear).
-  **Couplings** with ratio +-1 and any offset are linear in these cosines and sines (sec.
-  5.1 equates them); other ratios are refused.
+  **Couplings** ``theta_d = r theta_s + o`` (:mod:`.couplings`): with ``r = +-1`` linear
+  in these cosines and sines (sec. 5.1 equates them), with any simple rational ``r = p/q``
+  polynomial (multiple-angle identities), and for every ratio an angle coupling that the
+  solver enforces by interval reasoning on the angles.
 * **Contacts** (eqs. 15-25): the object point ``o = f(s, t)`` and the normal patch
   ``N = g(s, t)`` are Bernstein forms (eq. 32); ``N = mu nu`` with ``|nu| = 1`` and
   ``mu >= 0`` makes ``nu`` the unit outward normal.  A fingertip sphere cap gives
@@ -42,13 +44,13 @@ from functools import cached_property
 
 import numpy as np
 
-from ..errors import InvalidTask
 from ..geometry.regions import BezierRegion, PointRegion, SphereCap
 from ..hands.model import Joint
 from ..hands.reach import span_bound_mm
 from ..tasks.model import Task
 from .builder import Builder, Lin, lin_sum
 from .canonical import System
+from .couplings import add_coupling
 from .keys import BaseKey, ContactVariables, NormalLength, PalmOrigin, PatchParameter, RotationEntry, Side, UnitNormal
 
 __all__ = ["Formulation", "DofAngle", "build_system"]
@@ -254,19 +256,6 @@ class _Formulator:
             shifted = Lin.var(cos_i, np.cos(ang.mid)) + Lin.var(sin_i, np.sin(ang.mid))
             self.b.inequality(Lin.constant(np.cos(ang.half_range)) - shifted)
 
-    def add_coupling(self, cpl) -> None:
-        """``theta_d = r theta_s + o`` with ``r = +-1``: cosines and sines of both sides."""
-        if abs(abs(cpl.ratio) - 1.0) > 1e-12:
-            raise InvalidTask(
-                f"coupling {cpl.dof} = {cpl.ratio} x {cpl.source} + offset: the complete solver handles "
-                "couplings with ratio +1 or -1 only (equal or opposite angles, any offset)"
-            )
-        r, o = float(np.sign(cpl.ratio)), cpl.offset
-        cd, sd = (Lin.var(i) for i in self.dof_vars[cpl.dof])
-        cs, ss = (Lin.var(i) for i in self.dof_vars[cpl.source])
-        self.b.equation(cd - (cs * np.cos(o) - ss * (r * np.sin(o))))
-        self.b.equation(sd - (ss * (r * np.cos(o)) + cs * np.sin(o)))
-
     # contacts --------------------------------------------------------------------
     def unit_vector(self, ci: int, side: Side, name: str) -> list[int]:
         nu = [self.base(UnitNormal(ci, side, r), f"{name}[{r}]", -1.0, 1.0) for r in range(3)]
@@ -451,7 +440,7 @@ def build_system(task: Task) -> Formulation:
         # A coupling with only one side in the system constrains nothing the system sees:
         # dropping it only enlarges the set searched (verification still checks it).
         if cpl.dof in f.dof_vars and cpl.source in f.dof_vars:
-            f.add_coupling(cpl)
+            add_coupling(f.b, task.hand, cpl, f.dof_vars)
     for ci, contact in enumerate(task.contacts):
         f.add_contact(ci, contact)
     f.add_reach_constraints()

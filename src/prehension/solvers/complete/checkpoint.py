@@ -8,7 +8,7 @@ original lid task would "prove" the feasible task infeasible).  So a checkpoint 
 two fingerprints, and :func:`load_state` refuses one that does not match:
 
 * **task**: SHA-256 of the canonical system (names, initial box, every equation and
-  inequality, the Psi equations with their Bernstein coefficients) and of the task's
+  inequality, the Psi equations with their Bernstein coefficients, the angle couplings) and of the task's
   file mapping without its name and description (the idle angles, collision shapes and
   couplings that verification judges);
 * **options**: SHA-256 of every option that changes the boxes visited or the answer:
@@ -100,6 +100,8 @@ def _system_digest(form: Formulation) -> "hashlib._Hash":
             h.update(np.ascontiguousarray(array).tobytes())
     for eq in s.bernstein:
         h.update(f"{eq.k},{eq.i},{eq.j}".encode() + np.ascontiguousarray(eq.coeffs, dtype=float).tobytes())
+    for c in s.couplings:
+        h.update(repr(c).encode())
     return h
 
 

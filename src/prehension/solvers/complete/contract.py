@@ -14,6 +14,8 @@ variable being intersected with ``np.fmax.at`` / ``np.fmin.at``):
   ``0 not in [l_j, u_j]`` (and symmetrically).
 * ``x_k = f(x_i, x_j)``: ``x_k in [min, max]`` of the control points of ``f`` on the
   sub-box (convex-hull property), padded by their rounding bound.
+* Angle couplings (:mod:`.couplings`): the interval of each coupled angle, narrowed by
+  the other's, bounds its cosine and sine.
 * Linear rows ``lo_r <= sum_j a_rj x_j <= hi_r`` (equations: ``lo = hi = b``;
   inequalities: ``lo = -inf``, ``hi = h``).  With the term intervals ``t_rj = a_rj
   [l_j, u_j]`` and the row sums ``S_r = sum_j t_rj``, the others' sum is
@@ -39,6 +41,7 @@ from typing import NamedTuple
 import numpy as np
 import scipy.sparse as sp
 
+from .couplings import contract_couplings
 from .relaxations import EPS, TINY, bernstein_control_points, down, up
 from ...system.canonical import System
 
@@ -213,6 +216,7 @@ def contract(
             lambda: _contract_bernstein(groups, lower, upper),
             lambda: contract_linear(system.A, eq_lo, eq_hi, lower, upper),
             lambda: contract_linear(system.G, ineq_lo, ineq_hi, lower, upper),
+            lambda: contract_couplings(system.couplings, lower, upper),
         )
         for step in steps:
             if step() or _is_empty(lower, upper):
