@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -112,6 +113,21 @@ def test_all_solutions_mode_reports_each_solution_in_its_own_box():
         assert make_solution(result.task, solution.configuration()) is not None
 
 
+def test_all_solutions_mode_stops_at_its_default_box_budget_with_a_cover(monkeypatch):
+    from prehension.solvers.complete import search
+
+    monkeypatch.setattr(search, "ALL_SOLUTIONS_MAX_BOXES", 12)
+    options = BranchAndPruneOptions(sigma=0.3, order="breadth", all_solutions=True)
+    result = solve_complete(pincer_task(30.0), options)
+    assert result.stats["boxes"] == 12 and result.stats["open_boxes"] > 0
+    assert "partial description" in result.message and "default of the solution-set mode" in result.message
+    assert result.stats["open_box_solutions"] <= result.stats["open_boxes"]
+    for solution in result.solutions:
+        assert make_solution(result.task, solution.configuration()) is not None
+    explicit = solve_complete(pincer_task(30.0), replace(options, max_boxes=20))  # an explicit limit wins
+    assert explicit.stats["boxes"] == 20
+
+
 def test_workers_visit_the_same_boxes_as_one_process():
     """Outcomes are taken in one-process order: any executor gives the same search."""
     task = pincer_task(50.0)
@@ -138,7 +154,7 @@ def test_solutions_found_before_a_stop_survive_the_resume(tmp_path):
     ckpt = tmp_path / "all.json"
     first = solve_complete(pincer_task(30.0), BranchAndPruneOptions(max_boxes=26, **options), checkpoint=ckpt)
     assert first.solutions and first.stats["open_boxes"] > 0  # stopped with a solution in hand
-    assert len(first.solutions) < len(whole.solutions)
+    assert len(first.solutions) - first.stats["open_box_solutions"] < len(whole.solutions)
     resumed = solve_complete(pincer_task(30.0), BranchAndPruneOptions(**options), checkpoint=ckpt, resume=True)
     assert resumed.stats["boxes"] == whole.stats["boxes"]
     assert len(resumed.solutions) == len(whole.solutions) >= 1

@@ -41,7 +41,16 @@ from .checkpoint import SearchState, load_state, save_state, search_fingerprint
 from .contract import contract
 from .shrink import ShrinkOptions, shrink_box
 
-__all__ = ["BranchAndPruneOptions", "solve_complete", "process_box", "BoxOutcome"]
+__all__ = ["ALL_SOLUTIONS_MAX_BOXES", "BranchAndPruneOptions", "solve_complete", "process_box", "BoxOutcome"]
+
+#: Default box budget of the solution-set mode (``all_solutions`` with neither ``max_boxes``
+#: nor ``time_limit_s``).  A cover of a ``d``-dimensional solution set by boxes narrower
+#: than ``sigma`` takes at least ``(1/sigma)^d`` boxes, and grasp problems have large ``d``
+#: (scalpel-upholding: 87 base variables, ``d = 11``, ~1.5 s per box on one core: no
+#: ``sigma < 1`` ends in minutes), so the description stops after this many boxes and
+#: reports the boxes still open as the rest of the cover (each verified for a solution
+#: inside it).  scalpel-upholding: 200 boxes took 9.5 min on one core of a loaded machine.
+ALL_SOLUTIONS_MAX_BOXES = 100
 
 
 @dataclass(frozen=True)
@@ -53,7 +62,9 @@ class BranchAndPruneOptions:
             the initial box) is a solution box and is not split further.
         order: ``"depth"`` (stop at the first verified solution) or ``"breadth"``.
         all_solutions: keep searching after a verified solution (solution-set mode).
-        max_boxes: stop (``gave_up``) after this many boxes.
+        max_boxes: stop (``gave_up``) after this many boxes.  In the solution-set mode
+            (``all_solutions``) with neither this nor ``time_limit_s`` given, the search
+            stops after :data:`ALL_SOLUTIONS_MAX_BOXES` boxes.
         time_limit_s: stop (``gave_up``) after this many seconds.
         shrink: box-shrinking options.
         verify_starts: points of each box the verification starts from: its centre and
@@ -199,9 +210,18 @@ def _done(state: SearchState, options: BranchAndPruneOptions) -> bool:
     return bool(state.solutions) and not options.all_solutions
 
 
+def _box_budget(options: BranchAndPruneOptions) -> int | None:
+    """``max_boxes``, or the solution-set mode's default budget when no limit is given."""
+    if options.max_boxes is None and options.time_limit_s is None and options.all_solutions:
+        return ALL_SOLUTIONS_MAX_BOXES
+    return options.max_boxes
+
+
 def _limits_hit(state: SearchState, options: BranchAndPruneOptions, started: float) -> str:
-    if options.max_boxes is not None and state.boxes >= options.max_boxes:
-        return f"box limit ({options.max_boxes}) reached"
+    budget = _box_budget(options)
+    if budget is not None and state.boxes >= budget:
+        default = " (the default of the solution-set mode)" if options.max_boxes is None else ""
+        return f"box limit ({budget}){default} reached"
     if options.time_limit_s is not None and time.perf_counter() - started > options.time_limit_s:
         return f"time limit ({options.time_limit_s:g} s) reached"
     return ""
@@ -243,7 +263,21 @@ def solve_complete(
     if stop:
         save_state(checkpoint, state, fingerprint)
         stop += _saved_note(checkpoint)
-    return _result(task, form, state, options, started, stop)
+    in_open = _verify_open_boxes(form, state, options) if stop and options.all_solutions else ()
+    return _result(task, form, state, options, started, stop, in_open)
+
+
+def _verify_open_boxes(form: Formulation, state: SearchState, options: BranchAndPruneOptions) -> tuple[Solution, ...]:
+    """A stopped description of the solution set: the boxes still open complete the cover
+    (the pruned boxes hold no solution); each is verified for a solution inside it, so a
+    stopped run still answers with the verified solutions it can.  They are not added to
+    the search state (a resumed search finds them again in the leaves)."""
+    found = []
+    for lower, upper, _ in state.open:
+        solution, _ = _verify(form, lower, upper, options, in_box=True)
+        if solution is not None:
+            found.append(solution)
+    return tuple(found)
 
 
 def _saved_note(checkpoint) -> str:
@@ -299,16 +333,21 @@ def _report(progress, state: SearchState, in_flight: int) -> None:
                   "best residual": best})  # fmt: skip
 
 
-def _result(task, form, state: SearchState, options, started: float, stop: str) -> SolveResult:
+def _result(task, form, state: SearchState, options, started: float, stop: str, in_open: tuple = ()) -> SolveResult:
     seconds = time.perf_counter() - started
     stats = {"boxes": state.boxes, "lps": state.lps, "max_depth": state.max_depth, "open_boxes": len(state.open),
              "n_variables": form.system.n, "n_equations": form.system.n_equations, "options": _options_dict(options),
              "best_residual": {"contact_mm": state.best[0], "normal_deg": state.best[1]} if np.isfinite(max(state.best)) else None}  # fmt: skip
     small = tuple(state.small)
-    if state.solutions and options.all_solutions:
+    if options.all_solutions and stop and (state.solutions or in_open):
+        status = Status.SOLVED
+        msg = (f"partial description of the solution set (stopped: {stop}): {len(state.solutions)} solution box(es) "
+               f"with a verified solution and {len(small)} without, and {len(state.open)} open box(es) wider than sigma, "
+               f"{len(in_open)} of them with a verified solution inside, after {state.boxes} boxes and {state.lps} LPs")  # fmt: skip
+    elif state.solutions and options.all_solutions:
         status = Status.SOLVED
         msg = (f"{len(state.solutions)} solution box(es) with a verified solution and {len(small)} without, "
-               f"after {state.boxes} boxes and {state.lps} LPs" + (f" (stopped: {stop})" if stop else ""))  # fmt: skip
+               f"after {state.boxes} boxes and {state.lps} LPs")  # fmt: skip
     elif state.solutions:
         status, msg = Status.SOLVED, f"verified solution found after {state.boxes} boxes and {state.lps} LPs"
     elif stop:
@@ -319,7 +358,8 @@ def _result(task, form, state: SearchState, options, started: float, stop: str) 
     else:
         status = Status.INFEASIBLE
         msg = f"infeasible: all {state.boxes} boxes pruned ({state.lps} linear programs)"
-    return SolveResult(task, "complete", status, msg, tuple(state.solutions), seconds, stats, small)
+    stats["open_box_solutions"] = len(in_open)
+    return SolveResult(task, "complete", status, msg, tuple(state.solutions) + in_open, seconds, stats, small)
 
 
 def _options_dict(options: BranchAndPruneOptions) -> dict:
