@@ -76,14 +76,14 @@ def test_shrinking_a_box_around_a_known_solution_keeps_it(sa_hand, seed):
 
 
 def test_time_limit_gives_up_and_checkpoint_resumes(tmp_path):
-    task = pincer_task(50.0)  # infeasible, needs tens of boxes
+    task = pincer_task(50.0)  # infeasible, needs tens of boxes (without the pair test, which proves it at once)
     ckpt = tmp_path / "search.json"
-    first = solve_complete(task, BranchAndPruneOptions(max_boxes=3), checkpoint=ckpt)
+    first = solve_complete(task, BranchAndPruneOptions(max_boxes=3, pair_test_boxes=0), checkpoint=ckpt)
     assert first.status == Status.GAVE_UP and "box limit" in first.message and str(ckpt) in first.message
     saved = json.loads(ckpt.read_text())
     assert saved["open"] and saved["boxes"] == 3
     assert saved["search"]["task"] and saved["search"]["options"]  # bound to its task and options
-    resumed = solve_complete(task, FAST, checkpoint=ckpt, resume=True)
+    resumed = solve_complete(task, replace(FAST, pair_test_boxes=0), checkpoint=ckpt, resume=True)
     assert resumed.status == Status.INFEASIBLE
     assert resumed.stats["boxes"] > 3  # counted from where the first run stopped
 
@@ -194,18 +194,18 @@ def test_a_checkpoint_of_another_task_is_refused(tmp_path):
 def test_a_checkpoint_resumed_with_other_options_is_refused_and_same_options_resume(tmp_path):
     from prehension.errors import PrehensionError
 
-    task = pincer_task(50.0)
+    task = pincer_task(50.0)  # searched box by box: without the pair test
     ckpt = tmp_path / "search.json"
-    solve_complete(task, BranchAndPruneOptions(max_boxes=2), checkpoint=ckpt)
+    solve_complete(task, BranchAndPruneOptions(max_boxes=2, pair_test_boxes=0), checkpoint=ckpt)
     with pytest.raises(PrehensionError, match=r"other search options \(sigma 0.1 -> 0.05\)"):
-        solve_complete(task, BranchAndPruneOptions(sigma=0.05), checkpoint=ckpt, resume=True)
+        solve_complete(task, BranchAndPruneOptions(sigma=0.05, pair_test_boxes=0), checkpoint=ckpt, resume=True)
     with pytest.raises(PrehensionError, match=r"shrink.rho 0.9 -> 0.5; verify_starts 8 -> 2"):
-        solve_complete(task, BranchAndPruneOptions(shrink=ShrinkOptions(rho=0.5), verify_starts=2),
+        solve_complete(task, BranchAndPruneOptions(shrink=ShrinkOptions(rho=0.5), verify_starts=2, pair_test_boxes=0),
                        checkpoint=ckpt, resume=True)  # fmt: skip
     with pytest.raises(PrehensionError, match=r"tolerances.contact_mm 1e-06 -> 0.001"):
-        solve_complete(task, BranchAndPruneOptions(tolerances=Tolerances(contact_mm=1e-3)), checkpoint=ckpt, resume=True)
+        solve_complete(task, BranchAndPruneOptions(tolerances=Tolerances(contact_mm=1e-3), pair_test_boxes=0), checkpoint=ckpt, resume=True)
     # stop-only options may change; the same task and options resume where they stopped
-    resumed = solve_complete(task, BranchAndPruneOptions(time_limit_s=100), checkpoint=ckpt, resume=True)
+    resumed = solve_complete(task, BranchAndPruneOptions(time_limit_s=100, pair_test_boxes=0), checkpoint=ckpt, resume=True)
     assert resumed.status == Status.INFEASIBLE and resumed.stats["boxes"] > 2
 
 

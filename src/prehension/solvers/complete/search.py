@@ -38,10 +38,11 @@ from ..local.solver import refine_local
 from ...system.embedding import configuration_from_point, embed
 from ...system.formulation import Formulation, build_system
 from .checkpoint import SearchState, load_state, save_state, search_fingerprint
+from .congruence import congruence_test
 from .contract import contract
 from .shrink import ShrinkOptions, shrink_box
 
-__all__ = ["ALL_SOLUTIONS_MAX_BOXES", "BranchAndPruneOptions", "solve_complete", "process_box", "BoxOutcome"]
+__all__ = ["ALL_SOLUTIONS_MAX_BOXES", "PAIR_TEST_LATE", "BranchAndPruneOptions", "solve_complete", "process_box", "BoxOutcome"]
 
 #: Default box budget of the solution-set mode (``all_solutions`` with neither ``max_boxes``
 #: nor ``time_limit_s``).  A cover of a ``d``-dimensional solution set by boxes narrower
@@ -51,6 +52,9 @@ __all__ = ["ALL_SOLUTIONS_MAX_BOXES", "BranchAndPruneOptions", "solve_complete",
 #: reports the boxes still open as the rest of the cover (each verified for a solution
 #: inside it).  scalpel-upholding: 200 boxes took 9.5 min on one core of a loaded machine.
 ALL_SOLUTIONS_MAX_BOXES = 100
+
+#: Boxes without a verified solution after which the pair test runs with its full budget.
+PAIR_TEST_LATE = 16
 
 
 @dataclass(frozen=True)
@@ -72,6 +76,15 @@ class BranchAndPruneOptions:
             box is verified the same way in every process).
         refine: options of the local iterations that verify a box.
         tolerances: what counts as a verified solution (strict by default).
+        pair_test_boxes: box budget of the pose-free pair test
+            (:func:`.congruence.congruence_test`): a proof that two contacts cannot be
+            made together whatever the object's pose ends the search as infeasible.  It
+            runs with a tenth of this budget when the first box holds no verified
+            solution, and again with all of it after :data:`PAIR_TEST_LATE` boxes
+            without one (unless the first run met a witness: a box of the pair's
+            variables narrower than 1e-7 that satisfies its conditions).  0 turns it
+            off.  A budget in boxes, not seconds, so that the search is the same on
+            every machine.
     """
 
     sigma: float = 0.1
@@ -83,12 +96,15 @@ class BranchAndPruneOptions:
     verify_starts: int = 8
     refine: LocalOptions = field(default_factory=LocalOptions)
     tolerances: Tolerances = field(default_factory=Tolerances)
+    pair_test_boxes: int = 200_000
 
     def __post_init__(self):
         if not 0.0 < self.sigma < 1.0:
             raise PrehensionError(f"sigma must lie in (0, 1) (a fraction of the initial box), got {self.sigma}")
         if not (isinstance(self.verify_starts, int) and self.verify_starts >= 1):
             raise PrehensionError(f"verify_starts must be an integer >= 1, got {self.verify_starts!r}")
+        if not (isinstance(self.pair_test_boxes, int) and self.pair_test_boxes >= 0):
+            raise PrehensionError(f"pair_test_boxes must be an integer >= 0, got {self.pair_test_boxes!r}")
         if self.order not in ("depth", "breadth"):
             raise PrehensionError(f"order must be 'depth' or 'breadth', got {self.order!r}")
 
@@ -311,11 +327,32 @@ def _run(form, state, options, executor, workers, started, progress) -> str:
                 outcome = ahead.pop(id(entry)).result()
             state.open.pop()
             _record(state, outcome, options)
+            if not state.solutions and state.open and options.pair_test_boxes:
+                _pair_test(form, state, options)
             _report(progress, state, len(ahead))
         return ""
     finally:
         for future in ahead.values():
             future.cancel()
+
+
+def _pair_test(form: Formulation, state: SearchState, options: BranchAndPruneOptions) -> None:
+    """The pose-free pair test at its two moments (see ``pair_test_boxes``); when it proves
+    two contacts incompatible no box can hold a solution: the open (and small) boxes are
+    discarded and the proof kept in the state."""
+    if state.boxes == 1:
+        budget = options.pair_test_boxes // 10
+    elif state.boxes == PAIR_TEST_LATE and state.pair_test is not None:
+        if not any(outcome.stopped == "budget" for _, outcome in state.pair_test.outcomes):
+            return  # every pair met a witness (or had no test): more boxes would not prove it
+        budget = options.pair_test_boxes
+    else:
+        return
+    proof = congruence_test(form.task, max_boxes=budget, time_limit_s=None)
+    state.pair_test = proof
+    if proof.proved:
+        state.open.clear()
+        state.small.clear()
 
 
 def _submit_ahead(form, state: SearchState, options, executor: Executor, workers: int, ahead: dict) -> None:
@@ -355,10 +392,19 @@ def _result(task, form, state: SearchState, options, started: float, stop: str, 
     elif small:
         status = Status.GAVE_UP
         msg = f"{len(small)} box(es) narrower than sigma hold no verified solution; try a smaller sigma"
+    elif state.pair_test is not None and state.pair_test.proved:
+        a, b = state.pair_test.pair
+        status = Status.INFEASIBLE
+        msg = (f"infeasible: contacts {task.contacts[a].name} and {task.contacts[b].name} cannot be made together "
+               f"whatever the object's pose (pair test: {state.pair_test.boxes} boxes pruned, after {state.boxes} "
+               f"box(es) and {state.lps} LPs of the search)")  # fmt: skip
     else:
         status = Status.INFEASIBLE
         msg = f"infeasible: all {state.boxes} boxes pruned ({state.lps} linear programs)"
     stats["open_box_solutions"] = len(in_open)
+    if state.pair_test is not None:
+        stats["pair_test"] = {"proved": state.pair_test.proved, "boxes": state.pair_test.boxes,
+                              "pair": list(state.pair_test.pair) if state.pair_test.pair else None}  # fmt: skip
     return SolveResult(task, "complete", status, msg, tuple(state.solutions) + in_open, seconds, stats, small)
 
 
