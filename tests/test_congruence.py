@@ -141,6 +141,22 @@ def test_boxes_around_a_known_solution_are_never_pruned(case):
     assert np.all(kept_lo <= z) and np.all(z <= kept_hi)
 
 
+def test_every_pair_of_a_forward_built_task_with_the_palm_keeps_its_solution():
+    rng = np.random.default_rng(7)
+    case = build_fk_case(schunk_sa_hand(), rng, fingers=("thumb", "index", "middle"), palm=True)
+    task, config = case.task, case.config
+    for a in range(len(task.contacts)):
+        for b in range(a + 1, len(task.contacts)):
+            pp = cg.pair_problem(task, a, b)
+            z = np.concatenate([config.joint_angles[pp.kin.problem.sources]]
+                               + [np.atleast_1d(config.contact_params[i][1]) for i in (a, b)])  # fmt: skip
+            width = (pp.upper - pp.lower) * 10.0 ** rng.uniform(-6, 0, (100, 1))
+            lo = np.maximum(pp.lower, z - rng.uniform(0, 1, (100, pp.n_dims)) * width)
+            hi = np.maximum(np.minimum(pp.upper, lo + width), z)
+            kept_lo, kept_hi, _, _ = cg._prune_and_contract(pp, lo, hi)
+            assert len(kept_lo) == 100 and np.all(kept_lo <= z) and np.all(z <= kept_hi)
+
+
 def test_forward_built_pairs_are_never_proved_infeasible():
     for task, config in _pair_problems()[2:]:
         outcome = cg.prove_pair_infeasible(cg.pair_problem(task, 0, 1), max_boxes=3000)
