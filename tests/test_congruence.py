@@ -170,3 +170,13 @@ def test_a_pinch_past_reach_is_proved_and_ends_the_search_as_infeasible():
     assert result.status == Status.INFEASIBLE
     assert "cannot be made together whatever the object's pose" in result.message
     assert result.stats["pair_test"]["proved"]
+
+
+def test_the_pair_test_stops_at_its_time_limit():
+    import time
+
+    pp = cg.pair_problem(load_builtin_task("teapot-lid-lifting"), 0, 1)
+    started = time.perf_counter()
+    outcome = cg.prove_pair_infeasible(pp, max_boxes=10**9, time_limit_s=0.5)
+    assert not outcome.proved and outcome.stopped == "budget"
+    assert time.perf_counter() - started < 5.0

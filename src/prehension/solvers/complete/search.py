@@ -328,7 +328,7 @@ def _run(form, state, options, executor, workers, started, progress) -> str:
             state.open.pop()
             _record(state, outcome, options)
             if not state.solutions and state.open and options.pair_test_boxes:
-                _pair_test(form, state, options)
+                _pair_test(form, state, options, started)
             _report(progress, state, len(ahead))
         return ""
     finally:
@@ -336,10 +336,10 @@ def _run(form, state, options, executor, workers, started, progress) -> str:
             future.cancel()
 
 
-def _pair_test(form: Formulation, state: SearchState, options: BranchAndPruneOptions) -> None:
+def _pair_test(form: Formulation, state: SearchState, options: BranchAndPruneOptions, started: float) -> None:
     """The pose-free pair test at its two moments (see ``pair_test_boxes``); when it proves
     two contacts incompatible no box can hold a solution: the open (and small) boxes are
-    discarded and the proof kept in the state."""
+    discarded and the proof kept in the state.  It stops with the search's time limit."""
     if state.boxes == 1:
         budget = options.pair_test_boxes // 10
     elif state.boxes == PAIR_TEST_LATE and state.pair_test is not None:
@@ -348,7 +348,12 @@ def _pair_test(form: Formulation, state: SearchState, options: BranchAndPruneOpt
         budget = options.pair_test_boxes
     else:
         return
-    proof = congruence_test(form.task, max_boxes=budget, time_limit_s=None)
+    seconds = None
+    if options.time_limit_s is not None:
+        seconds = options.time_limit_s - (time.perf_counter() - started)
+        if seconds <= 0.0:
+            return
+    proof = congruence_test(form.task, max_boxes=budget, time_limit_s=seconds)
     state.pair_test = proof
     if proof.proved:
         state.open.clear()
