@@ -154,11 +154,18 @@ def test_sphere_primitive_is_within_the_tessellation_tolerance():
     assert np.min(np.linalg.norm(face_centres, axis=1)) > 25.0 - 0.05
 
 
+# Built-in tasks whose answers are checked for collisions today (the others until phase 2 of
+# issue 12, when the solvers respect collisions; their files say why).
+COLLIDING = {"guitar-tuning", "scalpel-handling", "scalpel-incision", "scalpel-upholding", "teapot-service"}
+
+
 def test_every_builtin_task_has_a_closed_solid_that_its_regions_lie_on():
     for name in builtin_task_names():
         task = load_builtin_task(name)  # the region check runs on load
-        assert task.object.collides, name
         assert isinstance(task.object.solid, MeshFileSolid)
+        assert task.object.collides == (name in COLLIDING), name
+        closed = load_mesh(task.object.solid.path, 1.0)  # closed and outward, whatever the task says
+        assert len(closed.faces) == len(task.object.surface.faces)
 
 
 def test_shipped_builtin_meshes_are_what_the_generator_makes():

@@ -55,6 +55,7 @@ class Tolerances:
     limit_deg: float = 1e-9
     coupling_deg: float = 1e-9
     penetration_mm: float = 0.0
+    object_penetration_mm: float = 0.5  # hand-object collision (prehension.tasks.object_collision)
 
 
 @dataclass(frozen=True)
