@@ -7,7 +7,9 @@ kernels read (:class:`MeshArrays`).  Distances are exact up to rounding, not sam
 * :meth:`MeshDistance.signed_distance`: the distance from each point to the surface,
   negative inside.  The sign comes from the angle-weighted pseudonormal of the closest
   feature (face, edge or vertex), which is exact for a closed, consistently oriented
-  mesh (Bærentzen & Aanæs, IEEE TVCG 11(3), 2005).
+  mesh of one piece (Bærentzen & Aanæs, IEEE TVCG 11(3), 2005); for a mesh of several
+  closed pieces (parts glued face to face, which leaves internal double walls) from the
+  generalised winding number, exact for any closed pieces however they touch.
 * :meth:`MeshDistance.segment_distance`: the distance from each segment to the surface
   (0 when the segment crosses it), the minimum over triangles of the closed-form
   segment-triangle distance (Ericson, *Real-Time Collision Detection*, 5.1.5 and 5.1.9).
@@ -54,6 +56,8 @@ class MeshArrays(NamedTuple):
         node_left, node_right: (N,) children (-1 for a leaf).
         node_start, node_count: (N,) a leaf's triangle range.
         face_id: (F,) index of each stored triangle in the original mesh.
+        robust_sign: inside/outside by the winding number (a mesh of several pieces)
+            instead of the pseudonormal test.
     """
 
     tri: np.ndarray
@@ -67,6 +71,7 @@ class MeshArrays(NamedTuple):
     node_start: np.ndarray
     node_count: np.ndarray
     face_id: np.ndarray
+    robust_sign: bool
 
 
 # -- building ---------------------------------------------------------------------------
@@ -123,17 +128,30 @@ def _build_tree(centroids: np.ndarray, lo_f: np.ndarray, hi_f: np.ndarray):
     return arr(0), arr(1), arr(2, np.int64), arr(3, np.int64), arr(4, np.int64), arr(5, np.int64), order
 
 
+def _pieces(n_vertices: int, faces: np.ndarray) -> int:
+    """Number of connected pieces of a mesh (faces joined through shared vertices)."""
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import connected_components
+
+    rows = np.repeat(np.arange(len(faces)), 3)
+    graph = sp.coo_matrix((np.ones(rows.size), (rows, faces.ravel())), shape=(len(faces), n_vertices)).tocsr()
+    used = np.unique(faces)
+    n, _ = connected_components((graph.T @ graph)[used][:, used], directed=False)
+    return int(n)
+
+
 def build_mesh_arrays(vertices, faces) -> MeshArrays:
     """The :class:`MeshArrays` of a closed, outward-oriented mesh ``vertices (V, 3)`` [mm], ``faces (F, 3)``."""
     v = np.ascontiguousarray(vertices, dtype=float)
     f = np.ascontiguousarray(faces, dtype=np.int64)
+    robust = _pieces(len(v), f) > 1
     n_face, n_edge, n_vertex = _pseudonormals(v, f)
     tri = v[f]
     lo, hi, left, right, start, count, order = _build_tree(tri.mean(axis=1), tri.min(axis=1), tri.max(axis=1))
     c = np.ascontiguousarray
     return MeshArrays(
         c(tri[order]), c(n_face[order]), c(n_edge[order]), c(n_vertex[order]),
-        lo, hi, left, right, start, count, order.astype(np.int64),
+        lo, hi, left, right, start, count, order.astype(np.int64), bool(robust),
     )  # fmt: skip
 
 
@@ -246,9 +264,28 @@ def _pseudonormal(m, f, feat):
 
 
 @njit(cache=True)
+def _winding_number(m, p):
+    """Generalised winding number of the surface around p (1 inside, 0 outside): the sum of
+    the triangles' signed solid angles over 4 pi (Van Oosterom & Strackee, 1983)."""
+    total = 0.0
+    for f in range(m.tri.shape[0]):
+        a, b, c = m.tri[f, 0] - p, m.tri[f, 1] - p, m.tri[f, 2] - p
+        la, lb, lc = np.sqrt(_dot(a, a)), np.sqrt(_dot(b, b)), np.sqrt(_dot(c, c))
+        det = a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) + a[2] * (b[0] * c[1] - b[1] * c[0])
+        den = la * lb * lc + _dot(a, b) * lc + _dot(b, c) * la + _dot(c, a) * lb
+        total += 2.0 * np.arctan2(det, den)
+    return total / (4.0 * np.pi)
+
+
+@njit(cache=True)
 def signed_distances(m, points, out_closest):
     """Signed distance of each point (N, 3) to the surface (N,) [mm], negative inside;
-    the closest surface points into ``out_closest (N, 3)``."""
+    the closest surface points into ``out_closest (N, 3)``.
+
+    The sign is the closest feature's pseudonormal test for a mesh of one connected piece,
+    and the winding number (``O(F)`` per point) for a mesh of several pieces, which may
+    touch or overlap (parts glued face to face leave internal double walls, where the
+    pseudonormal test is wrong)."""
     n = points.shape[0]
     out = np.empty(n)
     q = np.empty(3)
@@ -256,9 +293,8 @@ def signed_distances(m, points, out_closest):
         d2, f, feat = _point_query(m, points[i], q)
         out_closest[i] = q
         d = np.sqrt(d2)
-        if _dot(points[i] - q, _pseudonormal(m, f, feat)) < 0.0:
-            d = -d
-        out[i] = d
+        inside = _winding_number(m, points[i]) > 0.5 if m.robust_sign else _dot(points[i] - q, _pseudonormal(m, f, feat)) < 0.0
+        out[i] = -d if inside else d
     return out
 
 

@@ -6,10 +6,11 @@ grid of normals over a sphere cap's cone, the point of a point region) and measu
 
 * the largest distance from a sample to the surface [mm]; it must be at most the
   object's ``surface_tolerance_mm`` (0.5 mm by default);
-* the orientation: the region's normal against the outward normal of the surface at the
-  closest point.  A region whose normal points into the object at more than half of its
-  samples is refused (for a patch: its control points are listed in the wrong order along
-  one direction, since the outward normal is ``p_u x p_v``).
+* the orientation: a step of twice the tolerance along the region's normal must leave the
+  solid.  A region whose normal points into the object at more than half of its samples
+  is refused (for a patch: its control points are listed in the wrong order along one
+  direction, since the outward normal is ``p_u x p_v``); so is a region on an internal
+  wall of a mesh, whose both sides are inside.
 
 The orientation test needs a closed surface; with ``collisions: false`` (an open mesh) only
 the distance is checked.
@@ -43,38 +44,28 @@ def region_samples(region: Region) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return params, points, normals
 
 
-def region_surface_report(distance, region: Region, closed: bool) -> dict:
+def region_surface_report(distance, region: Region, closed: bool, tolerance_mm: float = 0.5) -> dict:
     """``{"distance_mm", "at_params", "inward_fraction"}`` of one region against a surface.
 
     ``distance``: a :class:`~prehension.objects.distance.MeshDistance` of the surface.
+    ``inward_fraction``: the share of samples ``p`` whose outward side
+    ``p + 2 tolerance_mm n`` lies inside the solid (a flipped normal, or a region on an
+    internal wall); 0 when ``closed`` is false.
     """
     params, points, normals = region_samples(region)
-    sd, closest = distance.signed_distance(points, closest=True)
+    sd = distance.signed_distance(points)
     worst = int(np.argmax(np.abs(sd)))
     inward = 0.0
     if closed:
-        outward = _outward_at(distance, points, sd, closest)
-        inward = float(np.mean(np.sum(normals * outward, axis=1) < 0.0))
+        ahead = distance.signed_distance(points + 2.0 * tolerance_mm * normals)
+        inward = float(np.mean(ahead <= 0.0))
     return {"distance_mm": float(abs(sd[worst])), "at_params": params[worst], "inward_fraction": inward}
-
-
-def _outward_at(distance, points, sd, closest) -> np.ndarray:
-    """Outward surface normal at the closest point of each sample (N, 3)."""
-    away = points - closest
-    norm = np.linalg.norm(away, axis=1)
-    faces = distance.closest_faces(points)
-    face_n = distance.face_normals[faces]
-    # off the surface the direction to the point (signed) is the outward normal; on it, the face's
-    use = norm > 1e-6
-    out = face_n.copy()
-    out[use] = np.sign(sd[use])[:, None] * away[use] / norm[use, None]
-    return out
 
 
 def check_regions_on_surface(name: str, regions, distance, tolerance_mm: float, closed: bool) -> None:
     """Raise :class:`InvalidObject` naming the first region off the surface or facing inwards."""
     for rname, region in regions.items():
-        rep = region_surface_report(distance, region, closed)
+        rep = region_surface_report(distance, region, closed, tolerance_mm)
         if rep["distance_mm"] > tolerance_mm:
             at = ", ".join(f"{x:.3g}" for x in rep["at_params"])
             where = f" at parameters ({at})" if at else ""
