@@ -100,7 +100,7 @@ def test_shared_hand_dofs_limits_couplings(path):
         assert c.source == mimics[c.dof].get("joint")
         assert c.ratio == float(mimics[c.dof].get("multiplier"))
         assert c.offset == float(mimics[c.dof].get("offset"))
-    assert hand.palm == "base_link"
+    assert hand.palm == {"svh": "right_hand_e1", "allegro_right": "base_link"}[hand.name]  # where the fingers branch
     assert set(hand.regions) == {f"{f.name}_tip" for f in hand.fingers}  # one fingertip per finger, fitted
 
 
@@ -144,11 +144,18 @@ def test_fk_matches_independent_urdf_chain(path, rng):
         for c in hand.couplings:
             expected = c.ratio * q[hand.dof_index(c.source)] + c.offset
             assert q[hand.dof_index(c.dof)] == pytest.approx(expected, abs=1e-15)
-        ref = _reference_fk(joints, hand.palm, q_file)
+        root = ET.parse(path).getroot().find("link").get("name")  # both files list their root first
+        ref = _reference_fk(joints, root, q_file)  # T_root_link; the palm may lie below the root
         pose = forward_kinematics(hand, q)
         for i, link in enumerate(hand.link_names):
-            np.testing.assert_allclose(pose.R_palm_link[0, i], ref[link][:3, :3], atol=1e-12)
-            np.testing.assert_allclose(pose.r_palm_link[0, i], 1000.0 * ref[link][:3, 3], atol=1e-9)
+            T = np.linalg.solve(ref[hand.palm], ref[link])  # T_palm_link
+            np.testing.assert_allclose(pose.R_palm_link[0, i], T[:3, :3], atol=1e-12)
+            np.testing.assert_allclose(pose.r_palm_link[0, i], 1000.0 * T[:3, 3], atol=1e-9)
+        for name, frame in hand.frames.items():  # merged links stay where the file puts them
+            T = np.linalg.solve(ref[hand.palm], ref[name])
+            T_palm_frame = pose.T_palm_link[0, hand.link_index(frame.link)] @ frame.T_link_frame
+            np.testing.assert_allclose(T_palm_frame[:3, :3], T[:3, :3], atol=1e-12)
+            np.testing.assert_allclose(T_palm_frame[:3, 3], 1000.0 * T[:3, 3], atol=1e-9)
 
 
 @requires_hands

@@ -9,8 +9,11 @@
    the hand as a named frame (:attr:`Hand.frames`).  Every surviving link keeps its file
    frame, so link poses agree with any tool that reads the file.
 3. **Palm.**  Without ``root=`` the palm is the first link, going down from the root, where
-   the tree branches: a forearm and a wrist above it are cut off, with a note saying how
-   to keep them (``root=``).  A tree that never branches keeps its root.
+   the tree branches (into subtrees that hold a revolute joint: tip frames and sites do
+   not count).  The links rigidly attached to it (by fixed joints, up to the nearest
+   revolute joint above it) are merged into it; a forearm and a wrist above that joint
+   are cut off, with a note saying how to keep them (``root=``).  A tree that never
+   branches keeps its root.
 4. **Joints** become revolute :class:`Joint` s: ``T_parent_child(q) = T_pj Rot(a, q) T_jc``
    gives ``P = t_pj``, ``Q = -R_jc^T t_jc``, ``R0 = R_pj R_jc`` and ``u = R_pj a``.  A joint
    of an unsupported type below the palm is held at its reference position, with a
@@ -126,19 +129,36 @@ def _merge(root: str, order: list[RawJoint]) -> dict[str, tuple[str, np.ndarray]
 
 
 # -- 3. the palm -----------------------------------------------------------------------------
-def _find_palm(root: str, order: list[RawJoint], home) -> tuple[str, list[RawJoint]]:
-    """(the first branching survivor going down from root, the revolute joints above it)."""
+def _branch_link(root: str, order: list[RawJoint]) -> str | None:
+    """The first link, going down from ``root``, with two children whose subtrees hold a
+    revolute joint (tip frames and sites do not count); None for a single chain."""
     children: dict[str, list[RawJoint]] = defaultdict(list)
     for j in order:
-        if j.type == "revolute":
-            children[home[j.parent][0]].append(j)
-    link, above = root, []
-    while len(children[link]) == 1:
-        above.append(children[link][0])
-        link = children[link][0].child
-    if not children[link]:  # a single chain: no palm to find
-        return root, []
-    return link, above
+        children[j.parent].append(j)
+    moving: dict[str, bool] = {}
+    for j in reversed(order):  # children after parents in ``order``: fill bottom-up
+        moving[j.child] = j.type == "revolute" or any(moving[c.child] for c in children[j.child])
+    link = root
+    while True:
+        branches = [j for j in children[link] if moving[j.child]]
+        if len(branches) != 1:
+            return link if branches else None
+        link = branches[0].child
+
+
+def _palm_group(palm: str, top: str, order: list[RawJoint], home_top) -> dict:
+    """``home`` re-rooted at ``palm``: the links rigid with ``top`` (``palm`` among them)
+    belong to ``palm``, placed by ``T_palm_x = T_top_palm^-1 T_top_x``."""
+    T_palm_top = np.linalg.inv(home_top[palm][1])
+    return {x: (palm, T_palm_top @ T) if s == top else (s, T) for x, (s, T) in home_top.items()}
+
+
+def _rigid_top(palm: str, parent_of: dict[str, RawJoint], root: str) -> str:
+    """The highest link joined to ``palm`` by non-revolute joints only."""
+    link = palm
+    while link != root and parent_of[link].type != "revolute":
+        link = parent_of[link].parent
+    return link
 
 
 # -- 4. joints and couplings -------------------------------------------------------------------
@@ -313,29 +333,31 @@ def _tree_notes(raw: RawHand, order, frames) -> list[str]:
             )
     if frames:
         merged = ", ".join(f"{n} (on {f.link})" for n, f in frames.items())
-        notes.append(f"merged into their parent links by fixed joints, kept as named frames: {merged}")
+        notes.append(f"links merged by fixed joints, kept as named frames: {merged}")
     return notes
 
 
 def _rooted(raw: RawHand, options: ImportOptions):
-    """(palm, joints below it in order, home, palm note or None)."""
+    """(palm, joints below it in order, home, palm note or None); see steps 1-3."""
     parent_of = _parent_joints(raw.joints)
     root = _find_root(raw, parent_of, options.root)
     order = _ordered(raw, root, options.root is None)
-    home = _merge(root, order)
-    if options.root is not None:
-        return root, order, home, None
-    palm, above = _find_palm(root, order, home)
-    if palm == root:
-        return root, order, home, None
-    below = _ordered(raw, palm, False)
-    new_home = _merge(palm, below)
-    cut = sorted(set(home) - set(new_home))
-    note = (
-        f"palm: {palm!r}, the link where the fingers branch; cut off above it: link(s) {', '.join(cut)} "
-        f"and joint(s) {', '.join(j.name for j in above)}; read the file with root={root!r} to keep them"
-    )
-    return palm, below, new_home, note
+    palm = _branch_link(root, order) if options.root is None else None
+    if palm is None or palm == root:
+        return root, order, _merge(root, order), None
+    top = _rigid_top(palm, parent_of, root)
+    below = _ordered(raw, top, False)
+    home = _palm_group(palm, top, below, _merge(top, below))
+    kept = {j.name for j in below}
+    above = [j for j in order if j.name not in kept]
+    note = f"palm: {palm!r}, the link where the fingers branch"
+    if above:
+        cut = sorted(({root} | {j.child for j in above}) - set(home))
+        note += (
+            f"; cut off above it: link(s) {', '.join(cut)} and joint(s) {', '.join(j.name for j in above)}; "
+            f"read the file with root={root!r} to keep them"
+        )
+    return palm, below, home, note
 
 
 def assemble(raw: RawHand, options: ImportOptions = ImportOptions()) -> Hand:
