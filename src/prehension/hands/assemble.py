@@ -1,7 +1,7 @@
 """A :class:`~prehension.hands.description.RawHand` (any file format) -> a :class:`Hand`.
 
 1. **Tree.**  The root is ``root=`` if given, else the unique link that is no joint's
-   child.  Joints are ordered breadth-first from it (parent before child).
+   child.  Joints are ordered depth-first from it (parent before child, a finger's together).
 2. **Fixed joints merged.**  A link joined to its parent by a fixed joint (or by a joint
    type prehension does not model: prismatic, ball, free...) is merged into its nearest
    ancestor that is joined by a revolute joint (or the root): its shapes and outgoing
@@ -34,7 +34,7 @@ Every note and warning is recorded on the hand (:attr:`Hand.notes`, warnings sta
 from __future__ import annotations
 
 import math
-from collections import defaultdict, deque
+from collections import defaultdict
 from dataclasses import dataclass, field, replace
 from typing import Mapping
 
@@ -101,18 +101,19 @@ def _find_root(raw: RawHand, parent_of, root: str | None) -> str:
 
 
 def _ordered(raw: RawHand, root: str, check_all: bool) -> list[RawJoint]:
-    """Joints below ``root``, breadth-first (parent before child)."""
+    """Joints below ``root``, depth-first in file order (parent before child, so that each
+    finger's joints, and so its angles, come together)."""
     by_parent: dict[str, list[RawJoint]] = defaultdict(list)
     for j in raw.joints:
         by_parent[j.parent].append(j)
-    seen, order, queue = {root}, [], deque([root])
-    while queue:
-        for j in by_parent[queue.popleft()]:
-            if j.child in seen:
-                raise InvalidHand(f"joint {j.name!r} closes a cycle: link {j.child!r} is already below {root!r}")
-            seen.add(j.child)
-            order.append(j)
-            queue.append(j.child)
+    seen, order, stack = {root}, [], list(reversed(by_parent[root]))
+    while stack:
+        j = stack.pop()
+        if j.child in seen:
+            raise InvalidHand(f"joint {j.name!r} closes a cycle: link {j.child!r} is already below {root!r}")
+        seen.add(j.child)
+        order.append(j)
+        stack.extend(reversed(by_parent[j.child]))
     if check_all and len(seen) < len(raw.links):
         raise InvalidHand(f"some links are not below the root {root!r}: the joints form a cycle")
     return order
