@@ -22,7 +22,8 @@
 5. **Collision capsules** from the collision shapes (:mod:`prehension.hands.shapes`);
    a shape that cannot be read is skipped with a warning, and a link that has visual
    shapes but no collision capsule is named in a warning (it is not checked for
-   self-collision).
+   self-collision).  Link pairs whose capsules overlap at the rest pose (zero angles
+   clamped into the limits) are excluded from self-collision checks, with a note.
 6. **Fingers** (:mod:`prehension.hands.fingers`) and **fingertips**
    (:mod:`prehension.hands.fingertips`): a ``<finger>_tip`` sphere cap per finger whose
    distal link has geometry (or whose fingertip the user gave in full).
@@ -44,6 +45,7 @@ from ..errors import InvalidHand
 from .description import RawHand, RawJoint, RawShape
 from .fingers import CLOSURES, closure, finger_chains, finger_names, make_fingers
 from .fingertips import PadFrame, TipOverride, apply_override, cap_axis, fit_fingertip, pad_frame
+from .collision import capsule_clearances
 from .kinematics import forward_kinematics
 from .model import Capsule, Coupling, Hand, HandRegion, Joint, Link, NamedFrame
 from .shapes import shape_capsules, surface_points
@@ -248,6 +250,27 @@ def _links(names: list[str], shapes: dict[str, list[RawShape]], warnings: list[s
     return links
 
 
+def rest_pose(hand: Hand) -> np.ndarray:
+    """(n_dof,) zero angles clamped into the limits, couplings applied (then clamped) [rad]."""
+    q = np.clip(0.0, hand.lower, hand.upper)
+    for c in hand.couplings:
+        q[hand.dof_index(c.dof)] = c.ratio * q[hand.dof_index(c.source)] + c.offset
+    return np.clip(q, hand.lower, hand.upper)
+
+
+def _with_rest_exclusions(hand: Hand) -> Hand:
+    """The hand with the link pairs whose capsules overlap at :func:`rest_pose` excluded
+    from self-collision checks (noted): capsules only approximate the shapes, and a pair
+    that touches at rest would make every configuration a collision."""
+    clearance, names = capsule_clearances(hand, forward_kinematics(hand, rest_pose(hand)))
+    pairs = sorted({tuple(names[i]) for i in np.flatnonzero(clearance[0] < 0)})
+    if not pairs:
+        return hand
+    listed = ", ".join(f"{a}/{b}" for a, b in pairs)
+    note = f"self-collision not checked between {listed}: their capsules overlap at the rest pose"
+    return replace(hand, collision_exclusions=tuple(pairs), notes=hand.notes + (note,))
+
+
 # -- 6. fingertips -------------------------------------------------------------------------------
 def _points(shapes: list[RawShape], role: str, warnings: list[str]) -> tuple[np.ndarray | None, str]:
     pts, kinds = [], set()
@@ -371,7 +394,7 @@ def assemble(raw: RawHand, options: ImportOptions = ImportOptions()) -> Hand:
     links = _links([palm] + [j.child for j in joints], shapes, warnings)
     frames = _frames(home)
     name = options.name or raw.name
-    kin = Hand(name, tuple(links), tuple(joints), tuple(_couplings(raw, order)), frames=frames)
+    kin = _with_rest_exclusions(Hand(name, tuple(links), tuple(joints), tuple(_couplings(raw, order)), frames=frames))
     chains = finger_chains(palm, [(j.parent, j.child) for j in joints])
     points = {c[-1]: _tip_points(shapes.get(c[-1], []), warnings) for c in chains}
     pads = _pad_frames(kin, chains, points, _tip_hints(raw, home, order))
@@ -384,5 +407,5 @@ def assemble(raw: RawHand, options: ImportOptions = ImportOptions()) -> Hand:
               for f in fingers if f"{f.name}_tip" not in regions]  # fmt: skip
     return replace(
         kin, fingers=tuple(fingers), regions=regions, opposing_finger=None if thumb is None else names[thumb],
-        notes=tuple(notes), tip_fits=fits,
+        notes=tuple(notes) + kin.notes, tip_fits=fits,
     )  # fmt: skip
