@@ -258,6 +258,15 @@ def rest_pose(hand: Hand) -> np.ndarray:
     return np.clip(q, hand.lower, hand.upper)
 
 
+def _file_exclusions(raw: RawHand, home) -> tuple[tuple[str, str], ...]:
+    """The file's exclusions between links that survive as two different links."""
+    out = []
+    for a, b in raw.exclusions:
+        if a in home and b in home and home[a][0] != home[b][0]:
+            out.append((home[a][0], home[b][0]))
+    return tuple(out)
+
+
 def _with_rest_exclusions(hand: Hand) -> Hand:
     """The hand with the link pairs whose capsules overlap at :func:`rest_pose` excluded
     from self-collision checks (noted): capsules only approximate the shapes, and a pair
@@ -268,7 +277,7 @@ def _with_rest_exclusions(hand: Hand) -> Hand:
         return hand
     listed = ", ".join(f"{a}/{b}" for a, b in pairs)
     note = f"self-collision not checked between {listed}: their capsules overlap at the rest pose"
-    return replace(hand, collision_exclusions=tuple(pairs), notes=hand.notes + (note,))
+    return replace(hand, collision_exclusions=hand.collision_exclusions + tuple(pairs), notes=hand.notes + (note,))
 
 
 # -- 6. fingertips -------------------------------------------------------------------------------
@@ -394,7 +403,9 @@ def assemble(raw: RawHand, options: ImportOptions = ImportOptions()) -> Hand:
     links = _links([palm] + [j.child for j in joints], shapes, warnings)
     frames = _frames(home)
     name = options.name or raw.name
-    kin = _with_rest_exclusions(Hand(name, tuple(links), tuple(joints), tuple(_couplings(raw, order)), frames=frames))
+    kin = Hand(name, tuple(links), tuple(joints), tuple(_couplings(raw, order)), frames=frames,
+               collision_exclusions=_file_exclusions(raw, home))  # fmt: skip
+    kin = _with_rest_exclusions(kin)
     chains = finger_chains(palm, [(j.parent, j.child) for j in joints])
     points = {c[-1]: _tip_points(shapes.get(c[-1], []), warnings) for c in chains}
     pads = _pad_frames(kin, chains, points, _tip_hints(raw, home, order))

@@ -104,6 +104,7 @@ class RawHand:
         couplings: couplings as stated.
         warnings: what the reader noticed (ignored elements...).
         where: the file (or ``"<URDF text>"``) for messages.
+        exclusions: link pairs the file says never to check for collision.
     """
 
     name: str
@@ -113,3 +114,4 @@ class RawHand:
     couplings: tuple[RawCoupling, ...] = ()
     warnings: tuple[str, ...] = ()
     where: str = ""
+    exclusions: tuple[tuple[str, str], ...] = ()

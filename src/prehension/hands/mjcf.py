@@ -33,6 +33,7 @@ Conventions
 * **Geoms**: those that collide (``contype`` or ``conaffinity`` non-zero) are collision
   shapes, the others visual; spheres, capsules, cylinders, boxes, ellipsoids and meshes
   (the compiled vertices).  Planes, height fields and SDFs are skipped with a warning.
+  ``<contact><exclude>`` pairs are kept as collision exclusions.
 """
 
 from __future__ import annotations
@@ -222,7 +223,12 @@ class _Reader:
             links.insert(0, "world")
         name = bytes(m.names).split(b"\0", 1)[0].decode(errors="replace")  # the model's name comes first
         return RawHand(name, tuple(links + sites), shapes, tuple(joints + site_joints), tuple(couplings),
-                       tuple(self.warnings), self.where)  # fmt: skip
+                       tuple(self.warnings), self.where, self._exclusions())  # fmt: skip
+
+    def _exclusions(self) -> tuple[tuple[str, str], ...]:
+        """``<contact><exclude body1 body2>`` pairs (MuJoCo stores ``body1 << 16 | body2``)."""
+        sig = [int(s) for s in self.m.exclude_signature]
+        return tuple((self.body[s >> 16], self.body[s & 0xFFFF]) for s in sig)
 
     # -- joints ---------------------------------------------------------------------------
     def _body_pose(self, b: int) -> np.ndarray:
