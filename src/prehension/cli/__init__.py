@@ -15,7 +15,7 @@ from rich.markup import escape
 
 from .. import __version__
 from ..errors import PrehensionError
-from . import batch, offline, view
+from . import batch, hands, offline, view
 from .codes import EXIT_APPROXIMATE, EXIT_BAD_INPUT, EXIT_CHECK_FAILED, EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK
 
 __all__ = [
@@ -34,8 +34,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"prehension {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.add_parser("tasks", help="list the built-in tasks")
-    show = sub.add_parser("show", help="describe a task: hand, limits, contacts, problem size")
-    show.add_argument("task", help=TASK_HELP)
+    show = sub.add_parser("show", help="describe a task (hand, limits, contacts, problem size) or a hand (fingers, fingertips)")
+    show.add_argument("task", help=f"{TASK_HELP}; or a {hands.HAND_HELP}")
     _add_solve(sub)
     check = sub.add_parser("check", help="re-verify a result file against its task")
     check.add_argument("result", type=Path, help="result file (.json) of 'prehension solve', or the output (.jsonl) of 'prehension batch'")
@@ -43,6 +43,7 @@ def build_parser() -> argparse.ArgumentParser:
     offline.add_parser(sub)
     batch.add_parser(sub)
     view.add_parsers(sub)
+    hands.add_parsers(sub)
     return parser
 
 
@@ -62,6 +63,7 @@ def _add_solve(sub) -> None:
     p.add_argument("--checkpoint", type=Path, help="complete solver: save the open boxes here when stopped (Ctrl-C too)")
     p.add_argument("--resume", action="store_true", help="complete solver: continue from --checkpoint")
     p.add_argument("--seed", type=int, default=0, help="random seed (local solver)")
+    p.add_argument("--sequence", type=Path, metavar="FILE", help="local solver: initial poses from 'prehension offline' (.json)")
     p.add_argument("--approximate", action="store_true",
                    help="accept an answer within the paper's d_min tolerances (1.5 mm) when no strict solution is found: "
                         "status 'approximate', exit code 6, never 'solved'")  # fmt: skip
@@ -90,6 +92,7 @@ def main(argv: list[str] | None = None) -> int:
     from .batch import cmd_batch
     from .check import cmd_check
     from .convert import cmd_import
+    from .hands import cmd_export_hand
     from .solve import cmd_solve
     from .tables import cmd_show, cmd_tasks
     from .view import cmd_render, cmd_view
@@ -100,7 +103,7 @@ def main(argv: list[str] | None = None) -> int:
     commands = {
         "tasks": cmd_tasks, "show": cmd_show, "import-cuik": cmd_import, "solve": cmd_solve,
         "check": cmd_check, "offline": _cmd_offline, "batch": cmd_batch,
-        "view": cmd_view, "render": cmd_render,
+        "view": cmd_view, "render": cmd_render, "export-hand": cmd_export_hand,
     }  # fmt: skip
     if args.command is None:
         parser.print_help()

@@ -14,6 +14,7 @@ from rich.table import Table
 from ..errors import PrehensionError
 from ..results import Status, result_to_dict, write_result
 from .codes import EXIT_APPROXIMATE, EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK
+from .hands import print_hand_warnings
 
 EXIT_OF_STATUS = {
     Status.SOLVED: EXIT_OK, Status.INFEASIBLE: EXIT_INFEASIBLE, Status.GAVE_UP: EXIT_GAVE_UP,
@@ -48,6 +49,15 @@ def _options(args):
     )  # fmt: skip
 
 
+def _sequence(args):
+    """The ``--sequence FILE`` of ``prehension offline``, or None."""
+    if getattr(args, "sequence", None) is None:
+        return None
+    from ..solvers.local.sequence import InitialPoseSequence
+
+    return InitialPoseSequence.load(args.sequence)
+
+
 def _local_options(args):
     from ..solvers.local import LocalOptions
 
@@ -60,6 +70,8 @@ def cmd_solve(args, console: Console) -> int:
     from ..tasks.library import resolve_task
 
     task = resolve_task(args.task)
+    print_hand_warnings(console, task.hand)
+    sequence = _sequence(args)
     options = _options(args)
     if args.resume and args.checkpoint is None:
         raise PrehensionError("--resume needs --checkpoint FILE (the file the interrupted run saved)")
@@ -73,7 +85,7 @@ def cmd_solve(args, console: Console) -> int:
                 task, args.method, complete_options=options, seed=args.seed, executor=executor,
                 local_options=_local_options(args),
                 workers=executor.max_workers if executor is not None else 1, checkpoint=args.checkpoint,
-                resume=args.resume, progress=update,
+                resume=args.resume, progress=update, sequence=sequence,
             )  # fmt: skip
     path = _output_path(args, task.name)
     backup = _keep_previous(path)
