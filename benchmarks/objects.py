@@ -19,6 +19,7 @@ afterwards).  Times are wall-clock medians per task; read ratios, not absolute v
     python benchmarks/objects.py                       # local solver, every task
     python benchmarks/objects.py --methods local,complete --time-limit 10
     python benchmarks/objects.py --quick               # built-in tasks and 9 mesh tasks
+    python benchmarks/objects.py --queries             # microseconds per distance query
 """
 
 from __future__ import annotations
@@ -134,8 +135,12 @@ def main() -> None:
     parser.add_argument("--time-limit", type=float, default=10.0, help="complete solver: seconds per task (default 10)")
     parser.add_argument("--quick", action="store_true", help="built-in tasks and 9 mesh tasks")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--queries", action="store_true", help="only the distance-query speeds, per mesh")
     args = parser.parse_args()
     console = Console(width=150)
+    if args.queries:
+        _queries(console)
+        return
     rows = [(n, load_builtin_task(n)) for n in builtin_task_names()]
     if SHARED.is_dir():
         rows += mesh_tasks(np.random.default_rng(args.seed), 2 if args.quick else args.per_mesh)[: 9 if args.quick else None]
@@ -167,6 +172,37 @@ def _table(console: Console, rows, method: str, time_limit: float) -> None:
     console.print(table)
     ratio = np.median(totals[True][2]) / max(np.median(totals[False][2]), 1e-12)
     console.print(f"{method}: median time with collisions / without: {ratio:.2f}x")
+
+
+def _queries(console: Console, n: int = 300) -> None:
+    """Microseconds per query on each mesh: signed distance of a point, distance of a
+    40 mm segment, and a capsule depth, at random places within 20 mm of the mesh's box."""
+    table = Table(title=f"distance queries (median of 3 runs of {n} queries each)")
+    for col in ("mesh", "faces", "sign", "point [us]", "segment [us]", "capsule depth [us]"):
+        table.add_column(col, justify="left" if col == "mesh" else "right")
+    meshes = [(f"built-in {k}", load_builtin_task(t).object.surface) for k, t in
+              (("teapot", "teapot-service"), ("scalpel", "scalpel-handling"), ("guitar", "guitar-tuning"))]
+    meshes += [(file, load_mesh(SHARED / file, scale)) for file, scale in MESHES if (SHARED / file).is_file()]
+    rng = np.random.default_rng(0)
+    for name, mesh in meshes:
+        md = MeshDistance(mesh.vertices, mesh.faces)
+        lo, hi = mesh.vertices.min(0) - 20, mesh.vertices.max(0) + 20
+        a = rng.uniform(lo, hi, (n, 3))
+        d = rng.normal(size=(n, 3))
+        b = a + 40 * d / np.linalg.norm(d, axis=1, keepdims=True)
+        r = np.full(n, 10.0)
+        md.capsule_depth(a[:10], b[:10], r[:10])  # compile / load the cache
+        cells = []
+        for fn in (lambda: md.signed_distance(a), lambda: md.segment_distance(a, b), lambda: md.capsule_depth(a, b, r)):
+            times = []
+            for _ in range(3):
+                t0 = time.perf_counter()
+                fn()
+                times.append(time.perf_counter() - t0)
+            cells.append(f"{1e6 * np.median(times) / n:.1f}")
+        sign = "winding" if md.arrays.robust_sign else "pseudonormal"
+        table.add_row(name, str(len(mesh.faces)), sign, *cells)
+    console.print(table)
 
 
 if __name__ == "__main__":
