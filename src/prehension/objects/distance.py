@@ -164,41 +164,54 @@ def _dot(a, b):
 @njit(cache=True)
 def _closest_on_triangle(p, a, b, c, out):
     """Closest point of triangle abc to p into ``out``; returns the feature:
-    0 face, 1..3 edge (ab, bc, ca), 4..6 vertex (a, b, c).  Ericson 5.1.5."""
-    ab, ac, ap = b - a, c - a, p - a
-    d1, d2 = _dot(ab, ap), _dot(ac, ap)
+    0 face, 1..3 edge (ab, bc, ca), 4..6 vertex (a, b, c).  Ericson 5.1.5 (scalar code:
+    no temporaries)."""
+    abx, aby, abz = b[0] - a[0], b[1] - a[1], b[2] - a[2]
+    acx, acy, acz = c[0] - a[0], c[1] - a[1], c[2] - a[2]
+    apx, apy, apz = p[0] - a[0], p[1] - a[1], p[2] - a[2]
+    d1 = abx * apx + aby * apy + abz * apz
+    d2 = acx * apx + acy * apy + acz * apz
     if d1 <= 0.0 and d2 <= 0.0:
-        out[:] = a
+        out[0], out[1], out[2] = a[0], a[1], a[2]
         return 4
-    bp = p - b
-    d3, d4 = _dot(ab, bp), _dot(ac, bp)
+    bpx, bpy, bpz = p[0] - b[0], p[1] - b[1], p[2] - b[2]
+    d3 = abx * bpx + aby * bpy + abz * bpz
+    d4 = acx * bpx + acy * bpy + acz * bpz
     if d3 >= 0.0 and d4 <= d3:
-        out[:] = b
+        out[0], out[1], out[2] = b[0], b[1], b[2]
         return 5
     vc = d1 * d4 - d3 * d2
     if vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
         v = d1 / (d1 - d3)
-        out[:] = a + v * ab
+        out[0], out[1], out[2] = a[0] + v * abx, a[1] + v * aby, a[2] + v * abz
         return 1
-    cp = p - c
-    d5, d6 = _dot(ab, cp), _dot(ac, cp)
+    cpx, cpy, cpz = p[0] - c[0], p[1] - c[1], p[2] - c[2]
+    d5 = abx * cpx + aby * cpy + abz * cpz
+    d6 = acx * cpx + acy * cpy + acz * cpz
     if d6 >= 0.0 and d5 <= d6:
-        out[:] = c
+        out[0], out[1], out[2] = c[0], c[1], c[2]
         return 6
     vb = d5 * d2 - d1 * d6
     if vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
         w = d2 / (d2 - d6)
-        out[:] = a + w * ac
+        out[0], out[1], out[2] = a[0] + w * acx, a[1] + w * acy, a[2] + w * acz
         return 3
     va = d3 * d6 - d5 * d4
     if va <= 0.0 and (d4 - d3) >= 0.0 and (d5 - d6) >= 0.0:
         w = (d4 - d3) / ((d4 - d3) + (d5 - d6))
-        out[:] = b + w * (c - b)
+        out[0], out[1], out[2] = b[0] + w * (c[0] - b[0]), b[1] + w * (c[1] - b[1]), b[2] + w * (c[2] - b[2])
         return 2
     denom = 1.0 / (va + vb + vc)
     v, w = vb * denom, vc * denom
-    out[:] = a + ab * v + ac * w
+    out[0] = a[0] + abx * v + acx * w
+    out[1] = a[1] + aby * v + acy * w
+    out[2] = a[2] + abz * v + acz * w
     return 0
+
+
+@njit(cache=True)
+def _dist_sq(p, q):
+    return (p[0] - q[0]) ** 2 + (p[1] - q[1]) ** 2 + (p[2] - q[2]) ** 2
 
 
 @njit(cache=True)
@@ -238,7 +251,7 @@ def _point_query(m, p, best_point):
         if m.node_left[k] < 0:
             for f in range(m.node_start[k], m.node_start[k] + m.node_count[k]):
                 feat = _closest_on_triangle(p, m.tri[f, 0], m.tri[f, 1], m.tri[f, 2], q)
-                d = _dot(p - q, p - q)
+                d = _dist_sq(p, q)
                 if d < best:
                     best, best_f, best_feat = d, f, feat
                     best_point[:] = q
@@ -300,20 +313,24 @@ def signed_distances(m, points, out_closest):
 
 @njit(cache=True)
 def _seg_seg_sq(p0, p1, q0, q1):
-    """Squared distance between segments p0p1 and q0q1 (Ericson 5.1.9)."""
-    d1, d2, r = p1 - p0, q1 - q0, p0 - q0
-    a, e, f = _dot(d1, d1), _dot(d2, d2), _dot(d2, r)
+    """Squared distance between segments p0p1 and q0q1 (Ericson 5.1.9, scalar code)."""
+    d1x, d1y, d1z = p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]
+    d2x, d2y, d2z = q1[0] - q0[0], q1[1] - q0[1], q1[2] - q0[2]
+    rx, ry, rz = p0[0] - q0[0], p0[1] - q0[1], p0[2] - q0[2]
+    a = d1x * d1x + d1y * d1y + d1z * d1z
+    e = d2x * d2x + d2y * d2y + d2z * d2z
+    f = d2x * rx + d2y * ry + d2z * rz
     eps = 1e-18
     if a <= eps and e <= eps:
-        return _dot(r, r)
+        return rx * rx + ry * ry + rz * rz
     if a <= eps:
         s, t = 0.0, min(max(f / e, 0.0), 1.0)
     else:
-        c = _dot(d1, r)
+        c = d1x * rx + d1y * ry + d1z * rz
         if e <= eps:
             t, s = 0.0, min(max(-c / a, 0.0), 1.0)
         else:
-            b = _dot(d1, d2)
+            b = d1x * d2x + d1y * d2y + d1z * d2z
             den = a * e - b * b
             s = min(max((b * f - c * e) / den, 0.0), 1.0) if den > eps * a * e else 0.0
             t = (b * s + f) / e
@@ -321,20 +338,32 @@ def _seg_seg_sq(p0, p1, q0, q1):
                 t, s = 0.0, min(max(-c / a, 0.0), 1.0)
             elif t > 1.0:
                 t, s = 1.0, min(max((b - c) / a, 0.0), 1.0)
-    w = (p0 + d1 * s) - (q0 + d2 * t)
-    return _dot(w, w)
+    wx = rx + d1x * s - d2x * t
+    wy = ry + d1y * s - d2y * t
+    wz = rz + d1z * s - d2z * t
+    return wx * wx + wy * wy + wz * wz
 
 
 @njit(cache=True)
 def _segment_crosses(p0, p1, a, b, c):
-    """Whether segment p0p1 meets triangle abc (signed volumes, closed triangle)."""
-    n = np.cross(b - a, c - a)
-    s0, s1 = _dot(p0 - a, n), _dot(p1 - a, n)
+    """Whether segment p0p1 meets triangle abc (signed volumes, closed triangle; scalar code)."""
+    ux, uy, uz = b[0] - a[0], b[1] - a[1], b[2] - a[2]
+    vx, vy, vz = c[0] - a[0], c[1] - a[1], c[2] - a[2]
+    nx, ny, nz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+    s0 = (p0[0] - a[0]) * nx + (p0[1] - a[1]) * ny + (p0[2] - a[2]) * nz
+    s1 = (p1[0] - a[0]) * nx + (p1[1] - a[1]) * ny + (p1[2] - a[2]) * nz
     if (s0 > 0.0 and s1 > 0.0) or (s0 < 0.0 and s1 < 0.0) or s0 == s1:
         return False
-    x = p0 + (s0 / (s0 - s1)) * (p1 - p0)
-    e0, e1, e2 = np.cross(b - a, x - a), np.cross(c - b, x - b), np.cross(a - c, x - c)
-    return _dot(e0, n) >= 0.0 and _dot(e1, n) >= 0.0 and _dot(e2, n) >= 0.0
+    k = s0 / (s0 - s1)
+    x0, x1, x2 = p0[0] + k * (p1[0] - p0[0]), p0[1] + k * (p1[1] - p0[1]), p0[2] + k * (p1[2] - p0[2])
+    for i in range(3):
+        A = a if i == 0 else (b if i == 1 else c)
+        B = b if i == 0 else (c if i == 1 else a)
+        ex, ey, ez = B[0] - A[0], B[1] - A[1], B[2] - A[2]
+        wx, wy, wz = x0 - A[0], x1 - A[1], x2 - A[2]
+        if (ey * wz - ez * wy) * nx + (ez * wx - ex * wz) * ny + (ex * wy - ey * wx) * nz < 0.0:
+            return False
+    return True
 
 
 @njit(cache=True)
@@ -342,9 +371,9 @@ def _segment_triangle_sq(p0, p1, a, b, c, q):
     if _segment_crosses(p0, p1, a, b, c):
         return 0.0
     _closest_on_triangle(p0, a, b, c, q)
-    best = _dot(p0 - q, p0 - q)
+    best = _dist_sq(p0, q)
     _closest_on_triangle(p1, a, b, c, q)
-    best = min(best, _dot(p1 - q, p1 - q))
+    best = min(best, _dist_sq(p1, q))
     best = min(best, _seg_seg_sq(p0, p1, a, b))
     best = min(best, _seg_seg_sq(p0, p1, b, c))
     return min(best, _seg_seg_sq(p0, p1, c, a))
@@ -366,7 +395,11 @@ def _segment_query(m, p0, p1):
             for f in range(m.node_start[k], m.node_start[k] + m.node_count[k]):
                 best = min(best, _segment_triangle_sq(p0, p1, m.tri[f, 0], m.tri[f, 1], m.tri[f, 2], q))
             continue
-        stack[top], stack[top + 1] = m.node_left[k], m.node_right[k]
+        l, r = m.node_left[k], m.node_right[k]
+        if _box_box_sq(m.node_lo[l], m.node_hi[l], lo, hi) < _box_box_sq(m.node_lo[r], m.node_hi[r], lo, hi):
+            stack[top], stack[top + 1] = r, l  # the nearer child is visited first
+        else:
+            stack[top], stack[top + 1] = l, r
         top += 2
     return best
 
