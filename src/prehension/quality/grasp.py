@@ -21,7 +21,7 @@ from .options import QualityOptions
 from .solid import object_reference
 from .wrenches import primitive_wrenches
 
-__all__ = ["GraspQuality", "grasp_quality", "contact_quality", "QUALITY_KEYS"]
+__all__ = ["GraspQuality", "grasp_quality", "contacts_quality", "contact_quality", "QUALITY_KEYS"]
 
 QUALITY_KEYS = ("force_closure", "epsilon", "volume", "closure_margin", "center_mm", "radius_mm", "options")
 
@@ -82,12 +82,18 @@ def contact_quality(points_mm, inward_normals, center_mm, radius_mm: float, opti
 
 def grasp_quality(task: Task, solution, options: QualityOptions = QualityOptions()) -> GraspQuality:
     """The quality of ``solution`` (a grasp of ``task``'s object), see the module docstring."""
-    T = np.asarray(solution.T_palm_object, dtype=float)
+    return contacts_quality(task, solution.T_palm_object, solution.contacts, options)
+
+
+def contacts_quality(task: Task, T_palm_object, contacts, options: QualityOptions = QualityOptions()) -> GraspQuality:
+    """The quality of ``contacts`` (each with palm-frame ``object_point`` [mm] and outward
+    ``object_normal``) made on ``task``'s object placed at ``T_palm_object (4, 4)``."""
+    T = np.asarray(T_palm_object, dtype=float)
     R, t = T[:3, :3], T[:3, 3]
-    if not solution.contacts:
+    if not contacts:
         raise PrehensionError("a grasp without contacts has no quality to measure")
-    p_palm = np.array([c.object_point for c in solution.contacts], dtype=float)  # (C, 3)
-    n_palm = np.array([c.object_normal for c in solution.contacts], dtype=float)
+    p_palm = np.array([c.object_point for c in contacts], dtype=float)  # (C, 3)
+    n_palm = np.array([c.object_normal for c in contacts], dtype=float)
     p_obj = (p_palm - t) @ R  # R^T (p - t), row-wise
     inward = -(n_palm @ R)
     centre, radius = _reference(task, options)
