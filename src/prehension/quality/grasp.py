@@ -18,7 +18,7 @@ from ..errors import PrehensionError
 from ..tasks.model import Task
 from .measures import force_closure, hull_measures
 from .options import QualityOptions
-from .solid import object_reference
+from .solid import object_center, object_reference
 from .wrenches import primitive_wrenches
 
 __all__ = ["GraspQuality", "grasp_quality", "contacts_quality", "contact_quality", "QUALITY_KEYS"]
@@ -101,11 +101,8 @@ def contacts_quality(task: Task, T_palm_object, contacts, options: QualityOption
 
 
 def _reference(task: Task, options: QualityOptions) -> tuple[np.ndarray, float]:
-    if options.center_mm is not None and options.radius_mm is not None:
-        return np.asarray(options.center_mm), options.radius_mm
-    centre, radius = object_reference(task.object)
-    if options.center_mm is not None:
-        centre = np.asarray(options.center_mm)
+    """The centre and radius: as stated in ``options``, else the object's own."""
+    centre = np.asarray(options.center_mm, float) if options.center_mm is not None else object_center(task.object)
     if options.radius_mm is not None:
-        radius = options.radius_mm
-    return centre, radius
+        return centre, options.radius_mm
+    return object_reference(task.object, centre)

@@ -31,7 +31,7 @@ from ..geometry.rotations import orthonormal_frame
 from ..objects.meshes import Mesh, Torus
 from ..objects.model import GraspObject
 
-__all__ = ["Solid", "MassProperties", "object_solid", "mass_properties", "object_reference", "hull_mesh", "TORUS_SECTORS"]
+__all__ = ["Solid", "MassProperties", "object_solid", "mass_properties", "object_reference", "hull_mesh", "TORUS_SECTORS", "object_center"]
 
 TORUS_SECTORS = 16  # convex pieces of a torus (its tube's sagitta is 2% of the ring radius)
 _REGION_SAMPLES = 9  # per parameter, when the solid is the hull of the regions
@@ -200,22 +200,23 @@ def mass_properties(solid: Solid) -> MassProperties:
     return MassProperties(volume, centroid, inertia)
 
 
-def object_reference(obj: GraspObject) -> tuple[np.ndarray, float]:
+def object_reference(obj: GraspObject, center_mm=None) -> tuple[np.ndarray, float]:
     """``(centre (3,) [mm], radius [mm])`` of ``obj``, object frame.
 
-    The centre is the centroid of the object's solid (its centre of mass at uniform
-    density), the radius the largest distance from it to the solid's surface, as
-    GraspIt! scales torques.  An object with no solid (only points, or regions in a
-    plane) uses the centroid of its regions' sample points and their largest distance.
+    The centre is ``center_mm`` when given, else the centroid of the object's solid (its
+    centre of mass at uniform density); the radius is the largest distance from the centre
+    to the solid's surface, as GraspIt! scales torques.  An object with no solid (only
+    points, or regions in a plane) uses its regions' sample points instead: their
+    centroid, and their largest distance from the centre.
 
     Raises:
-        InvalidObject: the object has neither a solid nor two distinct region points.
+        InvalidObject: the radius would be zero (a single point and no solid).
     """
     try:
         solid = object_solid(obj)
     except InvalidObject:
         points = _region_points(obj)
-        centre = points.mean(axis=0) if len(points) else np.zeros(3)
+        centre = (points.mean(axis=0) if len(points) else np.zeros(3)) if center_mm is None else np.asarray(center_mm, float)
         radius = float(np.max(np.linalg.norm(points - centre, axis=1))) if len(points) else 0.0
         if not radius > 0:
             raise InvalidObject(
@@ -223,6 +224,16 @@ def object_reference(obj: GraspObject) -> tuple[np.ndarray, float]:
                 "or a mesh) or state the radius (QualityOptions(radius_mm=...))"
             ) from None
         return centre, radius
-    centre = mass_properties(solid).centroid_mm
+    centre = mass_properties(solid).centroid_mm if center_mm is None else np.asarray(center_mm, float)
     radius = float(max(np.max(np.linalg.norm(p.vertices - centre, axis=1)) for p in solid.pieces))
     return centre, radius
+
+
+def object_center(obj: GraspObject) -> np.ndarray:
+    """(3,) the centre :func:`object_reference` takes [mm]: the solid's centroid, else the
+    centroid of the regions' sample points."""
+    try:
+        return mass_properties(object_solid(obj)).centroid_mm
+    except InvalidObject:
+        points = _region_points(obj)
+        return points.mean(axis=0) if len(points) else np.zeros(3)
