@@ -10,7 +10,7 @@
 See ``docs/quality.md``.
 """
 
-from .grasp import GraspQuality, contact_quality, contacts_quality, grasp_quality
+from .grasp import GraspQuality, configuration_quality, contact_quality, contacts_quality, grasp_quality
 from .measures import CLOSURE_TOLERANCE, ClosureTest, force_closure, hull_measures
 from .options import DEFAULT_FRICTION, QualityOptions
 from .solid import MassProperties, Solid, mass_properties, object_reference, object_solid
@@ -18,7 +18,7 @@ from .stored import check_quality_entry, quality_entry
 from .wrenches import cone_edges, primitive_wrenches
 
 __all__ = [
-    "QualityOptions", "GraspQuality", "grasp_quality", "contacts_quality", "contact_quality",
+    "QualityOptions", "GraspQuality", "grasp_quality", "contacts_quality", "configuration_quality", "contact_quality",
     "quality_entry", "check_quality_entry",
     "primitive_wrenches", "cone_edges", "force_closure", "ClosureTest", "hull_measures", "CLOSURE_TOLERANCE",
     "Solid", "MassProperties", "object_solid", "mass_properties", "object_reference", "DEFAULT_FRICTION",

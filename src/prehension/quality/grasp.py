@@ -21,7 +21,7 @@ from .options import QualityOptions
 from .solid import object_center, object_reference
 from .wrenches import primitive_wrenches
 
-__all__ = ["GraspQuality", "grasp_quality", "contacts_quality", "contact_quality", "QUALITY_KEYS"]
+__all__ = ["GraspQuality", "grasp_quality", "contacts_quality", "configuration_quality", "contact_quality", "QUALITY_KEYS"]
 
 QUALITY_KEYS = ("force_closure", "epsilon", "volume", "closure_margin", "center_mm", "radius_mm", "options")
 
@@ -98,6 +98,21 @@ def contacts_quality(task: Task, T_palm_object, contacts, options: QualityOption
     inward = -(n_palm @ R)
     centre, radius = _reference(task, options)
     return contact_quality(p_obj, inward, centre, radius, options)
+
+
+def configuration_quality(task: Task, config, options: QualityOptions = QualityOptions()) -> GraspQuality:
+    """The quality of the contacts a configuration states (``config.contact_params``), read
+    on the object's regions in the object frame: no kinematics, so cheap enough to rank
+    thousands of candidates before verifying the few that are kept."""
+    if config.contact_params is None:
+        raise PrehensionError("configuration_quality needs the contact parameters of the configuration")
+    points, inward = [], []
+    for contact, (_, op) in zip(task.contacts, config.contact_params):
+        p, n = task.object_region(contact).evaluate(np.asarray(op, dtype=float)[None])
+        points.append(p[0])
+        inward.append(-n[0])
+    centre, radius = _reference(task, options)
+    return contact_quality(np.array(points), np.array(inward), centre, radius, options)
 
 
 def _reference(task: Task, options: QualityOptions) -> tuple[np.ndarray, float]:

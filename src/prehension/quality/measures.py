@@ -30,7 +30,6 @@ from dataclasses import dataclass
 
 import highspy
 import numpy as np
-import scipy.sparse as sp
 from scipy.spatial import ConvexHull, QhullError
 
 __all__ = ["ClosureTest", "force_closure", "hull_measures", "CLOSURE_TOLERANCE"]
@@ -75,11 +74,14 @@ def force_closure(wrenches) -> ClosureTest:
 def _positive_combination_margin(W: np.ndarray) -> float:
     """``t*`` of the LP in the module docstring (0 when it is infeasible)."""
     K = len(W)
-    # rows: W^T lambda = 0 (6), sum lambda = 1 (1), lambda_k - t >= 0 (K); columns: lambda (K), t
-    top = sp.hstack([sp.csr_matrix(W.T), sp.csr_matrix((6, 1))])
-    ones = sp.hstack([sp.csr_matrix(np.ones((1, K))), sp.csr_matrix((1, 1))])
-    gaps = sp.hstack([sp.identity(K, format="csr"), sp.csr_matrix(-np.ones((K, 1)))])
-    a = sp.csc_matrix(sp.vstack([top, ones, gaps]))
+    # rows: W^T lambda = 0 (0..5), sum lambda = 1 (6), lambda_k - t >= 0 (7 + k); columns: lambda (K), t
+    # column k of lambda holds W[k] in rows 0..5, 1 in row 6 and 1 in row 7 + k; column t holds -1 in rows 7..
+    rows = np.tile(np.r_[np.arange(7), 0], (K, 1)).astype(np.int32)
+    rows[:, 7] = 7 + np.arange(K)
+    values = np.concatenate([W, np.ones((K, 1)), np.ones((K, 1))], axis=1)  # (K, 8)
+    index = np.concatenate([rows.ravel(), 7 + np.arange(K, dtype=np.int32)])
+    value = np.concatenate([values.ravel(), -np.ones(K)])
+    start = np.r_[np.arange(K + 1) * 8, 8 * K + K].astype(np.int32)
     lp = highspy.HighsLp()
     lp.num_col_, lp.num_row_ = K + 1, 7 + K
     lp.col_cost_ = np.r_[np.zeros(K), -1.0]  # minimise -t
@@ -87,9 +89,9 @@ def _positive_combination_margin(W: np.ndarray) -> float:
     lp.row_lower_ = np.r_[np.zeros(6), 1.0, np.zeros(K)]
     lp.row_upper_ = np.r_[np.zeros(6), 1.0, np.full(K, highspy.kHighsInf)]
     lp.a_matrix_.format_ = highspy.MatrixFormat.kColwise
-    lp.a_matrix_.start_ = a.indptr.astype(np.int32)
-    lp.a_matrix_.index_ = a.indices.astype(np.int32)
-    lp.a_matrix_.value_ = a.data.astype(float)
+    lp.a_matrix_.start_ = start
+    lp.a_matrix_.index_ = index
+    lp.a_matrix_.value_ = value
     h = highspy.Highs()
     h.setOptionValue("output_flag", False)
     h.passModel(lp)

@@ -62,6 +62,7 @@ class MassProperties:
 
 
 _SOLIDS: "weakref.WeakKeyDictionary[GraspObject, Solid]" = weakref.WeakKeyDictionary()
+_CENTRES: "weakref.WeakKeyDictionary[GraspObject, np.ndarray]" = weakref.WeakKeyDictionary()
 
 
 def object_solid(obj: GraspObject) -> Solid:
@@ -176,8 +177,9 @@ def _volume_integrals(mesh: Mesh) -> tuple[float, np.ndarray, np.ndarray]:
     det = np.einsum("fi,fi->f", tri[:, 0], np.cross(tri[:, 1], tri[:, 2]))  # (F,)
     volume = det.sum() / 6.0
     first = np.einsum("f,fi->i", det, tri.sum(axis=1)) / 24.0
-    C = (np.ones((3, 3)) + np.eye(3)) / 120.0
-    second = np.einsum("f,fki,kl,flj->ij", det, tri, C, tri)  # sum det * A C A^T, A = tri^T
+    # A C A^T = (sum_k v_k v_k^T + s s^T) / 120 with v_k the vertices and s their sum
+    s = tri.sum(axis=1)  # (F, 3)
+    second = (np.einsum("f,fki,fkj->ij", det, tri, tri) + np.einsum("f,fi,fj->ij", det, s, s)) / 120.0
     return float(volume), first, second
 
 
@@ -232,8 +234,12 @@ def object_reference(obj: GraspObject, center_mm=None) -> tuple[np.ndarray, floa
 def object_center(obj: GraspObject) -> np.ndarray:
     """(3,) the centre :func:`object_reference` takes [mm]: the solid's centroid, else the
     centroid of the regions' sample points."""
-    try:
-        return mass_properties(object_solid(obj)).centroid_mm
-    except InvalidObject:
-        points = _region_points(obj)
-        return points.mean(axis=0) if len(points) else np.zeros(3)
+    cached = _CENTRES.get(obj)
+    if cached is None:
+        try:
+            cached = mass_properties(object_solid(obj)).centroid_mm
+        except InvalidObject:
+            points = _region_points(obj)
+            cached = points.mean(axis=0) if len(points) else np.zeros(3)
+        _CENTRES[obj] = cached
+    return cached.copy()
