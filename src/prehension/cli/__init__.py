@@ -15,7 +15,7 @@ from rich.markup import escape
 
 from .. import __version__
 from ..errors import PrehensionError
-from . import batch, check, offline, solve, view
+from . import batch, check, offline, simulate, solve, view
 from .codes import EXIT_APPROXIMATE, EXIT_BAD_INPUT, EXIT_CHECK_FAILED, EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK
 
 __all__ = [
@@ -42,6 +42,7 @@ def build_parser() -> argparse.ArgumentParser:
     offline.add_parser(sub)
     batch.add_parser(sub)
     view.add_parsers(sub)
+    simulate.add_parser(sub)
     return parser
 
 
@@ -75,7 +76,7 @@ def main(argv: list[str] | None = None) -> int:
     commands = {
         "tasks": cmd_tasks, "show": cmd_show, "import-cuik": cmd_import, "solve": cmd_solve,
         "check": cmd_check, "offline": _cmd_offline, "batch": cmd_batch,
-        "view": cmd_view, "render": cmd_render,
+        "view": cmd_view, "render": cmd_render, "simulate": simulate.cmd_simulate,
     }  # fmt: skip
     if args.command is None:
         parser.print_help()
