@@ -12,7 +12,10 @@ from rich.table import Table
 from ..errors import PrehensionError
 from . import args as types
 
-__all__ = ["add_quality_arguments", "add_best_arguments", "quality_options", "best_options", "quality_lines", "best_table"]
+__all__ = [
+    "add_quality_arguments", "add_best_arguments", "add_batch_arguments", "quality_options", "best_options", "batch_extras",
+    "quality_lines", "best_table",
+]  # fmt: skip
 
 
 def add_quality_arguments(p) -> None:
@@ -38,6 +41,27 @@ def add_best_arguments(p) -> None:
                    help="--best: solutions are distinct when some joint angle, or the object's orientation, differs by this much (default 5)")  # fmt: skip
     g.add_argument("--distinct-mm", type=types.finite, default=5.0, metavar="MM",
                    help="--best: ... or the object's position by this much (default 5)")  # fmt: skip
+
+
+def add_batch_arguments(p) -> None:
+    """``batch``: the same quality and ``--best`` options, and ``--simulate``."""
+    add_quality_arguments(p)
+    add_best_arguments(p)
+    p.add_argument("--simulate", action="store_true",
+                   help='run the physics test (prehension simulate) on every solution, on the cluster; each record '
+                        'gets "physics" (needs: pip install "prehension[sim]")')  # fmt: skip
+
+
+def batch_extras(args) -> dict:
+    """``best``, ``quality`` and ``simulate`` of :class:`~prehension.batch.BatchOptions`;
+    checks that MuJoCo is installed before a cluster starts when ``--simulate`` asks for it."""
+    simulate = None
+    if args.simulate:
+        from ..sim import SimOptions, require_mujoco
+
+        require_mujoco()
+        simulate = SimOptions()
+    return {"best": best_options(args, None), "quality": quality_options(args), "simulate": simulate}
 
 
 def quality_options(args):
