@@ -17,6 +17,7 @@ from rich.progress import TimeRemainingColumn
 from rich.text import Text
 
 from . import args as types
+from .best import add_batch_arguments, batch_extras
 from .codes import EXIT_BAD_INPUT, EXIT_GAVE_UP, EXIT_OK
 
 __all__ = ["add_parser", "cmd_batch"]
@@ -43,6 +44,7 @@ def add_parser(sub) -> None:
     p.add_argument("--retry-gave-up", action="store_true", help="solve again the tasks recorded as gave_up (or approximate)")
     p.add_argument("--max-tasks", type=types.positive_int, default=None, help="stop after this many tasks (re-run to go on)")
     p.add_argument("--quiet", action="store_true", help="no progress bar or summary, only errors")
+    add_batch_arguments(p)
 
 
 class _RateColumn(ProgressColumn):
@@ -66,7 +68,7 @@ def cmd_batch(args, console: Console) -> int:
 
     options = BatchOptions(
         method=args.method, seed=args.seed, time_limit_s=types.time_limit(args.time_limit), chunk_size=args.chunk_size,
-        retry_gave_up=args.retry_gave_up, max_tasks=args.max_tasks,
+        retry_gave_up=args.retry_gave_up, max_tasks=args.max_tasks, **batch_extras(args),
     )  # fmt: skip
     check_where(args.scheduler, args.workers)
     check_output(args.input, args.output)
