@@ -17,18 +17,20 @@ from .tasks.model import Task
 __all__ = ["solve_task", "physics_records"]
 
 
-def solve_task(task: Task, method: str, seed: int, time_limit_s: float | None, best=None) -> SolveResult:
+def solve_task(task: Task, method: str, seed: int, time_limit_s: float | None, best=None, sequence=None) -> SolveResult:
     """``solve`` (``best is None``) or :func:`~prehension.best.solve_best` with ``best``
-    (:class:`~prehension.best.BestOptions`), each bounded by ``time_limit_s``."""
+    (:class:`~prehension.best.BestOptions`), each bounded by ``time_limit_s``, the local
+    solver starting from ``sequence`` (``None``: the hand's default)."""
     from .solve import solve
     from .solvers.complete.search import BranchAndPruneOptions
 
     complete = BranchAndPruneOptions(time_limit_s=time_limit_s)
     if best is None:
-        return solve(task, method, complete_options=complete, seed=seed)
+        return solve(task, method, complete_options=complete, seed=seed, sequence=sequence)
     from .best import solve_best
 
-    return solve_best(task, replace(best, time_limit_s=time_limit_s), method, seed=seed, complete_options=complete)
+    return solve_best(task, replace(best, time_limit_s=time_limit_s), method, seed=seed, complete_options=complete,
+                      sequence=sequence)  # fmt: skip
 
 
 def physics_records(task: Task, result: SolveResult, options, seed: int) -> list[dict]:

@@ -134,12 +134,13 @@ def random_starts(task: Task, count: int, rng: np.random.Generator) -> list[Conf
     return starts
 
 
-def _local_phase(task: Task, options: BestOptions, seed: int, deadline: float | None) -> tuple[list, dict]:
+def _local_phase(task: Task, options: BestOptions, seed: int, deadline: float | None, sequence=None) -> tuple[list, dict]:
     """Configurations the local solver found from the off-line sequence and from the random
     starts (each met the strict tolerances in the solver's own checks): ``[(config, source)]``."""
     from .solvers.local import LocalOptions, refine_local, solve_local
 
-    found = [(s.configuration(), "local solver (off-line sequence)") for s in solve_local(task, LocalOptions(), seed=seed).solutions]
+    first = solve_local(task, LocalOptions(), sequence, seed=seed).solutions
+    found = [(s.configuration(), "local solver (off-line sequence)") for s in first]
     rng = np.random.default_rng(seed)
     starts = random_starts(task, options.starts, rng)
     tried = 0
@@ -200,8 +201,11 @@ def solve_best(
     executor=None,
     workers: int = 1,
     progress: Callable[[dict], None] | None = None,
+    sequence=None,
 ) -> SolveResult:
     """Up to ``options.n`` distinct verified solutions of ``task``, best first (module docstring).
+
+    ``sequence``: the local solver's off-line initial poses (default: the hand's own).
 
     Returns a :class:`~prehension.results.SolveResult` whose ``solutions`` are ranked and
     whose ``stats["best"]`` says how they were collected (candidates, distinct ones,
@@ -217,7 +221,11 @@ def solve_best(
     if method in ("auto", "local"):
         if progress is not None:
             progress({"stage": f"best of {options.n}: local solver from {options.starts} random starts"})
-        found, stats = _local_phase(task, options, seed, deadline)
+        if sequence is not None:
+            from .solve import check_sequence
+
+            check_sequence(sequence, task.hand)
+        found, stats = _local_phase(task, options, seed, deadline, sequence)
     complete = None
     if method == "complete" or (method == "auto" and not found):
         if progress is not None:

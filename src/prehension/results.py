@@ -205,7 +205,7 @@ def result_to_dict(result: SolveResult, quality=None) -> dict:
         "prehension": RESULT_TAG,
         "units": {"length": "mm", "angle": "rad unless the key ends in _deg"},
         "frames": "poses are T_palm_X (x_palm = T x_X); points and normals in the palm frame",
-        "task": task_to_dict(result.task),
+        "task": task_to_dict(result.task, hand_inline=True),  # a result file is re-checkable alone
         "method": result.method,
         "status": result.status,
         "success": result.success,

@@ -41,6 +41,9 @@ class BatchOptions:
         quality: the :class:`~prehension.quality.QualityOptions` of the stored quality.
         simulate: a :class:`~prehension.sim.SimOptions`: each record also gets ``"physics"``,
             the physics test of every solution (:func:`prehension.batch_extras.physics_records`).
+        sequences: initial-pose sequences of ``prehension offline`` (their JSON
+            mappings); a task uses the one made for its hand (by name), if any, else
+            its hand's default.
     """
 
     method: str = "auto"
@@ -53,6 +56,7 @@ class BatchOptions:
     best: Any = None
     quality: Any = None
     simulate: Any = None
+    sequences: tuple = ()
 
     def __post_init__(self):
         def need(ok, message):
@@ -65,6 +69,17 @@ class BatchOptions:
         need(self.chunk_size is None or self.chunk_size >= 1, f"chunk size must be >= 1, got {self.chunk_size}")
         need(self.max_tasks is None or self.max_tasks >= 0, f"max tasks must be >= 0, got {self.max_tasks}")
         need(self.delay_s >= 0, f"delay must be >= 0 s, got {self.delay_s}")
+        hands = [s.get("hand") for s in self.sequences]
+        need(len(set(hands)) == len(hands), f"give one initial-pose sequence per hand, got several for {hands}")
+
+    def sequence_for(self, hand_name: str):
+        """The :class:`InitialPoseSequence` given for hand ``hand_name``, or None."""
+        from ..solvers.local.sequence import InitialPoseSequence
+
+        for data in self.sequences:
+            if data.get("hand") == hand_name:
+                return InitialPoseSequence.from_dict(data, f"sequence of hand {hand_name!r}")
+        return None
 
     @property
     def tasks_per_chunk(self) -> int:
@@ -102,7 +117,8 @@ def _solve_one(entry: Mapping[str, Any], options: BatchOptions) -> dict:
     try:
         task = entry_task(entry["payload"])
         seed = task_seed(options.seed, entry["id"])
-        result = solve_task(task, options.method, seed, options.time_limit_s, options.best)
+        result = solve_task(task, options.method, seed, options.time_limit_s, options.best,
+                            options.sequence_for(task.hand.name))  # fmt: skip
         data = result_to_dict(result, options.quality)
         if options.simulate is not None:
             extra["physics"] = physics_records(task, result, options.simulate, seed)

@@ -112,12 +112,9 @@ class Task:
 
     @property
     def active_mask(self) -> np.ndarray:
-        """(n_dof,) bool: the dofs that move the links of the participating fingers."""
-        mask = np.zeros(self.hand.n_dof, dtype=bool)
-        for f in self.fingers:
-            for link in self.hand.finger(f).links:
-                mask[list(self.hand.chain_dofs(link))] = True
-        return mask
+        """(n_dof,) bool: the dofs that move the links of the participating fingers, with
+        the dofs coupled to them (:meth:`Hand.active_dofs`)."""
+        return self.hand.active_dofs(self.fingers)
 
     @property
     def idle_vector(self) -> np.ndarray:
