@@ -209,3 +209,31 @@ def test_simulate_refuses_what_it_cannot_trust(tmp_path, capsys, four):
     assert "does not hold" in capsys.readouterr().err
     assert main(["simulate", str(tmp_path / "r.json"), "--mass", "-1"]) == EXIT_BAD_INPUT
     assert "--mass must be a positive number" in capsys.readouterr().err
+
+
+def test_every_kind_of_hand_region_becomes_a_solid(tmp_path):
+    """A cap is its sphere, a point a 1 mm ball behind it, a patch the hull of itself and its
+    copy 2 mm inside the link; the object of primitives is its convex pieces."""
+    from prehension.geometry.bezier import BezierPatch
+    from prehension.geometry.regions import BezierRegion, PointRegion
+    from prehension.hands.model import HandRegion
+    from prehension.objects.meshes import Box
+    from prehension.tasks.model import Contact, Task
+    from tiny_tasks import pincer_hand
+
+    flat = BezierRegion(BezierPatch(np.array([[[0, -5, 60], [0, 5, 60]], [[0, -5, 70], [0, 5, 70]]], float)))
+    hand = pincer_hand().with_regions({"patch": HandRegion("palm", flat)})
+    obj = GraspObject("block", {"A": PointRegion((0, 0, 0), (-1, 0, 0)), "B": PointRegion((40, 0, 0), (-1, 0, 0)),
+                                "C": PointRegion((0, 10, 0), (-1, 0, 0))}, (Box((20, 0, 0), (40, 30, 30)),))  # fmt: skip
+    task = Task("kinds", hand, obj, (Contact("pad", "A"), Contact("tip", "B"), Contact("patch", "C")), ("f",))
+    grasp = SimpleNamespace(q=np.zeros(2), T_palm_object=np.eye(4), contacts=())
+    model = mujoco.MjModel.from_xml_string(scene_for(task, grasp).xml)
+    palm, dist = model.body("link:palm").id, model.body("link:dist").id
+    kinds = {(int(model.geom_bodyid[g]), int(model.geom_type[g])) for g in range(model.ngeom)}
+    sphere, mesh = int(mujoco.mjtGeom.mjGEOM_SPHERE), int(mujoco.mjtGeom.mjGEOM_MESH)
+    assert {(palm, sphere), (palm, mesh), (dist, sphere)} <= kinds
+    pad = next(g for g in range(model.ngeom) if model.geom_bodyid[g] == palm and model.geom_type[g] == sphere)
+    assert np.allclose(model.geom_pos[pad] * 1000, (9, 0, 100)) and model.geom_size[pad][0] == pytest.approx(1e-3)
+    tip = next(g for g in range(model.ngeom) if model.geom_bodyid[g] == dist and model.geom_type[g] == sphere)
+    assert np.allclose(model.geom_pos[tip] * 1000, (0, 0, 30)) and model.geom_size[tip][0] == pytest.approx(8e-3)
+    assert sum(model.geom_bodyid[g] == model.body("object").id for g in range(model.ngeom)) == 1  # one box

@@ -8,7 +8,7 @@ deterministic: the same grasp, options and seed give the same numbers.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
@@ -75,7 +75,7 @@ class PhysicsReport:
     def to_dict(self) -> dict:
         return {
             "success": self.success, "rejected": self.rejected, "initial_penetration_mm": self.initial_penetration_mm,
-            "held": self.held, "pushes": [p.__dict__.copy() for p in self.pushes], "seed": self.seed,
+            "held": self.held, "pushes": [asdict(p) for p in self.pushes], "seed": self.seed,
             "options": self.options.to_dict(),
         }  # fmt: skip
 
