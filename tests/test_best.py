@@ -123,6 +123,7 @@ def test_solve_best_on_the_command_line(tmp_path, capsys):
 
 @pytest.mark.parametrize("extra, message", [
     (["--all"], "cannot be combined with --all"),
+    (["--approximate"], "cannot be combined with --approximate"),
     (["--starts", "-3"], "--starts must be an integer >= 0"),
     (["--distinct-mm", "0"], "--distinct-mm must be a positive number"),
     (["--friction", "-1"], "--friction must be a number >= 0"),

@@ -82,9 +82,10 @@ def best_options(args, time_limit_s):
 
     if args.best is None:
         return None
-    for flag, given in (("--all", getattr(args, "all", False)), ("--checkpoint", getattr(args, "checkpoint", None))):
+    for flag, given in (("--all", getattr(args, "all", False)), ("--checkpoint", getattr(args, "checkpoint", None)),
+                        ("--approximate", getattr(args, "approximate", False))):  # fmt: skip
         if given:
-            raise PrehensionError(f"--best collects its own solution set; it cannot be combined with {flag}")
+            raise PrehensionError(f"--best collects its own set of strictly verified solutions; it cannot be combined with {flag}")
     if args.starts < 0:
         raise PrehensionError(f"--starts must be an integer >= 0, got {args.starts}")
     for flag, value in (("--distinct-deg", args.distinct_deg), ("--distinct-mm", args.distinct_mm)):
