@@ -24,10 +24,12 @@ from .hands.kinematics import HandPose, forward_kinematics
 from .hands.model import Capsule, Coupling, Finger, Hand, HandRegion, Joint, Link
 from .hands.sa_hand import schunk_sa_hand
 from .hands.urdf import hand_from_urdf
+from .best import BestOptions, solve_best
 from .objects.mesh_io import load_mesh
 from .objects.model import GraspObject
 from .objects.pick import PickedRegion, region_from_mesh
 from .objects.solid import MeshFileSolid, PrimitiveSolid
+from .quality import GraspQuality, QualityOptions, grasp_quality
 from .results import Solution, SolveResult, Status, make_solution, read_result, write_result
 from .solve import solve
 from .tasks.cuik_import import import_world
@@ -60,4 +62,6 @@ __all__ = [
     "builtin_task_names", "load_builtin_task", "resolve_task", "move_object_region", "turn_object_region",
     # solving and results
     "solve", "SolveResult", "Solution", "Status", "make_solution", "write_result", "read_result",
+    # does the grasp hold? (the physics test: prehension.sim, extra "sim")
+    "grasp_quality", "QualityOptions", "GraspQuality", "solve_best", "BestOptions",
 ]  # fmt: skip

@@ -171,7 +171,9 @@ def make_solution(task: Task, config: Configuration, tolerances: Tolerances = To
 
 
 # -- files ------------------------------------------------------------------------------
-def _solution_to_dict(sol: Solution) -> dict:
+def _solution_to_dict(sol: Solution, task: Task, quality=None) -> dict:
+    from .quality import QualityOptions, quality_entry
+
     return {
         "joint_angles_deg": {k: float(np.degrees(v)) for k, v in sol.joint_angles.items()},
         "joint_angles_rad": dict(sol.joint_angles),
@@ -194,11 +196,13 @@ def _solution_to_dict(sol: Solution) -> dict:
         "worst": {k: sol.report.worst(k) for k in sorted({c.kind for c in sol.report.checks})},
         "tolerances": asdict(sol.tolerances),
         "idle_moved": list(sol.idle_moved),
+        "quality": quality_entry(task, sol.T_palm_object, sol.contacts, quality or QualityOptions()),
     }
 
 
-def result_to_dict(result: SolveResult) -> dict:
-    """A JSON-ready dict: units in keys, the task embedded."""
+def result_to_dict(result: SolveResult, quality=None) -> dict:
+    """A JSON-ready dict: units in keys, the task embedded; each solution's grasp quality
+    measured with ``quality`` (:class:`prehension.quality.QualityOptions`, default ones if ``None``)."""
     from .tasks.yaml_io import task_to_dict
 
     return {
@@ -212,14 +216,14 @@ def result_to_dict(result: SolveResult) -> dict:
         "message": result.message,
         "seconds": result.seconds,
         "stats": to_plain(dict(result.stats)),
-        "solutions": [_solution_to_dict(s) for s in result.solutions],
+        "solutions": [_solution_to_dict(s, result.task, quality) for s in result.solutions],
         "unverified_boxes": [{"lower": lo.tolist(), "upper": hi.tolist()} for lo, hi in result.unverified_boxes],
     }
 
 
-def write_result(result: SolveResult, path) -> None:
-    """Write the result file atomically (never a half-written file)."""
-    write_json_atomic(path, result_to_dict(result))
+def write_result(result: SolveResult, path, quality=None) -> None:
+    """Write the result file atomically (never a half-written file); ``quality`` as in :func:`result_to_dict`."""
+    write_json_atomic(path, result_to_dict(result, quality))
 
 
 def read_result(path) -> tuple[Task, dict]:

@@ -37,6 +37,10 @@ class BatchOptions:
         max_tasks: solve at most this many tasks in this run (then stop; re-run to go on).
         delay_s: testing only: sleep this long before each task [s], to make a run slow
             enough to kill a worker in the middle of it.
+        best: a :class:`~prehension.best.BestOptions`: solve each task as ``solve --best N``.
+        quality: the :class:`~prehension.quality.QualityOptions` of the stored quality.
+        simulate: a :class:`~prehension.sim.SimOptions`: each record also gets ``"physics"``,
+            the physics test of every solution (:func:`prehension.batch_extras.physics_records`).
         sequences: initial-pose sequences of ``prehension offline`` (their JSON
             mappings); a task uses the one made for its hand (by name), if any, else
             its hand's default.
@@ -49,6 +53,9 @@ class BatchOptions:
     retry_gave_up: bool = False
     max_tasks: int | None = None
     delay_s: float = 0.0
+    best: Any = None
+    quality: Any = None
+    simulate: Any = None
     sequences: tuple = ()
 
     def __post_init__(self):
@@ -101,19 +108,20 @@ def error_record(entry: Mapping[str, Any], options: BatchOptions, status: str, m
 
 
 def _solve_one(entry: Mapping[str, Any], options: BatchOptions) -> dict:
+    from ..batch_extras import physics_records, solve_task
     from ..results import result_to_dict
-    from ..solve import solve
-    from ..solvers.complete.search import BranchAndPruneOptions
     from .inputs import entry_task
 
     started = time.perf_counter()
+    extra = {}
     try:
         task = entry_task(entry["payload"])
-        result = solve(
-            task, options.method, complete_options=BranchAndPruneOptions(time_limit_s=options.time_limit_s),
-            seed=task_seed(options.seed, entry["id"]), sequence=options.sequence_for(task.hand.name),
-        )  # fmt: skip
-        data = result_to_dict(result)
+        seed = task_seed(options.seed, entry["id"])
+        result = solve_task(task, options.method, seed, options.time_limit_s, options.best,
+                            options.sequence_for(task.hand.name))  # fmt: skip
+        data = result_to_dict(result, options.quality)
+        if options.simulate is not None:
+            extra["physics"] = physics_records(task, result, options.simulate, seed)
     except PrehensionError as exc:
         return error_record(entry, options, "invalid", str(exc), time.perf_counter() - started)
     except Exception as exc:  # a bug must not stop the other tasks; the record says what happened
@@ -121,7 +129,7 @@ def _solve_one(entry: Mapping[str, Any], options: BatchOptions) -> dict:
         message = f"{type(exc).__name__}: {exc} ({last.filename}:{last.lineno})"
         return error_record(entry, options, "error", message, time.perf_counter() - started)
     seconds = time.perf_counter() - started
-    return _record(entry, options, status=result.status, seconds=seconds, message=result.message, result=data)
+    return _record(entry, options, status=result.status, seconds=seconds, message=result.message, result=data, **extra)
 
 
 def solve_chunk(entries: Sequence[Mapping[str, Any]], options: BatchOptions) -> list[dict]:

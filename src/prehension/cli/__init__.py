@@ -15,7 +15,7 @@ from rich.markup import escape
 
 from .. import __version__
 from ..errors import PrehensionError
-from . import batch, check, hands, offline, region, solve, view
+from . import batch, check, hands, offline, region, simulate, solve, view
 from .codes import EXIT_APPROXIMATE, EXIT_BAD_INPUT, EXIT_CHECK_FAILED, EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK
 
 __all__ = [
@@ -44,6 +44,7 @@ def build_parser() -> argparse.ArgumentParser:
     view.add_parsers(sub)
     hands.add_parsers(sub)
     region.add_parser(sub)
+    simulate.add_parser(sub)
     return parser
 
 
@@ -80,6 +81,7 @@ def main(argv: list[str] | None = None) -> int:
         "tasks": cmd_tasks, "show": cmd_show, "import-cuik": cmd_import, "solve": cmd_solve,
         "check": cmd_check, "offline": _cmd_offline, "batch": cmd_batch,
         "view": cmd_view, "render": cmd_render, "export-hand": cmd_export_hand, "region": cmd_region,
+        "simulate": simulate.cmd_simulate,
     }  # fmt: skip
     if args.command is None:
         parser.print_help()

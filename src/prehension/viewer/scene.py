@@ -216,6 +216,10 @@ def build_scene(task: Task, grasp=None, *, status: str | None = None) -> Scene:
         contact_layer(task, pose, colors, scale_mm),
         frame_layer(task, pose, scale_mm),
     )
+    if pose.has_solution:
+        from .cones import friction_cone_layer
+
+        layers += (friction_cone_layer(pose, colors, scale_mm),)
     status = status or pose.status
     legend = _legend(task, colors, has_hand=bool(layers[0].meshes), has_object=bool(layers[1].meshes))
     if red:
