@@ -13,7 +13,7 @@ so that ``prehension check`` -- or any other program -- can re-verify them alone
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -77,6 +77,11 @@ class Solution:
         link_poses: every link's pose ``T_palm_link`` (4, 4) [mm], by link name.
         contacts: per contact, where it is made.
         report: the residual report that verified it.
+        tolerances: the tolerances it was verified with (the strict defaults for a
+            solution of a ``"solved"`` result).
+        idle_moved: dofs of fingers that do not take part whose angle differs from the
+            task's idle value (moved within their limits to clear a collision); every
+            other idle dof is at its idle value.
     """
 
     joint_angles: Mapping[str, float]
@@ -84,6 +89,8 @@ class Solution:
     link_poses: Mapping[str, np.ndarray]
     contacts: tuple[ContactResult, ...]
     report: ResidualReport
+    tolerances: Tolerances = Tolerances()
+    idle_moved: tuple[str, ...] = ()
 
     @property
     def q(self) -> np.ndarray:
@@ -144,12 +151,18 @@ def make_solution(task: Task, config: Configuration, tolerances: Tolerances = To
         )  # fmt: skip
         for s in report.contacts
     )
+    idle = task.idle_vector
+    moved = tuple(
+        d for i, d in enumerate(task.hand.dof_names) if not task.active_mask[i] and config.joint_angles[i] != idle[i]
+    )
     return Solution(
         dict(zip(task.hand.dof_names, (float(x) for x in config.joint_angles))),
         config.T_palm_object.copy(),
         {name: T[i] for i, name in enumerate(task.hand.link_names)},
         contacts,
         report,
+        tolerances,
+        moved,
     )
 
 
@@ -175,6 +188,8 @@ def _solution_to_dict(sol: Solution) -> dict:
             for c in sol.contacts
         ],
         "worst": {k: sol.report.worst(k) for k in sorted({c.kind for c in sol.report.checks})},
+        "tolerances": asdict(sol.tolerances),
+        "idle_moved": list(sol.idle_moved),
     }
 
 

@@ -52,11 +52,15 @@ def solve(
         check_sequence(sequence, task.hand)
     started = time.perf_counter()
     if method in ("auto", "local"):
+        if progress is not None:
+            progress({"stage": "local solver"})
         local = _solve_local(task, local_options, seed, sequence)
         if local.success or method == "local":
             return local
     from .solvers.complete.search import BranchAndPruneOptions, solve_complete
 
+    if progress is not None:
+        progress({"stage": "complete solver"})
     result = solve_complete(
         task, complete_options or BranchAndPruneOptions(), executor=executor, workers=workers,
         checkpoint=checkpoint, resume=resume, progress=progress,

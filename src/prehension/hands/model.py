@@ -52,6 +52,11 @@ __all__ = ["Joint", "Coupling", "Capsule", "Link", "Finger", "HandRegion", "Name
 _ORTHO_TOL = 1e-6
 
 
+def _limits_text(lo: float, hi: float) -> str:
+    """Joint limits for a message, in degrees (what users type) and radians (what the API takes)."""
+    return f"[{np.degrees(lo):.6g}, {np.degrees(hi):.6g}] deg ([{lo:.6g}, {hi:.6g}] rad)"
+
+
 def _vec3(value, what: str) -> np.ndarray:
     return vec3(value, what, InvalidHand)
 
@@ -124,9 +129,9 @@ class Joint:
             raise InvalidHand(f"{where}: a {self.kind} joint has {n} angle(s); give {n} dof name(s) and limit pair(s)")
         for d, lo, hi in zip(self.dof_names, self.lower, self.upper):
             if not (np.isfinite(lo) and np.isfinite(hi) and lo <= hi):
-                raise InvalidHand(f"{where}: limits of {d!r} must satisfy lower <= upper, got [{lo}, {hi}] rad")
+                raise InvalidHand(f"{where}: limits of {d!r} must satisfy lower <= upper, got {_limits_text(lo, hi)}")
             if hi - lo > 2 * np.pi + 1e-9:
-                raise InvalidHand(f"{where}: limits of {d!r} span more than 2*pi rad ([{lo}, {hi}])")
+                raise InvalidHand(f"{where}: limits of {d!r} span more than one turn (360 deg): {_limits_text(lo, hi)}")
         if self.kind == "universal":
             if self.axis_in_child is None:
                 raise InvalidHand(f"{where}: a universal joint needs axis_in_child (its second axis)")

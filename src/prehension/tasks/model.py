@@ -78,6 +78,8 @@ class Task:
             raise InvalidTask(f"task {self.name!r}: {exc}") from None
 
     def _validate(self) -> None:
+        if not isinstance(self.name, str) or not self.name.strip():
+            raise InvalidTask(f"a task needs a non-empty name, got {self.name!r}")
         if not self.contacts:
             raise InvalidTask(f"task {self.name!r} has no contacts; give at least one hand/object region pair")
         for f in self.fingers:
