@@ -152,3 +152,10 @@ def test_coupled_dofs_take_part_together():
     task = Task("t", hand, GraspObject("o", {"p": PointRegion((0, 0, 0), (1, 0, 0))}), (Contact("b", "p"),), ("b1",))
     np.testing.assert_array_equal(task.active_mask, mask)
     assert task.counts()["independent_angles"] == 1
+
+
+def test_sphere_cap_in_degrees_as_in_files():
+    from prehension.geometry.regions import SphereCap
+
+    cap = SphereCap.from_degrees((1, 2, 3), 13.0, (0, 0, 1), 60)
+    assert cap.half_angle == pytest.approx(math.pi / 3) and cap.radius == 13.0
