@@ -23,6 +23,8 @@ from .geometry.regions import BezierRegion, PointRegion, Region, SphereCap
 from .hands.kinematics import HandPose, forward_kinematics
 from .hands.model import Capsule, Coupling, Finger, Hand, HandRegion, Joint, Link
 from .hands.sa_hand import schunk_sa_hand
+from .hands.files import load_hand_file
+from .hands.mjcf import hand_from_mjcf
 from .hands.urdf import hand_from_urdf
 from .objects.model import GraspObject
 from .results import Solution, SolveResult, Status, make_solution, read_result, write_result
@@ -48,7 +50,7 @@ __all__ = [
     "BezierPatch", "Region", "BezierRegion", "SphereCap", "PointRegion",
     # hands
     "Hand", "Joint", "Link", "Capsule", "Coupling", "Finger", "HandRegion", "HandPose",
-    "forward_kinematics", "schunk_sa_hand", "hand_from_urdf",
+    "forward_kinematics", "schunk_sa_hand", "hand_from_urdf", "hand_from_mjcf", "load_hand_file",
     # objects and tasks
     "GraspObject", "Task", "Contact", "Configuration",
     "evaluate", "Tolerances", "ResidualReport",
