@@ -93,7 +93,7 @@ def test_a_short_task_file_naming_a_hand_file_solves(tmp_path, capsys, which, fi
     task = tmp_path / "task.yaml"
     task.write_text(text)
     result = tmp_path / "r.json"
-    assert main(["solve", str(task), "--method", "local", "-o", str(result), "--quiet"]) == EXIT_OK
+    assert main(["solve", str(task), "-o", str(result), "--quiet"]) == EXIT_OK  # the default method (auto)
     assert json.loads(result.read_text())["status"] == "solved"
     assert main(["check", str(result)]) == EXIT_OK
 
