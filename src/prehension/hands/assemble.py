@@ -183,14 +183,26 @@ def _pads_in_palm(hand: Hand, frames: list[PadFrame | None]) -> np.ndarray | Non
     return np.stack(cols, axis=1)
 
 
+def _fit(finger, frame, pts, label, fit: bool):
+    """(cap, report, why there is none) of one finger's fitted fingertip."""
+    if not fit:
+        return None, None, "fingertips not fitted (fit_fingertips=False)"
+    if pts is None:
+        return None, None, f"no geometry on link {finger.tip_link!r}"
+    if frame is None:
+        return None, None, f"the joint of link {finger.tip_link!r} gives no finger axis"
+    try:
+        return (*fit_fingertip(finger.name, frame, pts, label), "")
+    except InvalidHand as exc:
+        return None, None, str(exc)
+
+
 def _fingertips(fingers, frames, points, overrides: Mapping[str, TipOverride], fit: bool):
-    regions, fits = {}, {}
+    """(regions, fit reports, notes for the fingers left without a fingertip)."""
+    regions, fits, notes = {}, {}, []
     for finger, frame in zip(fingers, frames):
         link = finger.tip_link
-        pts, label = points[link]
-        cap = report = None
-        if fit and frame is not None and pts is not None:
-            cap, report = fit_fingertip(finger.name, frame, pts, label)
+        cap, report, why = _fit(finger, frame, *points[link], fit)
         override = overrides.get(finger.name)
         if override is not None:
             link = override.link or link
@@ -198,7 +210,9 @@ def _fingertips(fingers, frames, points, overrides: Mapping[str, TipOverride], f
         if cap is not None:
             regions[f"{finger.name}_tip"] = HandRegion(link, cap)
             fits[f"{finger.name}_tip"] = report
-    return regions, fits
+        else:
+            notes.append(f"finger {finger.name!r}: no fingertip found ({why})")
+    return regions, fits, notes
 
 
 # -- assembling -----------------------------------------------------------------------------------
@@ -246,10 +260,8 @@ def assemble(raw: RawHand, options: ImportOptions = ImportOptions()) -> Hand:
     names, thumb, naming = finger_names(kin, chains, _pads_in_palm(kin, pads))
     fingers = make_fingers(chains, names)
     _check_overrides(options.fingertips, fingers)
-    regions, fits = _fingertips(fingers, pads, points, options.fingertips, options.fit_fingertips)
-    notes += _tree_notes(raw, order, frames) + [naming] + warnings
-    notes += [f"finger {f.name!r}: no fingertip found (no geometry on link {f.tip_link!r})"
-              for f in fingers if f"{f.name}_tip" not in regions]  # fmt: skip
+    regions, fits, missing = _fingertips(fingers, pads, points, options.fingertips, options.fit_fingertips)
+    notes += _tree_notes(raw, order, frames) + [naming] + warnings + missing
     return replace(
         kin, fingers=tuple(fingers), regions=regions, opposing_finger=None if thumb is None else names[thumb],
         notes=tuple(notes) + kin.notes, tip_fits=fits,
