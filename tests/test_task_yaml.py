@@ -502,7 +502,7 @@ BAD_CASES = {
                               r"hand: unknown built-in hand 'shunk-sa'; built-in hands are: schunk-sa"),
     "hand of wrong type": (("hand: schunk-sa", "hand: [1, 2]"), r"hand: give a built-in hand name \(schunk-sa\)"),
     "misspelt key": (("  name: knob\n", "  name: knob\n  colour: red\n"),
-                     r"object: extra key 'colour' not allowed here; allowed keys: name, regions, display"),
+                     r"object: extra key 'colour' not allowed here; allowed keys: name, regions, mesh, scale, units, shape, collisions, surface_tolerance_mm, display"),
     "misspelt top-level key": (("fingers:", "finger:"), r"extra key 'finger' not allowed .*did you mean 'fingers'"),
     "missing contacts": (("contacts:\n  - {hand: index_tip, object: knob}\n  - {hand: thumb_tip, object: bump}\n", ""),
                          r"bad\.yaml: contacts: field required"),

@@ -22,6 +22,7 @@ import numpy as np
 from .atomic import read_json, to_plain, write_json_atomic
 from .errors import InvalidTask
 from .hands.kinematics import forward_kinematics
+from .tasks.idle import settle_idle_fingers
 from .tasks.model import Configuration, Task
 from .tasks.residuals import ResidualReport, Tolerances, evaluate
 
@@ -137,8 +138,11 @@ def make_solution(task: Task, config: Configuration, tolerances: Tolerances = To
     """Verify ``config`` against ``task``; the :class:`Solution` if it passes, else ``None``.
 
     This is the only way solvers build solutions, so every returned configuration has been
-    re-checked against the original constraints.
+    re-checked against the original constraints.  Idle fingers that pass through the
+    object are first moved clear of it (:func:`~prehension.tasks.idle.settle_idle_fingers`):
+    they make no contact, so only collisions depend on them.
     """
+    config = settle_idle_fingers(task, config, tolerances.object_penetration_mm)
     report = evaluate(task, config, tolerances)
     if not report.ok:
         return None
