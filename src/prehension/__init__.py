@@ -23,6 +23,8 @@ from .geometry.regions import BezierRegion, PointRegion, Region, SphereCap
 from .hands.kinematics import HandPose, forward_kinematics
 from .hands.model import Capsule, Coupling, Finger, Hand, HandRegion, Joint, Link
 from .hands.sa_hand import schunk_sa_hand
+from .hands.files import load_hand_file
+from .hands.mjcf import hand_from_mjcf
 from .hands.urdf import hand_from_urdf
 from .best import BestOptions, solve_best
 from .objects.mesh_io import load_mesh
@@ -53,7 +55,7 @@ __all__ = [
     "BezierPatch", "Region", "BezierRegion", "SphereCap", "PointRegion",
     # hands
     "Hand", "Joint", "Link", "Capsule", "Coupling", "Finger", "HandRegion", "HandPose",
-    "forward_kinematics", "schunk_sa_hand", "hand_from_urdf",
+    "forward_kinematics", "schunk_sa_hand", "hand_from_urdf", "hand_from_mjcf", "load_hand_file",
     # objects and tasks
     "GraspObject", "MeshFileSolid", "PrimitiveSolid", "load_mesh", "region_from_mesh", "PickedRegion",
     "Task", "Contact", "Configuration",
