@@ -23,7 +23,7 @@ import numpy as np
 
 from ...errors import InvalidTask
 from ...geometry.regions import BezierRegion, PointRegion
-from ...hands.collision import capsule_clearances
+from ...hands.collision import max_penetration
 from ...hands.kinematics import forward_kinematics
 from ...hands.model import Hand
 from ...objects.model import GraspObject
@@ -178,8 +178,7 @@ def random_hand_configurations(hand: Hand, fingers, n: int, rng, collision_free:
         ok = np.all((q >= hand.lower) & (q <= hand.upper), axis=1)
         q = q[ok]
         if collision_free and len(q):
-            clearance, _ = capsule_clearances(hand, forward_kinematics(hand, q))
-            q = q[np.all(clearance > 0.0, axis=1)] if clearance.shape[1] else q
+            q = q[max_penetration(hand, forward_kinematics(hand, q), stop_at_first=True) <= 0.0]
         out = np.concatenate([out, q])
     return out[:n]
 

@@ -8,7 +8,7 @@ of initial poses the paper's algorithm would give it, while the compiled kernel
 (:mod:`._kernel`) runs the inner loops of the whole wave at once.  After each wave the
 local solutions are checked with the foundation's own batch functions
 (:func:`~prehension.hands.kinematics.forward_kinematics`,
-:func:`~prehension.hands.collision.capsule_clearances` -- the paper's Check_Collisions --,
+:func:`~prehension.hands.collision.max_penetration` -- the paper's Check_Collisions --,
 :func:`~prehension.tasks.residuals.limit_violations`,
 :func:`~prehension.tasks.residuals.coupling_violations` and the contact residuals of
 :mod:`prehension.tasks.residuals`); a problem whose local solution fails them goes on to
@@ -33,7 +33,7 @@ import numpy as np
 
 from ...errors import InvalidTask
 from ...geometry.rotations import angle_between
-from ...hands.collision import capsule_clearances
+from ...hands.collision import max_penetration
 from ...hands.kinematics import HandPose, forward_kinematics
 from ...results import SolveResult, Status, make_solution
 from ...tasks.model import Configuration, Task
@@ -256,8 +256,7 @@ def _check(group: Group, contact_fn, idx, x, R, t, options: LocalOptions):
     T[:, 3, 3] = 1.0
     params = group.params_of(x)
     pose = forward_kinematics(hand, q)
-    clearance, _ = capsule_clearances(hand, pose)
-    depth = np.max(np.maximum(-clearance, 0.0), axis=1) if clearance.shape[1] else np.zeros(S)
+    depth = max_penetration(hand, pose)
     lim = np.degrees(np.max(limit_violations(hand, q), axis=1))
     cpl = coupling_violations(hand, q)
     cpl = np.degrees(np.max(cpl, axis=1)) if cpl.shape[1] else np.zeros(S)
