@@ -165,23 +165,14 @@ class LocalOptions:
             return self.tolerances
         return Tolerances(contact_mm=self.d_min_mm, normal_deg=self.normal_tolerance_deg)
 
-    def kernel_array(self) -> np.ndarray:
-        """The float options of :func:`._kernel.run_states`."""
-        opt = np.zeros(K.N_OPT)
-        opt[K.O_ALPHA] = self.alpha
-        opt[K.O_MU] = self.damping_mm
-        opt[K.O_DMIN] = self.d_min_mm
-        opt[K.O_WN] = self.normal_weight_mm
-        opt[K.O_SMIN] = self.s_min_mm
-        opt[K.O_NSTALL] = self.n_stall
-        opt[K.O_KMAX] = self.k_max
-        opt[K.O_MAXSTEP] = self.max_step_mm
-        opt[K.O_NPOLISH] = self.polish_iterations if self.polish else 0
-        opt[K.O_POLISH_P] = self.polish_tol_mm
-        opt[K.O_POLISH_N] = self.polish_tol_mm
-        opt[K.O_ACTIVE] = 1.0 if self.active_set else 0.0
-        opt[K.O_PSI_MODE] = 0.0 if self.psi_rule == "paper" else 1.0
-        opt[K.O_CAP_MARGIN] = self.cap_margin_rad
-        opt[K.O_NREPAIR] = self.repair_iterations if self.check_collisions else 0
-        opt[K.O_COL_MARGIN] = self.collision_margin_mm
-        return opt
+    def kernel_options(self) -> K.Options:
+        """The options as the kernel takes them (:class:`._kernel.Options`)."""
+        return K.Options(
+            alpha=float(self.alpha), damping_sq=float(self.damping_mm) ** 2, d_min=float(self.d_min_mm),
+            w_n=float(self.normal_weight_mm), s_min=float(self.s_min_mm), n_stall=int(self.n_stall),
+            k_max=int(self.k_max), max_step=float(self.max_step_mm),
+            n_polish=int(self.polish_iterations) if self.polish else 0, polish_tol=float(self.polish_tol_mm),
+            active_set=bool(self.active_set), procrustes=self.psi_rule == "procrustes",
+            cap_margin=float(self.cap_margin_rad), n_repair=int(self.repair_iterations),
+            collision_margin=float(self.collision_margin_mm), check_collisions=bool(self.check_collisions),
+        )  # fmt: skip

@@ -39,12 +39,12 @@ from ...results import SolveResult, Status, make_solution
 from ...tasks.model import Configuration, Task
 from ...tasks.residuals import Tolerances, contact_residuals, coupling_violations, limit_violations
 from . import _kernel as K
-from ._group import Group
+from ._layout import S_K, S_X, Group
 from .options import LocalOptions
 from .problems import PointProblems, group_from_tasks, structure_key
 from .sequence import InitialPoseSequence, default_sequence
 
-__all__ = ["solve_local", "solve_local_batch", "refine_local", "Refinement", "LocalRecord", "LocalBatch", "STRICT"]
+__all__ = ["solve_local", "solve_local_batch", "refine_local", "run_kernel", "Refinement", "LocalRecord", "LocalBatch", "STRICT"]
 
 STRICT = Tolerances()
 
@@ -281,105 +281,116 @@ def _pose_index(group: Group, sequence: InitialPoseSequence) -> np.ndarray:
     return np.array([names.get(n, -1) if n is not None else -1 for n in group.pose_names], dtype=np.int64)
 
 
-def _solve_group(group: Group, contact_fn, options: LocalOptions, sequence: InitialPoseSequence, rng, t_start):
-    P = group.n_problems
-    imax = options.i_max
-    nx = group.nx
+def run_kernel(group: Group, problem: np.ndarray, x0: np.ndarray, options: LocalOptions) -> K.Outputs:
+    """Run the kernel on states ``(problem[s], x0[s])`` of a group -> :class:`._kernel.Outputs`."""
+    out = K.Outputs.allocate(len(problem), group.nx)
+    if len(problem):
+        K.run_states(np.asarray(problem, dtype=np.int64), np.ascontiguousarray(x0, dtype=float), group.pdata,
+                     group.arrays, group.layout, options.kernel_options(), out)  # fmt: skip
+    return out
+
+
+@dataclass
+class _Tally:
+    """What the waves found so far, per problem (see :class:`LocalRecord`)."""
+
+    P: int
+    imax: int
+    nx: int
+    n_dof: int
+
+    def __post_init__(self):
+        P, z = self.P, np.zeros
+        self.solved_with, self.tried, self.polish = z(P, np.int64), z(P, np.int64), z(P, np.int64)
+        self.rejected, self.level, self.retries = z(P, np.int64), z(P, np.int64), z(P, np.int64)
+        self.iters = z((P, self.imax), np.int64)
+        self.q, self.T, self.x = z((P, self.n_dof)), z((P, 4, 4)), z((P, self.nx))
+        self.d, self.a = z(P), z(P)
+        self.miss, self.miss_d, self.miss_a = np.full(P, np.inf), np.full(P, np.nan), np.full(P, np.nan)
+
+    def closest_miss(self, pi, lev, dmax, amax):
+        """Remember the closest ``d_min``-only answer of each problem."""
+        worst = np.maximum(dmax, amax)
+        closer = (lev == 1) & (worst < self.miss[pi])
+        self.miss[pi[closer]], self.miss_d[pi[closer]], self.miss_a[pi[closer]] = worst[closer], dmax[closer], amax[closer]
+
+    def hold(self, pi, wave, out, sel, lev, q, T, dmax, amax):
+        """Keep the answers ``sel`` (states of this wave) of problems ``pi``."""
+        self.solved_with[pi], self.polish[pi], self.level[pi] = wave + 1, out.polish_iterations[sel], lev
+        self.q[pi], self.T[pi], self.x[pi], self.d[pi], self.a[pi] = q, T, out.x[sel], dmax, amax
+
+    def record(self, group: Group, p: int) -> "LocalRecord":
+        held = self.solved_with[p] > 0
+        n = int(self.tried[p])
+        params = tuple((h[0], o[0]) for h, o in group.params_of(self.x[p])) if held else None
+        lev = int(self.level[p])
+        return LocalRecord(
+            p, lev == 2, ("strict" if lev == 2 else "d_min") if held else None,
+            self.q[p].copy() if held else None, self.T[p].copy() if held else None, params,
+            int(self.solved_with[p]), n, int(self.iters[p, :n].sum()), tuple(int(v) for v in self.iters[p, :n]),
+            int(self.polish[p]), int(self.rejected[p]),
+            float(self.d[p] if held else self.miss_d[p]), float(self.a[p] if held else self.miss_a[p]), self.imax,
+        )  # fmt: skip
+
+
+def _starts(group: Group, sequence: InitialPoseSequence, wave: int, S: int, options: LocalOptions, rng) -> np.ndarray:
+    """Unknowns (S, nx) of wave ``wave``: the sequence's pose (random lambdas when asked or
+    beyond its length), the group's defaults where the sequence says nothing."""
     pidx = _pose_index(group, sequence)
     use = pidx >= 0
-    opt = options.kernel_array()
-    args = group.kernel_args()
+    if options.initial == "sequence" and wave < len(sequence):
+        lam = np.repeat(sequence.lambdas[wave : wave + 1], S, axis=0)
+    else:
+        lam = rng.uniform(0.0, 1.0, (S, 2))
+    x0 = np.repeat(group.x_default[None], S, axis=0)
+    x0[:, use] = sequence.poses(lam)[:, pidx[use]]
+    return x0
 
-    solved_with = np.zeros(P, dtype=np.int64)
-    tried = np.zeros(P, dtype=np.int64)
-    iters = np.zeros((P, imax), dtype=np.int64)
-    polish = np.zeros(P, dtype=np.int64)
-    rejected = np.zeros(P, dtype=np.int64)
-    level = np.zeros(P, dtype=np.int64)
-    retries = np.zeros(P, dtype=np.int64)
-    out_q = np.zeros((P, group.hand.n_dof))
-    out_T = np.zeros((P, 4, 4))
-    out_x = np.zeros((P, nx))
-    out_d = np.zeros(P)
-    out_a = np.zeros(P)
-    miss, miss_d, miss_a = np.full(P, np.inf), np.full(P, np.nan), np.full(P, np.nan)  # closest d_min miss
+
+def _wave(group, contact_fn, options, tally: _Tally, todo, wave, x0) -> tuple[np.ndarray, float]:
+    """Run one wave for problems ``todo``; the problems done after it, and the check time."""
+    out = run_kernel(group, todo, x0, options)
+    t1 = time.perf_counter()
+    tally.tried[todo] += 1
+    tally.iters[todo, wave] = out.iterations
+    tally.rejected[todo[out.status == K.COLLIDING]] += 1
+    had_fallback = tally.level[todo] == 1
+    got_strict = np.zeros(len(todo), dtype=bool)
+    sel = np.flatnonzero(np.isin(out.status, K.LOCAL_SOLUTIONS))
+    if sel.size:
+        pi = todo[sel]
+        lev, q, T, _, dmax, amax = _check(group, contact_fn, pi, out.x[sel], out.R[sel], out.t[sel], options)
+        tally.closest_miss(pi, lev, dmax, amax)
+        # keep a strict answer always; a d_min answer only when asked for and there is none yet
+        keep = (lev == 2) | ((lev == 1) & (tally.level[pi] == 0) & options.approximate)
+        tally.hold(pi[keep], wave, out, sel[keep], lev[keep], q[keep], T[keep], dmax[keep], amax[keep])
+        tally.rejected[pi[lev == 0]] += 1
+        got_strict[sel[lev == 2]] = True
+        tally.retries[pi[(lev == 1) & keep]] = options.strict_retries
+    # done with a strict answer, or with a d_min answer and no retries left
+    tally.retries[todo[had_fallback & ~got_strict]] -= 1
+    done = got_strict | ((tally.level[todo] == 1) & (tally.retries[todo] <= 0))
+    return done, time.perf_counter() - t1
+
+
+def _solve_group(group: Group, contact_fn, options: LocalOptions, sequence: InitialPoseSequence, rng, t_start):
+    P, imax = group.n_problems, options.i_max
+    tally = _Tally(P, imax, group.nx, group.hand.n_dof)
     wave_seconds = np.zeros(imax)
     todo = np.arange(P)
     kernel_s = check_s = 0.0
     for i in range(imax):
-        if todo.size == 0:
-            wave_seconds[i] = time.perf_counter() - t_start
-            continue
-        S = todo.size
-        if options.initial == "sequence" and i < len(sequence):
-            lam = np.repeat(sequence.lambdas[i : i + 1], S, axis=0)
-        else:
-            lam = rng.uniform(0.0, 1.0, (S, 2))
-        poses = sequence.poses(lam)
-        x0 = np.repeat(group.x_default[None], S, axis=0)
-        x0[:, use] = poses[:, pidx[use]]
-        status = np.zeros(S, dtype=np.int64)
-        it = np.zeros(S, dtype=np.int64)
-        pit = np.zeros(S, dtype=np.int64)
-        xo = np.zeros((S, nx))
-        Ro = np.zeros((S, 3, 3))
-        to = np.zeros((S, 3))
-        eo = np.zeros((S, 2))
-        t0 = time.perf_counter()
-        K.run_states(todo, x0, group.pdata, group.piv_off, *args, opt, status, it, pit, xo, Ro, to, eo)
-        t1 = time.perf_counter()
-        kernel_s += t1 - t0
-        tried[todo] += 1
-        iters[todo, i] = it
-        local = (status == K.SOLVED_STRICT) | (status == K.SOLVED_DMIN)
-        rejected[todo[status == K.FAILED_COLLISION]] += 1
-        had_fallback = level[todo] == 1
-        got_strict = np.zeros(S, dtype=bool)
-        if local.any():
-            sel = np.flatnonzero(local)
-            lev, q, T, params, dmax, amax = _check(group, contact_fn, todo[sel], xo[sel], Ro[sel], to[sel], options)
-            closer = (lev == 1) & (np.maximum(dmax, amax) < miss[todo[sel]])
-            miss_d[todo[sel[closer]]], miss_a[todo[sel[closer]]] = dmax[closer], amax[closer]
-            miss[todo[sel[closer]]] = np.maximum(dmax, amax)[closer]
-            # keep a strict answer always; a d_min answer only when asked for and there is none yet
-            keep = (lev == 2) | ((lev == 1) & (level[todo[sel]] == 0) & options.approximate)
-            g = sel[keep]
-            pi = todo[g]
-            solved_with[pi] = i + 1
-            polish[pi] = pit[g]
-            level[pi] = lev[keep]
-            out_q[pi] = q[keep]
-            out_T[pi] = T[keep]
-            out_x[pi] = xo[g]
-            out_d[pi] = dmax[keep]
-            out_a[pi] = amax[keep]
-            rejected[todo[sel[lev == 0]]] += 1
-            got_strict[sel[lev == 2]] = True
-            new_fb = sel[(lev == 1) & keep]
-            retries[todo[new_fb]] = options.strict_retries
-        # a problem is done with a strict answer, or with a d_min answer and no retries left
-        retries[todo[had_fallback & ~got_strict]] -= 1
-        done = got_strict | ((level[todo] == 1) & (retries[todo] <= 0))
-        check_s += time.perf_counter() - t1
-        todo = todo[~done]
+        if todo.size:
+            x0 = _starts(group, sequence, i, todo.size, options, rng)
+            t0 = time.perf_counter()
+            done, dt = _wave(group, contact_fn, options, tally, todo, i, x0)
+            check_s += dt
+            kernel_s += time.perf_counter() - t0 - dt
+            todo = todo[~done]
         wave_seconds[i] = time.perf_counter() - t_start
-    params_all = group.params_of(out_x)
-    records = []
-    for p in range(P):
-        held = solved_with[p] > 0
-        n_tried = int(tried[p])
-        records.append(
-            LocalRecord(
-                p, bool(level[p] == 2), ("strict" if level[p] == 2 else "d_min") if held else None,
-                out_q[p].copy() if held else None, out_T[p].copy() if held else None,
-                tuple((h[p].copy(), o[p].copy()) for h, o in params_all) if held else None,
-                int(solved_with[p]), n_tried, int(iters[p, :n_tried].sum()),
-                tuple(int(v) for v in iters[p, :n_tried]), int(polish[p]), int(rejected[p]),
-                float(out_d[p] if held else miss_d[p]), float(out_a[p] if held else miss_a[p]), imax,
-            )  # fmt: skip
-        )
-    strict = level == 2
-    solved_after = np.array([strict & (solved_with <= i + 1) for i in range(imax)]).sum(axis=1)
+    records = [tally.record(group, p) for p in range(P)]
+    strict = tally.level == 2
+    solved_after = np.array([np.sum(strict & (tally.solved_with <= i + 1)) for i in range(imax)])
     return records, wave_seconds, solved_after, {"kernel": kernel_s, "checks": check_s}
 
 
@@ -495,13 +506,14 @@ def _unknowns_of(group: Group, starts: Sequence[Configuration]) -> np.ndarray:
     the initial poses of the sequence.
     """
     x0 = np.repeat(group.x_default[None], len(starts), axis=0)
+    sides = group.layout.sides
     for s, cfg in enumerate(starts):
-        x0[s, : group.nf] = np.asarray(cfg.joint_angles, dtype=float)[group.free]
+        x0[s, : group.nf] = np.asarray(cfg.joint_angles, dtype=float)[list(group.free)]
         for c, (hp, op) in enumerate(cfg.contact_params or ()):
-            xh, kh, xo, ko = (int(group.cint[c, k]) for k in (K.C_XH, K.C_KH, K.C_XO, K.C_KO))
+            (xh, kh), (xo, ko) = sides[c, 0, [S_X, S_K]], sides[c, 1, [S_X, S_K]]
             x0[s, xh : xh + kh] = hp
             x0[s, xo : xo + ko] = op
-    return np.clip(x0, group.lo, group.hi)
+    return np.clip(x0, group.layout.lo, group.layout.hi)
 
 
 @dataclass(frozen=True, eq=False)
@@ -544,23 +556,17 @@ def refine_local(task: Task, starts: Sequence[Configuration], options: LocalOpti
         return Refinement((), np.zeros(0), np.zeros(0))
     group = group_from_tasks([task], options.joint_scale_mm)
     S = len(starts)
-    x0 = _unknowns_of(group, starts)
-    status = np.zeros(S, dtype=np.int64)
-    it, pit = np.zeros(S, dtype=np.int64), np.zeros(S, dtype=np.int64)
-    xo, Ro, to, eo = np.zeros((S, group.nx)), np.zeros((S, 3, 3)), np.zeros((S, 3)), np.zeros((S, 2))
-    K.run_states(np.zeros(S, dtype=np.int64), x0, group.pdata, group.piv_off, *group.kernel_args(),
-                 options.kernel_array(), status, it, pit, xo, Ro, to, eo)  # fmt: skip
-    out: list[Configuration | None] = [None] * S
-    sel = np.flatnonzero((status == K.SOLVED_STRICT) | (status == K.SOLVED_DMIN))
+    out = run_kernel(group, np.zeros(S, dtype=np.int64), _unknowns_of(group, starts), options)
+    configs: list[Configuration | None] = [None] * S
+    sel = np.flatnonzero(np.isin(out.status, K.LOCAL_SOLUTIONS))
     if sel.size:
-        idx = np.zeros(sel.size, dtype=np.int64)
         level, q, T, params, _, _ = _check(
-            group, lambda i, pose, T_, prm: _contact_checks_tasks([task], i, pose, T_, prm), idx, xo[sel], Ro[sel],
-            to[sel], options,
+            group, lambda i, pose, T_, prm: _contact_checks_tasks([task], i, pose, T_, prm), np.zeros(sel.size, dtype=np.int64),
+            out.x[sel], out.R[sel], out.t[sel], options,
         )  # fmt: skip
         for k, s in enumerate(sel):
             if level[k] == 2:
-                out[s] = Configuration(q[k].copy(), T[k].copy(), tuple((h[k].copy(), o[k].copy()) for h, o in params))
-    # eo[:, 1] = w_n |n_hand + n_object| [mm], and |n_h + n_o| = 2 sin(angle / 2)
-    chord = np.clip(eo[:, 1] / (2.0 * options.normal_weight_mm), 0.0, 1.0)
-    return Refinement(tuple(out), eo[:, 0].copy(), np.degrees(2.0 * np.arcsin(chord)))
+                configs[s] = Configuration(q[k].copy(), T[k].copy(), tuple((h[k].copy(), o[k].copy()) for h, o in params))
+    # err[:, 1] = w_n |n_hand + n_object| [mm], and |n_h + n_o| = 2 sin(angle / 2)
+    chord = np.clip(out.err[:, 1] / (2.0 * options.normal_weight_mm), 0.0, 1.0)
+    return Refinement(tuple(configs), out.err[:, 0].copy(), np.degrees(2.0 * np.arcsin(chord)))
