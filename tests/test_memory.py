@@ -108,3 +108,13 @@ def test_a_hand_with_240_capsules_runs_within_2_gb():
     assert n_caps == 240 and n_pairs == n_clear > 20_000
     assert solved >= 80
     assert peak_mb < 1500
+
+
+def test_a_hand_without_capsules_has_no_pair_groups():
+    from tiny_tasks import pincer_hand, pincer_task
+
+    pairs = collision_pairs(pincer_hand())
+    assert len(pairs.first) == 0 and pairs.group_start.tolist() == [0]
+    from prehension.solvers.local import solve_local
+
+    assert solve_local(pincer_task(40.0)).success

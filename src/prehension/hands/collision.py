@@ -129,7 +129,8 @@ def _build_pairs(hand: Hand) -> CollisionPairs:
     order = np.lexsort((link_of[second], link_of[first])) if first.size else np.zeros(0, dtype=np.int64)
     first, second = first[order], second[order]
     key = link_of[first] * len(hand.links) + link_of[second]
-    group_start = np.concatenate([[0], np.flatnonzero(np.diff(key)) + 1, [first.size]]).astype(np.int64)
+    breaks = np.flatnonzero(np.diff(key)) + 1
+    group_start = np.concatenate([[0], breaks, [first.size]] if first.size else [[0]]).astype(np.int64)
     pair_names = tuple((names[link_of[i]], names[link_of[j]]) for i, j in zip(first, second))
     centre, rad = _link_spheres(len(hand.links), link_of, a, b, radius)
     return CollisionPairs(link_of, a, b, radius, first, second, pair_names, group_start, centre, rad)
