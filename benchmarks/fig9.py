@@ -132,7 +132,8 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--problems", type=int, default=5000, help="random problems (default 5000)")
     ap.add_argument("--seed", type=int, default=0, help="seed of the problems (default 0)")
-    ap.add_argument("--imax", type=int, default=12, help="initial poses (default 12)")
+    ap.add_argument("--imax", type=int, default=LocalOptions().i_max,
+                    help=f"initial poses (default {LocalOptions().i_max}: the sequence's 12, then random poses)")  # fmt: skip
     ap.add_argument("--repeats", type=int, default=3, help="timed runs, median reported (default 3)")
     ap.add_argument("--lsq-problems", type=int, default=500,
                     help="problems also solved by scipy's least_squares (default 500; it is slow)")  # fmt: skip
@@ -215,7 +216,8 @@ def main(argv=None) -> int:
     head = ("poses", "seq %", "seq ms", "random %", "random ms", "Table1-l %", "Table1-l ms", "as publ. %",
             "as publ. ms", "paper %", "paper ms")
     print(" ".join(f"{h:>11}" for h in head))
-    for r in rows:
+    shown = [r for r in rows if r["poses"] <= 12 or r["poses"] in (16, 24, 32, 48) or r["poses"] == args.imax]
+    for r in shown:
         vals = [str(r["poses"]), fmt(r["seq_success_%"], 2), fmt(r["seq_ms"], 3), fmt(r["random_success_%"], 2),
                 fmt(r["random_ms"], 3), fmt(r["table1_success_%"], 2), fmt(r["table1_ms"], 3),
                 fmt(r["as_published_success_%"], 2), fmt(r["as_published_ms"], 3),

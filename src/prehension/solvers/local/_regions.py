@@ -19,6 +19,7 @@ Layouts (one row of a problem's ``data`` per region, starting at its offset ``of
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -28,7 +29,7 @@ from ._jit import njit
 
 __all__ = [
     "K_POINT", "K_CAP", "K_BEZIER", "MAX_DEGREE", "code", "pack", "reference_point", "size", "unknown_box",
-    "evaluate", "project", "rim_gradient", "start_params",
+    "evaluate", "project", "rim_gradient", "start_params", "RegionScratch",
 ]  # fmt: skip
 
 K_POINT, K_CAP, K_BEZIER = 0, 1, 2
@@ -100,6 +101,21 @@ def unknown_box(region: Region) -> tuple[np.ndarray, np.ndarray, bool, np.ndarra
             lo, hi = np.array([-np.pi, -np.pi / 2]), np.array([np.pi, np.pi / 2])
         return lo, hi, False, np.zeros(2)
     return np.zeros(0), np.zeros(0), False, np.zeros(0)
+
+
+class RegionScratch(NamedTuple):
+    """Outputs of :func:`evaluate` when called from Python (the kernel passes its workspace):
+    ``pt``, ``nr`` (3,), ``dpt``, ``dnr`` (3, 2), ``work`` (7, WORK_COLS)."""
+
+    pt: np.ndarray
+    nr: np.ndarray
+    dpt: np.ndarray
+    dnr: np.ndarray
+    work: np.ndarray
+
+    @classmethod
+    def allocate(cls) -> "RegionScratch":
+        return cls(np.zeros(3), np.zeros(3), np.zeros((3, 2)), np.zeros((3, 2)), np.zeros((7, WORK_COLS)))
 
 
 # -- compiled adapters ------------------------------------------------------------------------

@@ -26,6 +26,7 @@ re-checks every configuration with :func:`~prehension.results.make_solution`, so
 from __future__ import annotations
 
 import time
+import zlib
 from dataclasses import asdict, dataclass, field
 from typing import Any, Mapping, Sequence
 
@@ -42,7 +43,7 @@ from . import _kernel as K
 from ._layout import S_K, S_X, Group
 from .options import LocalOptions
 from .problems import PointProblems, group_from_tasks, structure_key
-from .sequence import InitialPoseSequence, default_sequence
+from .sequence import InitialPoseSequence, default_sequence, sample_poses
 
 __all__ = ["solve_local", "solve_local_batch", "refine_local", "run_kernel", "Refinement", "LocalRecord", "LocalBatch", "STRICT"]
 
@@ -333,17 +334,45 @@ class _Tally:
         )  # fmt: skip
 
 
-def _starts(group: Group, sequence: InitialPoseSequence, wave: int, S: int, options: LocalOptions, rng) -> np.ndarray:
-    """Unknowns (S, nx) of wave ``wave``: the sequence's pose (random lambdas when asked or
-    beyond its length), the group's defaults where the sequence says nothing."""
-    pidx = _pose_index(group, sequence)
-    use = pidx >= 0
-    if options.initial == "sequence" and wave < len(sequence):
+def _starts(group: Group, sequence: InitialPoseSequence, wave: int, todo: np.ndarray, options: LocalOptions,
+            rng, extra: "_RandomPoses") -> np.ndarray:  # fmt: skip
+    """Unknowns (S, nx) of wave ``wave`` for problems ``todo``: the sequence's pose; beyond
+    its length random hand poses of the whole pose space (:class:`_RandomPoses`: the
+    sequence's poses all lie in one plane); with ``initial="random"`` random lambdas."""
+    S = len(todo)
+    if options.initial == "sequence" and wave >= len(sequence):
+        return _place_poses(group, extra.names, np.array([extra.pose(group, p, wave - len(sequence)) for p in todo]))
+    if options.initial == "sequence":
         lam = np.repeat(sequence.lambdas[wave : wave + 1], S, axis=0)
     else:
         lam = rng.uniform(0.0, 1.0, (S, 2))
-    x0 = np.repeat(group.x_default[None], S, axis=0)
-    x0[:, use] = sequence.poses(lam)[:, pidx[use]]
+    return _place_poses(group, sequence.names, sequence.poses(lam))
+
+
+class _RandomPoses:
+    """Random collision-free hand poses for the waves beyond the sequence, drawn per problem
+    from a generator seeded by ``(seed, the problem's data)``: a problem gets the same
+    poses in any batch, so a batch gives what one call per problem gives."""
+
+    def __init__(self, hand, seed: int, count: int):
+        self.hand, self.seed, self.count = hand, seed, count
+        self.names: tuple = ()
+        self._poses: dict[int, np.ndarray] = {}
+
+    def pose(self, group: Group, p: int, k: int) -> np.ndarray:
+        if p not in self._poses:
+            key = zlib.crc32(np.ascontiguousarray(group.pdata[p]).tobytes())
+            self.names, self._poses[p] = sample_poses(self.hand, self.count, np.random.default_rng([self.seed, key]))
+        return self._poses[p][k]
+
+
+def _place_poses(group: Group, names, poses: np.ndarray) -> np.ndarray:
+    """The group's unknowns (S, nx) with the named pose components ``poses (S, D)`` placed."""
+    where = {n: i for i, n in enumerate(names)}
+    pidx = np.array([where.get(n, -1) if n is not None else -1 for n in group.pose_names], dtype=np.int64)
+    use = pidx >= 0
+    x0 = np.repeat(group.x_default[None], poses.shape[0], axis=0)
+    x0[:, use] = poses[:, pidx[use]]
     return x0
 
 
@@ -376,12 +405,13 @@ def _wave(group, contact_fn, options, tally: _Tally, todo, wave, x0) -> tuple[np
 def _solve_group(group: Group, contact_fn, options: LocalOptions, sequence: InitialPoseSequence, rng, t_start):
     P, imax = group.n_problems, options.i_max
     tally = _Tally(P, imax, group.nx, group.hand.n_dof)
+    extra = _RandomPoses(group.hand, int(rng.integers(2**62)), max(imax - len(sequence), 0))
     wave_seconds = np.zeros(imax)
     todo = np.arange(P)
     kernel_s = check_s = 0.0
     for i in range(imax):
         if todo.size:
-            x0 = _starts(group, sequence, i, todo.size, options, rng)
+            x0 = _starts(group, sequence, i, todo, options, rng, extra)
             t0 = time.perf_counter()
             done, dt = _wave(group, contact_fn, options, tally, todo, i, x0)
             check_s += dt
