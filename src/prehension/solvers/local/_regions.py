@@ -55,8 +55,23 @@ def code(region: Region) -> tuple[int, int, int, int]:
     raise InvalidTask(f"the local solver handles points, sphere caps and Bézier patches; got a region of kind {region.kind!r}")
 
 
+_PACKED: dict[int, tuple[Region, np.ndarray]] = {}
+
+
 def pack(region: Region) -> np.ndarray:
-    """The region's numbers in its kernel layout (see the module docstring)."""
+    """The region's numbers in its kernel layout (see the module docstring); kept for the
+    last few thousand region objects (regions are frozen)."""
+    hit = _PACKED.get(id(region))
+    if hit is not None and hit[0] is region:
+        return hit[1]
+    data = _pack(region)
+    if len(_PACKED) > 4096:
+        _PACKED.clear()
+    _PACKED[id(region)] = (region, data)
+    return data
+
+
+def _pack(region: Region) -> np.ndarray:
     if isinstance(region, PointRegion):
         return np.concatenate([region.point, region.normal])
     if isinstance(region, SphereCap):

@@ -16,6 +16,8 @@ expressed in a random object frame.  The true configuration is kept in ``truth``
 
 from __future__ import annotations
 
+import weakref
+from collections import OrderedDict
 from dataclasses import dataclass, field
 from typing import Mapping
 
@@ -255,17 +257,26 @@ def random_point_problems(
 
 
 # -- tasks ------------------------------------------------------------------------------
+_KEYS: "weakref.WeakKeyDictionary[Task, tuple]" = weakref.WeakKeyDictionary()
+_TEMPLATES: "OrderedDict[tuple, Group]" = OrderedDict()  # structure key -> a group of that structure
+_TEMPLATES_KEPT = 32
+
+
 def structure_key(task: Task) -> tuple:
     """Tasks with equal keys share one group (same hand kinematics, moving angles and
-    region kinds and sizes); see :mod:`._layout`."""
-    per_contact = []
-    for c in task.contacts:
-        h = task.hand_region(c)
-        per_contact.append((h.link, RG.code(h.region)[:3], RG.code(task.object_region(c))[:3]))
-    return (hand_arrays(task.hand)[1], tuple(task.fingers), task.active_mask.tobytes(), task.idle_vector.tobytes(), tuple(per_contact))
+    region kinds and sizes); see :mod:`._layout`.  Computed once per task object."""
+    key = _KEYS.get(task)
+    if key is None:
+        per_contact = []
+        for c in task.contacts:
+            h = task.hand_region(c)
+            per_contact.append((h.link, RG.code(h.region)[:3], RG.code(task.object_region(c))[:3]))
+        key = (hand_arrays(task.hand)[1], tuple(task.fingers), task.active_mask.tobytes(), task.idle_vector.tobytes(), tuple(per_contact))
+        _KEYS[task] = key
+    return key
 
 
-def _task_row(task: Task) -> tuple[np.ndarray, float]:
+def _task_row(task: Task) -> np.ndarray:
     """One task's row of region data, then its pivot and object extent [mm]."""
     blocks, refs = [], []
     for c in task.contacts:
@@ -278,16 +289,31 @@ def _task_row(task: Task) -> tuple[np.ndarray, float]:
 
 
 def group_from_tasks(tasks, joint_scale_mm: float = 40.0) -> Group:
-    """The kernel's arrays for tasks that share one structure (see :func:`structure_key`)."""
+    """The kernel's arrays for tasks that share one structure (see :func:`structure_key`).
+
+    The layout of a structure is built once and kept (the last few structures, with the
+    hand object they were built for); only the tasks' data rows are new.
+    """
     tasks = list(tasks)
     first = tasks[0]
     key = structure_key(first)
     if any(t is not first and structure_key(t) != key for t in tasks):
         raise InvalidTask("group_from_tasks: the tasks do not share one hand and one structure")
-    rows = [_task_row(t) for t in tasks]
-    return build_group(
+    rows = np.array([_task_row(t) for t in tasks])
+    # what else the layout takes from the first task: object region sizes and boxes
+    oregs = [first.object_region(c) for c in first.contacts]
+    shape = (key, joint_scale_mm, tuple(RG.size(r) for r in oregs), tuple(tuple(RG.unknown_box(r)[1]) for r in oregs))
+    template = _TEMPLATES.get(shape)
+    if template is not None and template.hand is first.hand:
+        _TEMPLATES.move_to_end(shape)
+        return template.with_data(rows)
+    group = build_group(
         first.hand, first.active_mask, first.idle_vector, [c.name for c in first.contacts],
         [(first.hand_region(c).link, first.hand_region(c).region) for c in first.contacts],
-        [first.object_region(c) for c in first.contacts], np.array(rows),
+        [first.object_region(c) for c in first.contacts], rows,
         [RG.size(first.object_region(c)) for c in first.contacts], joint_scale_mm,
     )  # fmt: skip
+    _TEMPLATES[shape] = group
+    while len(_TEMPLATES) > _TEMPLATES_KEPT:
+        _TEMPLATES.popitem(last=False)
+    return group

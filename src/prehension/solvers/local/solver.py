@@ -36,9 +36,9 @@ from ...errors import InvalidTask
 from ...geometry.rotations import angle_between
 from ...hands.collision import max_penetration
 from ...hands.kinematics import HandPose, forward_kinematics
-from ...results import SolveResult, Status, make_solution
+from ...results import Solution, SolveResult, Status, make_solution
 from ...tasks.model import Configuration, Task
-from ...tasks.residuals import Tolerances, contact_residuals, coupling_violations, limit_violations
+from ...tasks.residuals import Tolerances, contact_residuals, coupling_violations, evaluate, limit_violations
 from . import _kernel as K
 from ._layout import S_K, S_X, Group
 from .options import LocalOptions
@@ -87,6 +87,7 @@ class LocalRecord:
     max_distance_mm: float
     max_normal_deg: float
     i_max: int = 12
+    verified: tuple | None = field(default=None, repr=False)  # (task, Solution) checked strictly in the waves
 
     @property
     def status(self) -> str:
@@ -144,6 +145,11 @@ class LocalRecord:
         config = self.configuration()
         if config is None:
             return SolveResult(task, "local", Status.GAVE_UP, self.message, (), seconds, stats)
+        if self.verified is not None and self.success and self.verified[0] is task:
+            sol = self.verified[1]  # made by make_solution (strict tolerances) when the waves checked it
+            return SolveResult(task, "local", Status.SOLVED, self.message, (sol,), seconds,
+                               {**stats, "max_contact_distance_mm": sol.report.worst("contact_distance"),
+                                "max_normal_angle_deg": sol.report.worst("contact_normal")})  # fmt: skip
         sol = make_solution(task, config, STRICT)
         status = Status.SOLVED
         if sol is None and options.approximate:
@@ -246,6 +252,26 @@ def _contact_checks_tasks(tasks, idx, pose: HandPose, T, params):
     return tuple(np.array(v) for v in out)
 
 
+def _check_tasks(group: Group, tasks, idx, x, R, t, options: LocalOptions):
+    """As :func:`_check`, for tasks, with the one residual function itself: each local
+    solution goes through :func:`~prehension.results.make_solution` (strict), else
+    :func:`~prehension.tasks.residuals.evaluate` with the acceptance tolerances.  Also
+    returns the strict solutions made (``None`` elsewhere), which the records keep."""
+    S = len(idx)
+    q = group.q_of(x)
+    T = np.zeros((S, 4, 4))
+    T[:, :3, :3], T[:, :3, 3], T[:, 3, 3] = R, t, 1.0
+    params = group.params_of(x)
+    level, dmax, amax, sols = np.zeros(S, dtype=np.int64), np.zeros(S), np.zeros(S), [None] * S
+    for s, i in enumerate(idx):
+        config = Configuration(q[s], T[s], tuple((h[s], o[s]) for h, o in params))
+        sols[s] = make_solution(tasks[i], config, STRICT)
+        report = sols[s].report if sols[s] is not None else evaluate(tasks[i], config, options.acceptance)
+        level[s] = 2 if sols[s] is not None else (1 if report.ok else 0)
+        dmax[s], amax[s] = report.worst("contact_distance"), report.worst("contact_normal")
+    return level, q, T, params, dmax, amax, sols
+
+
 def _check(group: Group, contact_fn, idx, x, R, t, options: LocalOptions):
     """Which local solutions pass: (level array: 2 strict, 1 acceptance, 0 fail), residuals."""
     hand = group.hand
@@ -308,6 +334,7 @@ class _Tally:
         self.q, self.T, self.x = z((P, self.n_dof)), z((P, 4, 4)), z((P, self.nx))
         self.d, self.a = z(P), z(P)
         self.miss, self.miss_d, self.miss_a = np.full(P, np.inf), np.full(P, np.nan), np.full(P, np.nan)
+        self.verified: list = [None] * P  # strict solutions already made by make_solution
 
     def closest_miss(self, pi, lev, dmax, amax):
         """Remember the closest ``d_min``-only answer of each problem."""
@@ -320,7 +347,7 @@ class _Tally:
         self.solved_with[pi], self.polish[pi], self.level[pi] = wave + 1, out.polish_iterations[sel], lev
         self.q[pi], self.T[pi], self.x[pi], self.d[pi], self.a[pi] = q, T, out.x[sel], dmax, amax
 
-    def record(self, group: Group, p: int) -> "LocalRecord":
+    def record(self, group: Group, p: int, task=None) -> "LocalRecord":
         held = self.solved_with[p] > 0
         n = int(self.tried[p])
         params = tuple((h[0], o[0]) for h, o in group.params_of(self.x[p])) if held else None
@@ -331,6 +358,7 @@ class _Tally:
             int(self.solved_with[p]), n, int(self.iters[p, :n].sum()), tuple(int(v) for v in self.iters[p, :n]),
             int(self.polish[p]), int(self.rejected[p]),
             float(self.d[p] if held else self.miss_d[p]), float(self.a[p] if held else self.miss_a[p]), self.imax,
+            (task, self.verified[p]) if (task is not None and self.verified[p] is not None) else None,
         )  # fmt: skip
 
 
@@ -376,8 +404,12 @@ def _place_poses(group: Group, names, poses: np.ndarray) -> np.ndarray:
     return x0
 
 
-def _wave(group, contact_fn, options, tally: _Tally, todo, wave, x0) -> tuple[np.ndarray, float]:
-    """Run one wave for problems ``todo``; the problems done after it, and the check time."""
+def _wave(group, checker, options, tally: _Tally, todo, wave, x0) -> tuple[np.ndarray, float]:
+    """Run one wave for problems ``todo``; the problems done after it, and the check time.
+
+    ``checker(idx, x, R, t) -> (level, q, T, params, dmax, amax, solutions)`` judges the
+    local solutions (:func:`_check` for point problems, :func:`_check_tasks` for tasks).
+    """
     out = run_kernel(group, todo, x0, options)
     t1 = time.perf_counter()
     tally.tried[todo] += 1
@@ -388,11 +420,13 @@ def _wave(group, contact_fn, options, tally: _Tally, todo, wave, x0) -> tuple[np
     sel = np.flatnonzero(np.isin(out.status, K.LOCAL_SOLUTIONS))
     if sel.size:
         pi = todo[sel]
-        lev, q, T, _, dmax, amax = _check(group, contact_fn, pi, out.x[sel], out.R[sel], out.t[sel], options)
+        lev, q, T, _, dmax, amax, sols = checker(pi, out.x[sel], out.R[sel], out.t[sel])
         tally.closest_miss(pi, lev, dmax, amax)
         # keep a strict answer always; a d_min answer only when asked for and there is none yet
         keep = (lev == 2) | ((lev == 1) & (tally.level[pi] == 0) & options.approximate)
         tally.hold(pi[keep], wave, out, sel[keep], lev[keep], q[keep], T[keep], dmax[keep], amax[keep])
+        for k in np.flatnonzero(keep):
+            tally.verified[pi[k]] = sols[k]
         tally.rejected[pi[lev == 0]] += 1
         got_strict[sel[lev == 2]] = True
         tally.retries[pi[(lev == 1) & keep]] = options.strict_retries
@@ -402,7 +436,7 @@ def _wave(group, contact_fn, options, tally: _Tally, todo, wave, x0) -> tuple[np
     return done, time.perf_counter() - t1
 
 
-def _solve_group(group: Group, contact_fn, options: LocalOptions, sequence: InitialPoseSequence, rng, t_start):
+def _solve_group(group: Group, checker, options: LocalOptions, sequence: InitialPoseSequence, rng, t_start, tasks=None):
     P, imax = group.n_problems, options.i_max
     tally = _Tally(P, imax, group.nx, group.hand.n_dof)
     extra = _RandomPoses(group.hand, int(rng.integers(2**62)), max(imax - len(sequence), 0))
@@ -413,12 +447,12 @@ def _solve_group(group: Group, contact_fn, options: LocalOptions, sequence: Init
         if todo.size:
             x0 = _starts(group, sequence, i, todo, options, rng, extra)
             t0 = time.perf_counter()
-            done, dt = _wave(group, contact_fn, options, tally, todo, i, x0)
+            done, dt = _wave(group, checker, options, tally, todo, i, x0)
             check_s += dt
             kernel_s += time.perf_counter() - t0 - dt
             todo = todo[~done]
         wave_seconds[i] = time.perf_counter() - t_start
-    records = [tally.record(group, p) for p in range(P)]
+    records = [tally.record(group, p, tasks[p] if tasks is not None else None) for p in range(P)]
     strict = tally.level == 2
     solved_after = np.array([np.sum(strict & (tally.solved_with <= i + 1)) for i in range(imax)])
     return records, wave_seconds, solved_after, {"kernel": kernel_s, "checks": check_s}
@@ -461,10 +495,9 @@ def solve_local_batch(
         if len(problems) == 0:
             return LocalBatch([], 0.0, np.zeros(options.i_max), np.zeros(options.i_max, dtype=int), options, sequence)
         group = problems.group(options.joint_scale_mm)
-        records, waves, after, timings = _solve_group(
-            group, lambda idx, pose, T, prm: _contact_checks_points(problems, idx, pose, T, prm),
-            options, sequence, rng, t_start,
-        )  # fmt: skip
+        points = lambda idx, pose, T, prm: _contact_checks_points(problems, idx, pose, T, prm)  # noqa: E731
+        checker = lambda idx, x, R, t: (*_check(group, points, idx, x, R, t, options), [None] * len(idx))  # noqa: E731
+        records, waves, after, timings = _solve_group(group, checker, options, sequence, rng, t_start)
         return LocalBatch(records, time.perf_counter() - t_start, waves, after, options, sequence, timings)
 
     tasks = list(problems)
@@ -486,10 +519,8 @@ def solve_local_batch(
         seq = sequence if sequence is not None else default_sequence(sub[0].hand)
         seq_used = seq
         group = group_from_tasks(sub, options.joint_scale_mm)
-        recs, w, a, tm = _solve_group(
-            group, lambda idx, pose, T, prm, sub=sub: _contact_checks_tasks(sub, idx, pose, T, prm),
-            options, seq, rng, time.perf_counter(),
-        )  # fmt: skip
+        checker = lambda idx, x, R, t, g=group, sub=sub: _check_tasks(g, sub, idx, x, R, t, options)  # noqa: E731
+        recs, w, a, tm = _solve_group(group, checker, options, seq, rng, time.perf_counter(), sub)
         for k, r in zip(members, recs):
             r.index = k
             records[k] = r
