@@ -456,3 +456,18 @@ def test_hand_arrays_are_built_once_and_not_stored_on_the_hand(sa_hand):
     assert all(np.array_equal(np.asarray(u), np.asarray(v)) for u, v in zip(fresh, a1))
     solve_local_batch(random_point_problems(2, sa_hand, seed=1))
     assert not [k for k in vars(sa_hand) if k.startswith("_local")]
+
+
+def test_compile_pending_tells_a_first_run_from_a_cached_one(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    from prehension.solvers.local import compile_pending, warm_up
+
+    assert warm_up() >= 0.0
+    assert compile_pending() is False  # compiled or loaded in this process
+    code = "from prehension.solvers.local import compile_pending; print(compile_pending())"
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}  # an empty cache: a fresh install
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
+    assert out.stdout.strip() == "True", out.stderr
