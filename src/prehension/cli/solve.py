@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -67,6 +68,11 @@ def cmd_solve(args, console: Console) -> int:
     check_where(*where)
     if args.method == "local":  # the cluster only serves the complete solver's boxes
         where = (None, None)
+    if args.method in ("local", "auto"):
+        from ..solvers.local import COMPILING_MESSAGE, compile_pending
+
+        if compile_pending():
+            print(COMPILING_MESSAGE, file=sys.stderr, flush=True)
     with executor_for(*where) as executor:
         with _progress(console, args) as update:
             result = solve(
