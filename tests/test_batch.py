@@ -15,7 +15,7 @@ import pytest
 
 from prehension.batch import BatchOptions, read_inputs, read_records, run_batch, task_seed
 from prehension.batch.journal import open_journal
-from prehension.cli import EXIT_BAD_INPUT, EXIT_OK, main
+from prehension.cli import EXIT_BAD_INPUT, EXIT_GAVE_UP, EXIT_OK, main
 from prehension.errors import PrehensionError
 from prehension.solve import solve
 from prehension.tasks.library import builtin_task_names
@@ -236,7 +236,7 @@ def test_the_cli_on_a_running_scheduler(client, twenty_tasks, tmp_path):
     out = tmp_path / "out.jsonl"
     address = client.scheduler.address
     code = main(["batch", twenty_tasks, "-o", str(out), "--method", "local", "--scheduler", address, "--max-tasks", "3", "--quiet"])
-    assert code == 1 and len(read_records(out)) == 3  # tasks left: re-run to go on
+    assert code == EXIT_GAVE_UP and len(read_records(out)) == 3  # tasks left: re-run to go on
     code = main(["batch", twenty_tasks, "-o", str(out), "--method", "local", "--scheduler", address, "--quiet"])
     assert code == EXIT_OK and len({r["id"] for r in read_records(out)}) == len(read_records(out)) == 20
 

@@ -10,7 +10,6 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from prehension.hands import collision as col
 from prehension.hands.collision import capsule_clearances, collision_pairs, max_penetration
 from prehension.hands.kinematics import forward_kinematics
 from prehension.hands.model import Capsule, Link
@@ -45,15 +44,6 @@ def test_max_penetration_is_the_largest_depth_of_capsule_clearances(sa_hand, rng
     np.testing.assert_array_equal(first > 0, expected > 0)
     assert np.all(first <= expected + 1e-12)
     assert len(names) == clearance.shape[1] == len(collision_pairs(sa_hand).first)
-
-
-def test_chunked_clearances_equal_one_piece(sa_hand, rng, monkeypatch):
-    pose = forward_kinematics(sa_hand, random_angles(sa_hand, rng, 40))
-    whole, names = capsule_clearances(sa_hand, pose)
-    monkeypatch.setattr(col, "CHUNK_ELEMENTS", 7)  # many row and column chunks
-    chunked, names2 = capsule_clearances(sa_hand, pose)
-    np.testing.assert_array_equal(chunked, whole)
-    assert names2 == names
 
 
 def test_split_capsules_give_the_same_depths(sa_hand, rng):

@@ -398,7 +398,10 @@ def test_hand_file_reference(tmp_path, rng):
     path.write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
     task = load_task(path)
     _assert_same_task(_custom_task(), task, rng)
-    assert task_to_dict(task)["hand"] == hand_to_dict(_custom_hand())  # written back inline
+    assert task_to_dict(task, base_dir=tmp_path)["hand"] == {"file": "hands/gripper.yaml"}  # written back as named
+    inline = task_to_dict(task, hand_inline=True)["hand"]  # as in result files: the hand and where it came from
+    assert inline.pop("source")["path"] == str((tmp_path / "hands" / "gripper.yaml").resolve())
+    assert inline == hand_to_dict(_custom_hand())
 
     (tmp_path / "hands" / "gripper.yaml").write_text("name: g\nlinks: []\n", encoding="utf-8")
     with pytest.raises(InvalidTask, match=r"hand\.file: .*gripper\.yaml: links: needs at least 1 item") as info:
@@ -494,7 +497,7 @@ BAD_CASES = {
                               r"hand: unknown built-in hand 'shunk-sa'; built-in hands are: schunk-sa"),
     "hand of wrong type": (("hand: schunk-sa", "hand: [1, 2]"), r"hand: give a built-in hand name \(schunk-sa\)"),
     "misspelt key": (("  name: knob\n", "  name: knob\n  colour: red\n"),
-                     r"object: extra key 'colour' not allowed here; allowed keys: name, regions, display"),
+                     r"object: extra key 'colour' not allowed here; allowed keys: name, regions, mesh, scale, units, shape, collisions, surface_tolerance_mm, display"),
     "misspelt top-level key": (("fingers:", "finger:"), r"extra key 'finger' not allowed .*did you mean 'fingers'"),
     "missing contacts": (("contacts:\n  - {hand: index_tip, object: knob}\n  - {hand: thumb_tip, object: bump}\n", ""),
                          r"bad\.yaml: contacts: field required"),

@@ -24,7 +24,10 @@ from .hands.kinematics import HandPose, forward_kinematics
 from .hands.model import Capsule, Coupling, Finger, Hand, HandRegion, Joint, Link
 from .hands.sa_hand import schunk_sa_hand
 from .hands.urdf import hand_from_urdf
+from .objects.mesh_io import load_mesh
 from .objects.model import GraspObject
+from .objects.pick import PickedRegion, region_from_mesh
+from .objects.solid import MeshFileSolid, PrimitiveSolid
 from .results import Solution, SolveResult, Status, make_solution, read_result, write_result
 from .solve import solve
 from .tasks.cuik_import import import_world
@@ -50,7 +53,8 @@ __all__ = [
     "Hand", "Joint", "Link", "Capsule", "Coupling", "Finger", "HandRegion", "HandPose",
     "forward_kinematics", "schunk_sa_hand", "hand_from_urdf",
     # objects and tasks
-    "GraspObject", "Task", "Contact", "Configuration",
+    "GraspObject", "MeshFileSolid", "PrimitiveSolid", "load_mesh", "region_from_mesh", "PickedRegion",
+    "Task", "Contact", "Configuration",
     "evaluate", "Tolerances", "ResidualReport",
     "load_task", "loads_task", "dump_task", "dumps_task", "import_world",
     "builtin_task_names", "load_builtin_task", "resolve_task", "move_object_region", "turn_object_region",

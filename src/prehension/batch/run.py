@@ -18,7 +18,7 @@ from typing import Callable, Iterator, Mapping, Sequence
 
 from ..errors import PrehensionError
 from ..parallel import worker_count
-from .inputs import BatchEntry, read_inputs
+from .inputs import TASK_SUFFIXES, BatchEntry, read_inputs
 from .journal import is_done, open_journal
 from .solving import BatchOptions, error_record, solve_chunk
 
@@ -116,9 +116,17 @@ def _stream(client, chunks: Iterator[list[dict]], options: BatchOptions) -> Iter
 
 
 def check_output(inputs, output) -> None:
-    """Raise a :class:`PrehensionError` when the output would overwrite the input."""
-    if Path(inputs).resolve() == Path(output).resolve():
+    """Raise a :class:`PrehensionError` unless the journal ``output`` can be written:
+    not a folder, not the input (nor a file in an input folder), in a writable folder."""
+    from ..atomic import check_output_path
+
+    inputs = Path(inputs)
+    if Path(output).resolve() == inputs.resolve():
         raise PrehensionError(f"the output {output} is the input: choose another file for the results (-o)")
+    inside = inputs.is_dir() and inputs.resolve() in Path(output).resolve().parents
+    if inside and Path(output).suffix.lower() in TASK_SUFFIXES:
+        raise PrehensionError(f"the output {output} lies in the input folder {inputs} and would be read as a task: write it elsewhere")
+    check_output_path(output, "batch output (-o)", inputs=[inputs] if inputs.is_file() else [])
 
 
 def run_batch(

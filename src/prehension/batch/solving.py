@@ -37,6 +37,9 @@ class BatchOptions:
         max_tasks: solve at most this many tasks in this run (then stop; re-run to go on).
         delay_s: testing only: sleep this long before each task [s], to make a run slow
             enough to kill a worker in the middle of it.
+        sequences: initial-pose sequences of ``prehension offline`` (their JSON
+            mappings); a task uses the one made for its hand (by name), if any, else
+            its hand's default.
     """
 
     method: str = "auto"
@@ -46,6 +49,7 @@ class BatchOptions:
     retry_gave_up: bool = False
     max_tasks: int | None = None
     delay_s: float = 0.0
+    sequences: tuple = ()
 
     def __post_init__(self):
         def need(ok, message):
@@ -58,6 +62,17 @@ class BatchOptions:
         need(self.chunk_size is None or self.chunk_size >= 1, f"chunk size must be >= 1, got {self.chunk_size}")
         need(self.max_tasks is None or self.max_tasks >= 0, f"max tasks must be >= 0, got {self.max_tasks}")
         need(self.delay_s >= 0, f"delay must be >= 0 s, got {self.delay_s}")
+        hands = [s.get("hand") for s in self.sequences]
+        need(len(set(hands)) == len(hands), f"give one initial-pose sequence per hand, got several for {hands}")
+
+    def sequence_for(self, hand_name: str):
+        """The :class:`InitialPoseSequence` given for hand ``hand_name``, or None."""
+        from ..solvers.local.sequence import InitialPoseSequence
+
+        for data in self.sequences:
+            if data.get("hand") == hand_name:
+                return InitialPoseSequence.from_dict(data, f"sequence of hand {hand_name!r}")
+        return None
 
     @property
     def tasks_per_chunk(self) -> int:
@@ -96,7 +111,7 @@ def _solve_one(entry: Mapping[str, Any], options: BatchOptions) -> dict:
         task = entry_task(entry["payload"])
         result = solve(
             task, options.method, complete_options=BranchAndPruneOptions(time_limit_s=options.time_limit_s),
-            seed=task_seed(options.seed, entry["id"]),
+            seed=task_seed(options.seed, entry["id"]), sequence=options.sequence_for(task.hand.name),
         )  # fmt: skip
         data = result_to_dict(result)
     except PrehensionError as exc:

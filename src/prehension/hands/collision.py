@@ -7,15 +7,15 @@ between their segments minus the two radii; a negative clearance is a penetratio
 Memory is bounded for any hand: a hand with hundreds of capsules has tens of thousands of
 pairs (the LEAP hand of dex-urdf: 238 capsules, 22,564 pairs), and a batch of thousands
 of configurations times that many pairs does not fit in memory at once.
-:func:`capsule_clearances` works in chunks of at most :data:`CHUNK_ELEMENTS`
-(configuration, pair) entries; :func:`max_penetration` (compiled, one configuration at a
-time, capsules whose bounding spheres are apart skipped) needs no array larger than the
-list of capsules.  The pair list of a hand is built once and kept in a cache keyed by the
+:func:`capsule_clearances` returns every pair's clearance (``B x P`` numbers);
+:func:`max_penetration` (compiled, one configuration at a time, capsules whose bounding
+spheres are apart skipped) needs no array larger than the list of capsules.  The pair list of a hand is built once and kept in a cache keyed by the
 hand object (never written onto the frozen :class:`~prehension.hands.model.Hand`).
 """
 
 from __future__ import annotations
 
+import math
 import weakref
 from dataclasses import dataclass
 
@@ -30,13 +30,7 @@ __all__ = [
     "segment_distance",
     "capsule_clearances",
     "max_penetration",
-    "CHUNK_ELEMENTS",
 ]
-
-#: Most (configuration x capsule pair) entries handled at once; a chunk's temporaries take
-#: about 60 float64 arrays of this size at the peak (~50 MB for 100,000 entries).
-CHUNK_ELEMENTS = 100_000
-
 
 def segment_distance(p0, p1, q0, q1) -> np.ndarray:
     """Distance between segments p0-p1 and q0-q1, all arrays (..., 3) [mm] -> (...)
@@ -148,39 +142,80 @@ def _link_spheres(n_links, link_of, a, b, radius) -> tuple[np.ndarray, np.ndarra
     return centre, rad
 
 
-def _chunks(n_rows: int, per_row: int):
-    """Row ranges so that each chunk holds at most :data:`CHUNK_ELEMENTS` entries."""
-    step = max(1, CHUNK_ELEMENTS // max(per_row, 1))
-    for start in range(0, n_rows, step):
-        yield start, min(n_rows, start + step)
-
-
-def _pair_clearances(pairs: CollisionPairs, R, r, sel) -> np.ndarray:
-    """Clearances of pairs ``sel`` for link poses ``R (B, L, 3, 3)``, ``r (B, L, 3)`` -> (B, len(sel))."""
-    i, j = pairs.first[sel], pairs.second[sel]
-    li, lj = pairs.link[i], pairs.link[j]
-    p0 = np.einsum("bsij,sj->bsi", R[:, li], pairs.a[i]) + r[:, li]
-    p1 = np.einsum("bsij,sj->bsi", R[:, li], pairs.b[i]) + r[:, li]
-    q0 = np.einsum("bsij,sj->bsi", R[:, lj], pairs.a[j]) + r[:, lj]
-    q1 = np.einsum("bsij,sj->bsi", R[:, lj], pairs.b[j]) + r[:, lj]
-    return segment_distance(p0, p1, q0, q1) - pairs.radius[i] - pairs.radius[j]
-
-
 def capsule_clearances(hand: Hand, pose: HandPose) -> tuple[np.ndarray, tuple[tuple[str, str], ...]]:
     """Clearance of every tested capsule pair, (B, P) [mm]; negative means penetration.
 
-    The result itself holds ``B x P`` numbers: for large batches of a hand with many
-    capsules use :func:`max_penetration`, whose memory does not grow with ``P``.
+    The pairs run through a compiled loop (:func:`_clearances`, numba) with the same
+    closed form as :func:`segment_distance`: a few hundred pairs of thousands of
+    configurations (the initial-pose samples of a 20-joint hand) take milliseconds.  The
+    result itself holds ``B x P`` numbers: for large batches of a hand with many capsules
+    use :func:`max_penetration`, whose memory does not grow with ``P``.
     """
     pairs = collision_pairs(hand)
-    B, P = pose.r_palm_link.shape[0], len(pairs.first)
-    out = np.zeros((B, P))
-    if P == 0:
-        return out, pairs.names
-    for b0, b1 in _chunks(B, 1):
-        for p0, p1 in _chunks(P, b1 - b0):
-            out[b0:b1, p0:p1] = _pair_clearances(pairs, pose.R_palm_link[b0:b1], pose.r_palm_link[b0:b1], np.arange(p0, p1))
-    return out, pairs.names
+    B = pose.r_palm_link.shape[0]
+    if len(pairs.first) == 0:
+        return np.zeros((B, 0)), pairs.names
+    R = pose.R_palm_link[:, pairs.link]  # (B, S, 3, 3)
+    r = pose.r_palm_link[:, pairs.link]  # (B, S, 3)
+    a = np.ascontiguousarray(np.einsum("bsij,sj->bsi", R, pairs.a) + r)  # (B, S, 3) segment starts, palm frame
+    b = np.ascontiguousarray(np.einsum("bsij,sj->bsi", R, pairs.b) + r)
+    return _clearances(a, b, pairs.radius, pairs.first, pairs.second), pairs.names
+
+
+try:  # numba is a dependency; without it the same loop runs as (slow) Python
+    from numba import njit
+except ImportError:  # pragma: no cover
+    def njit(*args, **kwargs):
+        return args[0] if len(args) == 1 and callable(args[0]) else (lambda f: f)
+
+
+@njit(cache=True)
+def _clamp01(x):
+    return 0.0 if x < 0.0 else (1.0 if x > 1.0 else x)
+
+
+@njit(cache=True)
+def _segment_distance(a, b, k, i, j) -> float:
+    """Distance between segments ``a[k, i]-b[k, i]`` and ``a[k, j]-b[k, j]`` (scalar code,
+    no temporaries) -- Ericson 5.1.9, the closed form of :func:`segment_distance`."""
+    tiny = 1e-12
+    d1x, d1y, d1z = b[k, i, 0] - a[k, i, 0], b[k, i, 1] - a[k, i, 1], b[k, i, 2] - a[k, i, 2]
+    d2x, d2y, d2z = b[k, j, 0] - a[k, j, 0], b[k, j, 1] - a[k, j, 1], b[k, j, 2] - a[k, j, 2]
+    rx, ry, rz = a[k, i, 0] - a[k, j, 0], a[k, i, 1] - a[k, j, 1], a[k, i, 2] - a[k, j, 2]
+    aa = d1x * d1x + d1y * d1y + d1z * d1z
+    e = d2x * d2x + d2y * d2y + d2z * d2z
+    f = d2x * rx + d2y * ry + d2z * rz
+    c = d1x * rx + d1y * ry + d1z * rz
+    bb = d1x * d2x + d1y * d2y + d1z * d2z
+    if aa <= tiny and e <= tiny:
+        s, t = 0.0, 0.0
+    elif aa <= tiny:
+        s, t = 0.0, _clamp01(f / e)
+    elif e <= tiny:
+        s, t = _clamp01(-c / aa), 0.0
+    else:
+        denom = aa * e - bb * bb
+        s = _clamp01((bb * f - c * e) / denom) if denom > tiny * max(aa * e, tiny) else 0.0
+        t = (bb * s + f) / e
+        if t < 0.0 or t > 1.0:
+            t = _clamp01(t)
+            s = _clamp01((bb * t - c) / aa)
+    x = rx + d1x * s - d2x * t
+    y = ry + d1y * s - d2y * t
+    z = rz + d1z * s - d2z * t
+    return math.sqrt(x * x + y * y + z * z)
+
+
+@njit(cache=True)
+def _clearances(a, b, radius, first, second):
+    """``a, b (B, S, 3)`` capsule segments, ``radius (S,)``, pairs ``first, second (P,)`` -> (B, P)."""
+    B, P = a.shape[0], first.shape[0]
+    out = np.empty((B, P))
+    for k in range(B):
+        for p in range(P):
+            i, j = first[p], second[p]
+            out[k, p] = _segment_distance(a, b, k, i, j) - radius[i] - radius[j]
+    return out
 
 
 def max_penetration(hand: Hand, pose: HandPose, *, stop_at_first: bool = False) -> np.ndarray:

@@ -78,6 +78,8 @@ class Task:
             raise InvalidTask(f"task {self.name!r}: {exc}") from None
 
     def _validate(self) -> None:
+        if not isinstance(self.name, str) or not self.name.strip():
+            raise InvalidTask(f"a task needs a non-empty name, got {self.name!r}")
         if not self.contacts:
             raise InvalidTask(f"task {self.name!r} has no contacts; give at least one hand/object region pair")
         for f in self.fingers:
@@ -110,12 +112,9 @@ class Task:
 
     @property
     def active_mask(self) -> np.ndarray:
-        """(n_dof,) bool: the dofs that move the links of the participating fingers."""
-        mask = np.zeros(self.hand.n_dof, dtype=bool)
-        for f in self.fingers:
-            for link in self.hand.finger(f).links:
-                mask[list(self.hand.chain_dofs(link))] = True
-        return mask
+        """(n_dof,) bool: the dofs that move the links of the participating fingers, with
+        the dofs coupled to them (:meth:`Hand.active_dofs`)."""
+        return self.hand.active_dofs(self.fingers)
 
     @property
     def idle_vector(self) -> np.ndarray:

@@ -29,6 +29,13 @@ Schema (format ``task/1``)::
                                     #   (M+1) x (N+1) grid; outward normal = p_u x p_v
         rim: {point: [x, y, z], normal: [nx, ny, nz]}
         bump: {sphere_cap: {center: [x, y, z], radius: r, axis: [ax, ay, az], half_angle_deg: a}}
+      mesh: teapot.obj              # optional solid: a mesh file (OBJ, STL, PLY, OFF, GLB),
+      units: mm                     #   relative to this file, with units (mm, cm, m, in) or
+                                    #   scale (mm per file unit); or instead of mesh:
+      shape: [{box: {...}}, ...]    #   closed primitives (as in display) united into the solid
+      collisions: true              # optional (default true): check the hand against the solid
+      surface_tolerance_mm: 0.5     # optional: how far regions may lie from the solid's surface
+                                    # (every region is checked on it, normals outward: docs/objects.md)
       display:                      # optional, only for looking at grasps
         primitives:                 # each item has exactly one key:
           - {box: {center: [0, 0, 0], size: [10, 20, 30]}}

@@ -38,7 +38,7 @@ from ...hands.collision import max_penetration
 from ...hands.kinematics import HandPose, forward_kinematics
 from ...results import Solution, SolveResult, Status, make_solution
 from ...tasks.model import Configuration, Task
-from ...tasks.residuals import Tolerances, contact_residuals, coupling_violations, evaluate, limit_violations
+from ...tasks.residuals import Tolerances, contact_residuals, coupling_violations, limit_violations
 from . import _kernel as K
 from ._layout import S_K, S_X, Group
 from .options import LocalOptions
@@ -241,22 +241,25 @@ def _contact_checks_points(problems: PointProblems, idx, pose: HandPose, T, para
 
 
 def _contact_checks_tasks(tasks, idx, pose: HandPose, T, params):
-    """Contact residuals of tasks: the foundation's :func:`contact_residuals`, one task at a time."""
-    out = [[], [], [], []]
+    """Contact residuals of tasks: the foundation's :func:`contact_residuals`, one task at a
+    time, and the object penetration of the links that move with the task (idle fingers are
+    cleared afterwards by :func:`~prehension.tasks.idle.settle_idle_fingers`) [mm]."""
+    out = [[], [], [], [], []]
     for s, i in enumerate(idx):
         sub = HandPose(pose.R_palm_link[s : s + 1], pose.r_palm_link[s : s + 1], pose.axis_palm[s : s + 1], pose.origin_palm[s : s + 1])
         prm = [(h[s : s + 1], o[s : s + 1]) for h, o in params]
         res = contact_residuals(tasks[i], sub, T[s : s + 1], prm)
         for k, key in enumerate(("distance_mm", "normal_angle_deg", "hand_region", "object_region")):
             out[k].append(res[key][0])
+        out[4].append(_object_depth(tasks[i], sub, T[s], res["hand_point"][0]))
     return tuple(np.array(v) for v in out)
 
 
 def _check_tasks(group: Group, tasks, idx, x, R, t, options: LocalOptions):
     """As :func:`_check`, for tasks, with the one residual function itself: each local
-    solution goes through :func:`~prehension.results.make_solution` (strict), else
-    :func:`~prehension.tasks.residuals.evaluate` with the acceptance tolerances.  Also
-    returns the strict solutions made (``None`` elsewhere), which the records keep."""
+    solution goes through :func:`~prehension.results.make_solution` (strict, else with the
+    acceptance tolerances; idle fingers moved clear of the object there).  Also returns
+    the strict solutions made (``None`` elsewhere), which the records keep."""
     S = len(idx)
     q = group.q_of(x)
     T = np.zeros((S, 4, 4))
@@ -266,10 +269,23 @@ def _check_tasks(group: Group, tasks, idx, x, R, t, options: LocalOptions):
     for s, i in enumerate(idx):
         config = Configuration(q[s], T[s], tuple((h[s], o[s]) for h, o in params))
         sols[s] = make_solution(tasks[i], config, STRICT)
-        report = sols[s].report if sols[s] is not None else evaluate(tasks[i], config, options.acceptance)
-        level[s] = 2 if sols[s] is not None else (1 if report.ok else 0)
-        dmax[s], amax[s] = report.worst("contact_distance"), report.worst("contact_normal")
+        loose = make_solution(tasks[i], config, options.acceptance) if sols[s] is None else None
+        held = sols[s] if sols[s] is not None else loose
+        level[s] = 2 if sols[s] is not None else (1 if loose is not None else 0)
+        if held is not None:
+            dmax[s], amax[s] = held.report.worst("contact_distance"), held.report.worst("contact_normal")
+        else:
+            dmax[s] = amax[s] = np.inf
     return level, q, T, params, dmax, amax, sols
+
+
+def _object_depth(task: Task, pose: HandPose, T, hand_points_palm) -> float:
+    if not task.object.collides:
+        return 0.0
+    from ...tasks.object_collision import link_penetrations, moving_links
+
+    points = (hand_points_palm - T[:3, 3]) @ T[:3, :3]
+    return max(link_penetrations(task, pose, T, points, moving_links(task)).values(), default=0.0)
 
 
 def _check(group: Group, contact_fn, idx, x, R, t, options: LocalOptions):
@@ -287,7 +303,8 @@ def _check(group: Group, contact_fn, idx, x, R, t, options: LocalOptions):
     lim = np.degrees(np.max(limit_violations(hand, q), axis=1))
     cpl = coupling_violations(hand, q)
     cpl = np.degrees(np.max(cpl, axis=1)) if cpl.shape[1] else np.zeros(S)
-    dist, ang, hreg, oreg = contact_fn(idx, pose, T, params)
+    dist, ang, hreg, oreg, *rest = contact_fn(idx, pose, T, params)
+    odepth = rest[0] if rest else np.zeros(S)  # object penetration (tasks with a solid)
     dmax, amax = dist.max(axis=1), ang.max(axis=1)
     region = np.maximum(hreg.max(axis=1), oreg.max(axis=1))
 
@@ -296,6 +313,7 @@ def _check(group: Group, contact_fn, idx, x, R, t, options: LocalOptions):
             (dmax <= tol.contact_mm) & (amax <= tol.normal_deg) & (region <= tol.region)
             & (lim <= tol.limit_deg) & (cpl <= tol.coupling_deg)
             & ((depth <= tol.penetration_mm) | (not options.check_collisions))
+            & ((odepth <= tol.object_penetration_mm) | (not options.check_collisions))
         )  # fmt: skip
 
     level = np.where(passes(STRICT), 2, np.where(passes(options.acceptance), 1, 0))
