@@ -229,8 +229,7 @@ def _step(ws, data, damping_sq, active_set):
     for k in range(ws.x.shape[0]):
         at_bound = lay.boxed[k] and (ws.x[k] <= lay.lo[k] or ws.x[k] >= lay.hi[k])
         ws.frozen[k] = ws.frozen[k] and at_bound and active_set
-    C = lay.sides.shape[0]
-    args = (ws.J, ws.f, C, ws.col_scale, ws.frozen, lay.shared, lay.n_shared, damping_sq, ws.A, ws.L, ws.y, ws.dx, ws.Js)
+    args = (ws.J, ws.f, (ws.col_scale, ws.frozen), (lay.shared, lay.n_shared), damping_sq, (ws.A, ws.L, ws.y, ws.dx, ws.Js))
     ok = dls_contacts(*args)
     if not ok or not active_set:
         return ok
@@ -344,7 +343,7 @@ def _repair_step(ws, n_rows):
     freezing angles at a bound that the step pushes out)."""
     lay = ws.lay
     fill(ws.frozen, False)
-    args = (ws.M, ws.g, n_rows, ws.col_scale, ws.frozen, 1e-6, ws.A, ws.L, ws.y, ws.dx, ws.Ms)
+    args = (ws.M, ws.g, n_rows, (ws.col_scale, ws.frozen), 1e-6, (ws.A, ws.L, ws.y, ws.dx, ws.Ms))
     ok = dls_dense(*args)
     if ok:
         again = False

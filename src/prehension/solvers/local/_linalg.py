@@ -144,8 +144,20 @@ def _add_damping(A, n, mu2, rel):
 
 
 @njit(cache=True)
-def dls_contacts(J, f, C, col_scale, frozen, shared, n_shared, mu2, A, L, y, dx, Js):
-    """Damped step for the ``6 C`` contact rows, ``J~ J~^T`` assembled from shared columns."""
+def dls_contacts(J, f, scaling, blocks, mu2, out):
+    """Damped step for the ``6 C`` contact rows, ``J~ J~^T`` assembled from shared columns.
+
+    Args:
+        J, f: (6C, nx) Jacobian and (6C,) rows.
+        scaling: ``(col_scale (nx,), frozen (nx,))``: ``D^-1`` and the frozen unknowns.
+        blocks: ``(shared (C, C, m), n_shared (C, C))``: unknowns two contacts share.
+        mu2: damping ``mu^2`` [mm^2].
+        out: ``(A, L, y, dx, Js)`` scratch, the step in ``dx`` (nx,).
+    """
+    col_scale, frozen = scaling
+    shared, n_shared = blocks
+    A, L, y, dx, Js = out
+    C = n_shared.shape[0]
     n = 6 * C
     _scale_columns(J, n, col_scale, frozen, Js)
     for c1 in range(C):
@@ -170,8 +182,11 @@ def dls_contacts(J, f, C, col_scale, frozen, shared, n_shared, mu2, A, L, y, dx,
 
 
 @njit(cache=True)
-def dls_dense(M, g, n, col_scale, frozen, mu2, A, L, y, dx, Ms):
-    """Damped step for the first ``n`` rows of any stack ``M`` (dense ``M~ M~^T``)."""
+def dls_dense(M, g, n, scaling, mu2, out):
+    """Damped step for the first ``n`` rows of any stack ``M`` (dense ``M~ M~^T``);
+    ``scaling`` and ``out`` as in :func:`dls_contacts`."""
+    col_scale, frozen = scaling
+    A, L, y, dx, Ms = out
     _scale_columns(M, n, col_scale, frozen, Ms)
     nx = M.shape[1]
     for i in range(n):
