@@ -208,7 +208,7 @@ def principal_directions(samples: np.ndarray) -> tuple[np.ndarray, np.ndarray, n
 _DEFAULTS: dict = {}
 
 
-def default_sequence(hand: Hand, n_samples: int = 4000, seed: int = 0) -> InitialPoseSequence:
+def default_sequence(hand: Hand, n_samples: int = 1000, seed: int = 0) -> InitialPoseSequence:
     """The shipped sequence of a hand if there is one, else PCA + the paper's lambdas (cached)."""
     from ._layout import hand_arrays
 
