@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import os
 import re
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -149,6 +150,11 @@ def cmd_solve(args, console: Console) -> int:
     check_where(*where)
     if args.method == "local":  # the cluster only serves the complete solver's boxes
         where = (None, None)
+    if args.method in ("local", "auto"):
+        from ..solvers.local import COMPILING_MESSAGE, compile_pending
+
+        if compile_pending():
+            print(COMPILING_MESSAGE, file=sys.stderr, flush=True)
     with executor_for(*where) as executor:
         with LiveProgress(console, enabled=not (args.quiet or args.json), time_limit_s=options.time_limit_s) as update:
             workers = executor.max_workers if executor is not None else 1
