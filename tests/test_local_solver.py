@@ -157,7 +157,7 @@ def test_a_damped_step_decreases_the_error_on_a_smooth_problem(sa_hand):
     f, J = st.residual(x, R, t)
     A, L, Js = np.zeros((6 * C, 6 * C)), np.zeros((6 * C, 6 * C)), np.zeros((6 * C, nx))
     y, dx, frozen = np.zeros(6 * C), np.zeros(nx), np.zeros(nx, dtype=bool)
-    assert K._dls_step(J, f, C, nx, group.Dinv, frozen, group.pcols, group.pn, 0.02**2, A, L, y, dx, Js)
+    assert K._dls_step(J, f, C, nx, group.Dinv[0], frozen, group.pcols, group.pn, 0.02**2, A, L, y, dx, Js)
     f1, _ = st.residual(*st.moved(x, R, t, dx))
     assert np.linalg.norm(f1) < 0.1 * np.linalg.norm(f)
     f_half, _ = st.residual(*st.moved(x, R, t, 0.5 * dx))

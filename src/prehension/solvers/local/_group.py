@@ -242,7 +242,7 @@ class Group:
     lo: np.ndarray
     hi: np.ndarray
     boxed: np.ndarray
-    Dinv: np.ndarray
+    Dinv: np.ndarray  # (P, nx) inverse scale of each unknown, per problem
     nf: int
     nx: int
     pdata: np.ndarray
@@ -299,18 +299,26 @@ def build_group(
     object_regions: list[Region],
     pdata: np.ndarray,
     piv_off: int,
-    object_sizes: list[float],
-    object_extent: float,
+    object_sizes,
+    object_extent,
     joint_scale_mm: float,
+    hand_sizes=None,
 ) -> Group:
-    """A group from the regions of its first problem (sizes and kinds) and all problems' data.
+    """A group from the regions of its first problem (kinds and bounds) and all problems' data.
+
+    The scales of the unknowns are per problem (``Dinv`` is (P, nx)): a problem's answer
+    does not depend on the other problems of its batch.
 
     Args:
         hand_regions: per contact ``(link, region)`` of the first problem.
         object_regions: per contact the object region of the first problem.
         pdata: (P, nd) region data of every problem, pivot at ``piv_off``.
-        object_sizes: per contact, the object region's size [mm per parameter unit].
-        object_extent: distance from the pivot to the farthest object reference point [mm].
+        object_sizes: (P, C) or (C,): per problem and contact, the object region's size
+            [mm per parameter unit].
+        object_extent: (P,) or scalar: per problem, the distance from the pivot to the
+            farthest object reference point [mm].
+        hand_sizes: (P, C) or (C,): per problem and contact, the hand region's size
+            [mm per parameter unit] (default: those of ``hand_regions``).
     """
     C = len(contact_names)
     free, dof_free, dratio, doffset, q_fixed, qlo, qhi = free_dof_map(hand, active, idle)
@@ -321,11 +329,11 @@ def build_group(
     lo = [*qlo, *([-np.inf] * 6)]
     hi = [*qhi, *([np.inf] * 6)]
     boxed = [True] * nf + [False] * 6
-    scale = [joint_scale_mm] * nf + [max(object_extent, 10.0)] * 3 + [1.0] * 3
+    scale = [joint_scale_mm] * nf + [1.0] * 6  # object translation and params: per problem, below
     pose_names: list = [hand.dof_names[d] for d in free] + [None] * 6
     x_default = [0.5 * (a + b) for a, b in zip(qlo, qhi)] + [0.0] * 6
 
-    def add_params(region: Region, size: float, names):
+    def add_params(region: Region, names):
         nonlocal xcol
         k = region.n_params
         start = xcol
@@ -338,7 +346,7 @@ def build_group(
             lo.extend(a.tolist())
             hi.extend(b.tolist())
             boxed.extend([isinstance(region, BezierRegion)] * k)
-            scale.extend([size] * k)
+            scale.extend([1.0] * k)
             pose_names.extend(names if names is not None else [None] * k)
             x_default.extend([0.5, 0.5] if isinstance(region, BezierRegion) else [0.0] * k)
         xcol += k
@@ -351,8 +359,8 @@ def build_group(
         ok, om, on, osize = region_code(oreg)
         tip = _tip_finger(hand, link, hreg)
         names = [f"{tip}.tip.alpha", f"{tip}.tip.gamma"] if tip else None
-        xh, kh = add_params(hreg, region_size(hreg), names)
-        xo, ko = add_params(oreg, object_sizes[c], None)
+        xh, kh = add_params(hreg, names)
+        xo, ko = add_params(oreg, None)
         cint_rows.append([hand.link_index(link), hk, off, hm, hn, ok, off + hsize, om, on, xh, kh, xo, ko])
         off += hsize + osize
         specs.append(ContactSpec(contact_names[c], link, hk, hm, hn, ok, om, on, tip))
@@ -380,13 +388,35 @@ def build_group(
             pcols[a, b, : len(common)] = common
             pn[a, b] = len(common)
     anchor, i1, i2 = _anchor_and_pair(hand, specs)
+    if hand_sizes is None:
+        hand_sizes = [region_size(r) for _, r in hand_regions]
+    Dinv = _per_problem_scales(np.array(scale, dtype=float), pdata.shape[0], nf, cint, object_extent, object_sizes, hand_sizes)
     return Group(
         hand, tuple(fingers), tuple(specs), free, dof_free, dratio, doffset, q_fixed,
         cint, cdofs, cnd, pcols, pn, anchor, i1, i2,
         np.array(lo, dtype=float), np.array(hi, dtype=float), np.array(boxed, dtype=np.bool_),
-        1.0 / np.array(scale, dtype=float), nf, nx, np.ascontiguousarray(pdata, dtype=float), piv_off,
+        Dinv, nf, nx, np.ascontiguousarray(pdata, dtype=float), piv_off,
         tuple(pose_names), np.array(x_default, dtype=float),
     )  # fmt: skip
+
+
+def _per_problem_scales(scale, P: int, nf: int, cint, extent, object_sizes, hand_sizes) -> np.ndarray:
+    """``Dinv (P, nx)``: the inverse scale of every unknown, per problem.
+
+    Joint angles and rotation columns share one scale; the object translation is scaled
+    by the problem's own object extent (at least 10 mm) and each region's parameters by
+    that region's own size, so that solving a problem in a batch or alone is the same.
+    """
+    C = cint.shape[0]
+    S = np.repeat(scale[None], P, axis=0)
+    S[:, nf : nf + 3] = np.maximum(np.broadcast_to(np.asarray(extent, dtype=float), (P,)), 10.0)[:, None]
+    hs = np.broadcast_to(np.asarray(hand_sizes, dtype=float), (P, C))
+    os_ = np.broadcast_to(np.asarray(object_sizes, dtype=float), (P, C))
+    for c in range(C):
+        xh, kh, xo, ko = cint[c, K.C_XH], cint[c, K.C_KH], cint[c, K.C_XO], cint[c, K.C_KO]
+        S[:, xh : xh + kh] = hs[:, c, None]
+        S[:, xo : xo + ko] = os_[:, c, None]
+    return np.ascontiguousarray(1.0 / S)
 
 
 def _anchor_and_pair(hand: Hand, specs) -> tuple[int, int, int]:

@@ -982,7 +982,7 @@ def run_states(
     jp, jc, jkind, joff, jP, jQ, ju, jR0, jv, n_links,
     dof_free, dof_ratio, dof_offset, q_fixed,
     cint, cdofs, cnd, pcols, pn, anchor, i1, i2,
-    lo, hi, boxed, Dinv, nf,
+    lo, hi, boxed, Dinv_p, nf,
     moves, cap_link, cap_a, cap_b, cap_r, pair_i, pair_j, opt,
     status, iters, piters, xout, Rout, tout, eout,
 ):  # fmt: skip
@@ -1063,6 +1063,7 @@ def run_states(
     for s in range(S):
         prob = sprob[s]
         data = pdata[prob]
+        Dinv = Dinv_p[prob]  # the problem's own scales
         piv = data[piv_off:piv_off + 3]
         x = x0[s].copy()
         _project(x, nf, cint, data, lo, hi, margin)

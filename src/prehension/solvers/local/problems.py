@@ -113,7 +113,7 @@ class PointProblems:
         fingers = self.fingers
         active = _active_mask(hand, fingers)
         idle = np.clip(0.0, hand.lower, hand.upper)
-        extent = float(np.median(np.max(np.linalg.norm(self.points - piv[:, None], axis=-1), axis=1))) if P else 10.0
+        extent = np.max(np.linalg.norm(self.points - piv[:, None], axis=-1), axis=1) if P else 10.0  # (P,) each its own
         first = [PointRegion(self.points[0, c], self.normals[0, c]) for c in range(C)] if P else []
         return build_group(
             hand, fingers, active, idle, [f"{h}->p{c}" for c, h in enumerate(self.hand_regions)],
@@ -242,15 +242,21 @@ def random_point_problems(
 
 # -- tasks ------------------------------------------------------------------------------
 def structure_key(task: Task) -> tuple:
-    """Tasks with equal keys share one group (same hand kinematics, moving angles and
-    region kinds and sizes); see :mod:`._group`."""
-    from ._group import hand_key
+    """Tasks with equal keys share one group: same hand (kinematics, capsules, name: its
+    shipped sequence), moving angles, and per contact the region kinds, sizes of their
+    data and parameter bounds -- everything a group takes from its first task; the rest
+    (region data, scales) is per task, so a task's answer does not depend on its group;
+    see :mod:`._group`."""
+    from ._group import collision_tables, hand_key
 
     per_contact = []
     for c in task.contacts:
-        h = task.hand_region(c)
-        per_contact.append((h.link, region_code(h.region)[:3], region_code(task.object_region(c))[:3]))
-    return (hand_key(task.hand), tuple(task.fingers), task.active_mask.tobytes(), task.idle_vector.tobytes(), tuple(per_contact))
+        h, o = task.hand_region(c), task.object_region(c)
+        bounds = tuple(np.concatenate(r.param_bounds()).tobytes() for r in (h.region, o))
+        per_contact.append((h.link, region_code(h.region)[:3], region_code(o)[:3], bounds))
+    capsules = b"".join(np.asarray(a).tobytes() for a in collision_tables(task.hand))
+    return (hand_key(task.hand), task.hand.name, capsules, tuple(task.fingers), task.active_mask.tobytes(),
+            task.idle_vector.tobytes(), tuple(per_contact))  # fmt: skip
 
 
 def group_from_tasks(tasks, joint_scale_mm: float = 40.0) -> Group:
@@ -258,7 +264,7 @@ def group_from_tasks(tasks, joint_scale_mm: float = 40.0) -> Group:
     tasks = list(tasks)
     first = tasks[0]
     key = structure_key(first)
-    rows, extents = [], []
+    rows, extents, hand_sizes, object_sizes = [], [], [], []
     for task in tasks:
         if task is not first and structure_key(task) != key:
             raise InvalidTask("group_from_tasks: the tasks do not share one hand and one structure")
@@ -273,11 +279,13 @@ def group_from_tasks(tasks, joint_scale_mm: float = 40.0) -> Group:
         blocks.append(piv)
         rows.append(np.concatenate(blocks))
         extents.append(float(np.max(np.linalg.norm(refs - piv, axis=1))))
+        hand_sizes.append([region_size(task.hand_region(c).region) for c in task.contacts])
+        object_sizes.append([region_size(task.object_region(c)) for c in task.contacts])
     pdata = np.array(rows)
     hand = first.hand
     return build_group(
         hand, first.fingers, first.active_mask, first.idle_vector, [c.name for c in first.contacts],
         [(first.hand_region(c).link, first.hand_region(c).region) for c in first.contacts],
         [first.object_region(c) for c in first.contacts], pdata, pdata.shape[1] - 3,
-        [region_size(first.object_region(c)) for c in first.contacts], float(np.median(extents)), joint_scale_mm,
+        np.array(object_sizes), np.array(extents), joint_scale_mm, np.array(hand_sizes),
     )  # fmt: skip

@@ -102,10 +102,14 @@ class InitialPoseSequence:
         return self.lambdas.shape[0]
 
     def poses(self, lambdas) -> np.ndarray:
-        """Eq. 11 for ``lambdas (S, 2)`` -> poses (S, D)."""
+        """Eq. 11 for ``lambdas (S, 2)`` -> poses (S, D).
+
+        Written as two scaled rows rather than a matrix product, so that each pose is
+        the same bits whatever ``S`` (a BLAS product rounds differently by batch size).
+        """
         lam = np.atleast_2d(np.asarray(lambdas, dtype=float))
         k = 3.0 * self.sigmas * (2.0 * lam - 1.0)  # (S, 2)
-        return self.mean + k @ self.components
+        return self.mean + k[:, 0:1] * self.components[0] + k[:, 1:2] * self.components[1]
 
     def pose(self, i: int) -> np.ndarray:
         """The ``i``-th pose of the sequence (0-based), (D,)."""

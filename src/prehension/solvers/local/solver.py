@@ -314,6 +314,8 @@ def _solve_group(group: Group, contact_fn, options: LocalOptions, sequence: Init
         S = todo.size
         if options.initial == "sequence" and i < len(sequence):
             lam = np.repeat(sequence.lambdas[i : i + 1], S, axis=0)
+        elif isinstance(rng, list):  # one generator per problem: draws independent of the batch
+            lam = np.array([rng[p].uniform(0.0, 1.0, 2) for p in todo]).reshape(S, 2)
         else:
             lam = rng.uniform(0.0, 1.0, (S, 2))
         poses = sequence.poses(lam)
@@ -384,10 +386,19 @@ def _solve_group(group: Group, contact_fn, options: LocalOptions, sequence: Init
     return records, wave_seconds, solved_after, {"kernel": kernel_s, "checks": check_s}
 
 
-def _as_rng(rng):
+def _as_rng(rng, n: int):
+    """One generator for the batch, or a list of ``n`` (one per problem) from a sequence."""
     if isinstance(rng, np.random.Generator):
         return rng
+    if isinstance(rng, (list, tuple, np.ndarray)):
+        if len(rng) != n:
+            raise InvalidTask(f"solve_local_batch: rng holds {len(rng)} seeds for {n} problems; give one per problem")
+        return [r if isinstance(r, np.random.Generator) else np.random.default_rng(r) for r in rng]
     return np.random.default_rng(0 if rng is None else rng)
+
+
+def _subset(rng, members):
+    return [rng[k] for k in members] if isinstance(rng, list) else rng
 
 
 def solve_local_batch(
@@ -406,7 +417,10 @@ def solve_local_batch(
         sequence: initial-pose sequence (default: the hand's shipped sequence, else
             :func:`.sequence.default_sequence`).
         rng: seed or ``numpy.random.Generator`` for random initial poses (the
-            ``initial="random"`` option, and poses beyond the sequence's length).
+            ``initial="random"`` option, and poses beyond the sequence's length); or a
+            sequence of them, one per problem: each problem then draws from its own,
+            and its answer is the one it gets alone with that seed (a batch changes
+            nothing but speed: every scale is per problem too).
 
     Returns:
         A :class:`LocalBatch` with one :class:`LocalRecord` per problem, in input order.
@@ -414,8 +428,8 @@ def solve_local_batch(
         the solver does not raise on them.
     """
     t_start = time.perf_counter()
-    rng = _as_rng(rng)
     if isinstance(problems, PointProblems):
+        rng = _as_rng(rng, len(problems))
         hand = problems.hand
         sequence = sequence if sequence is not None else default_sequence(hand)
         if len(problems) == 0:
@@ -428,6 +442,7 @@ def solve_local_batch(
         return LocalBatch(records, time.perf_counter() - t_start, waves, after, options, sequence, timings)
 
     tasks = list(problems)
+    rng = _as_rng(rng, len(tasks))
     if not tasks:
         return LocalBatch([], 0.0, np.zeros(options.i_max), np.zeros(options.i_max, dtype=int), options, sequence)
     for t in tasks:
@@ -448,7 +463,7 @@ def solve_local_batch(
         group = group_from_tasks(sub, options.joint_scale_mm)
         recs, w, a, tm = _solve_group(
             group, lambda idx, pose, T, prm, sub=sub: _contact_checks_tasks(sub, idx, pose, T, prm),
-            options, seq, rng, time.perf_counter(),
+            options, seq, _subset(rng, members), time.perf_counter(),
         )  # fmt: skip
         for k, r in zip(members, recs):
             r.index = k
