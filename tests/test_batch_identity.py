@@ -96,3 +96,31 @@ def test_point_problems_in_a_batch_are_bit_identical_to_alone():
 def test_one_seed_per_problem_is_checked():
     with pytest.raises(Exception, match="rng holds 2 seeds for 3 problems"):
         solve_local_batch([pincer_task(d) for d in (30.0, 35.0, 40.0)], LocalOptions(), rng=[1, 2])
+
+
+# -- what the identity rests on, and the shortcuts that keep one task cheap -----------------
+def test_forward_kinematics_gives_each_row_the_same_bits_whatever_the_batch(sa_hand):
+    from prehension.geometry.rotations import axis_angle_to_matrix
+    from prehension.hands.kinematics import _rodrigues_terms, _rotation, forward_kinematics
+
+    q = np.random.default_rng(2).uniform(sa_hand.lower, sa_hand.upper, (33, sa_hand.n_dof))
+    many = forward_kinematics(sa_hand, q)
+    for b in (0, 17, 32):
+        one = forward_kinematics(sa_hand, q[b])
+        for name in ("R_palm_link", "r_palm_link", "axis_palm", "origin_palm"):
+            np.testing.assert_array_equal(getattr(one, name)[0], getattr(many, name)[b])
+    angles = q[:, 0]
+    for joint, (first, second) in zip(sa_hand.joints, _rodrigues_terms(sa_hand)):  # precomputed axes: same bits
+        np.testing.assert_array_equal(_rotation(first, angles), axis_angle_to_matrix(joint.axis_in_parent, angles))
+        if second is not None:
+            np.testing.assert_array_equal(_rotation(second, angles), axis_angle_to_matrix(joint.axis_in_child, angles))
+
+
+def test_a_tasks_masks_are_computed_once_and_read_only():
+    task = load_builtin_task("guitar-tuning")
+    assert task.active_mask is task.active_mask and task.idle_vector is task.idle_vector
+    with pytest.raises(ValueError, match="read-only"):
+        task.idle_vector[0] = 1.0
+    assert task.fingers == ("index", "thumb")
+    more = replace(task, fingers=("thumb", "index", "middle", "ring"))  # a new task computes its own
+    assert more.active_mask.sum() > task.active_mask.sum()

@@ -52,6 +52,7 @@ recursive subdivision.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 from math import comb
 
 import numpy as np
@@ -83,9 +84,24 @@ def _check_degree(degree: int, name: str = "degree") -> int:
     return int(degree)
 
 
+@lru_cache(maxsize=None)
 def _binomials(n: int) -> np.ndarray:
-    """Binomial coefficients C(n, i), i = 0..n, shape (n+1,)."""
-    return np.array([comb(n, i) for i in range(n + 1)], dtype=np.float64)
+    """Binomial coefficients C(n, i), i = 0..n, shape (n+1,) (cached; read-only)."""
+    out = np.array([comb(n, i) for i in range(n + 1)], dtype=np.float64)
+    out.setflags(write=False)
+    return out
+
+
+@lru_cache(maxsize=None)
+def _difference(n: int, k: int) -> tuple[float, np.ndarray]:
+    """``(n!/(n-k)!, D)`` of the k-th derivative of degree-n Bernstein polynomials, with
+    ``D (n-k+1, n+1)`` the signed binomial difference matrix (cached; read-only)."""
+    diff = np.zeros((n - k + 1, n + 1))
+    rows = np.arange(n - k + 1)
+    for j in range(k + 1):
+        diff[rows, rows + j] = (-1.0) ** (k - j) * comb(k, j)
+    diff.setflags(write=False)
+    return comb(n, k) * np.prod(np.arange(1, k + 1), dtype=np.float64), diff
 
 
 def bernstein(degree: int, t: np.ndarray) -> np.ndarray:
@@ -126,11 +142,8 @@ def bernstein_derivative(degree: int, t: np.ndarray, order: int = 1) -> np.ndarr
     if k > n:
         return np.zeros(t.shape + (n + 1,))
     lower = bernstein(n - k, t)
-    diff = np.zeros((n - k + 1, n + 1))
-    rows = np.arange(n - k + 1)
-    for j in range(k + 1):
-        diff[rows, rows + j] = (-1.0) ** (k - j) * comb(k, j)
-    return (comb(n, k) * np.prod(np.arange(1, k + 1), dtype=np.float64)) * (lower @ diff)
+    scale, diff = _difference(n, k)
+    return scale * (lower @ diff)
 
 
 def _sum_index_tensor(p: int, q: int) -> np.ndarray:

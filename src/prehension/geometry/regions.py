@@ -29,6 +29,7 @@ some parameters, their points coincide and their normals are opposed.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -156,10 +157,13 @@ class SphereCap(Region):
         object.__setattr__(self, "radius", float(self.radius))
         object.__setattr__(self, "half_angle", float(self.half_angle))
 
-    @property
+    @cached_property
     def frame(self) -> np.ndarray:
-        """Columns ``(e1, e2, m)``: an orthonormal frame whose third axis is the cap axis."""
-        return orthonormal_frame(self.axis)
+        """Columns ``(e1, e2, m)``: an orthonormal frame whose third axis is the cap axis
+        (computed once; read-only)."""
+        frame = orthonormal_frame(self.axis)
+        frame.setflags(write=False)
+        return frame
 
     def param_bounds(self):
         # Beyond 90 deg the cone holds normals with alpha = pi (n = -cos(g) m + sin(g) e1

@@ -15,6 +15,7 @@ solution.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from ..frozen import FrozenMap
 from typing import Mapping
 
@@ -110,22 +111,27 @@ class Task:
     def dof_is_active(self, dof: str) -> bool:
         return bool(self.active_mask[self.hand.dof_index(dof)])
 
-    @property
+    @cached_property
     def active_mask(self) -> np.ndarray:
-        """(n_dof,) bool: the dofs that move the links of the participating fingers."""
+        """(n_dof,) bool: the dofs that move the links of the participating fingers
+        (computed once; read-only)."""
         mask = np.zeros(self.hand.n_dof, dtype=bool)
         for f in self.fingers:
             for link in self.hand.finger(f).links:
                 mask[list(self.hand.chain_dofs(link))] = True
+        mask.setflags(write=False)
         return mask
 
-    @property
+    @cached_property
     def idle_vector(self) -> np.ndarray:
-        """(n_dof,) [rad]: the value of every dof that does not take part (others: 0)."""
+        """(n_dof,) [rad]: the value of every dof that does not take part (others: 0)
+        (computed once; read-only)."""
         q = np.clip(0.0, self.hand.lower, self.hand.upper)
         for dof, value in self.idle_angles.items():
             q[self.hand.dof_index(dof)] = value
-        return np.where(self.active_mask, 0.0, q)
+        idle = np.where(self.active_mask, 0.0, q)
+        idle.setflags(write=False)
+        return idle
 
     def hand_region(self, contact: Contact):
         return self.hand.region(contact.hand_region)
