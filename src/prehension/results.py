@@ -193,15 +193,20 @@ def _solution_to_dict(sol: Solution) -> dict:
     }
 
 
-def result_to_dict(result: SolveResult) -> dict:
-    """A JSON-ready dict: units in keys, the task embedded."""
+def result_to_dict(result: SolveResult, *, embed_task: bool = True) -> dict:
+    """A JSON-ready dict: units in keys, the task embedded (unless ``embed_task`` is false:
+    a batch stores each distinct task once and its records refer to it)."""
     from .tasks.yaml_io import task_to_dict
 
-    return {
+    head = {
         "prehension": RESULT_TAG,
         "units": {"length": "mm", "angle": "rad unless the key ends in _deg"},
         "frames": "poses are T_palm_X (x_palm = T x_X); points and normals in the palm frame",
-        "task": task_to_dict(result.task),
+    }
+    if embed_task:
+        head["task"] = task_to_dict(result.task)
+    return {
+        **head,
         "method": result.method,
         "status": result.status,
         "success": result.success,
