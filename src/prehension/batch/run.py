@@ -6,6 +6,10 @@ input, and a crash loses at most those chunks.  When a worker dies, Dask resched
 chunks on the others (a chunk that kills ``distributed.scheduler.allowed-failures``
 workers is given up with ``KilledWorker``: its tasks get ``error`` records); since only
 this client writes, and each future is consumed once, nothing is written twice.
+
+The client stays off the critical path: workers send records already serialised
+(:mod:`.records`), and the client appends each finished chunk -- its new task lines, then
+its records -- with one write and one fsync, and updates the progress once per chunk.
 """
 
 from __future__ import annotations
@@ -20,7 +24,8 @@ from ..errors import PrehensionError
 from ..parallel import worker_count
 from .inputs import TASK_SUFFIXES, BatchEntry, read_inputs
 from .journal import is_done, open_journal
-from .solving import BatchOptions, error_record, solve_chunk
+from .records import ChunkOutput, error_line
+from .solving import BatchOptions, solve_chunk, task_seed
 
 __all__ = ["BatchProgress", "BatchSummary", "run_batch", "check_output"]
 
@@ -81,15 +86,16 @@ def _chunks(entries: Sequence[BatchEntry], size: int) -> Iterator[list[dict]]:
         yield [_wire(e) for e in entries[start : start + size]]
 
 
-def _records(future, chunk: list[dict], options: BatchOptions) -> list[dict]:
+def _output(future, chunk: list[dict], options: BatchOptions) -> ChunkOutput:
     try:
         return future.result()
     except Exception as exc:  # e.g. KilledWorker: the chunk killed several workers
         message = f"the Dask task failed: {type(exc).__name__}: {exc}"
-        return [error_record(entry, options, "error", message) for entry in chunk]
+        seed = options.seed
+        return ChunkOutput([error_line(e, options.method, task_seed(seed, e["id"]), "error", message, 0.0) for e in chunk], {})
 
 
-def _stream(client, chunks: Iterator[list[dict]], options: BatchOptions) -> Iterator[list[dict]]:
+def _stream(client, chunks: Iterator[list[dict]], options: BatchOptions) -> Iterator[ChunkOutput]:
     """The records of every chunk, in the order chunks finish; a bounded number in flight."""
     from distributed import as_completed
 
@@ -108,7 +114,7 @@ def _stream(client, chunks: Iterator[list[dict]], options: BatchOptions) -> Iter
     refill()
     try:
         for future in window:
-            yield _records(future, owners.pop(future), options)
+            yield _output(future, owners.pop(future), options)
             refill()
     finally:
         if owners:
@@ -181,16 +187,24 @@ class _Run:
         if self.progress:
             self.progress(BatchProgress(self.total, len(self.written), self.skipped, dict(self.counts)))
 
+    def accept(self, journal, output: ChunkOutput) -> None:
+        """Append a finished chunk: the task lines its new records need, then the records
+        (one write, one fsync); then report progress."""
+        fresh = [r for r in output.records if r.id not in self.written]  # never twice, whatever happens
+        needed = {r.task_ref for r in fresh if r.task_ref is not None} - journal.task_refs
+        journal.append_lines([output.tasks[ref] for ref in sorted(needed)] + [r.line for r in fresh])
+        journal.task_refs |= needed
+        self.written.update(r.id for r in fresh)
+        self.counts.update(r.status for r in fresh)
+        self.report()
+
     def solve(self, client, journal, chosen: Sequence[BatchEntry], options: BatchOptions) -> None:
         self.report()
-        stream = _stream(client, _chunks(chosen, options.tasks_per_chunk), options)
+        size = options.chunk_size_for(len(chosen), worker_count(client))
+        stream = _stream(client, _chunks(chosen, size), options)
         try:
-            for records in stream:
-                fresh = [r for r in records if r["id"] not in self.written]  # never twice, whatever happens
-                journal.append(fresh)
-                self.written.update(r["id"] for r in fresh)
-                self.counts.update(r["status"] for r in fresh)
-                self.report()
+            for output in stream:
+                self.accept(journal, output)
         except KeyboardInterrupt:
             self.interrupted = True
         finally:
