@@ -14,6 +14,7 @@ from prehension.batch.loading import clear_cache, load_entry
 from prehension.batch.records import ChunkOutput
 from prehension.batch.run import _Run, _wire
 from prehension.batch.solving import solve_chunk
+from prehension.cli import EXIT_CHECK_FAILED, EXIT_OK, main
 from prehension.errors import PrehensionError
 from prehension.tasks.library import builtin_task_names
 from prehension.tasks.yaml_io import dumps_task, task_to_dict
@@ -94,9 +95,13 @@ def test_compact_records_are_checked_and_self_contained_ones_are_the_same(client
         mine = without_times(record)
         mine.pop("task_ref")
         assert mine == full[record["id"]]
-    # a record whose task line is gone is not silently read without its task
+    assert main(["check", str(compact)]) == EXIT_OK
+    assert "DOES NOT HOLD" not in capsys.readouterr().out
+    # a record whose task line is gone is not silently checked against nothing
     kept = [line for line in lines if json.loads(line)["prehension"] != TASK_TAG]
     compact.write_text("\n".join(kept) + "\n")
+    assert main(["check", str(compact)]) == EXIT_CHECK_FAILED
+    assert "missing" in capsys.readouterr().out
     with pytest.raises(PrehensionError, match="refers to task .* which is not in the file"):
         read_records(compact, embed_tasks=True)
 
