@@ -124,3 +124,12 @@ def test_a_tasks_masks_are_computed_once_and_read_only():
     assert task.fingers == ("index", "thumb")
     more = replace(task, fingers=("thumb", "index", "middle", "ring"))  # a new task computes its own
     assert more.active_mask.sum() > task.active_mask.sum()
+
+
+def test_cross3_is_numpys_cross_bit_for_bit():
+    from prehension.geometry.vectors import cross3
+
+    rng = np.random.default_rng(4)
+    for a_shape, b_shape in (((50, 3), (50, 3)), ((3,), (50, 3)), ((7, 4, 3), (7, 4, 3)), ((3,), (3,))):
+        a, b = rng.normal(size=a_shape) * 1e3, rng.normal(size=b_shape)
+        np.testing.assert_array_equal(cross3(a, b), np.cross(a, b))

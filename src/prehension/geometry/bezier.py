@@ -316,12 +316,18 @@ class BezierPatch:
         return hash((self.control_points.shape, self.control_points.tobytes()))
 
     # -- evaluation ---------------------------------------------------------------
-    def _eval(self, u: np.ndarray, v: np.ndarray, du: int, dv: int) -> np.ndarray:
-        """``d^(du+dv) p / du^du dv^dv`` at ``(B,)`` parameters, shape ``(B, D)``."""
+    def _eval(self, u: np.ndarray, v: np.ndarray, du: int, dv: int, bases: dict | None = None) -> np.ndarray:
+        """``d^(du+dv) p / du^du dv^dv`` at ``(B,)`` parameters, shape ``(B, D)``.
+
+        ``bases`` keeps the Bernstein bases already computed for these ``u, v`` (one
+        :meth:`derivatives` call needs each of them several times)."""
         m, n = self.degree
-        bu = bernstein_derivative(m, u, du)
-        bv = bernstein_derivative(n, v, dv)
-        return np.einsum("bi,bj,ijd->bd", bu, bv, self.control_points)
+        bases = {} if bases is None else bases
+        if ("u", du) not in bases:
+            bases["u", du] = bernstein_derivative(m, u, du)
+        if ("v", dv) not in bases:
+            bases["v", dv] = bernstein_derivative(n, v, dv)
+        return np.einsum("bi,bj,ijd->bd", bases["u", du], bases["v", dv], self.control_points)
 
     def evaluate(self, u, v) -> np.ndarray:
         """Points ``p(u, v)``.
@@ -361,14 +367,15 @@ class BezierPatch:
         if order not in (1, 2):
             raise InvalidGeometry(f"derivative order must be 1 or 2, got {order!r}")
         u, v = _as_params(u, v)
-        first = {"p": self._eval(u, v, 0, 0), "p_u": self._eval(u, v, 1, 0), "p_v": self._eval(u, v, 0, 1)}
+        b: dict = {}
+        first = {"p": self._eval(u, v, 0, 0, b), "p_u": self._eval(u, v, 1, 0, b), "p_v": self._eval(u, v, 0, 1, b)}
         if order == 1:
             return PatchDerivatives(**first)
         return PatchDerivatives(
             **first,
-            p_uu=self._eval(u, v, 2, 0),
-            p_uv=self._eval(u, v, 1, 1),
-            p_vv=self._eval(u, v, 0, 2),
+            p_uu=self._eval(u, v, 2, 0, b),
+            p_uv=self._eval(u, v, 1, 1, b),
+            p_vv=self._eval(u, v, 0, 2, b),
         )
 
     # -- derived patches ----------------------------------------------------------

@@ -36,7 +36,7 @@ import numpy as np
 from ..errors import InvalidGeometry
 from .bezier import BezierPatch
 from .rotations import angle_between, orthonormal_frame
-from .vectors import unit3, vec3
+from .vectors import cross3, unit3, vec3
 
 __all__ = ["Region", "BezierRegion", "SphereCap", "PointRegion"]
 
@@ -104,7 +104,7 @@ class BezierRegion(Region):
     def evaluate(self, params):
         uv = _params(params, 2)
         d = self.patch.derivatives(uv[:, 0], uv[:, 1], order=1)
-        normal = np.cross(d.p_u, d.p_v)
+        normal = cross3(d.p_u, d.p_v)
         return d.p, normal / np.linalg.norm(normal, axis=1, keepdims=True)
 
     def jacobian(self, params):
