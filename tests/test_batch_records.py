@@ -135,10 +135,11 @@ def test_the_client_writes_each_task_line_once_and_each_record_once(tmp_path):
         return RecordLine(f"t{i}", "solved", ref, json.dumps({"prehension": "batch/1", "id": f"t{i}", "task_ref": ref}).encode() + b"\n")
 
     tasks = {r: json.dumps({"prehension": TASK_TAG, "ref": r, "task": {}}).encode() + b"\n" for r in ("a", "b")}
-    run = _Run(4, 0, None)
     with open_journal(tmp_path / "out.jsonl") as (journal, _):
-        run.accept(journal, ChunkOutput([line(0, "a"), line(1, "a")], {"a": tasks["a"]}))
-        run.accept(journal, ChunkOutput([line(1, "a"), line(2, "b"), line(3, "a")], tasks))  # t1 again: a re-run chunk
+        run = _Run(4, 0, None, journal)
+        run.accept(ChunkOutput([line(0, "a"), line(1, "a")], {"a": tasks["a"]}))
+        run.accept(ChunkOutput([line(1, "a"), line(2, "b"), line(3, "a")], tasks))  # t1 again: a re-run chunk
+        run.close()
     kinds = [(d["prehension"], d.get("id") or d.get("ref")) for d in map(json.loads, (tmp_path / "out.jsonl").read_text().splitlines())]
     assert kinds == [(TASK_TAG, "a"), ("batch/1", "t0"), ("batch/1", "t1"), (TASK_TAG, "b"), ("batch/1", "t2"), ("batch/1", "t3")]
     assert run.counts == {"solved": 4}
@@ -154,6 +155,17 @@ def test_a_worker_parses_each_distinct_task_once(tasks_file):
     a, b = load_entry(yaml[0].payload), load_entry(builtin[0].payload)
     assert a.ref != b.ref and a.task_dict == task_to_dict(pincer_task(38.0))
     assert json.loads(a.task_line) == {"prehension": TASK_TAG, "ref": a.ref, "task": a.task_dict}
+
+
+def test_a_write_error_reaches_the_client(tmp_path):
+    from prehension.batch.journal import Appender
+
+    with open_journal(tmp_path / "out.jsonl") as (journal, _):
+        journal._fh.close()  # what a vanished disk looks like to the writer thread
+        appender = Appender(journal)
+        appender.put([b"{}\n"])
+        with pytest.raises(PrehensionError, match="cannot write the batch output .*out.jsonl"):
+            appender.close()
 
 
 def test_default_chunks_grow_with_the_input_and_stay_balanced():

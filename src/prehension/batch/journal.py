@@ -45,6 +45,8 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import queue
+import threading
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterable, Iterator, Mapping
@@ -53,7 +55,7 @@ from ..atomic import open_atomic
 from ..errors import PrehensionError
 
 __all__ = [
-    "RECORD_TAG", "TASK_TAG", "DONE", "JournalState", "Journal", "open_journal", "read_records", "read_tasks",
+    "RECORD_TAG", "TASK_TAG", "DONE", "JournalState", "Journal", "Appender", "open_journal", "read_records", "read_tasks",
     "with_task", "is_done",
 ]  # fmt: skip
 
@@ -237,9 +239,10 @@ def _locked(path: Path) -> Iterator[None]:
 class Journal:
     """The open journal: :meth:`append_lines` writes a chunk's lines, flushed and fsynced once."""
 
-    def __init__(self, fh, task_refs: frozenset = frozenset()):
+    def __init__(self, fh, task_refs: frozenset = frozenset(), path: Path | None = None):
         self._fh = fh
-        self.task_refs: set[str] = set(task_refs)  # the task lines it holds
+        self.path = path
+        self.task_refs: set[str] = set(task_refs)  # the task lines it holds (or has been given)
 
     def append_lines(self, lines: Iterable[bytes]) -> None:
         """Append complete lines (each ends with a newline) in one write, then flush and fsync."""
@@ -250,6 +253,60 @@ class Journal:
     def append(self, records: Iterable[dict]) -> None:
         """Append ``records`` (dicts, one line each), then flush and fsync once."""
         self.append_lines([(json.dumps(r, separators=(",", ":")) + "\n").encode("utf-8") for r in records])
+
+
+class Appender:
+    """Appends to a :class:`Journal` from a thread, so that the client never waits for the disk.
+
+    :meth:`put` queues a chunk's lines and returns at once; the thread writes everything
+    queued so far with one write and one fsync (so at most one fsync per chunk, fewer when
+    chunks arrive faster than the disk syncs), in the order given.  :meth:`close` writes
+    what is left and stops the thread.  A crash loses at most the chunks still queued:
+    their tasks have no record, so the next run solves them again.
+    """
+
+    def __init__(self, journal: Journal):
+        self._journal = journal
+        self._queue: queue.SimpleQueue = queue.SimpleQueue()
+        self._error: BaseException | None = None
+        self._thread = threading.Thread(target=self._loop, name="prehension-journal", daemon=True)
+        self._thread.start()
+
+    def put(self, lines: list[bytes]) -> None:
+        """Queue complete lines (each ends with a newline) for the journal.
+
+        Raises:
+            PrehensionError: an earlier write failed (the disk is full, ...).
+        """
+        self._raise()
+        self._queue.put(lines)
+
+    def close(self) -> None:
+        """Write what is queued, then stop the thread."""
+        self._queue.put(None)
+        self._thread.join()
+        self._raise()
+
+    def _raise(self) -> None:
+        if self._error is not None:
+            raise PrehensionError(f"cannot write the batch output {self._journal.path}: {self._error}") from None
+
+    def _loop(self) -> None:
+        while True:
+            batch = [self._queue.get()]
+            while True:
+                try:
+                    batch.append(self._queue.get_nowait())
+                except queue.Empty:
+                    break
+            lines = [line for item in batch if item is not None for line in item]
+            if lines and self._error is None:
+                try:
+                    self._journal.append_lines(lines)
+                except Exception as exc:  # reported to the client by its next put() or close()
+                    self._error = exc
+            if any(item is None for item in batch):
+                return
 
 
 @contextlib.contextmanager
@@ -266,7 +323,7 @@ def open_journal(path, retry_gave_up: bool = False) -> Iterator[tuple[Journal, J
     with _locked(path):
         state = _repair(path, retry_gave_up) if path.exists() else JournalState()
         with open(path, "ab") as fh:
-            yield Journal(fh, state.task_refs), state
+            yield Journal(fh, state.task_refs, path), state
 
 
 def _complete_lines(path) -> Iterator[dict]:

@@ -8,8 +8,9 @@ workers is given up with ``KilledWorker``: its tasks get ``error`` records); sin
 this client writes, and each future is consumed once, nothing is written twice.
 
 The client stays off the critical path: workers send records already serialised
-(:mod:`.records`), and the client appends each finished chunk -- its new task lines, then
-its records -- with one write and one fsync, and updates the progress once per chunk.
+(:mod:`.records`); the client queues each finished chunk -- its new task lines, then its
+records -- for a writer thread (:class:`~.journal.Appender`: one write and one fsync for
+what is queued), updates the progress once per chunk, and never waits for the disk.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from typing import Callable, Iterator, Mapping, Sequence
 from ..errors import PrehensionError
 from ..parallel import worker_count
 from .inputs import TASK_SUFFIXES, BatchEntry, read_inputs
-from .journal import is_done, open_journal
+from .journal import Appender, is_done, open_journal
 from .records import ChunkOutput, error_line
 from .solving import BatchOptions, solve_chunk, task_seed
 
@@ -167,44 +168,56 @@ def run_batch(
     with open_journal(output, options.retry_gave_up) as (journal, state):
         todo = [e for e in entries if e.id not in state.done]
         chosen = todo if options.max_tasks is None else todo[: options.max_tasks]
-        run = _Run(len(chosen), len(entries) - len(todo), progress)
-        run.solve(client, journal, chosen, options)
+        run = _Run(len(chosen), len(entries) - len(todo), progress, journal)
+        try:
+            run.solve(client, chosen, options)
+        finally:
+            run.close()
     done_now = sum(n for status, n in run.counts.items() if is_done(status))  # a new gave_up is an answer too
     return BatchSummary(Path(output), len(entries), run.skipped, dict(run.counts), len(todo) - done_now,
                         time.perf_counter() - started, state.notes, run.interrupted)  # fmt: skip
 
 
 class _Run:
-    """The client loop of one run: records to the journal, each id once, progress reported."""
+    """The client loop of one run: records to the journal, each id once, progress reported.
 
-    def __init__(self, total: int, skipped: int, progress):
+    The journal is written by an :class:`~.journal.Appender` thread: the loop that takes
+    finished chunks and hands out new ones never waits for the disk.
+    """
+
+    def __init__(self, total: int, skipped: int, progress, journal):
         self.total, self.skipped, self.progress = total, skipped, progress
+        self.journal, self.appender = journal, Appender(journal)
         self.counts: Counter = Counter()
         self.written: set[str] = set()
         self.interrupted = False
+
+    def close(self) -> None:
+        """Write what is queued (also after Ctrl-C: those chunks are finished)."""
+        self.appender.close()
 
     def report(self) -> None:
         if self.progress:
             self.progress(BatchProgress(self.total, len(self.written), self.skipped, dict(self.counts)))
 
-    def accept(self, journal, output: ChunkOutput) -> None:
-        """Append a finished chunk: the task lines its new records need, then the records
-        (one write, one fsync); then report progress."""
+    def accept(self, output: ChunkOutput) -> None:
+        """Queue a finished chunk for the journal: the task lines its new records need, then
+        the records (written together: one write, one fsync); then report progress."""
         fresh = [r for r in output.records if r.id not in self.written]  # never twice, whatever happens
-        needed = {r.task_ref for r in fresh if r.task_ref is not None} - journal.task_refs
-        journal.append_lines([output.tasks[ref] for ref in sorted(needed)] + [r.line for r in fresh])
-        journal.task_refs |= needed
+        needed = {r.task_ref for r in fresh if r.task_ref is not None} - self.journal.task_refs
+        self.appender.put([output.tasks[ref] for ref in sorted(needed)] + [r.line for r in fresh])
+        self.journal.task_refs |= needed
         self.written.update(r.id for r in fresh)
         self.counts.update(r.status for r in fresh)
         self.report()
 
-    def solve(self, client, journal, chosen: Sequence[BatchEntry], options: BatchOptions) -> None:
+    def solve(self, client, chosen: Sequence[BatchEntry], options: BatchOptions) -> None:
         self.report()
         size = options.chunk_size_for(len(chosen), worker_count(client))
         stream = _stream(client, _chunks(chosen, size), options)
         try:
             for output in stream:
-                self.accept(journal, output)
+                self.accept(output)
         except KeyboardInterrupt:
             self.interrupted = True
         finally:
