@@ -139,10 +139,11 @@ def make_solution(task: Task, config: Configuration, tolerances: Tolerances = To
     This is the only way solvers build solutions, so every returned configuration has been
     re-checked against the original constraints.
     """
-    report = evaluate(task, config, tolerances)
+    config.check_against(task)
+    pose = forward_kinematics(task.hand, config.joint_angles)
+    report = evaluate(task, config, tolerances, pose=pose)
     if not report.ok:
         return None
-    pose = forward_kinematics(task.hand, config.joint_angles)
     T = pose.T_palm_link[0]
     contacts = tuple(
         ContactResult(

@@ -173,14 +173,18 @@ def coupling_violations(hand, q) -> np.ndarray:
 
 
 # -- one configuration, with names ------------------------------------------------------
-def evaluate(task: Task, config: Configuration, tolerances: Tolerances = Tolerances()) -> ResidualReport:
+def evaluate(task: Task, config: Configuration, tolerances: Tolerances = Tolerances(), *,
+             pose: HandPose | None = None) -> ResidualReport:  # fmt: skip
     """Check ``config`` against every constraint of ``task`` (see the module docstring).
 
     When ``config.contact_params`` is ``None``, the parameters of each contact are those
     that bring its two regions closest (:func:`~prehension.tasks.locate.locate_contact_params`).
+    ``pose``: ``forward_kinematics(task.hand, config.joint_angles)`` when the caller has
+    computed it already (it is not computed twice).
     """
     config.check_against(task)
-    pose = forward_kinematics(task.hand, config.joint_angles)
+    if pose is None:
+        pose = forward_kinematics(task.hand, config.joint_angles)
     T = config.T_palm_object[None]
     params = config.contact_params
     if params is None:
