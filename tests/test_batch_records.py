@@ -173,3 +173,45 @@ def test_default_chunks_grow_with_the_input_and_stay_balanced():
     assert local.chunk_size_for(1800, 2) == 64 and local.chunk_size_for(100, 2) == 13 and local.chunk_size_for(3, 16) == 1
     assert BatchOptions(method="auto").chunk_size_for(1800, 2) == 1
     assert BatchOptions(method="local", chunk_size=5).chunk_size_for(1800, 2) == 5
+
+
+def test_auto_solves_a_chunk_with_the_local_solver_then_alone_what_it_did_not_solve(tmp_path):
+    """A chunk under ``auto``: the local batch, then the complete solver on what is left;
+    each record is what ``solve(task, "auto")`` gives alone."""
+    from prehension.batch.inputs import entry_task
+    from prehension.batch.solving import task_seed
+    from prehension.solve import solve
+
+    bad = dict(task_to_dict(pincer_task(40.0)), name="broken", contacts=[{"hand": "tip", "object": "nowhere"}])
+    path = write_jsonl(tmp_path / "t.jsonl", [task_to_dict(pincer_task(40.0)), task_to_dict(pincer_task(60.0)), bad])
+    entries = read_inputs(path)
+    options = BatchOptions(method="auto", time_limit_s=60)
+    records = {json.loads(r.line)["task"]: json.loads(r.line) for r in solve_chunk([_wire(e) for e in entries], options).records}
+    assert {k: r["status"] for k, r in records.items()} == {"pincer-40": "solved", "pincer-60": "infeasible", "broken": "invalid"}
+    for entry in entries[:2]:
+        alone = solve(entry_task(entry.payload), "auto", seed=task_seed(0, entry.id))
+        mine = records[entry.name]
+        assert (mine["message"], mine["result"]["method"]) == (alone.message, alone.method)
+        assert [s["joint_angles_rad"] for s in mine["result"]["solutions"]] == [s.joint_angles for s in alone.solutions]
+
+
+def test_a_chunk_whose_batch_call_fails_is_solved_task_by_task(tmp_path, monkeypatch):
+    """A bug that only the batch call meets costs speed, not answers."""
+    import prehension.solvers.local as local
+    from prehension.solvers.local import solver
+
+    path = write_jsonl(tmp_path / "t.jsonl", [task_to_dict(pincer_task(d)) for d in (30.0, 40.0, 60.0)])
+    wires = [_wire(e) for e in read_inputs(path)]
+    batched = solve_chunk(wires, BatchOptions(method="local"))
+    real = solver.solve_local_batch
+
+    def fails_on_many(problems, *args, **kwargs):
+        if len(problems) > 1:
+            raise RuntimeError("a bug in the batch path")
+        return real(problems, *args, **kwargs)
+
+    monkeypatch.setattr(local, "solve_local_batch", fails_on_many)
+    monkeypatch.setattr(solver, "solve_local_batch", fails_on_many)
+    alone = solve_chunk(wires, BatchOptions(method="local"))
+    assert [r.status for r in alone.records] == ["solved", "solved", "gave_up"]
+    assert [without_times(json.loads(r.line)) for r in alone.records] == [without_times(json.loads(r.line)) for r in batched.records]
