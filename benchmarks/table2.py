@@ -26,8 +26,8 @@ from rich.console import Console
 from rich.table import Table
 
 from prehension.paper import CUIK_FILE_TASKS, TABLE2
-from prehension.solvers.complete.embedding import embed
-from prehension.solvers.complete.formulation import build_system
+from prehension.system.embedding import embed
+from prehension.system.formulation import build_system
 from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
 from prehension.tasks.cuik_import import import_world
 from prehension.tasks.library import builtin_task_names, load_builtin_task

@@ -10,8 +10,8 @@ import pytest
 
 from fk_tasks import build_fk_case
 from prehension.results import Status, make_solution
-from prehension.solvers.complete.embedding import embed
-from prehension.solvers.complete.formulation import build_system
+from prehension.system.embedding import embed
+from prehension.system.formulation import build_system
 from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
 from prehension.solvers.complete.shrink import ShrinkOptions, shrink_box
 from prehension.tasks.residuals import Tolerances
@@ -81,6 +81,7 @@ def test_time_limit_gives_up_and_checkpoint_resumes(tmp_path):
     assert first.status == Status.GAVE_UP and "box limit" in first.message and str(ckpt) in first.message
     saved = json.loads(ckpt.read_text())
     assert saved["open"] and saved["boxes"] == 3
+    assert saved["search"]["task"] and saved["search"]["options"]  # bound to its task and options
     resumed = solve_complete(task, FAST, checkpoint=ckpt, resume=True)
     assert resumed.status == Status.INFEASIBLE
     assert resumed.stats["boxes"] > 3  # counted from where the first run stopped
@@ -153,3 +154,53 @@ def test_progress_reports_boxes_open_depth_and_best_residual():
     assert seen[-1]["best residual"].endswith("deg")  # how close the closest verification came
     best = result.stats["best_residual"]
     assert best["contact_mm"] > 0 or best["normal_deg"] > 0  # infeasible: never zero
+
+
+def test_a_checkpoint_of_another_task_is_refused(tmp_path):
+    """Issue 10: resuming the +167 mm lid variant's checkpoint on the (feasible) lid task,
+    whose system has the same number of variables, must not "prove" it infeasible."""
+    from prehension.errors import PrehensionError
+    from prehension.system import build_system
+    from prehension.tasks.library import load_builtin_task
+    from prehension.tasks.variants import move_object_region
+
+    lid = load_builtin_task("teapot-lid-lifting")
+    moved = move_object_region(lid, "knob_back", (0, 0, 167))
+    assert build_system(moved).system.n == build_system(lid).system.n  # the count cannot tell them apart
+    ckpt = tmp_path / "moved.json"
+    first = solve_complete(moved, BranchAndPruneOptions(max_boxes=1), checkpoint=ckpt)
+    assert first.status == Status.GAVE_UP and ckpt.is_file()
+    for other in (lid, load_builtin_task("guitar-tuning")):
+        with pytest.raises(PrehensionError, match=r"belongs to another task \('teapot-lid-lifting \(knob_back"):
+            solve_complete(other, FAST, checkpoint=ckpt, resume=True)
+
+
+def test_a_checkpoint_resumed_with_other_options_is_refused_and_same_options_resume(tmp_path):
+    from prehension.errors import PrehensionError
+
+    task = pincer_task(50.0)
+    ckpt = tmp_path / "search.json"
+    solve_complete(task, BranchAndPruneOptions(max_boxes=2), checkpoint=ckpt)
+    with pytest.raises(PrehensionError, match=r"other search options \(sigma 0.1 -> 0.05\)"):
+        solve_complete(task, BranchAndPruneOptions(sigma=0.05), checkpoint=ckpt, resume=True)
+    with pytest.raises(PrehensionError, match=r"shrink.rho 0.9 -> 0.5; verify_starts 8 -> 2"):
+        solve_complete(task, BranchAndPruneOptions(shrink=ShrinkOptions(rho=0.5), verify_starts=2),
+                       checkpoint=ckpt, resume=True)  # fmt: skip
+    with pytest.raises(PrehensionError, match=r"tolerances.contact_mm 1e-06 -> 0.001"):
+        solve_complete(task, BranchAndPruneOptions(tolerances=Tolerances(contact_mm=1e-3)), checkpoint=ckpt, resume=True)
+    # stop-only options may change; the same task and options resume where they stopped
+    resumed = solve_complete(task, BranchAndPruneOptions(time_limit_s=100), checkpoint=ckpt, resume=True)
+    assert resumed.status == Status.INFEASIBLE and resumed.stats["boxes"] > 2
+
+
+def test_a_checkpoint_without_fingerprint_or_not_json_is_refused(tmp_path):
+    from prehension.errors import PrehensionError
+
+    old = tmp_path / "old.json"
+    old.write_text(json.dumps({"open": [], "boxes": 3, "lps": 0, "max_depth": 0, "small": [], "n_variables": 40}))
+    with pytest.raises(PrehensionError, match="not written by this version of the complete solver"):
+        solve_complete(pincer_task(50.0), FAST, checkpoint=old, resume=True)
+    junk = tmp_path / "junk.json"
+    junk.write_text("{not json")
+    with pytest.raises(PrehensionError, match="is not a checkpoint file"):
+        solve_complete(pincer_task(50.0), FAST, checkpoint=junk, resume=True)

@@ -6,10 +6,9 @@ import numpy as np
 import pytest
 
 from fk_tasks import build_fk_case
-from prehension.errors import InvalidTask
-from prehension.hands.model import Coupling
-from prehension.solvers.complete.embedding import configuration_from_point, embed
-from prehension.solvers.complete.formulation import build_system
+from prehension.system.embedding import configuration_from_point, embed
+from prehension.system.formulation import build_system
+from prehension.system.keys import NormalLength, PalmOrigin, PatchParameter, RotationEntry, Side, UnitNormal
 from prehension.tasks.library import load_builtin_task
 from prehension.tasks.model import Task
 from prehension.tasks.residuals import Tolerances, evaluate
@@ -69,16 +68,6 @@ def test_builtin_systems_have_the_expected_shape(name):
     assert np.all(np.isfinite(system.lower)) and np.all(np.isfinite(system.upper))
 
 
-def test_unsupported_coupling_ratio_is_refused(sa_hand):
-    rng = np.random.default_rng(3)
-    case = build_fk_case(sa_hand, rng, fingers=("thumb", "index"))
-    couplings = tuple(Coupling(c.dof, c.source, 0.5 if c.dof == "index_dip" else 1.0) for c in sa_hand.couplings)
-    hand = type(sa_hand)(sa_hand.name, sa_hand.links, sa_hand.joints, couplings, sa_hand.fingers, sa_hand.regions)
-    task = Task("half", hand, case.task.object, case.task.contacts, case.task.fingers)
-    with pytest.raises(InvalidTask, match="ratio \\+1 or -1"):
-        build_system(task)
-
-
 def test_system_jacobian_matches_finite_differences(sa_hand):
     case = build_fk_case(sa_hand, np.random.default_rng(11), palm=True)
     system = build_system(case.task).system
@@ -98,3 +87,48 @@ def test_solution_dimension_of_a_two_finger_task(sa_hand):
     case = build_fk_case(sa_hand, np.random.default_rng(5), fingers=("thumb", "index"), palm=False, kinds=("bezier", "bezier"))
     form = build_system(case.task)
     assert form.system.solution_dimension(embed(form, case.config)) == case.task.counts()["dimension"] == 11
+
+
+def test_base_variables_carry_typed_object_frame_keys(sa_hand):
+    """Every base variable is named by a frozen key; rotations are R_object_link entries."""
+    case = build_fk_case(sa_hand, np.random.default_rng(12), fingers=("thumb", "index"), palm=False,
+                         kinds=("bezier", "cap"))  # fmt: skip
+    form = build_system(case.task)
+    keys = list(form.base_keys.values())
+    assert len(set(keys)) == len(keys)  # hashable and distinct
+    assert {type(k) for k in keys} == {RotationEntry, PalmOrigin, PatchParameter, UnitNormal, NormalLength}
+    assert {k.link for k in keys if isinstance(k, RotationEntry)} == set(form.links)
+    assert sorted(k.axis for k in keys if isinstance(k, PalmOrigin)) == [0, 1, 2]
+    assert {(k.contact, k.side) for k in keys if isinstance(k, UnitNormal)} == {(0, Side.OBJECT), (1, Side.OBJECT)}
+    assert form.system.names[form.R_object_link["palm"][0, 0]] == "R_object_palm[0,0]"
+    assert form.system.names[form.p_palm_in_object[2]] == "p_palm_in_object[2]"
+    np.testing.assert_array_equal(form.base_indices, sorted(form.base_keys))
+    with pytest.raises(AttributeError):
+        keys[0].link = "other"  # frozen
+
+
+@pytest.mark.parametrize("kind", ["bezier", "point"])
+def test_hand_patches_and_points_embed_as_solution_points(sa_hand, kind):
+    """A hand region that is a Bézier patch (its own s, t, nu, mu) or a point also gives
+    known solutions that are points of the system, read back unchanged."""
+    from dataclasses import replace
+
+    from fk_tasks import height_field_patch
+    from prehension.geometry.regions import BezierRegion, PointRegion
+    from prehension.hands.model import HandRegion
+
+    tip = sa_hand.regions["index_tip"]
+    if kind == "bezier":
+        patch = height_field_patch(np.random.default_rng(4), 2, 2, size=8.0, bump=1.0)
+        region, params = BezierRegion(patch.transformed(np.eye(3), np.asarray(tip.region.center))), (0.3, 0.6)
+    else:
+        region, params = PointRegion(np.asarray(tip.region.center), np.array([0.0, 0.0, 1.0])), np.zeros(0)
+    hand = replace(sa_hand, regions={**sa_hand.regions, "index_tip": HandRegion(tip.link, region)})
+    for seed in range(3):
+        case = build_fk_case(hand, np.random.default_rng(300 + seed), fingers=("thumb", "index"), palm=False,
+                             hand_params=[None, np.asarray(params, dtype=float)])  # fmt: skip
+        form = build_system(case.task)
+        x = embed(form, case.config)
+        _assert_is_solution_point(form, x)
+        back = configuration_from_point(form, x)
+        assert evaluate(case.task, back, ANY_COLLISION).ok

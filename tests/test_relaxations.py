@@ -22,7 +22,7 @@ from prehension.solvers.complete.relaxations import (
     relaxation_rows,
     square_relaxation,
 )
-from prehension.solvers.complete.system import BernsteinEquation, System
+from prehension.system.canonical import BernsteinEquation, System
 
 WIDTHS = (0.0, 1e-300, 1e-12, 1e-6, 1e-3, 0.1, 0.5, 1.0)
 

@@ -24,7 +24,7 @@ from prehension.solvers.complete.shrink import (
     safe_lower_bound,
     shrink_box,
 )
-from prehension.solvers.complete.system import BernsteinEquation, System
+from prehension.system.canonical import BernsteinEquation, System
 
 
 def make_system(names, lower, upper, A=None, b=(), G=None, h=(), squares=(), products=(), bernstein=()):

@@ -398,7 +398,10 @@ def test_hand_file_reference(tmp_path, rng):
     path.write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
     task = load_task(path)
     _assert_same_task(_custom_task(), task, rng)
-    assert task_to_dict(task)["hand"] == hand_to_dict(_custom_hand())  # written back inline
+    assert task_to_dict(task, base_dir=tmp_path)["hand"] == {"file": "hands/gripper.yaml"}  # written back as named
+    inline = task_to_dict(task, hand_inline=True)["hand"]  # as in result files: the hand and where it came from
+    assert inline.pop("source")["path"] == str((tmp_path / "hands" / "gripper.yaml").resolve())
+    assert inline == hand_to_dict(_custom_hand())
 
     (tmp_path / "hands" / "gripper.yaml").write_text("name: g\nlinks: []\n", encoding="utf-8")
     with pytest.raises(InvalidTask, match=r"hand\.file: .*gripper\.yaml: links: needs at least 1 item") as info:

@@ -205,7 +205,7 @@ def result_to_dict(result: SolveResult, *, embed_task: bool = True) -> dict:
         "frames": "poses are T_palm_X (x_palm = T x_X); points and normals in the palm frame",
     }
     if embed_task:
-        head["task"] = task_to_dict(result.task)
+        head["task"] = task_to_dict(result.task, hand_inline=True)  # a result file is re-checkable alone
     return {
         **head,
         "method": result.method,

@@ -44,7 +44,7 @@ class LoadedTask:
     def task_dict(self) -> dict:
         from ..tasks.yaml_io import task_to_dict
 
-        return task_to_dict(self.task)
+        return task_to_dict(self.task, hand_inline=True)  # as a result file embeds it: re-checkable alone
 
     @cached_property
     def ref(self) -> str:

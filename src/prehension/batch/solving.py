@@ -1,8 +1,9 @@
 """What a worker does with a chunk of batch entries: solve them, return their records.
 
 **The local solver, a chunk at a time.**  With ``method="local"`` (and the local stage of
-``"auto"``) the chunk's tasks go to the local solver's batch path in one call
-(:func:`~prehension.solvers.local.solve_local_batch`: tasks of one structure are solved
+``"auto"``) the chunk's tasks go to the local solver's batch path in one call (one per
+initial-pose sequence given with ``--sequence``;
+:func:`~prehension.solvers.local.solve_local_batch`: tasks of one structure are solved
 together), each with its own seed (:func:`task_seed`).  Every scale of that call is per
 task and every task draws from its own generator, so a task's answer is, bit for bit,
 the one :func:`prehension.solve.solve` gives it alone with that seed: it depends neither
@@ -17,8 +18,8 @@ records are serialised here (:mod:`.records`), the task stored once per distinct
 
 **Seconds.**  A record's ``seconds`` is the task's share of the chunk's work on the
 worker: its loading, an equal share of the batch call it took part in, and its own
-verification and serialisation.  Times are the only fields of a record that depend on
-the chunking.
+verification (and, with ``auto``, its complete solve).  Times are the only fields of a
+record that depend on the chunking.
 """
 
 from __future__ import annotations
@@ -54,6 +55,9 @@ class BatchOptions:
             distinct task, and records refer to it; see :mod:`.journal`).
         delay_s: testing only: sleep this long before each task [s], to make a run slow
             enough to kill a worker in the middle of it.
+        sequences: initial-pose sequences of ``prehension offline`` (their JSON
+            mappings); a task uses the one made for its hand (by name), if any, else
+            its hand's default.
     """
 
     method: str = "auto"
@@ -64,6 +68,7 @@ class BatchOptions:
     max_tasks: int | None = None
     self_contained: bool = False
     delay_s: float = 0.0
+    sequences: tuple = ()
 
     def __post_init__(self):
         def need(ok, message):
@@ -76,6 +81,17 @@ class BatchOptions:
         need(self.chunk_size is None or self.chunk_size >= 1, f"chunk size must be >= 1, got {self.chunk_size}")
         need(self.max_tasks is None or self.max_tasks >= 0, f"max tasks must be >= 0, got {self.max_tasks}")
         need(self.delay_s >= 0, f"delay must be >= 0 s, got {self.delay_s}")
+        hands = [s.get("hand") for s in self.sequences]
+        need(len(set(hands)) == len(hands), f"give one initial-pose sequence per hand, got several for {hands}")
+
+    def sequence_for(self, hand_name: str):
+        """The :class:`InitialPoseSequence` given for hand ``hand_name``, or None."""
+        from ..solvers.local.sequence import InitialPoseSequence
+
+        for data in self.sequences:
+            if data.get("hand") == hand_name:
+                return InitialPoseSequence.from_dict(data, f"sequence of hand {hand_name!r}")
+        return None
 
     def chunk_size_for(self, tasks: int, workers: int) -> int:
         """Tasks per Dask task: ``chunk_size`` if given; else, for the local solver
@@ -111,9 +127,17 @@ class _Chunk:
         self.options = options
         self.records: list[RecordLine] = []
         self.tasks: dict[str, bytes] = {}
+        self._sequences: dict = {}
 
     def seed(self, entry) -> int:
         return task_seed(self.options.seed, entry["id"])
+
+    def sequence(self, hand_name: str):
+        """The initial-pose sequence given for this hand (``--sequence``), else ``None``;
+        read once per chunk and hand."""
+        if hand_name not in self._sequences:
+            self._sequences[hand_name] = self.options.sequence_for(hand_name)
+        return self._sequences[hand_name]
 
     def fail(self, entry, exc: Exception, seconds: float) -> None:
         status, message = _failure(exc)
@@ -163,7 +187,7 @@ def _solve_alone(chunk: _Chunk, entry, loaded, seconds: float) -> None:
     try:
         result = solve(
             loaded.task, chunk.options.method, complete_options=BranchAndPruneOptions(time_limit_s=chunk.options.time_limit_s),
-            seed=chunk.seed(entry),
+            seed=chunk.seed(entry), sequence=chunk.sequence(loaded.task.hand.name),
         )  # fmt: skip
     except Exception as exc:
         chunk.fail(entry, exc, seconds + time.perf_counter() - started)
@@ -171,14 +195,15 @@ def _solve_alone(chunk: _Chunk, entry, loaded, seconds: float) -> None:
     chunk.add(entry, loaded, result, seconds + time.perf_counter() - started)
 
 
-def _local_batch(chunk: _Chunk, todo) -> list | None:
-    """The local solver's records of every task of ``todo`` in one call, and the share of
-    its time per task [s]; ``None`` if the call raised (each task is then solved alone)."""
+def _local_batch(chunk: _Chunk, todo, sequence) -> list | None:
+    """The local solver's records of every task of ``todo`` (tasks of hands that share
+    ``sequence``) in one call, and the share of its time per task [s]; ``None`` if the
+    call raised (each task is then solved alone)."""
     from ..solvers.local import LocalOptions, solve_local_batch
 
     started = time.perf_counter()
     try:
-        batch = solve_local_batch([loaded.task for _, loaded, _ in todo], LocalOptions(), None,
+        batch = solve_local_batch([loaded.task for _, loaded, _ in todo], LocalOptions(), sequence,
                                   [chunk.seed(entry) for entry, _, _ in todo])  # fmt: skip
     except Exception:
         return None
@@ -186,36 +211,56 @@ def _local_batch(chunk: _Chunk, todo) -> list | None:
     return [(record, share) for record in batch]
 
 
-def _verified(record, task, share: float):
+def _verified(record, task, sequence, share: float):
     """The record as a verified result, as :func:`~prehension.solvers.local.solve_local` makes it."""
     from ..solvers.local import LocalOptions, default_sequence
 
     started = time.perf_counter()
-    sequence = default_sequence(task.hand)
+    sequence = sequence if sequence is not None else default_sequence(task.hand)
     result = record.to_result(task, LocalOptions(), 0.0, {"sequence": sequence.meta.get("origin", sequence.hand)})
     return replace(result, seconds=share + time.perf_counter() - started)
 
 
+def _by_sequence(chunk: _Chunk, todo) -> dict:
+    """``todo`` split by the initial-pose sequence its tasks use (``None``: their hand's
+    default); a task whose given sequence does not fit its hand gets its record here."""
+    from ..solve import check_sequence
+
+    groups: dict = {}
+    for item in todo:
+        entry, loaded, seconds = item
+        sequence = chunk.sequence(loaded.task.hand.name)
+        if sequence is not None:
+            try:
+                check_sequence(sequence, loaded.task.hand)
+            except Exception as exc:
+                chunk.fail(entry, exc, seconds)
+                continue
+        groups.setdefault(id(sequence), (sequence, []))[1].append(item)
+    return groups
+
+
 def _solve_local_first(chunk: _Chunk, todo) -> None:
-    """``local`` and ``auto``: the local solver on the whole chunk, then (``auto``) each
-    task it did not solve alone, with the complete solver."""
-    solved = _local_batch(chunk, todo) if todo else []
-    if solved is None:
-        for entry, loaded, seconds in todo:
-            _solve_alone(chunk, entry, loaded, seconds)
-        return
-    for (entry, loaded, seconds), (record, share) in zip(todo, solved):
-        started = time.perf_counter()
-        try:
-            result = _verified(record, loaded.task, share)
-        except Exception as exc:
-            chunk.fail(entry, exc, seconds + share + time.perf_counter() - started)
+    """``local`` and ``auto``: the local solver on the whole chunk (one call per initial-pose
+    sequence), then (``auto``) each task it did not solve alone, with the complete solver."""
+    for sequence, group in _by_sequence(chunk, todo).values():
+        solved = _local_batch(chunk, group, sequence)
+        if solved is None:
+            for entry, loaded, seconds in group:
+                _solve_alone(chunk, entry, loaded, seconds)
             continue
-        spent = seconds + share + time.perf_counter() - started
-        if chunk.options.method == "auto" and not result.success:
-            _solve_alone(chunk, entry, loaded, spent)  # solve(auto) runs the local solver first: same answer
-        else:
-            chunk.add(entry, loaded, result, spent)
+        for (entry, loaded, seconds), (record, share) in zip(group, solved):
+            started = time.perf_counter()
+            try:
+                result = _verified(record, loaded.task, sequence, share)
+            except Exception as exc:
+                chunk.fail(entry, exc, seconds + share + time.perf_counter() - started)
+                continue
+            spent = seconds + share + time.perf_counter() - started
+            if chunk.options.method == "auto" and not result.success:
+                _solve_alone(chunk, entry, loaded, spent)  # solve(auto) runs the local solver first: same answer
+            else:
+                chunk.add(entry, loaded, result, spent)
 
 
 def solve_chunk(entries: Sequence[Mapping[str, Any]], options: BatchOptions) -> ChunkOutput:

@@ -15,7 +15,7 @@ from rich.markup import escape
 
 from .. import __version__
 from ..errors import PrehensionError
-from . import batch, check, offline, solve, view
+from . import batch, check, hands, offline, solve, view
 from .codes import EXIT_APPROXIMATE, EXIT_BAD_INPUT, EXIT_CHECK_FAILED, EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK
 
 __all__ = [
@@ -34,14 +34,15 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"prehension {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.add_parser("tasks", help="list the built-in tasks")
-    show = sub.add_parser("show", help="describe a task: hand, limits, contacts, problem size")
-    show.add_argument("task", help=TASK_HELP)
+    show = sub.add_parser("show", help="describe a task (hand, limits, contacts, problem size) or a hand (fingers, fingertips)")
+    show.add_argument("task", help=f"{TASK_HELP}; or a {hands.HAND_HELP}")
     solve.add_parser(sub)
     check.add_parser(sub)
     _add_import(sub)
     offline.add_parser(sub)
     batch.add_parser(sub)
     view.add_parsers(sub)
+    hands.add_parsers(sub)
     return parser
 
 
@@ -65,6 +66,7 @@ def main(argv: list[str] | None = None) -> int:
     from .batch import cmd_batch
     from .check import cmd_check
     from .convert import cmd_import
+    from .hands import cmd_export_hand
     from .solve import cmd_solve
     from .tables import cmd_show, cmd_tasks
     from .view import cmd_render, cmd_view
@@ -75,7 +77,7 @@ def main(argv: list[str] | None = None) -> int:
     commands = {
         "tasks": cmd_tasks, "show": cmd_show, "import-cuik": cmd_import, "solve": cmd_solve,
         "check": cmd_check, "offline": _cmd_offline, "batch": cmd_batch,
-        "view": cmd_view, "render": cmd_render,
+        "view": cmd_view, "render": cmd_render, "export-hand": cmd_export_hand,
     }  # fmt: skip
     if args.command is None:
         parser.print_help()

@@ -45,6 +45,9 @@ def add_parser(sub) -> None:
                    help="every record embeds its task (default: each distinct task stored once, records refer to it)")
     p.add_argument("--retry-gave-up", action="store_true", help="solve again the tasks recorded as gave_up (or approximate)")
     p.add_argument("--max-tasks", type=types.positive_int, default=None, help="stop after this many tasks (re-run to go on)")
+    p.add_argument("--sequence", type=Path, action="append", default=[], metavar="FILE",
+                   help="local solver: initial poses from 'prehension offline' (.json), used by the tasks of its "
+                        "hand; repeat for several hands")  # fmt: skip
     p.add_argument("--quiet", action="store_true", help="no progress bar or summary, only errors")
 
 
@@ -70,6 +73,7 @@ def cmd_batch(args, console: Console) -> int:
     options = BatchOptions(
         method=args.method, seed=args.seed, time_limit_s=types.time_limit(args.time_limit), chunk_size=args.chunk_size,
         retry_gave_up=args.retry_gave_up, max_tasks=args.max_tasks, self_contained=args.self_contained,
+        sequences=_sequences(args.sequence),
     )  # fmt: skip
     check_where(args.scheduler, args.workers)
     check_output(args.input, args.output)
@@ -84,6 +88,13 @@ def cmd_batch(args, console: Console) -> int:
         summary = run_batch(entries, args.output, client, options, progress)
     _report(console, summary)
     return _exit_code(summary)
+
+
+def _sequences(paths) -> tuple:
+    """The ``--sequence`` files, read and checked, as JSON mappings (they travel to the workers)."""
+    from ..solvers.local.sequence import InitialPoseSequence
+
+    return tuple(InitialPoseSequence.load(p).to_dict() for p in paths)
 
 
 def _report(console: Console, summary) -> None:

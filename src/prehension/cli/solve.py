@@ -23,6 +23,7 @@ from ..errors import PrehensionError
 from ..results import Status, result_to_dict, write_result
 from . import args as types
 from .codes import EXIT_APPROXIMATE, EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK
+from .hands import print_hand_warnings
 from .progress import LiveProgress
 
 __all__ = ["add_parser", "cmd_solve", "EXIT_OF_STATUS", "task_inputs"]
@@ -53,6 +54,7 @@ def add_parser(sub) -> None:
     p.add_argument("--checkpoint", type=Path, help="complete solver: save the open boxes here when stopped (Ctrl-C too)")
     p.add_argument("--resume", action="store_true", help="complete solver: continue from --checkpoint (same task and options only)")
     p.add_argument("--seed", type=types.seed, default=0, help="random seed of the local solver (an integer >= 0)")
+    p.add_argument("--sequence", type=Path, metavar="FILE", help="local solver: initial poses from 'prehension offline' (.json)")
     p.add_argument("--approximate", action="store_true",
                    help="accept an answer within the paper's d_min tolerances (1.5 mm) when no strict solution is found: "
                         "status 'approximate', exit code 6, never 'solved'")  # fmt: skip
@@ -110,6 +112,15 @@ def _options(args):
     )  # fmt: skip
 
 
+def _sequence(args):
+    """The ``--sequence FILE`` of ``prehension offline``, or None."""
+    if getattr(args, "sequence", None) is None:
+        return None
+    from ..solvers.local.sequence import InitialPoseSequence
+
+    return InitialPoseSequence.load(args.sequence)
+
+
 def _local_options(args):
     from ..solvers.local import LocalOptions
 
@@ -122,6 +133,8 @@ def cmd_solve(args, console: Console) -> int:
     from ..tasks.library import resolve_task
 
     task = resolve_task(args.task)
+    print_hand_warnings(console, task.hand)
+    sequence = _sequence(args)
     options = _options(args)
     if args.resume and args.checkpoint is None:
         raise PrehensionError("--resume needs --checkpoint FILE (the file the interrupted run saved)")
@@ -137,7 +150,7 @@ def cmd_solve(args, console: Console) -> int:
             result = solve(
                 task, args.method, complete_options=options, local_options=_local_options(args), seed=args.seed,
                 executor=executor, workers=executor.max_workers if executor is not None else 1,
-                checkpoint=args.checkpoint, resume=args.resume, progress=update,
+                checkpoint=args.checkpoint, resume=args.resume, progress=update, sequence=sequence,
             )  # fmt: skip
     backup = _keep_previous(path)
     write_result(result, path)

@@ -113,12 +113,9 @@ class Task:
 
     @cached_property
     def active_mask(self) -> np.ndarray:
-        """(n_dof,) bool: the dofs that move the links of the participating fingers
-        (computed once; read-only)."""
-        mask = np.zeros(self.hand.n_dof, dtype=bool)
-        for f in self.fingers:
-            for link in self.hand.finger(f).links:
-                mask[list(self.hand.chain_dofs(link))] = True
+        """(n_dof,) bool: the dofs that move the links of the participating fingers, with
+        the dofs coupled to them (:meth:`Hand.active_dofs`; computed once; read-only)."""
+        mask = self.hand.active_dofs(self.fingers)
         mask.setflags(write=False)
         return mask
 

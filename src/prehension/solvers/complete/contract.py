@@ -1,6 +1,6 @@
 r"""Cheap interval contraction of a box (HC4-style), with outward rounding.
 
-Given the box ``[l, u]`` of a :class:`~.system.System`, each constraint is used to
+Given the box ``[l, u]`` of a :class:`~prehension.system.System`, each constraint is used to
 narrow the intervals of its variables; every constraint type is processed for all its
 instances at once (vectorised, Jacobi style: candidates are computed from the box at
 the start of the step and then intersected with it, several constraints on one
@@ -14,6 +14,8 @@ variable being intersected with ``np.fmax.at`` / ``np.fmin.at``):
   ``0 not in [l_j, u_j]`` (and symmetrically).
 * ``x_k = f(x_i, x_j)``: ``x_k in [min, max]`` of the control points of ``f`` on the
   sub-box (convex-hull property), padded by their rounding bound.
+* Angle couplings (:mod:`.couplings`): the interval of each coupled angle, narrowed by
+  the other's, bounds its cosine and sine.
 * Linear rows ``lo_r <= sum_j a_rj x_j <= hi_r`` (equations: ``lo = hi = b``;
   inequalities: ``lo = -inf``, ``hi = h``).  With the term intervals ``t_rj = a_rj
   [l_j, u_j]`` and the row sums ``S_r = sum_j t_rj``, the others' sum is
@@ -39,8 +41,9 @@ from typing import NamedTuple
 import numpy as np
 import scipy.sparse as sp
 
+from .couplings import contract_couplings
 from .relaxations import EPS, TINY, bernstein_control_points, down, up
-from .system import System
+from ...system.canonical import System
 
 __all__ = ["Contraction", "contract", "contract_linear"]
 
@@ -213,6 +216,7 @@ def contract(
             lambda: _contract_bernstein(groups, lower, upper),
             lambda: contract_linear(system.A, eq_lo, eq_hi, lower, upper),
             lambda: contract_linear(system.G, ineq_lo, ineq_hi, lower, upper),
+            lambda: contract_couplings(system.couplings, lower, upper),
         )
         for step in steps:
             if step() or _is_empty(lower, upper):

@@ -61,7 +61,7 @@ guarantees), so every entry of ``S_u, S_v`` is a sum of non-negative products an
 ``|fl(b') - b'| <= 8 (d_p + d_q + 4) eps (|S_u| |b| |S_v|^T)`` (about twice the
 standard a-priori bound).
 
-:func:`relaxation_rows` assembles all rows of a :class:`~.system.System` on a box.
+:func:`relaxation_rows` assembles all rows of a :class:`~prehension.system.System` on a box.
 """
 
 from __future__ import annotations
@@ -71,7 +71,8 @@ import scipy.sparse as sp
 from scipy.spatial import ConvexHull, QhullError
 
 from ...geometry.bezier import subdivision_matrix
-from .system import System
+from ...system.canonical import System
+from .couplings import coupling_rows
 
 __all__ = [
     "down",
@@ -276,7 +277,8 @@ def relaxation_rows(
 
     Returns:
         ``(G_rel, h_rel)``: sparse ``(r, n)`` and ``(r,)`` with ``G_rel x <= h_rel`` for every
-        solution of the Psi equations in the box.
+        solution of the Psi equations in the box (and the chord cuts of its angle
+        couplings, :func:`.couplings.coupling_rows`).
     """
     lower = np.asarray(lower, dtype=float)
     upper = np.asarray(upper, dtype=float)
@@ -292,6 +294,9 @@ def relaxation_rows(
     for eq in system.bernstein:
         coef, rhs = bernstein_relaxation(eq.coeffs, lower[eq.i], upper[eq.i], lower[eq.j], upper[eq.j])
         blocks.append((np.array([[eq.i, eq.j, eq.k]]), coef[None], rhs[None]))
+    chords = coupling_rows(system.couplings, lower, upper)
+    if chords is not None:
+        blocks.append(chords)
     return _assemble(blocks, system.n)
 
 

@@ -19,7 +19,6 @@ The open boxes can be saved to a checkpoint file and the search resumed from it.
 
 from __future__ import annotations
 
-import json
 import time
 import zlib
 from collections import deque
@@ -30,15 +29,15 @@ from typing import Callable, Literal
 
 import numpy as np
 
-from ...atomic import write_text_atomic
 from ...errors import PrehensionError
 from ...results import Solution, SolveResult, Status, make_solution
-from ...tasks.model import Configuration, Task
+from ...tasks.model import Task
 from ...tasks.residuals import Tolerances
 from ..local.options import LocalOptions
 from ..local.solver import refine_local
-from .embedding import configuration_from_point, embed
-from .formulation import Formulation, build_system
+from ...system.embedding import configuration_from_point, embed
+from ...system.formulation import Formulation, build_system
+from .checkpoint import SearchState, load_state, save_state, search_fingerprint
 from .contract import contract
 from .shrink import ShrinkOptions, shrink_box
 
@@ -97,15 +96,10 @@ class BoxOutcome:
     best: tuple = (float("inf"), float("inf"))  # (contact_mm, normal_deg) the verification came closest to
 
 
-def _base_indices(form: Formulation) -> np.ndarray:
-    """Variables worth splitting: the base ones (rotations, palm position, parameters...)."""
-    return np.array(sorted(form.base_keys), dtype=int)
-
-
 def _scaled_widths(form: Formulation, lower, upper) -> np.ndarray:
     system = form.system
     ref = np.maximum(system.upper - system.lower, 1e-12)
-    base = _base_indices(form)
+    base = form.base_indices
     return (upper[base] - lower[base]) / ref[base]
 
 
@@ -156,7 +150,7 @@ def process_box(form: Formulation, lower, upper, depth: int, options: BranchAndP
         solution, best = _verify(form, lower, upper, options)
         if solution is not None:
             return BoxOutcome("solution", lower, upper, depth, 0, solution, best=best)
-    shrink_options = replace(options.shrink, variables=tuple(_base_indices(form).tolist()))
+    shrink_options = replace(options.shrink, variables=tuple(form.base_indices.tolist()))
     shrunk = shrink_box(form.system, lower, upper, shrink_options)
     if shrunk.empty:
         return BoxOutcome("empty", shrunk.lower, shrunk.upper, depth, shrunk.n_lps, best=best)
@@ -168,7 +162,7 @@ def process_box(form: Formulation, lower, upper, depth: int, options: BranchAndP
             if solution is not None:
                 return BoxOutcome("solution", lo, hi, depth, shrunk.n_lps, solution, best=best)
         return BoxOutcome("small", lo, hi, depth, shrunk.n_lps, best=best)
-    k = _base_indices(form)[int(np.argmax(widths))]
+    k = form.base_indices[int(np.argmax(widths))]
     mid = 0.5 * (lo[k] + hi[k])
     left_hi, right_lo = hi.copy(), lo.copy()
     left_hi[k], right_lo[k] = mid, mid
@@ -178,57 +172,13 @@ def process_box(form: Formulation, lower, upper, depth: int, options: BranchAndP
 def _inside(form: Formulation, solution: Solution, lower, upper) -> bool:
     """Whether a solution's base coordinates lie in the box (to rounding)."""
     x = embed(form, solution.configuration())
-    base = _base_indices(form)
+    base = form.base_indices
     slack = 1e-9 * np.maximum(form.system.upper - form.system.lower, 1.0)[base]
     return bool(np.all(x[base] >= lower[base] - slack) and np.all(x[base] <= upper[base] + slack))
 
 
 # -- the driver -------------------------------------------------------------------------
-@dataclass
-class _State:
-    open: deque
-    boxes: int = 0
-    lps: int = 0
-    max_depth: int = 0
-    solutions: list = field(default_factory=list)
-    small: list = field(default_factory=list)
-    best: tuple = (float("inf"), float("inf"))  # closest miss (contact_mm, normal_deg) so far
-
-    def to_json(self) -> dict:
-        return {
-            "open": [{"lower": lo.tolist(), "upper": hi.tolist(), "depth": d} for lo, hi, d in self.open],
-            "boxes": self.boxes,
-            "lps": self.lps,
-            "max_depth": self.max_depth,
-            "small": [{"lower": lo.tolist(), "upper": hi.tolist()} for lo, hi in self.small],
-            "solutions": [_configuration_to_json(s.configuration()) for s in self.solutions],
-        }
-
-    @staticmethod
-    def from_json(data: dict, task: Task, tolerances: Tolerances) -> "_State":
-        """The saved state; saved solutions are verified again (any that fails is dropped)."""
-        open_ = deque((np.array(b["lower"]), np.array(b["upper"]), int(b["depth"])) for b in data["open"])
-        state = _State(open_, data["boxes"], data["lps"], data["max_depth"])
-        state.small = [(np.array(b["lower"]), np.array(b["upper"])) for b in data["small"]]
-        again = (make_solution(task, _configuration_from_json(c), tolerances) for c in data.get("solutions", []))
-        state.solutions = [s for s in again if s is not None]
-        return state
-
-
-def _configuration_to_json(config: Configuration) -> dict:
-    return {
-        "joint_angles": config.joint_angles.tolist(),
-        "T_palm_object": config.T_palm_object.tolist(),
-        "contact_params": [[h.tolist(), o.tolist()] for h, o in config.contact_params],
-    }
-
-
-def _configuration_from_json(data: dict) -> Configuration:
-    params = tuple((np.array(h, dtype=float), np.array(o, dtype=float)) for h, o in data["contact_params"])
-    return Configuration(np.array(data["joint_angles"]), np.array(data["T_palm_object"]), params)
-
-
-def _record(state: _State, out: BoxOutcome, options: BranchAndPruneOptions) -> None:
+def _record(state: SearchState, out: BoxOutcome, options: BranchAndPruneOptions) -> None:
     state.boxes += 1
     state.lps += out.n_lps
     state.best = min(state.best, out.best, key=lambda b: max(b))
@@ -245,11 +195,11 @@ def _record(state: _State, out: BoxOutcome, options: BranchAndPruneOptions) -> N
             state.open.extendleft(children)
 
 
-def _done(state: _State, options: BranchAndPruneOptions) -> bool:
+def _done(state: SearchState, options: BranchAndPruneOptions) -> bool:
     return bool(state.solutions) and not options.all_solutions
 
 
-def _limits_hit(state: _State, options: BranchAndPruneOptions, started: float) -> str:
+def _limits_hit(state: SearchState, options: BranchAndPruneOptions, started: float) -> str:
     if options.max_boxes is not None and state.boxes >= options.max_boxes:
         return f"box limit ({options.max_boxes}) reached"
     if options.time_limit_s is not None and time.perf_counter() - started > options.time_limit_s:
@@ -280,34 +230,20 @@ def solve_complete(
     """
     started = time.perf_counter()
     form = build_system(task)
-    state = _initial_state(form, checkpoint, resume, options)
+    fingerprint = search_fingerprint(form, options) if checkpoint is not None else {}
+    if resume:
+        state = load_state(form, options, checkpoint)
+    else:
+        state = SearchState(deque([(form.system.lower.copy(), form.system.upper.copy(), 0)]))
     try:
         stop = _run(form, state, options, executor, max(1, workers), started, progress)
     except KeyboardInterrupt:
-        _save(checkpoint, state)
+        save_state(checkpoint, state, fingerprint)
         return _result(task, form, state, options, started, "interrupted" + _saved_note(checkpoint))
     if stop:
-        _save(checkpoint, state)
+        save_state(checkpoint, state, fingerprint)
         stop += _saved_note(checkpoint)
     return _result(task, form, state, options, started, stop)
-
-
-def _initial_state(form: Formulation, checkpoint, resume: bool, options: BranchAndPruneOptions) -> _State:
-    if resume:
-        if checkpoint is None or not Path(checkpoint).is_file():
-            raise PrehensionError(f"cannot resume: no checkpoint file {checkpoint}")
-        data = json.loads(Path(checkpoint).read_text())
-        if data.get("n_variables") != form.system.n:
-            raise PrehensionError(f"checkpoint {checkpoint} belongs to another task (variable count differs)")
-        return _State.from_json(data, form.task, options.tolerances)
-    return _State(deque([(form.system.lower.copy(), form.system.upper.copy(), 0)]))
-
-
-def _save(checkpoint, state: _State) -> None:
-    if checkpoint is not None and state.open:
-        data = state.to_json()
-        data["n_variables"] = len(state.open[0][0])
-        write_text_atomic(Path(checkpoint), json.dumps(data))
 
 
 def _saved_note(checkpoint) -> str:
@@ -348,7 +284,7 @@ def _run(form, state, options, executor, workers, started, progress) -> str:
             future.cancel()
 
 
-def _submit_ahead(form, state: _State, options, executor: Executor, workers: int, ahead: dict) -> None:
+def _submit_ahead(form, state: SearchState, options, executor: Executor, workers: int, ahead: dict) -> None:
     """Make sure the next ``workers`` boxes in the search order are submitted."""
     for k in range(1, min(workers, len(state.open)) + 1):
         entry = state.open[-k]
@@ -356,14 +292,14 @@ def _submit_ahead(form, state: _State, options, executor: Executor, workers: int
             ahead[id(entry)] = executor.submit(process_box, form, *entry, options)
 
 
-def _report(progress, state: _State, in_flight: int) -> None:
+def _report(progress, state: SearchState, in_flight: int) -> None:
     if progress is not None:
         best = f"{state.best[0]:.3g} mm, {state.best[1]:.3g} deg" if np.isfinite(max(state.best)) else "-"
         progress({"boxes": state.boxes, "open": len(state.open) + in_flight, "depth": state.max_depth, "lps": state.lps,
                   "best residual": best})  # fmt: skip
 
 
-def _result(task, form, state: _State, options, started: float, stop: str) -> SolveResult:
+def _result(task, form, state: SearchState, options, started: float, stop: str) -> SolveResult:
     seconds = time.perf_counter() - started
     stats = {"boxes": state.boxes, "lps": state.lps, "max_depth": state.max_depth, "open_boxes": len(state.open),
              "n_variables": form.system.n, "n_equations": form.system.n_equations, "options": _options_dict(options),

@@ -82,7 +82,7 @@ import scipy.sparse as sp
 
 from .contract import contract
 from .relaxations import EPS, TINY, down, relaxation_rows, up
-from .system import System
+from ...system.canonical import System
 
 _MIN_ROW_NORM = 1e-200  # rows with a smaller scaled norm are not rescaled (no overflow)
 

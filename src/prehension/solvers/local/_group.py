@@ -420,11 +420,12 @@ def _per_problem_scales(scale, P: int, nf: int, cint, extent, object_sizes, hand
 
 
 def _anchor_and_pair(hand: Hand, specs) -> tuple[int, int, int]:
-    """The contact whose hold places the object (the thumb's, as in the paper; else the
-    palm's; else the first) and the two contacts whose direction fixes ``psi`` (index and
-    ring as in the paper; else the first and last others; -1 when there are fewer)."""
+    """The contact whose hold places the object (the opposing finger's, the thumb as in the
+    paper: :attr:`Hand.opposing_finger`; else the palm's; else the first) and the two
+    contacts whose direction fixes ``psi`` (index and ring as in the paper; else the first
+    and last others; -1 when there are fewer)."""
     fingers = [hand.finger_of_link(s.link) for s in specs]
-    anchor = next((i for i, f in enumerate(fingers) if f == "thumb"), None)
+    anchor = next((i for i, f in enumerate(fingers) if f is not None and f == hand.opposing_finger), None)
     if anchor is None:
         anchor = next((i for i, s in enumerate(specs) if s.link == hand.palm), 0)
     others = [i for i in range(len(specs)) if i != anchor]

@@ -122,11 +122,7 @@ class PointProblems:
 
 
 def _active_mask(hand: Hand, fingers) -> np.ndarray:
-    mask = np.zeros(hand.n_dof, dtype=bool)
-    for f in fingers:
-        for link in hand.finger(f).links:
-            mask[list(hand.chain_dofs(link))] = True
-    return mask
+    return hand.active_dofs(fingers)  # as Task.active_mask: closed under couplings
 
 
 def random_params(region, rng, n: int) -> np.ndarray:

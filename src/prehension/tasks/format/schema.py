@@ -174,6 +174,19 @@ class FingerSpec(_Spec):
     links: Annotated[list[Name], Field(min_length=1)]
 
 
+class FrameSpec(_Spec):
+    link: Name
+    origin: Vec3
+    rotation: Mat3 | None = None
+
+
+class SourceSpec(_Spec):
+    format: Literal["urdf", "mjcf", "yaml"]
+    path: Name
+    sha256: Name
+    options: dict[str, Any] = {}
+
+
 class HandSpec(_Spec):
     name: Name
     links: Annotated[list[LinkSpec], Field(min_length=1)]
@@ -182,6 +195,9 @@ class HandSpec(_Spec):
     fingers: list[FingerSpec] = []
     regions: dict[Name, HandRegionSpec] = {}
     collision_exclusions: list[Annotated[list[Name], _list_of(2, "link names")]] = []
+    frames: dict[Name, FrameSpec] = {}
+    opposing_finger: Name | None = None
+    source: SourceSpec | None = None
 
 
 class BoxSpec(_Spec):
@@ -260,7 +276,7 @@ class TaskSpec(_Spec):
     prehension: Literal["task/1"]
     name: Name
     description: Text = ""
-    hand: Any  # built-in name | inline hand | {file: path}: dispatched by read._base_hand
+    hand: Any  # built-in name | inline hand | {file: path} | {urdf: path} | {mjcf: path}: read._base_hand
     hand_limits_deg: dict[Name, Pair] = {}
     hand_couplings: Annotated[bool, Field(strict=True)] = True
     hand_regions: dict[Name, HandRegionSpec] = {}

@@ -8,9 +8,17 @@
     x_k = f(x_i, x_j) \\;(32),
 
 where each ``f`` is a polynomial in Bernstein form on the unit square: its two arguments
-are Bézier-patch parameters whose initial bounds lie inside ``[0, 1]``.  A :class:`System`
+are Bézier-patch parameters whose initial bounds lie inside ``[0, 1]``.
+
+One constraint kind goes beyond eq. 29: an :class:`AngleCoupling` ``theta_d = r theta_s +
+o`` between two joint angles, each known to the system by its cosine and sine variables
+and to lie within its joint's limits.  For a ratio ``r = p / q`` with small ``p, q`` the
+formulation also writes it exactly as polynomial equations (multiple-angle identities);
+the coupling itself is kept for every ratio, as a constraint the solver enforces through
+interval reasoning on the angles (:mod:`prehension.solvers.complete.couplings`).  A :class:`System`
 is a plain frozen value; the formulation (:mod:`.formulation`) builds it from a task, and
-the relaxations, box shrinking and search consume it.
+the complete solver's relaxations, box shrinking and search
+(:mod:`prehension.solvers.complete`) consume it.
 """
 
 from __future__ import annotations
@@ -20,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["BernsteinEquation", "System"]
+__all__ = ["AngleCoupling", "BernsteinEquation", "System"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -31,6 +39,25 @@ class BernsteinEquation:
     i: int
     j: int
     coeffs: np.ndarray  # (dp + 1, dq + 1)
+
+
+@dataclass(frozen=True)
+class AngleCoupling:
+    """``theta_d = ratio theta_s + offset`` [rad] between two joint angles.
+
+    ``(x[cos_d], x[sin_d]) = (cos theta_d, sin theta_d)`` with ``theta_d`` in
+    ``range_d = (lower, upper)`` (the joint's limits, any width), and likewise for the
+    source ``s``.
+    """
+
+    cos_d: int
+    sin_d: int
+    cos_s: int
+    sin_s: int
+    ratio: float
+    offset: float
+    range_d: tuple[float, float]
+    range_s: tuple[float, float]
 
 
 @dataclass(frozen=True, eq=False)
@@ -45,6 +72,7 @@ class System:
         squares: (ns, 2) int rows ``(k, i)``: ``x_k = x_i^2``.
         products: (np, 3) int rows ``(k, i, j)``: ``x_k = x_i x_j`` (i != j).
         bernstein: the ``x_k = f(x_i, x_j)`` equations.
+        couplings: the :class:`AngleCoupling` constraints.
     """
 
     names: tuple[str, ...]
@@ -57,6 +85,7 @@ class System:
     squares: np.ndarray
     products: np.ndarray
     bernstein: tuple[BernsteinEquation, ...] = ()
+    couplings: tuple[AngleCoupling, ...] = ()
 
     def __post_init__(self):
         n = len(self.names)
@@ -83,7 +112,7 @@ class System:
 
     def residuals(self, x: np.ndarray) -> np.ndarray:
         """All equation residuals at ``x (n,)`` (linear, squares, products, Bernstein)."""
-        from ...geometry.bezier import bernstein
+        from ..geometry.bezier import bernstein
 
         out = [self.A @ x - self.b]
         if len(self.squares):
@@ -98,7 +127,7 @@ class System:
 
     def jacobian(self, x: np.ndarray) -> sp.csr_matrix:
         """Jacobian of :meth:`residuals` at ``x``, sparse (n_equations, n)."""
-        from ...geometry.bezier import bernstein, bernstein_derivative
+        from ..geometry.bezier import bernstein, bernstein_derivative
 
         rows = [sp.csr_matrix(self.A)]
         n = self.n
@@ -123,3 +152,26 @@ class System:
         """Largest violation of ``G x <= h`` and of the box (0 when satisfied)."""
         worst = float(np.max(self.G @ x - self.h, initial=0.0))
         return max(worst, float(np.max(self.lower - x, initial=0.0)), float(np.max(x - self.upper, initial=0.0)))
+
+    def coupling_violation(self, x: np.ndarray) -> float:
+        """Largest violation [rad] of the angle couplings at ``x`` (0 when satisfied).
+
+        Each angle is read as ``atan2(sin, cos)`` plus the multiple of ``2 pi`` that puts it
+        in its range (every such choice is tried when the range is wider than ``2 pi``).
+        """
+        worst = 0.0
+        for c in self.couplings:
+            d = _angles_in_range(np.arctan2(x[c.sin_d], x[c.cos_d]), c.range_d)
+            s = _angles_in_range(np.arctan2(x[c.sin_s], x[c.cos_s]), c.range_s)
+            if not len(d) or not len(s):
+                return float("inf")
+            worst = max(worst, float(np.abs(d[:, None] - (c.ratio * s[None, :] + c.offset)).min()))
+        return worst
+
+
+def _angles_in_range(theta: float, bounds: tuple[float, float], slack: float = 1e-9) -> np.ndarray:
+    """Every ``theta + 2 pi k`` within ``[lower - slack, upper + slack]``."""
+    lo, hi = bounds
+    k = np.arange(np.floor((lo - slack - theta) / (2 * np.pi)), np.ceil((hi + slack - theta) / (2 * np.pi)) + 1)
+    out = theta + 2 * np.pi * k
+    return out[(out >= lo - slack) & (out <= hi + slack)]

@@ -1,4 +1,4 @@
-"""Incremental construction of a canonical :class:`~.system.System`.
+"""Incremental construction of a canonical :class:`~.canonical.System`.
 
 A :class:`Builder` hands out variables with bounds, collects linear equations and
 inequalities over *linear expressions* (:class:`Lin`), and creates the auxiliary
@@ -16,8 +16,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from ...geometry.bezier import bernstein
-from .system import BernsteinEquation, System
+from ..geometry.bezier import bernstein
+from .canonical import AngleCoupling, BernsteinEquation, System
 
 __all__ = ["Lin", "Builder"]
 
@@ -90,6 +90,7 @@ class Builder:
         self.squares: list[tuple[int, int]] = []
         self.products: list[tuple[int, int, int]] = []
         self.bernstein: list[BernsteinEquation] = []
+        self.couplings: list[AngleCoupling] = []
         self._square_of: dict[int, int] = {}
         self._product_of: dict[tuple[int, int], int] = {}
 
@@ -158,6 +159,10 @@ class Builder:
         return k
 
     # -- constraints ----------------------------------------------------------------
+    def coupling(self, coupling: AngleCoupling) -> None:
+        """An angle coupling (see :class:`~.canonical.AngleCoupling`)."""
+        self.couplings.append(coupling)
+
     def equation(self, expr: Lin) -> None:
         """``expr = 0``."""
         self.eq_rows.append(expr)
@@ -187,7 +192,7 @@ class Builder:
             tuple(self.names), np.array(self.lower), np.array(self.upper), A, b, G, h,
             np.array(self.squares, dtype=int).reshape(-1, 2),
             np.array(self.products, dtype=int).reshape(-1, 3),
-            tuple(self.bernstein),
+            tuple(self.bernstein), tuple(self.couplings),
         )  # fmt: skip
 
     def complete_point(self, base_values: dict[int, float]) -> np.ndarray:

@@ -8,7 +8,9 @@ Choices (each keeps the system exact; see ``docs/complete-solver.md``):
 * **The object frame is the absolute frame.**  The paper takes the palm; taking the
   object makes every object point and normal *constant or Bernstein* in the object's own
   coordinates (no rotation products on the object side), and the palm becomes a link with
-  a free pose ``(R_0, r_0)``.
+  a free pose ``(R_object_palm, p_palm_in_object)``.  Below, ``R_l`` is short for
+  ``R_object_l`` (``x_object = R_object_l x_l``) and ``r_0`` for ``p_palm_in_object``;
+  each base variable carries a typed key (:mod:`.keys`).
 * **Link rotations** ``R_l = (c, d, e)`` are 9 variables per link with eqs. 4-7, plus the
   redundant unit-column ``|e| = 1`` and unit-row identities (they tighten the linear
   relaxations at no risk).
@@ -19,8 +21,10 @@ Choices (each keeps the system exact; see ``docs/complete-solver.md``):
   the angle about an axis ``w`` from a vector ``a`` to a vector ``b`` fixed in the two
   links: ``cos theta = a . b``, ``sin theta = (w x a) . b``, and the range
   ``[mid - h, mid + h]`` is ``cos(mid) cos theta + sin(mid) sin theta >= cos h`` (linear).
-  **Couplings** with ratio +-1 and any offset are linear in these cosines and sines (sec.
-  5.1 equates them); other ratios are refused.
+  **Couplings** ``theta_d = r theta_s + o`` (:mod:`.couplings`): with ``r = +-1`` linear
+  in these cosines and sines (sec. 5.1 equates them), with any simple rational ``r = p/q``
+  polynomial (multiple-angle identities), and for every ratio an angle coupling that the
+  solver enforces by interval reasoning on the angles.
 * **Contacts** (eqs. 15-25): the object point ``o = f(s, t)`` and the normal patch
   ``N = g(s, t)`` are Bernstein forms (eq. 32); ``N = mu nu`` with ``|nu| = 1`` and
   ``mu >= 0`` makes ``nu`` the unit outward normal.  A fingertip sphere cap gives
@@ -35,17 +39,19 @@ point of the system is turned back into a configuration.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from functools import cached_property
 
 import numpy as np
 
-from ...errors import InvalidTask
-from ...geometry.regions import BezierRegion, PointRegion, SphereCap
-from ...hands.model import Joint
-from ...hands.reach import span_bound_mm
-from ...tasks.model import Task
+from ..geometry.regions import BezierRegion, PointRegion, SphereCap
+from ..hands.model import Joint
+from ..hands.reach import span_bound_mm
+from ..tasks.model import Task
 from .builder import Builder, Lin, lin_sum
-from .system import System
+from .canonical import System
+from .couplings import add_coupling
+from .keys import BaseKey, ContactVariables, NormalLength, PalmOrigin, PatchParameter, RotationEntry, Side, UnitNormal
 
 __all__ = ["Formulation", "DofAngle", "build_system"]
 
@@ -65,23 +71,43 @@ class DofAngle:
     half_range: float  # half its width [rad]
 
 
-@dataclass(eq=False)
+@dataclass(frozen=True, eq=False)
 class Formulation:
-    """The system of a task and the maps between its points and configurations."""
+    """The system of a task and the maps between its points and configurations.
+
+    Everything is in the **object frame** (see the module docstring).
+
+    Attributes:
+        task: the task.
+        system: its canonical system.
+        links: the links in the system, palm first.
+        R_object_link: link -> ``(3, 3)`` variable indices of ``R_object_link``
+            (``x_object = R_object_link x_link``).
+        p_palm_in_object: ``(3,)`` variable indices of the palm origin in the object frame [mm].
+        dof_vars: dof -> ``(cos theta, sin theta)`` variable indices.
+        contact_vars: per contact, the variables a configuration is read back from.
+        base_keys: index of every base variable -> its typed key (:mod:`.keys`).
+        builder: the builder, which knows how every other variable follows from the base ones.
+    """
 
     task: Task
     system: System
     links: tuple[str, ...]
-    rot: dict[str, np.ndarray]  # link -> (3, 3) variable indices
-    r0: np.ndarray  # (3,) palm origin in the object frame
-    dof_vars: dict[str, tuple[int, int]]  # dof -> (cos theta, sin theta) variable indices
-    contact_vars: list[dict]
-    base_keys: dict[int, tuple]
+    R_object_link: dict[str, np.ndarray]
+    p_palm_in_object: np.ndarray
+    dof_vars: dict[str, tuple[int, int]]
+    contact_vars: tuple[ContactVariables, ...]
+    base_keys: dict[int, BaseKey]
     builder: Builder = field(repr=False)
 
     @property
     def dofs_in_system(self) -> tuple[str, ...]:
         return tuple(self.dof_vars)
+
+    @cached_property
+    def base_indices(self) -> np.ndarray:
+        """``(n_base,)`` sorted indices of the base variables (the ones worth splitting)."""
+        return np.array(sorted(self.base_keys), dtype=int)
 
 
 # -- which links, which angles ----------------------------------------------------------
@@ -103,7 +129,7 @@ def _loop_joints(task: Task) -> list[Joint]:
 def dof_angles(joint: Joint) -> list[DofAngle]:
     """Each angle of a joint as the angle about ``w`` from ``a`` to ``b`` (link frames).
 
-    Frame axes are preferred for ``a`` and ``b``, so that the world vectors are rotation
+    Frame axes are preferred for ``a`` and ``b``, so that their object-frame vectors are rotation
     columns already in the system and no new variable is needed.
     """
     u = joint.axis_in_parent
@@ -138,17 +164,17 @@ class _Formulator:
     def __init__(self, task: Task):
         self.task = task
         self.b = Builder()
-        self.rot: dict[str, np.ndarray] = {}
-        self.base_keys: dict[int, tuple] = {}
-        self.pos_cache: dict[str, list[Lin]] = {}
+        self.R_object_link: dict[str, np.ndarray] = {}
+        self.base_keys: dict[int, BaseKey] = {}
+        self.origins: dict[str, list[Lin]] = {}  # link -> its origin in the object frame
         self.dof_vars: dict[str, tuple[int, int]] = {}
-        self.contact_vars: list[dict] = []
+        self.contact_vars: list[ContactVariables] = []
         self.angles: dict[str, DofAngle] = {}
         self.object_points: list[list[Lin]] = []
         self.reach_points: list[list[Lin]] = []  # per contact: the centre of its hand ball
-        self.r0 = np.zeros(3, dtype=int)
+        self.p_palm_in_object = np.zeros(3, dtype=int)
 
-    def base(self, key: tuple, name: str, lo: float, hi: float) -> int:
+    def base(self, key: BaseKey, name: str, lo: float, hi: float) -> int:
         i = self.b.var(name, lo, hi)
         self.base_keys[i] = key
         return i
@@ -156,9 +182,10 @@ class _Formulator:
     # rotations ------------------------------------------------------------------
     def add_link(self, link: str) -> None:
         idx = np.array(
-            [[self.base(("R", link, r, c), f"R_{link}[{r},{c}]", -1.0, 1.0) for c in range(3)] for r in range(3)]
-        )
-        self.rot[link] = idx
+            [[self.base(RotationEntry(link, r, c), f"R_object_{link}[{r},{c}]", -1.0, 1.0) for c in range(3)]
+             for r in range(3)]
+        )  # fmt: skip
+        self.R_object_link[link] = idx
         self._orthonormal(idx)
 
     def _orthonormal(self, R: np.ndarray) -> None:
@@ -175,37 +202,37 @@ class _Formulator:
             r1, r2 = (r + 1) % 3, (r + 2) % 3
             b.equation(b.bilinear(c[r1], d[r2]) - b.bilinear(c[r2], d[r1]) - Lin.var(R[r, 2]))
 
-    def world(self, link: str, v) -> list[Lin]:
-        """``R_link v`` as three linear expressions."""
-        R = self.rot[link]
+    def in_object(self, link: str, v) -> list[Lin]:
+        """``R_object_link v``: a vector fixed in ``link``, in the object frame (linear)."""
+        R = self.R_object_link[link]
         return [lin_sum(Lin.var(R[r, c], float(v[c])) for c in range(3) if v[c] != 0.0) for r in range(3)]
 
-    def world_vars(self, link: str, v, name: str) -> list[tuple[int, float]]:
-        return [self.b.as_var(e, f"{name}[{r}]") for r, e in enumerate(self.world(link, v))]
+    def in_object_vars(self, link: str, v, name: str) -> list[tuple[int, float]]:
+        return [self.b.as_var(e, f"{name}[{r}]") for r, e in enumerate(self.in_object(link, v))]
 
-    def position(self, link: str) -> list[Lin]:
-        """Origin of ``link`` in the object frame (linear in rotations and r_0)."""
-        if link not in self.pos_cache:
+    def origin_in_object(self, link: str) -> list[Lin]:
+        """Origin of ``link`` in the object frame (linear in rotations and ``p_palm_in_object``)."""
+        if link not in self.origins:
             joint = self.task.hand.joint_of_link(link)
             if joint is None:
-                self.pos_cache[link] = [Lin.var(i) for i in self.r0]
+                self.origins[link] = [Lin.var(i) for i in self.p_palm_in_object]
             else:
-                parent = self.position(joint.parent)
-                P = self.world(joint.parent, joint.origin_in_parent)
-                Q = self.world(link, joint.origin_in_child)
-                self.pos_cache[link] = [parent[r] + P[r] - Q[r] for r in range(3)]
-        return self.pos_cache[link]
+                parent = self.origin_in_object(joint.parent)
+                P = self.in_object(joint.parent, joint.origin_in_parent)
+                Q = self.in_object(link, joint.origin_in_child)
+                self.origins[link] = [parent[r] + P[r] - Q[r] for r in range(3)]
+        return self.origins[link]
 
     # joints ----------------------------------------------------------------------
     def add_joint(self, joint: Joint) -> None:
         b = self.b
         if joint.kind == "revolute":
             v_child = joint.R_parent_child_zero.T @ joint.axis_in_parent
-            for e_p, e_c in zip(self.world(joint.parent, joint.axis_in_parent), self.world(joint.child, v_child)):
+            for e_p, e_c in zip(self.in_object(joint.parent, joint.axis_in_parent), self.in_object(joint.child, v_child)):
                 b.equation(e_p - e_c)  # (9)
         else:
-            u = self.world_vars(joint.parent, joint.axis_in_parent, f"u_{joint.name}")
-            v = self.world_vars(joint.child, joint.axis_in_child, f"v_{joint.name}")
+            u = self.in_object_vars(joint.parent, joint.axis_in_parent, f"u_{joint.name}")
+            v = self.in_object_vars(joint.child, joint.axis_in_child, f"v_{joint.name}")
             b.equation(b.dot(u, v))  # (11)
         for angle in dof_angles(joint):
             self.add_angle(angle)
@@ -213,14 +240,14 @@ class _Formulator:
     def add_angle(self, ang: DofAngle) -> None:
         """``cos theta = a . b`` and ``sin theta = (w x a) . b`` (or ``a . (b x w)``), and the
         limit ``cos(theta - mid) = cos(mid) cos + sin(mid) sin >= cos(half range)``."""
-        a = self.world_vars(ang.link_a, ang.a, f"a_{ang.dof}")
-        bvec = self.world_vars(ang.link_b, ang.b, f"b_{ang.dof}")
+        a = self.in_object_vars(ang.link_a, ang.a, f"a_{ang.dof}")
+        bvec = self.in_object_vars(ang.link_b, ang.b, f"b_{ang.dof}")
         cos_i = self.b.as_var_bounded(self.b.dot(a, bvec), f"cos_{ang.dof}", -1.0, 1.0)
         if ang.link_w == ang.link_a:
-            perp = self.world_vars(ang.link_a, np.cross(ang.w, ang.a), f"aperp_{ang.dof}")
+            perp = self.in_object_vars(ang.link_a, np.cross(ang.w, ang.a), f"aperp_{ang.dof}")
             sin_expr = self.b.dot(perp, bvec)
         else:
-            perp = self.world_vars(ang.link_b, np.cross(ang.b, ang.w), f"bperp_{ang.dof}")
+            perp = self.in_object_vars(ang.link_b, np.cross(ang.b, ang.w), f"bperp_{ang.dof}")
             sin_expr = self.b.dot(a, perp)
         sin_i = self.b.as_var_bounded(sin_expr, f"sin_{ang.dof}", -1.0, 1.0)
         self.dof_vars[ang.dof] = (cos_i, sin_i)
@@ -229,53 +256,38 @@ class _Formulator:
             shifted = Lin.var(cos_i, np.cos(ang.mid)) + Lin.var(sin_i, np.sin(ang.mid))
             self.b.inequality(Lin.constant(np.cos(ang.half_range)) - shifted)
 
-    def add_coupling(self, cpl) -> None:
-        """``theta_d = r theta_s + o`` with ``r = +-1``: cosines and sines of both sides."""
-        if abs(abs(cpl.ratio) - 1.0) > 1e-12:
-            raise InvalidTask(
-                f"coupling {cpl.dof} = {cpl.ratio} x {cpl.source} + offset: the complete solver handles "
-                "couplings with ratio +1 or -1 only (equal or opposite angles, any offset)"
-            )
-        r, o = float(np.sign(cpl.ratio)), cpl.offset
-        cd, sd = (Lin.var(i) for i in self.dof_vars[cpl.dof])
-        cs, ss = (Lin.var(i) for i in self.dof_vars[cpl.source])
-        self.b.equation(cd - (cs * np.cos(o) - ss * (r * np.sin(o))))
-        self.b.equation(sd - (ss * (r * np.cos(o)) + cs * np.sin(o)))
-
     # contacts --------------------------------------------------------------------
-    def unit_vector(self, key: tuple, name: str) -> list[int]:
-        nu = [self.base(key + (r,), f"{name}[{r}]", -1.0, 1.0) for r in range(3)]
+    def unit_vector(self, ci: int, side: Side, name: str) -> list[int]:
+        nu = [self.base(UnitNormal(ci, side, r), f"{name}[{r}]", -1.0, 1.0) for r in range(3)]
         self.b.equation(lin_sum(Lin.var(self.b.square(i)) for i in nu) - Lin.constant(1.0))
         return nu
 
-    def object_side(self, ci: int, region) -> tuple[list[Lin], list[Lin], dict]:
+    def object_side(self, ci: int, region) -> tuple[list[Lin], list[Lin], ContactVariables]:
         """Object point and unit outward normal (object frame) of contact ``ci``."""
-        b, info = self.b, {}
+        b = self.b
         if isinstance(region, PointRegion):
-            return [Lin.constant(x) for x in region.point], [Lin.constant(x) for x in region.normal], info
+            return [Lin.constant(x) for x in region.point], [Lin.constant(x) for x in region.normal], ContactVariables()
         if isinstance(region, SphereCap):
-            nu = self.unit_vector(("onu", ci), f"onu{ci}")
+            nu = self.unit_vector(ci, Side.OBJECT, f"onu{ci}")
             b.inequality(Lin.constant(np.cos(region.half_angle)) - lin_sum(Lin.var(i, m) for i, m in zip(nu, region.axis)))
             o = [Lin.constant(region.center[r]) + Lin.var(nu[r], region.radius) for r in range(3)]
-            info["object_nu"] = nu
-            return o, [Lin.var(i) for i in nu], info
-        p, nu, info = self._patch(ci, region.patch, "o", info)
-        return [Lin.var(i) for i in p], [Lin.var(i) for i in nu], info
+            return o, [Lin.var(i) for i in nu], ContactVariables(object_normal=tuple(nu))
+        p, nu, st = self._patch(ci, region.patch, Side.OBJECT)
+        return [Lin.var(i) for i in p], [Lin.var(i) for i in nu], ContactVariables(st, tuple(nu))
 
-    def _patch(self, ci: int, patch, tag: str, info: dict):
-        """Bernstein point, unit normal and (s, t) of a Bézier patch (its own frame)."""
-        b = self.b
-        s = self.base((f"{tag}s", ci), f"{tag}s{ci}", 0.0, 1.0)
-        t = self.base((f"{tag}t", ci), f"{tag}t{ci}", 0.0, 1.0)
+    def _patch(self, ci: int, patch, side: Side):
+        """Bernstein point, unit normal and ``(s, t)`` of a Bézier patch (in its own frame)."""
+        b, tag = self.b, "o" if side == Side.OBJECT else "h"
+        s = self.base(PatchParameter(ci, side, 0), f"{tag}s{ci}", 0.0, 1.0)
+        t = self.base(PatchParameter(ci, side, 1), f"{tag}t{ci}", 0.0, 1.0)
         cp, ncp = patch.control_points, patch.normal_patch().control_points
         p = [b.bernstein_var(f"{tag}p{ci}[{r}]", s, t, cp[:, :, r]) for r in range(3)]
         N = [b.bernstein_var(f"{tag}N{ci}[{r}]", s, t, ncp[:, :, r]) for r in range(3)]
-        nu = self.unit_vector((f"{tag}nu", ci), f"{tag}nu{ci}")
-        mu = self.base((f"{tag}mu", ci), f"{tag}mu{ci}", 0.0, float(np.linalg.norm(ncp, axis=2).max()))
+        nu = self.unit_vector(ci, side, f"{tag}nu{ci}")
+        mu = self.base(NormalLength(ci, side), f"{tag}mu{ci}", 0.0, float(np.linalg.norm(ncp, axis=2).max()))
         for r in range(3):
             b.equation(Lin.var(N[r]) - Lin.var(b.product(mu, nu[r])))  # N = mu nu (22-25)
-        info.update({f"{tag}_params": (s, t), f"{tag}_nu": nu, f"{tag}_point": p})
-        return p, nu, info
+        return p, nu, (s, t)
 
     def add_contact(self, ci: int, contact) -> None:
         task, b = self.task, self.b
@@ -283,36 +295,38 @@ class _Formulator:
         o, nu, info = self.object_side(ci, task.object_region(contact))
         self.object_points.append(o)
         link, region = hreg.link, hreg.region
-        pos, nh = self.position(link), [n * -1.0 for n in nu]  # hand normal = -object normal
+        pos, nh = self.origin_in_object(link), [n * -1.0 for n in nu]  # hand normal = -object normal
         if isinstance(region, SphereCap):  # the cap's centre, o - r n_hand, has no slack
             self.reach_points.append([o[r] + nu[r] * region.radius for r in range(3)])
         else:
             self.reach_points.append(o)
         if isinstance(region, SphereCap):
-            cw = self.world(link, region.center)
+            cw = self.in_object(link, region.center)
             for r in range(3):
                 b.equation(pos[r] + cw[r] + nh[r] * region.radius - o[r])  # (15) on the sphere
             if region.half_angle < np.pi:
-                m = self.world(link, region.axis)
+                m = self.in_object(link, region.axis)
                 b.inequality(Lin.constant(np.cos(region.half_angle)) - self.dot_lin(nh, m, f"m{ci}"))
         elif isinstance(region, PointRegion):
-            pw, nw = self.world(link, region.point), self.world(link, region.normal)
+            pw, nw = self.in_object(link, region.point), self.in_object(link, region.normal)
             for r in range(3):
                 b.equation(pos[r] + pw[r] - o[r])
                 b.equation(nw[r] - nh[r])
         else:
-            self._hand_patch(ci, link, region.patch, pos, o, nh, info)
+            info = replace(info, hand_params=self._hand_patch(ci, link, region.patch, pos, o, nh))
         self.contact_vars.append(info)
 
-    def _hand_patch(self, ci, link, patch, pos, o, nh, info) -> None:
+    def _hand_patch(self, ci, link, patch, pos, o, nh) -> tuple[int, int]:
+        """A hand patch's contact equations; returns its ``(s, t)`` variables."""
         b = self.b
-        hp, hn, _ = self._patch(ci, patch, "h", info)
-        R = self.rot[link]
+        hp, hn, st = self._patch(ci, patch, Side.HAND)
+        R = self.R_object_link[link]
         for r in range(3):
             point = lin_sum(Lin.var(b.product(R[r, c], hp[c])) for c in range(3))  # R_k h
             normal = lin_sum(Lin.var(b.product(R[r, c], hn[c])) for c in range(3))  # R_k m
             b.equation(pos[r] + point - o[r])
             b.equation(normal - nh[r])
+        return st
 
     def add_reach_constraints(self) -> None:
         """Redundant distance bounds between the hand balls of the contacts and the palm.
@@ -331,7 +345,7 @@ class _Formulator:
             (a, c) for a in range(len(points)) for c in range(a + 1, len(points))
         ]
         for a, c in pairs:
-            other = [Lin.var(i) for i in self.r0] if c is None else points[c]
+            other = [Lin.var(i) for i in self.p_palm_in_object] if c is None else points[c]
             diff = [b.as_var(points[a][r] - other[r], f"d{a}{'' if c is None else c}[{r}]") for r in range(3)]
             sq = lin_sum(Lin.var(b.square(i)) for i, _ in diff)
             b.inequality(sq - Lin.constant(_ball_reach(task, a, c) ** 2))
@@ -417,17 +431,20 @@ def build_system(task: Task) -> Formulation:
         f.add_link(link)
     lo, hi = _object_box(task)
     reach = _palm_reach(task)
-    f.r0 = np.array([f.base(("r0", r), f"r0[{r}]", lo[r] - reach, hi[r] + reach) for r in range(3)])
+    f.p_palm_in_object = np.array(
+        [f.base(PalmOrigin(r), f"p_palm_in_object[{r}]", lo[r] - reach, hi[r] + reach) for r in range(3)]
+    )
     for joint in joints:
         f.add_joint(joint)
     for cpl in task.hand.couplings:
         # A coupling with only one side in the system constrains nothing the system sees:
         # dropping it only enlarges the set searched (verification still checks it).
         if cpl.dof in f.dof_vars and cpl.source in f.dof_vars:
-            f.add_coupling(cpl)
+            add_coupling(f.b, task.hand, cpl, f.dof_vars)
     for ci, contact in enumerate(task.contacts):
         f.add_contact(ci, contact)
     f.add_reach_constraints()
     return Formulation(
-        task, f.b.build(), tuple(links), f.rot, f.r0, f.dof_vars, f.contact_vars, f.base_keys, f.b
-    )
+        task, f.b.build(), tuple(links), f.R_object_link, f.p_palm_in_object, f.dof_vars, tuple(f.contact_vars),
+        f.base_keys, f.b,
+    )  # fmt: skip
