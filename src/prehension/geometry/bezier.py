@@ -118,8 +118,18 @@ def bernstein(degree: int, t: np.ndarray) -> np.ndarray:
     """
     n = _check_degree(degree)
     t = np.asarray(t, dtype=np.float64)[..., None]
+    i, rest = _exponents(n)
+    return _binomials(n) * t**i * (1.0 - t) ** rest
+
+
+@lru_cache(maxsize=None)
+def _exponents(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(i, n - i)`` for i = 0..n (cached; read-only)."""
     i = np.arange(n + 1)
-    return _binomials(n) * t**i * (1.0 - t) ** (n - i)
+    rest = n - i
+    i.setflags(write=False)
+    rest.setflags(write=False)
+    return i, rest
 
 
 def bernstein_derivative(degree: int, t: np.ndarray, order: int = 1) -> np.ndarray:

@@ -78,8 +78,23 @@ def _region_data(region: Region) -> np.ndarray:
     raise InvalidTask(f"unsupported region kind {region.kind!r}")
 
 
+_REFS: dict = {}
+
+
 def region_reference_point(region: Region) -> np.ndarray:
-    """A representative point of a region (its frame): used for pivots and sizes."""
+    """A representative point of a region (its frame): used for pivots and sizes (cached
+    per region: a batch meets the same regions again and again)."""
+    hit = _REFS.get(id(region))
+    if hit is not None and hit[0] is region:
+        return hit[1]
+    point = _reference_point(region)
+    if len(_REFS) > 10000:
+        _REFS.clear()
+    _REFS[id(region)] = (region, point)
+    return point
+
+
+def _reference_point(region: Region) -> np.ndarray:
     if isinstance(region, PointRegion):
         return region.point
     if isinstance(region, SphereCap):
