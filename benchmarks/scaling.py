@@ -9,7 +9,9 @@ other parallel searches, on local clusters of 1 and 2 worker processes.
 its own id), method ``local``:
 
 1. per task, in one process without Dask (``solve_chunk`` on chunks of 64: loading,
-   the batch solve, verification, the JSON record), wall and CPU time;
+   the batch solve, verification, the JSON record), wall and CPU time; and the same for
+   ``--distinct`` tasks that are all different (inline, each object moved by its own
+   offset): every task parsed, grouped and verified on its own;
 2. ``run_batch`` on clusters of 1 and 2 workers (records to a journal on disk): tasks/s,
    worker-seconds per task, the workers' CPU per task, the client process's CPU per task
    (the local cluster's scheduler runs in it too), speed-up against 1 worker;
@@ -40,7 +42,10 @@ import pickle  # noqa: E402
 import statistics  # noqa: E402
 import tempfile  # noqa: E402
 import time  # noqa: E402
+from dataclasses import replace  # noqa: E402
 from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
 
 from rich.console import Console  # noqa: E402
 from rich.table import Table  # noqa: E402
@@ -57,6 +62,31 @@ def builtin_lines(n: int) -> list[dict]:
 
     names = builtin_task_names()
     return [{"id": f"{names[i % len(names)]}-{i}", "task": names[i % len(names)]} for i in range(n)]
+
+
+def distinct_lines(n: int) -> list[dict]:
+    """``n`` different tasks written inline: the nine built-in tasks in turn, each object
+    moved by its own offset (the object pose absorbs it: as solvable, but no two tasks
+    alike, so that every task is parsed, grouped and verified on its own)."""
+    from prehension.geometry.regions import BezierRegion, PointRegion, SphereCap
+    from prehension.objects.model import GraspObject
+    from prehension.tasks.library import builtin_task_names, load_builtin_task
+    from prehension.tasks.yaml_io import task_to_dict
+
+    def moved(region, t):
+        if isinstance(region, BezierRegion):
+            return BezierRegion(region.patch.transformed(np.eye(3), t))
+        if isinstance(region, SphereCap):
+            return SphereCap(region.center + t, region.radius, region.axis, region.half_angle)
+        return PointRegion(region.point + t, region.normal)
+
+    tasks = [load_builtin_task(name) for name in builtin_task_names()]
+    lines = []
+    for i in range(n):
+        task, t = tasks[i % len(tasks)], np.array([0.01 * (i + 1), 0.0, 0.0])
+        obj = GraspObject(task.object.name, {k: moved(r, t) for k, r in task.object.regions.items()}, task.object.primitives)
+        lines.append({"id": f"distinct-{i}", "task": task_to_dict(replace(task, object=obj))})
+    return lines
 
 
 def wired(lines: list[dict], folder: Path) -> tuple[Path, list[dict]]:
@@ -110,6 +140,14 @@ def on_cluster(client, tasks: Path, folder: Path) -> dict:
             "solved": summary.counts.get("solved", 0), "bytes": out.stat().st_size}  # fmt: skip
 
 
+def _inline_row(table: Table, label: str, runs) -> None:
+    n = sum(len(o.records) for o in runs[0][2])
+    wall, cpu = statistics.median(r[0] for r in runs), statistics.median(r[1] for r in runs)
+    solved = sum(json.loads(r.line)["status"] == "solved" for o in runs[0][2] for r in o.records)
+    table.add_row(label, f"{wall:.2f}", f"{n / wall:.0f}", f"{1e3 * wall / n:.2f}", f"{1e3 * cpu / n:.2f}", "-", "",
+                  f"{solved}/{n}")  # fmt: skip
+
+
 def batch_table(args, clients, tasks: Path, entries: list[dict], folder: Path) -> Table:
     n = len(entries)
     table = Table(title=f"prehension batch, {n} built-in tasks (the nine in turn), method local: medians of {args.repeats}")
@@ -117,10 +155,10 @@ def batch_table(args, clients, tasks: Path, entries: list[dict], folder: Path) -
                 "speed-up", "solved"):  # fmt: skip
         table.add_column(col, justify="left" if col == "where" else "right")
     runs = [inline(entries) for _ in range(args.repeats)]
-    wall, cpu = statistics.median(r[0] for r in runs), statistics.median(r[1] for r in runs)
-    solved = sum(json.loads(r.line)["status"] == "solved" for o in runs[0][2] for r in o.records)
-    table.add_row("one process, no Dask", f"{wall:.2f}", f"{n / wall:.0f}", f"{1e3 * wall / n:.2f}", f"{1e3 * cpu / n:.2f}",
-                  "-", "", f"{solved}/{n}")  # fmt: skip
+    _inline_row(table, "one process, no Dask", runs)
+    if args.distinct:
+        _, distinct = wired(distinct_lines(args.distinct), folder)
+        _inline_row(table, f"  {args.distinct} distinct inline tasks, no Dask", [inline(distinct) for _ in range(args.repeats)])
     results = {w: [on_cluster(c, tasks, folder) for _ in range(args.repeats)] for w, c in clients.items()}
     base = statistics.median(r["wall"] for r in results[1])
     for workers, rs in results.items():
@@ -283,6 +321,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--tasks", type=int, default=1800, help="batch: built-in tasks (the nine, repeated)")
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--distinct", type=int, default=360, help="batch: also that many distinct inline tasks, one process")
     parser.add_argument("--no-cold", action="store_true", help="skip the cold-cache compile (a minute or two)")
     parser.add_argument("--batch-only", action="store_true", help="only the batch tables")
     parser.add_argument("--problems", type=int, default=10_000, help="solvers: random point problems")
@@ -294,7 +333,7 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="360 tasks, one repeat, no cold compile, smaller solver runs")
     args = parser.parse_args()
     if args.quick:
-        args.tasks, args.repeats, args.no_cold = 360, 1, True
+        args.tasks, args.repeats, args.no_cold, args.distinct = 360, 1, True, 90
         args.problems, args.boxes, args.offline = 2000, 6, (100, 4, 2)
     console = Console(width=170)
     started = time.perf_counter()
