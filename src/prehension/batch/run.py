@@ -96,15 +96,31 @@ def _output(future, chunk: list[dict], options: BatchOptions) -> ChunkOutput:
         return ChunkOutput([error_line(e, options.method, task_seed(seed, e["id"]), "error", message, 0.0) for e in chunk], {})
 
 
+class _WorkerCount:
+    """The cluster's worker threads, asked of the scheduler at most every ``every_s``
+    seconds (each question is a round trip; workers join and leave far less often)."""
+
+    def __init__(self, client, every_s: float = 1.0):
+        self.client, self.every_s = client, every_s
+        self._value, self._when = 0, -float("inf")
+
+    def now(self) -> int:
+        if time.monotonic() - self._when >= self.every_s:
+            self._value, self._when = worker_count(self.client), time.monotonic()
+        return self._value
+
+
 def _stream(client, chunks: Iterator[list[dict]], options: BatchOptions) -> Iterator[ChunkOutput]:
     """The records of every chunk, in the order chunks finish; a bounded number in flight."""
     from distributed import as_completed
 
     window = as_completed()
     owners: dict = {}  # future -> its chunk
+    threads = _WorkerCount(client)
 
     def refill() -> None:
-        while len(owners) < 2 * worker_count(client):
+        limit = 2 * threads.now()
+        while len(owners) < limit:
             chunk = next(chunks, None)
             if chunk is None:
                 return
