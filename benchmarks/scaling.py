@@ -89,11 +89,11 @@ def distinct_lines(n: int) -> list[dict]:
     return lines
 
 
-def wired(lines: list[dict], folder: Path) -> tuple[Path, list[dict]]:
+def wired(lines: list[dict], folder: Path, name: str = "tasks.jsonl") -> tuple[Path, list[dict]]:
     from prehension.batch import read_inputs
     from prehension.batch.run import _wire
 
-    path = folder / "tasks.jsonl"
+    path = folder / name
     path.write_text("".join(json.dumps(line) + "\n" for line in lines))
     return path, [_wire(e) for e in read_inputs(path)]
 
@@ -135,7 +135,7 @@ def on_cluster(client, tasks: Path, folder: Path) -> dict:
     summary = run_batch(tasks, out, client, BatchOptions(method="local"))
     wall, cpu = time.perf_counter() - wall, _cpu() - cpu
     after = client.run(_cpu)
-    assert summary.remaining == 0, summary
+    assert summary.remaining == 0 and summary.written == summary.tasks, summary
     return {"wall": wall, "client_cpu": cpu, "worker_cpu": sum(after[w] - before[w] for w in after if w in before),
             "solved": summary.counts.get("solved", 0), "bytes": out.stat().st_size}  # fmt: skip
 
@@ -157,7 +157,7 @@ def batch_table(args, clients, tasks: Path, entries: list[dict], folder: Path) -
     runs = [inline(entries) for _ in range(args.repeats)]
     _inline_row(table, "one process, no Dask", runs)
     if args.distinct:
-        _, distinct = wired(distinct_lines(args.distinct), folder)
+        _, distinct = wired(distinct_lines(args.distinct), folder, "distinct.jsonl")
         _inline_row(table, f"  {args.distinct} distinct inline tasks, no Dask", [inline(distinct) for _ in range(args.repeats)])
     results = {w: [on_cluster(c, tasks, folder) for _ in range(args.repeats)] for w, c in clients.items()}
     base = statistics.median(r["wall"] for r in results[1])
