@@ -29,6 +29,7 @@ import math
 import time
 import traceback
 from dataclasses import dataclass, replace
+from functools import lru_cache
 from typing import Any, Mapping, Sequence
 
 from ..errors import PrehensionError
@@ -199,11 +200,11 @@ def _local_batch(chunk: _Chunk, todo, sequence) -> list | None:
     """The local solver's records of every task of ``todo`` (tasks of hands that share
     ``sequence``) in one call, and the share of its time per task [s]; ``None`` if the
     call raised (each task is then solved alone)."""
-    from ..solvers.local import LocalOptions, solve_local_batch
+    from ..solvers.local import solve_local_batch
 
     started = time.perf_counter()
     try:
-        batch = solve_local_batch([loaded.task for _, loaded, _ in todo], LocalOptions(), sequence,
+        batch = solve_local_batch([loaded.task for _, loaded, _ in todo], _local_options(), sequence,
                                   [chunk.seed(entry) for entry, _, _ in todo])  # fmt: skip
     except Exception:
         return None
@@ -213,12 +214,21 @@ def _local_batch(chunk: _Chunk, todo, sequence) -> list | None:
 
 def _verified(record, task, sequence, share: float):
     """The record as a verified result, as :func:`~prehension.solvers.local.solve_local` makes it."""
-    from ..solvers.local import LocalOptions, default_sequence
+    from ..solvers.local import default_sequence
 
     started = time.perf_counter()
     sequence = sequence if sequence is not None else default_sequence(task.hand)
-    result = record.to_result(task, LocalOptions(), 0.0, {"sequence": sequence.meta.get("origin", sequence.hand)})
+    result = record.to_result(task, _local_options(), 0.0, {"sequence": sequence.meta.get("origin", sequence.hand)})
     return replace(result, seconds=share + time.perf_counter() - started)
+
+
+@lru_cache(maxsize=1)
+def _local_options():
+    """The local solver's options of a batch: the defaults, as ``prehension solve`` uses
+    (made once: they are immutable)."""
+    from ..solvers.local import LocalOptions
+
+    return LocalOptions()
 
 
 def _by_sequence(chunk: _Chunk, todo) -> dict:

@@ -167,6 +167,16 @@ class Task:
         }
 
 
+_EYE3 = np.eye(3)
+_LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
+
+
+def _close(a: np.ndarray, b: np.ndarray, atol: float, rtol: float = 1e-5) -> bool:
+    """``np.allclose(a, b, rtol, atol)`` for finite arrays, without its generic handling
+    (one configuration is checked per solution: this runs thousands of times a second)."""
+    return bool(np.all(np.abs(a - b) <= atol + rtol * np.abs(b)))
+
+
 @dataclass(frozen=True, eq=False)
 class Configuration:
     """A candidate grasp.
@@ -191,7 +201,7 @@ class Configuration:
         if T.shape != (4, 4) or not np.all(np.isfinite(T)):
             raise InvalidConfiguration(f"T_palm_object must be a finite 4x4 transform, got shape {T.shape}")
         R = T[:3, :3]
-        if not np.allclose(R.T @ R, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0 or not np.allclose(T[3], [0, 0, 0, 1]):
+        if not _close(R.T @ R, _EYE3, 1e-6) or np.linalg.det(R) < 0 or not _close(T[3], _LAST_ROW, 1e-8):
             raise InvalidConfiguration("T_palm_object must be a rigid transform (rotation block orthonormal, det +1, last row 0 0 0 1)")
         object.__setattr__(self, "joint_angles", q)
         object.__setattr__(self, "T_palm_object", T)
