@@ -34,7 +34,7 @@ class ChunkOutput(NamedTuple):
 
 def encode(data: Mapping[str, Any]) -> bytes:
     """One JSON line (compact separators, newline included)."""
-    return (json.dumps(data, separators=(",", ":")) + "\n").encode("utf-8")
+    return (json.dumps(data, separators=(",", ":"), check_circular=False) + "\n").encode("utf-8")  # a tree: no cycles
 
 
 def record_dict(entry: Mapping[str, Any], method: str, seed: int, **fields) -> dict:
