@@ -75,6 +75,12 @@ class Region:
         """
         raise NotImplementedError
 
+    def evaluate_checked(self, params) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(points, normals, domain violation)`` of :meth:`evaluate` and
+        :meth:`domain_violation` in one call (a region may share work between them)."""
+        points, normals = self.evaluate(params)
+        return points, normals, self.domain_violation(params)
+
     def seed_params(self, n: int = 3) -> np.ndarray:
         """A small grid of parameters inside the domain, shape (S, k), for local searches."""
         raise NotImplementedError
@@ -194,7 +200,14 @@ class SphereCap(Region):
         return self.radius * dnormal, dnormal
 
     def domain_violation(self, params):
-        n = self.normals(params)
+        return self._cone_violation(self.normals(params))
+
+    def evaluate_checked(self, params):
+        n = self.normals(params)  # once for the point, the normal and the cone
+        return self.center + self.radius * n, n, self._cone_violation(n)
+
+    def _cone_violation(self, n: np.ndarray) -> np.ndarray:
+        """How far normals ``n (B, 3)`` lie outside the cone [deg], 0 inside."""
         angle = np.degrees(angle_between(n, self.axis))
         return np.maximum(angle - np.degrees(self.half_angle), 0.0)
 
