@@ -93,7 +93,7 @@ def test_a_short_task_file_naming_a_hand_file_solves(tmp_path, capsys, which, fi
     task = tmp_path / "task.yaml"
     task.write_text(text)
     result = tmp_path / "r.json"
-    assert main(["solve", str(task), "--method", "local", "-o", str(result), "--quiet"]) == EXIT_OK
+    assert main(["solve", str(task), "-o", str(result), "--quiet"]) == EXIT_OK  # the default method (auto)
     assert json.loads(result.read_text())["status"] == "solved"
     assert main(["check", str(result)]) == EXIT_OK
 
@@ -133,3 +133,20 @@ def test_batch_uses_the_sequence_of_each_tasks_hand(sa_hand):
     assert record["result"]["stats"]["sequence"] != seq.meta["origin"]  # no sequence for the hand: its default
     with pytest.raises(Exception, match="one initial-pose sequence per hand"):
         BatchOptions(sequences=(seq.to_dict(), seq.to_dict()))
+
+
+def test_batch_command_line_reads_the_sequence_files(tmp_path, sa_hand):
+    from prehension.cli import build_parser
+    from prehension.cli.batch import _sequences
+    from prehension.solvers.local import offline_sequence
+
+    path = tmp_path / "sa.json"
+    offline_sequence(sa_hand, M=6, N=2, imax=1, seed=1).save(path)
+    args = build_parser().parse_args(["batch", "in.jsonl", "-o", "out.jsonl", "--sequence", str(path)])
+    (data,) = _sequences(args.sequence)
+    assert data["hand"] == "schunk-sa" and len(data["lambdas"]) == 1
+    (tmp_path / "bad.json").write_text("{}")
+    from prehension.errors import InvalidTask
+
+    with pytest.raises(InvalidTask, match="not an initial-pose sequence"):
+        _sequences([tmp_path / "bad.json"])

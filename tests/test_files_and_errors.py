@@ -228,3 +228,13 @@ def test_local_cluster_workers_ignore_ctrl_c():
         handlers = client.run(lambda: signal.getsignal(signal.SIGINT) == signal.SIG_IGN)
     assert list(handlers.values()) == [True]
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # this process takes it again
+
+
+def test_offline_and_export_hand_check_their_outputs_first(tmp_path, capsys):
+    assert main(["offline", "sa", "-o", str(tmp_path / "nope" / "s.json"), "--M", "4", "--N", "2", "--imax", "1"]) == EXIT_BAD_INPUT
+    assert "does not exist" in _err(capsys)
+    assert main(["offline", "sa", "-o", str(tmp_path / "s.txt"), "--M", "4", "--N", "2", "--imax", "1"]) == EXIT_BAD_INPUT
+    assert "must end in .json" in _err(capsys)
+    assert main(["export-hand", "sa", "-o", str(tmp_path)]) == EXIT_BAD_INPUT
+    with pytest.raises(SystemExit):
+        main(["offline", "sa", "-o", str(tmp_path / "s.json"), "--seed", "-3"])

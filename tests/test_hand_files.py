@@ -3,14 +3,12 @@ fingertip overrides, writing the reference back, result files that stand alone."
 
 from __future__ import annotations
 
-import json
 import math
 import shutil
 from pathlib import Path
 
 import numpy as np
 import pytest
-import yaml
 
 from conftest import HANDS_DIR, random_angles
 from prehension.errors import InvalidHand, InvalidTask

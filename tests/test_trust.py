@@ -171,6 +171,8 @@ def _unknown_status(data):
 
 
 def _task_region_moved(data):
+    if "mesh" in data["task"]["object"] or "shape" in data["task"]["object"]:
+        data["task"]["object"]["surface_tolerance_mm"] = 5.0  # else the moved region is refused at load
     region = data["task"]["object"]["regions"]
     name = next(iter(region))
     spec = region[name]

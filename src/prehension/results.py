@@ -22,6 +22,7 @@ import numpy as np
 from .atomic import read_json, to_plain, write_json_atomic
 from .errors import InvalidTask
 from .hands.kinematics import forward_kinematics
+from .tasks.idle import settle_idle_fingers
 from .tasks.model import Configuration, Task
 from .tasks.residuals import ResidualReport, Tolerances, evaluate
 
@@ -137,9 +138,12 @@ def make_solution(task: Task, config: Configuration, tolerances: Tolerances = To
     """Verify ``config`` against ``task``; the :class:`Solution` if it passes, else ``None``.
 
     This is the only way solvers build solutions, so every returned configuration has been
-    re-checked against the original constraints.
+    re-checked against the original constraints.  Idle fingers that pass through the
+    object are first moved clear of it (:func:`~prehension.tasks.idle.settle_idle_fingers`):
+    they make no contact, so only collisions depend on them.
     """
     config.check_against(task)
+    config = settle_idle_fingers(task, config, tolerances.object_penetration_mm)
     pose = forward_kinematics(task.hand, config.joint_angles)
     report = evaluate(task, config, tolerances, pose=pose)
     if not report.ok:
@@ -168,7 +172,9 @@ def make_solution(task: Task, config: Configuration, tolerances: Tolerances = To
 
 
 # -- files ------------------------------------------------------------------------------
-def _solution_to_dict(sol: Solution) -> dict:
+def _solution_to_dict(sol: Solution, task: Task, quality=None) -> dict:
+    from .quality import QualityOptions, quality_entry
+
     return {
         "joint_angles_deg": {k: float(np.degrees(v)) for k, v in sol.joint_angles.items()},
         "joint_angles_rad": dict(sol.joint_angles),
@@ -191,12 +197,15 @@ def _solution_to_dict(sol: Solution) -> dict:
         "worst": {k: sol.report.worst(k) for k in sorted({c.kind for c in sol.report.checks})},
         "tolerances": asdict(sol.tolerances),
         "idle_moved": list(sol.idle_moved),
+        "quality": quality_entry(task, sol.T_palm_object, sol.contacts, quality or QualityOptions()),
     }
 
 
-def result_to_dict(result: SolveResult, *, embed_task: bool = True) -> dict:
+def result_to_dict(result: SolveResult, quality=None, *, embed_task: bool = True) -> dict:
     """A JSON-ready dict: units in keys, the task embedded (unless ``embed_task`` is false:
-    a batch stores each distinct task once and its records refer to it)."""
+    a batch stores each distinct task once and its records refer to it); each solution's
+    grasp quality measured with ``quality`` (:class:`prehension.quality.QualityOptions`,
+    default ones if ``None``)."""
     from .tasks.yaml_io import task_to_dict
 
     head = {
@@ -214,14 +223,14 @@ def result_to_dict(result: SolveResult, *, embed_task: bool = True) -> dict:
         "message": result.message,
         "seconds": result.seconds,
         "stats": to_plain(dict(result.stats)),
-        "solutions": [_solution_to_dict(s) for s in result.solutions],
+        "solutions": [_solution_to_dict(s, result.task, quality) for s in result.solutions],
         "unverified_boxes": [{"lower": lo.tolist(), "upper": hi.tolist()} for lo, hi in result.unverified_boxes],
     }
 
 
-def write_result(result: SolveResult, path) -> None:
-    """Write the result file atomically (never a half-written file)."""
-    write_json_atomic(path, result_to_dict(result))
+def write_result(result: SolveResult, path, quality=None) -> None:
+    """Write the result file atomically (never a half-written file); ``quality`` as in :func:`result_to_dict`."""
+    write_json_atomic(path, result_to_dict(result, quality))
 
 
 def read_result(path) -> tuple[Task, dict]:

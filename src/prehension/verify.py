@@ -12,7 +12,9 @@ each of them from the task the file embeds, and reports one :class:`Finding` per
   and with the file's stated tolerances for an ``approximate`` one; every dof of a finger
   that does not take part is at the task's idle value unless the solution lists it under
   ``idle_moved``; every link pose equals forward kinematics; each contact's stored points,
-  normals, distance and angle, and the ``worst`` summary, equal the recomputed ones;
+  normals, distance and angle, and the ``worst`` summary, equal the recomputed ones; the
+  grasp quality (force closure, epsilon, volume) equals the one recomputed from those
+  contacts with the friction model the file states (:mod:`prehension.quality.stored`);
 * ``infeasible``: the proof is run again by the complete solver on the embedded task (so
   it cannot have been computed for another task); without ``reprove`` the claim is only
   restated, never called verified.
@@ -186,6 +188,7 @@ def _solution(task: Task, sol, i: int, tol: Tolerances) -> tuple[ResidualReport 
     found += _link_poses(task, q, sol, label)
     found += _contacts(task, report, sol, label)
     found += _worst(report, sol, label)
+    found += _quality(task, config, report, sol, label)
     return report, found
 
 
@@ -269,6 +272,16 @@ def _worst(report: ResidualReport, sol: dict, label: str) -> list[Finding]:
     gaps = {k: abs(float(stored[k]) - report.worst(k)) for k in kinds}
     k = max(gaps, key=gaps.get)
     return [Finding(f"{label}: worst residuals", gaps[k] <= STORED_TOLERANCE, f"largest gap {gaps[k]:.3g} ({k})")]
+
+
+def _quality(task: Task, config: Configuration, report: ResidualReport, sol: dict, label: str) -> list[Finding]:
+    """The stored quality (force closure, epsilon, volume) recomputed from the contacts with its stated options."""
+    from .quality import check_quality_entry
+
+    if "quality" not in sol:
+        return [Finding(f"{label}: quality", True, "not stated (a file written before quality was reported)")]
+    ok, detail = check_quality_entry(task, config.T_palm_object, report.contacts, sol["quality"])
+    return [Finding(f"{label}: quality (force closure, epsilon, volume)", ok, detail)]
 
 
 # -- infeasible -----------------------------------------------------------------------------

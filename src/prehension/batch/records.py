@@ -52,7 +52,7 @@ def error_line(entry: Mapping[str, Any], method: str, seed: int, status: str, me
 
 
 def result_line(entry: Mapping[str, Any], method: str, seed: int, result, loaded, seconds: float,
-                self_contained: bool) -> RecordLine:  # fmt: skip
+                self_contained: bool, quality=None, extra: Mapping[str, Any] | None = None) -> RecordLine:  # fmt: skip
     """The record of a solved (or given up, or proven infeasible) task.
 
     Args:
@@ -60,14 +60,17 @@ def result_line(entry: Mapping[str, Any], method: str, seed: int, result, loaded
         loaded: its :class:`~.loading.LoadedTask` (the task dict and ref, built once).
         seconds: the task's time on the worker [s].
         self_contained: embed the task in the result, else refer to its task line.
+        quality: the :class:`~prehension.quality.QualityOptions` of the stored quality.
+        extra: fields after ``result`` (``physics``).
     """
     from ..results import result_to_dict
 
-    data = result_to_dict(result, embed_task=False)
+    data = result_to_dict(result, quality, embed_task=False)
     fields = dict(status=result.status, seconds=seconds, message=result.message)
     if self_contained:
         head = {k: data[k] for k in ("prehension", "units", "frames")}
-        record = record_dict(entry, method, seed, **fields, result={**head, "task": loaded.task_dict, **data})
+        whole = {**head, "task": loaded.task_dict, **data}
+        record = record_dict(entry, method, seed, **fields, result=whole, **(extra or {}))
         return RecordLine(entry["id"], result.status, None, encode(record))
-    record = record_dict(entry, method, seed, **fields, task_ref=loaded.ref, result=data)
+    record = record_dict(entry, method, seed, **fields, task_ref=loaded.ref, result=data, **(extra or {}))
     return RecordLine(entry["id"], result.status, loaded.ref, encode(record))

@@ -56,6 +56,11 @@ class BatchOptions:
             distinct task, and records refer to it; see :mod:`.journal`).
         delay_s: testing only: sleep this long before each task [s], to make a run slow
             enough to kill a worker in the middle of it.
+        best: a :class:`~prehension.best.BestOptions`: solve each task as ``solve --best N``
+            (one task at a time).
+        quality: the :class:`~prehension.quality.QualityOptions` of the stored quality.
+        simulate: a :class:`~prehension.sim.SimOptions`: each record also gets ``"physics"``,
+            the physics test of every solution (:func:`prehension.batch_extras.physics_records`).
         sequences: initial-pose sequences of ``prehension offline`` (their JSON
             mappings); a task uses the one made for its hand (by name), if any, else
             its hand's default.
@@ -69,6 +74,9 @@ class BatchOptions:
     max_tasks: int | None = None
     self_contained: bool = False
     delay_s: float = 0.0
+    best: Any = None
+    quality: Any = None
+    simulate: Any = None
     sequences: tuple = ()
 
     def __post_init__(self):
@@ -98,11 +106,11 @@ class BatchOptions:
         """Tasks per Dask task: ``chunk_size`` if given; else, for the local solver
         (milliseconds a task), enough to make Dask's ~4 ms per Dask task negligible and to
         solve tasks together -- up to :data:`MAX_LOCAL_CHUNK` -- while giving every worker
-        at least four chunks; one task per Dask task for ``auto`` and ``complete``
-        (seconds a task: balance first)."""
+        at least four chunks; one task per Dask task for ``auto`` and ``complete``, and
+        with ``best`` or ``simulate`` (seconds a task: balance first)."""
         if self.chunk_size is not None:
             return self.chunk_size
-        if self.method != "local":
+        if self.method != "local" or self.best is not None or self.simulate is not None:
             return 1
         return max(1, min(MAX_LOCAL_CHUNK, math.ceil(tasks / (4 * max(workers, 1)))))
 
@@ -148,8 +156,14 @@ class _Chunk:
         """The record of ``result`` (its ``seconds`` set to the task's time so far)."""
         started = time.perf_counter()
         try:
+            extra = {}
+            if self.options.simulate is not None:
+                from ..batch_extras import physics_records
+
+                extra["physics"] = physics_records(loaded.task, result, self.options.simulate, self.seed(entry))
             line = result_line(entry, self.options.method, self.seed(entry), result, loaded,
-                               seconds + time.perf_counter() - started, self.options.self_contained)  # fmt: skip
+                               seconds + time.perf_counter() - started, self.options.self_contained,
+                               self.options.quality, extra)  # fmt: skip
             if line.task_ref is not None:
                 self.tasks.setdefault(line.task_ref, loaded.task_line)
         except Exception as exc:  # a bug must not stop the other tasks; the record says what happened
@@ -180,16 +194,15 @@ def _load(chunk: _Chunk, entries) -> list[tuple[Mapping, Any, float]]:
 
 
 def _solve_alone(chunk: _Chunk, entry, loaded, seconds: float) -> None:
-    """:func:`prehension.solve.solve` on one task (the complete solver, or a fallback)."""
-    from ..solve import solve
-    from ..solvers.complete.search import BranchAndPruneOptions
+    """One task as ``prehension solve`` (or ``solve --best N``) solves it: the complete
+    solver, ``best``, or a fallback (:func:`prehension.batch_extras.solve_task`)."""
+    from ..batch_extras import solve_task
 
+    options = chunk.options
     started = time.perf_counter()
     try:
-        result = solve(
-            loaded.task, chunk.options.method, complete_options=BranchAndPruneOptions(time_limit_s=chunk.options.time_limit_s),
-            seed=chunk.seed(entry), sequence=chunk.sequence(loaded.task.hand.name),
-        )  # fmt: skip
+        result = solve_task(loaded.task, options.method, chunk.seed(entry), options.time_limit_s, options.best,
+                            chunk.sequence(loaded.task.hand.name))  # fmt: skip
     except Exception as exc:
         chunk.fail(entry, exc, seconds + time.perf_counter() - started)
         return
@@ -281,7 +294,7 @@ def solve_chunk(entries: Sequence[Mapping[str, Any]], options: BatchOptions) -> 
     """
     chunk = _Chunk(options)
     todo = _load(chunk, entries)
-    if options.method == "complete":
+    if options.method == "complete" or options.best is not None:
         for entry, loaded, seconds in todo:
             _solve_alone(chunk, entry, loaded, seconds)
     else:

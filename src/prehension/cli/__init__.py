@@ -15,7 +15,7 @@ from rich.markup import escape
 
 from .. import __version__
 from ..errors import PrehensionError
-from . import batch, check, hands, offline, solve, view
+from . import batch, check, hands, offline, region, simulate, solve, view
 from .codes import EXIT_APPROXIMATE, EXIT_BAD_INPUT, EXIT_CHECK_FAILED, EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK
 
 __all__ = [
@@ -43,6 +43,8 @@ def build_parser() -> argparse.ArgumentParser:
     batch.add_parser(sub)
     view.add_parsers(sub)
     hands.add_parsers(sub)
+    region.add_parser(sub)
+    simulate.add_parser(sub)
     return parser
 
 
@@ -65,6 +67,7 @@ def _add_import(sub) -> None:
 def main(argv: list[str] | None = None) -> int:
     from .batch import cmd_batch
     from .check import cmd_check
+    from .region import cmd_region
     from .convert import cmd_import
     from .hands import cmd_export_hand
     from .solve import cmd_solve
@@ -77,7 +80,8 @@ def main(argv: list[str] | None = None) -> int:
     commands = {
         "tasks": cmd_tasks, "show": cmd_show, "import-cuik": cmd_import, "solve": cmd_solve,
         "check": cmd_check, "offline": _cmd_offline, "batch": cmd_batch,
-        "view": cmd_view, "render": cmd_render, "export-hand": cmd_export_hand,
+        "view": cmd_view, "render": cmd_render, "export-hand": cmd_export_hand, "region": cmd_region,
+        "simulate": simulate.cmd_simulate,
     }  # fmt: skip
     if args.command is None:
         parser.print_help()

@@ -17,6 +17,7 @@ from rich.progress import TimeRemainingColumn
 from rich.text import Text
 
 from . import args as types
+from .best import add_batch_arguments, batch_extras
 from .codes import EXIT_BAD_INPUT, EXIT_GAVE_UP, EXIT_OK
 
 __all__ = ["add_parser", "cmd_batch"]
@@ -49,6 +50,7 @@ def add_parser(sub) -> None:
                    help="local solver: initial poses from 'prehension offline' (.json), used by the tasks of its "
                         "hand; repeat for several hands")  # fmt: skip
     p.add_argument("--quiet", action="store_true", help="no progress bar or summary, only errors")
+    add_batch_arguments(p)
 
 
 class _RateColumn(ProgressColumn):
@@ -73,7 +75,7 @@ def cmd_batch(args, console: Console) -> int:
     options = BatchOptions(
         method=args.method, seed=args.seed, time_limit_s=types.time_limit(args.time_limit), chunk_size=args.chunk_size,
         retry_gave_up=args.retry_gave_up, max_tasks=args.max_tasks, self_contained=args.self_contained,
-        sequences=_sequences(args.sequence),
+        sequences=_sequences(args.sequence), **batch_extras(args),
     )  # fmt: skip
     check_where(args.scheduler, args.workers)
     check_output(args.input, args.output)

@@ -157,9 +157,13 @@ def cmd_export_hand(args, console: Console) -> int:
     from ..hands.export import hand_to_mjcf, hand_to_urdf
     from ..tasks.format.hand_files import resolve_hand
 
+    from ..atomic import check_output_path
+    from .solve import task_inputs
+
     suffix = args.output.suffix.lower()
     if suffix not in _EXPORTS:
         raise PrehensionError(f"cannot tell the format of {args.output}: give a .urdf (URDF) or .xml/.mjcf (MJCF) file")
+    check_output_path(args.output, "hand file", inputs=task_inputs(args.hand))
     if args.output.exists() and not args.force:
         raise PrehensionError(f"{args.output} already exists; pass --force to overwrite it")
     hand = resolve_hand(args.hand)

@@ -18,6 +18,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, Ti
 from rich.table import Table
 
 from ..errors import PrehensionError
+from . import args as types
 from .codes import EXIT_OK
 
 __all__ = ["add_parser", "cmd_offline", "cli_offline", "fingertip_regions"]
@@ -30,13 +31,13 @@ def add_parser(sub) -> None:
     off.add_argument("hand", help="built-in hand (schunk-sa, alias sa), hand file (.urdf; .xml/.mjcf for MJCF; .yaml)")
     off.add_argument("--regions", metavar="A,B", help="hand regions of the random problems (default: every fingertip)")
     off.add_argument("-o", "--output", type=Path, required=True, help="sequence file to write (.json)")
-    off.add_argument("--M", type=int, default=5000, help="random problems per step (paper: 5000)")
-    off.add_argument("--N", type=int, default=30, help="grid values per lambda (paper: 30)")
-    off.add_argument("--imax", type=int, default=12, help="initial poses in the sequence (paper: 12)")
+    off.add_argument("--M", type=types.positive_int, default=5000, help="random problems per step (paper: 5000)")
+    off.add_argument("--N", type=types.positive_int, default=30, help="grid values per lambda (paper: 30)")
+    off.add_argument("--imax", type=types.positive_int, default=12, help="initial poses in the sequence (paper: 12)")
     where = off.add_mutually_exclusive_group()
     where.add_argument("--scheduler", metavar="ADDR", help="a running Dask scheduler, e.g. tcp://host:8786")
-    where.add_argument("--workers", type=int, default=None, help="local cluster of N processes (default: run inline)")
-    off.add_argument("--seed", type=int, default=0)
+    where.add_argument("--workers", type=types.positive_int, default=None, help="local cluster of N processes (default: run inline)")
+    off.add_argument("--seed", type=types.seed, default=0, help="random seed (an integer >= 0)")
     off.add_argument("--force", action="store_true", help="overwrite the output file if it exists")
 
 
@@ -121,8 +122,11 @@ def cli_offline(hand_name: str, output, *, M: int = 5000, N: int = 30, imax: int
     from ..tasks.format.hand_files import resolve_hand
     from .hands import print_hand_warnings
 
+    from ..atomic import check_output_path
+    from .solve import task_inputs
+
     console = console or Console()
-    output = Path(output)
+    output = check_output_path(output, "sequence file", inputs=task_inputs(hand_name), suffixes=(".json",))
     if output.exists() and not force:
         raise PrehensionError(f"{output} already exists; pass --force to overwrite it")
     hand = resolve_hand(hand_name)

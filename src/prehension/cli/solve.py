@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import os
 import re
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +23,7 @@ from ..atomic import check_output_path
 from ..errors import PrehensionError
 from ..results import Status, result_to_dict, write_result
 from . import args as types
+from .best import add_best_arguments, add_quality_arguments, best_options, best_table, quality_lines, quality_options
 from .codes import EXIT_APPROXIMATE, EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK
 from .hands import print_hand_warnings
 from .progress import LiveProgress
@@ -61,6 +63,8 @@ def add_parser(sub) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress or tables, only errors")
     p.add_argument("--json", action="store_true", help="print the result summary as JSON on stdout")
     p.add_argument("--html", type=Path, metavar="FILE", help="also write the 3-D view of the grasp (as 'prehension view')")
+    add_quality_arguments(p)
+    add_best_arguments(p)
 
 
 def task_inputs(text: str) -> list[Path]:
@@ -141,20 +145,35 @@ def cmd_solve(args, console: Console) -> int:
     if args.resume and not args.checkpoint.is_file():
         raise PrehensionError(f"cannot resume: no checkpoint file {args.checkpoint}")
     path = _check_outputs(args, task)
+    quality, best = quality_options(args), best_options(args, options.time_limit_s)
     where = (args.scheduler, args.workers if args.workers > 1 else None)
     check_where(*where)
     if args.method == "local":  # the cluster only serves the complete solver's boxes
         where = (None, None)
+    if args.method in ("local", "auto"):
+        from ..solvers.local import COMPILING_MESSAGE, compile_pending
+
+        if compile_pending():
+            print(COMPILING_MESSAGE, file=sys.stderr, flush=True)
     with executor_for(*where) as executor:
         with LiveProgress(console, enabled=not (args.quiet or args.json), time_limit_s=options.time_limit_s) as update:
-            result = solve(
-                task, args.method, complete_options=options, local_options=_local_options(args), seed=args.seed,
-                executor=executor, workers=executor.max_workers if executor is not None else 1,
-                checkpoint=args.checkpoint, resume=args.resume, progress=update, sequence=sequence,
-            )  # fmt: skip
+            workers = executor.max_workers if executor is not None else 1
+            if best is not None:
+                from ..best import solve_best
+
+                result = solve_best(task, best, args.method, seed=args.seed, complete_options=options,
+                                    executor=executor, workers=workers, progress=update, sequence=sequence)  # fmt: skip
+            else:
+                result = solve(
+                    task, args.method, complete_options=options, local_options=_local_options(args), seed=args.seed,
+                    executor=executor, workers=workers, checkpoint=args.checkpoint, resume=args.resume, progress=update,
+                    sequence=sequence,
+                )  # fmt: skip
     backup = _keep_previous(path)
-    write_result(result, path)
+    write_result(result, path, quality)
     _report(console, args, result, path, backup)
+    if result.solutions and not (args.quiet or args.json):
+        console.print(best_table(result) if best is not None else "\n".join(quality_lines(result, quality)))
     if args.html is not None:
         _write_view(console, args, result)
     elif not (args.quiet or args.json):

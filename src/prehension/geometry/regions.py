@@ -163,6 +163,11 @@ class SphereCap(Region):
         object.__setattr__(self, "radius", float(self.radius))
         object.__setattr__(self, "half_angle", float(self.half_angle))
 
+    @classmethod
+    def from_degrees(cls, center, radius: float, axis, half_angle_deg: float) -> "SphereCap":
+        """The cap with its half-angle in degrees, as task files write it (``half_angle_deg``)."""
+        return cls(center, radius, axis, np.radians(float(half_angle_deg)))
+
     @cached_property
     def frame(self) -> np.ndarray:
         """Columns ``(e1, e2, m)``: an orthonormal frame whose third axis is the cap axis

@@ -25,7 +25,9 @@ its visual ones; a mesh gives its vertices), in ``D``'s frame [mm]:
    pad points' mean distance.
 4. **Cap.**  Axis ``m``; half-angle the 95th percentile of the pad points' angles from
    ``m``, within ``[20, 60]`` deg.  The report (:class:`~prehension.hands.provenance.TipFit`)
-   gives the number of points and their rms and largest distance from the sphere.
+   gives, over every surface point inside the cap's cone (seen from its centre), their
+   number and their rms and largest distance from the sphere: how far the real surface
+   strays from the cap the solvers use.
 
 Any value can be overridden (:class:`TipOverride`, degrees for the angle); a finger with
 every value given needs no geometry.
@@ -226,11 +228,13 @@ def fit_fingertip(finger: str, frame: PadFrame, points: np.ndarray, geometry: st
     c, r, sel = _fit_sphere(p, frame, m)
     if sel.sum() == 0:
         raise InvalidHand(f"finger {finger!r}: no surface point of link {frame.link!r} lies on its pad side")
-    dist = np.abs(np.linalg.norm(p[sel] - c, axis=1) - r)
     half = float(np.clip(np.percentile(_angles_deg(p[sel], c, m), 95), MIN_HALF_ANGLE_DEG, MAX_HALF_ANGLE_DEG))
     cap = SphereCap(c, r, m, math.radians(half))
+    in_cap = _angles_deg(p, c, m) <= half  # the report: every surface point the cap stands for
+    in_cap = in_cap if in_cap.any() else sel
+    dist = np.abs(np.linalg.norm(p[in_cap] - c, axis=1) - r)
     rms = float(math.sqrt(np.mean(dist**2)))
-    return cap, TipFit(finger, frame.link, geometry, int(sel.sum()), rms, float(dist.max()), frame.flexion)
+    return cap, TipFit(finger, frame.link, geometry, int(in_cap.sum()), rms, float(dist.max()), frame.flexion)
 
 
 def apply_override(cap: SphereCap | None, fit: TipFit | None, finger: str, link: str, override: TipOverride):

@@ -9,7 +9,10 @@ task and a configuration it reports, in physical units:
   (patch parameters outside [0, 1]; a sphere cap's normal outside its cone, in deg);
 * per joint angle: how far it lies outside its limits [deg];
 * per coupling: ``|q[dof] - (ratio q[source] + offset)|`` [deg];
-* per pair of collision capsules: the penetration depth [mm] (0 when apart).
+* per pair of collision capsules: the penetration depth [mm] (0 when apart);
+* per link with collision capsules, when the object has a solid that collides: how deep
+  the link reaches into the object [mm], the touching pads at their contacts excepted
+  (:mod:`prehension.tasks.object_collision` defines both exactly).
 
 Each value is compared with a :class:`Tolerances` entry; a configuration is a solution
 when every check passes.  The batch cores (:func:`contact_residuals`,
@@ -46,8 +49,11 @@ class Tolerances:
     """Largest violation of each kind that still counts as satisfied.
 
     The defaults are those of a *verified* solution: contacts within 1e-6 mm and 1e-6 deg,
-    limits and couplings exact up to rounding, no penetration.  The local solver's
-    acceptance test (``d_min`` of Claret & Suárez) passes looser contact tolerances.
+    limits and couplings exact up to rounding, no self-penetration, and no link deeper
+    than 0.5 mm into the object (``object_penetration_mm``: a hand and an object touch
+    over a patch, not a point, so a fraction of a millimetre is contact, not collision).
+    The local solver's acceptance test (``d_min`` of Claret & Suárez) passes looser
+    contact tolerances.
     """
 
     contact_mm: float = 1e-6
@@ -56,13 +62,14 @@ class Tolerances:
     limit_deg: float = 1e-9
     coupling_deg: float = 1e-9
     penetration_mm: float = 0.0
+    object_penetration_mm: float = 0.5
 
 
 @dataclass(frozen=True)
 class Check:
     """One constraint: ``value`` (>= 0) is its violation, in ``unit``."""
 
-    kind: str  # contact_distance | contact_normal | hand_region | object_region | joint_limit | coupling | collision
+    kind: str  # contact_distance | contact_normal | hand_region | object_region | joint_limit | coupling | collision | object_collision
     name: str
     value: float
     unit: str
@@ -195,6 +202,7 @@ def evaluate(task: Task, config: Configuration, tolerances: Tolerances = Toleran
     checks = _contact_checks(task, res, tolerances)
     checks += _joint_checks(task, config.joint_angles, tolerances)
     checks += _collision_checks(task, pose, tolerances)
+    checks += _object_collision_checks(task, pose, config.T_palm_object, res["hand_point"][0], tolerances)
     states = tuple(
         ContactState(
             c.name, params[i][0], params[i][1],
@@ -247,3 +255,14 @@ def _link_pairs(names: tuple[tuple[str, str], ...]) -> tuple[tuple[str, ...], np
     order: dict = {}
     group = np.array([order.setdefault(pair, len(order)) for pair in names], dtype=np.intp)
     return tuple(f"{a}/{b}" for a, b in order), group
+
+
+def _object_collision_checks(task, pose, T_palm_object, hand_points_palm, tol) -> list[Check]:
+    if not task.object.collides:
+        return []
+    from .object_collision import link_penetrations
+
+    T = np.asarray(T_palm_object, dtype=float)
+    points = (hand_points_palm - T[:3, 3]) @ T[:3, :3]  # palm -> object frame, (C, 3)
+    depth = link_penetrations(task, pose, T, points)
+    return [Check("object_collision", link, v, "mm", tol.object_penetration_mm) for link, v in depth.items()]

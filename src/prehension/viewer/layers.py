@@ -18,7 +18,7 @@ from .tessellate import capsule_mesh, region_center, region_mesh
 
 __all__ = [
     "hand_layer", "object_layer", "hand_region_layer", "object_region_layer", "contact_layer", "frame_layer",
-    "object_extent_mm",
+    "object_extent_mm", "penetrating_links",
 ]  # fmt: skip
 
 
@@ -39,18 +39,42 @@ def _merged(meshes_in_palm: list[Mesh], color: str, opacity: float = 1.0, closed
     return S.TriangleMesh(mesh.vertices, mesh.faces, color, opacity, closed)
 
 
-def hand_layer(task: Task, T_palm_link: Mapping[str, np.ndarray]) -> "S.Layer":
-    """Every link's collision capsules; a thin segment between joint centres for links without any."""
-    hand = task.hand
-    palm, fingers, lines = [], [], []
+def hand_layer(task: Task, T_palm_link: Mapping[str, np.ndarray], penetrating: Mapping[str, float] | None = None) -> "S.Layer":
+    """Every link's collision capsules (red for the links in ``penetrating``, those deeper
+    than the tolerance into the object); a thin segment between joint centres for links
+    without any."""
+    hand, penetrating = task.hand, penetrating or {}
+    palm, fingers, red, lines = [], [], [], []
     for link in hand.links:
         T = T_palm_link[link.name]
         placed = [capsule_mesh(c).transformed(T) for c in link.collision]
-        (palm if link.name == hand.palm else fingers).extend(placed)
+        (red if link.name in penetrating else palm if link.name == hand.palm else fingers).extend(placed)
         if not link.collision:
             lines.extend(_skeleton(task, link.name, T))
-    meshes = (_merged(palm, S.PALM_COLOR, closed=True), _merged(fingers, S.HAND_COLOR, closed=True))
+    meshes = (
+        _merged(palm, S.PALM_COLOR, closed=True), _merged(fingers, S.HAND_COLOR, closed=True),
+        _merged(red, S.PENETRATION_COLOR, closed=True),
+    )  # fmt: skip
     return S.Layer("hand", "hand", tuple(m for m in meshes if m is not None), tuple(lines))
+
+
+def penetrating_links(task: Task, pose: GraspPose, tolerance_mm: float = 0.5) -> dict[str, float]:
+    """Links deeper than ``tolerance_mm`` into the object in ``pose``, with their depth [mm]
+    (as the residual function measures it, the touching pads excepted); empty when the
+    object has no colliding solid or the pose makes no contact."""
+    if not task.object.collides or not pose.has_solution:
+        return {}
+    from ..hands.kinematics import HandPose
+    from ..tasks.object_collision import link_penetrations
+
+    T_links = np.stack([pose.T_palm_link[name] for name in task.hand.link_names])[None]  # (1, L, 4, 4)
+    n = task.hand.n_dof
+    hand_pose = HandPose(T_links[..., :3, :3], T_links[..., :3, 3], np.zeros((1, n, 3)), np.zeros((1, n, 3)))
+    T = pose.T_palm_object
+    by_name = {c.name: c.hand_point for c in pose.contacts}
+    points = [(by_name.get(c.name, np.full(3, np.inf)) - T[:3, 3]) @ T[:3, :3] for c in task.contacts]
+    depth = link_penetrations(task, hand_pose, T, points)
+    return {link: d for link, d in depth.items() if d > tolerance_mm}
 
 
 def _skeleton(task: Task, link: str, T: np.ndarray) -> list["S.Polyline"]:

@@ -51,9 +51,9 @@ def _hand_spec(hand: Hand):
     """A small picklable recipe for ``hand``: the built-in SA hand by name, any other hand
     itself (a Hand pickles whole, its opposing finger and frames included)."""
     from ...hands.sa_hand import schunk_sa_hand
-    from ._group import hand_key
+    from ._layout import hand_arrays
 
-    if hand.name == "schunk-sa" and hand_key(hand) == hand_key(schunk_sa_hand()) and set(hand.regions) == set(
+    if hand.name == "schunk-sa" and hand_arrays(hand)[1] == hand_arrays(schunk_sa_hand())[1] and set(hand.regions) == set(
         schunk_sa_hand().regions
     ):
         return ("schunk-sa",)

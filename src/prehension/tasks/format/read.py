@@ -23,14 +23,11 @@ from .errors import fail, join_path, kind_of, located, validate
 from .schema import (
     BUILTIN_HANDS,
     FORMAT_TAG,
-    PRIMITIVES,
-    DisplaySpec,
     HandRegionSpec,
     HandSpec,
     JointSpec,
     LinkSpec,
     ObjectSpec,
-    PrimitiveSpec,
     RegionSpec,
     TaskSpec,
 )
@@ -208,37 +205,10 @@ def _task_hand(spec: TaskSpec, base: Path, source: str) -> Hand:
     return hand
 
 
-def _primitive(spec: PrimitiveSpec, source: str, loc: str):
-    for key, (_, cls) in PRIMITIVES.items():
-        sub = getattr(spec, key)
-        if sub is not None:
-            fields = {k: (tuple(v) if isinstance(v, list) else v) for k, v in sub.model_dump(exclude_none=True).items()}
-            with located(source, join_path(loc, key)):
-                prim = cls(**fields)
-                prim.mesh()  # checks what the schema cannot (e.g. a cylinder of zero length)
-            return prim
-    raise AssertionError("unreachable: PrimitiveSpec holds exactly one primitive")
-
-
-def _mesh_file(name: str | None, base: Path, source: str) -> str | None:
-    if name is None:
-        return None
-    path = (base / name).resolve()
-    if not path.is_file():
-        raise fail(source, "object.display.mesh_file", f"mesh file not found: {path}")
-    return str(path)
-
-
 def _task_object(spec: ObjectSpec, base: Path, source: str) -> GraspObject:
-    regions = {}
-    for name, r in spec.regions.items():
-        with located(source, join_path("object.regions", name)):
-            regions[name] = _region(r)
-    display = spec.display or DisplaySpec()
-    prims = [_primitive(p, source, join_path("object.display.primitives", i)) for i, p in enumerate(display.primitives)]
-    mesh = _mesh_file(display.mesh_file, base, source)
-    with located(source, "object"):
-        return GraspObject(spec.name, regions, tuple(prims), mesh)
+    from .objects import object_from_spec
+
+    return object_from_spec(spec, base, source)
 
 
 def _check_names(spec: TaskSpec, hand: Hand, obj: GraspObject, source: str) -> None:

@@ -263,7 +263,28 @@ class DisplaySpec(_Spec):
 class ObjectSpec(_Spec):
     name: Name
     regions: Annotated[dict[Name, RegionSpec], Field(min_length=1)]
+    mesh: Name | None = None  # the solid from a mesh file (relative to the task file)
+    scale: PosNum | None = None  # mm per mesh-file unit ...
+    units: Literal["mm", "cm", "m", "in"] | None = None  # ... or the file's units
+    shape: Annotated[list[PrimitiveSpec], Field(min_length=1)] | None = None  # or a union of primitives
+    collisions: Annotated[bool, Field(strict=True)] = True
+    surface_tolerance_mm: PosNum | None = None
     display: DisplaySpec | None = None
+
+    @model_validator(mode="after")
+    def _one_solid(self):
+        if self.mesh is not None and self.shape is not None:
+            raise ValueError("give at most one of mesh (a mesh file) and shape (primitives) for the object's solid")
+        if self.mesh is not None and (self.scale is None) == (self.units is None):
+            raise ValueError(
+                "a mesh file carries no units: give exactly one of scale (mm per file unit, e.g. 1000 for metres) "
+                "or units (mm, cm, m, in)"
+            )
+        if self.mesh is None and (self.scale is not None or self.units is not None):
+            raise ValueError("scale and units belong to a mesh file: give mesh as well")
+        if self.mesh is None and self.shape is None and self.surface_tolerance_mm is not None:
+            raise ValueError("surface_tolerance_mm needs a solid: give mesh or shape")
+        return self
 
 
 class ContactSpec(_Spec):

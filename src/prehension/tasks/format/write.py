@@ -8,10 +8,8 @@ gives the same numbers (see :func:`_settled`).
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 import math
-import os
 from pathlib import Path
 from typing import Callable
 
@@ -23,7 +21,7 @@ from ...geometry.regions import BezierRegion, PointRegion, Region, SphereCap
 from ...hands.model import Capsule, Coupling, Hand, HandRegion, Joint, Link, _unit3
 from ...objects.model import GraspObject
 from ..model import Contact, Task
-from .schema import BUILTIN_HANDS, FORMAT_TAG, PRIMITIVES
+from .schema import BUILTIN_HANDS, FORMAT_TAG
 
 _DEG_DECIMALS = 12  # degrees are written rounded to this many decimals (1e-12 deg ~ 2e-14 rad)
 _BUILTIN_TOL = 1e-9  # a hand "is" the built-in one when its numbers agree to this [mm, unitless]
@@ -232,38 +230,10 @@ def _builtin_hand_dict(name: str) -> dict:
     return hand_to_dict(BUILTIN_HANDS[name]())
 
 
-def _primitive_to_dict(prim) -> dict:
-    for key, (_, cls) in PRIMITIVES.items():
-        if type(prim) is cls:
-            fields = {}
-            for f in dataclasses.fields(cls):
-                value = getattr(prim, f.name)
-                if f.default is not dataclasses.MISSING and value == f.default:
-                    continue
-                fields[f.name] = int(value) if f.name == "resolution" else _floats(value)
-            return {key: fields}
-    raise InvalidTask(f"cannot write a display primitive of type {type(prim).__name__}; use {', '.join(PRIMITIVES)}")
-
-
-def _mesh_path(mesh_file: str, base_dir) -> str:
-    if base_dir is None:
-        return str(mesh_file)
-    try:
-        return Path(os.path.relpath(Path(mesh_file).resolve(), Path(base_dir).resolve())).as_posix()
-    except ValueError:  # another drive (Windows): keep it absolute
-        return str(mesh_file)
-
-
 def _object_to_dict(obj: GraspObject, base_dir) -> dict:
-    out: dict = {"name": obj.name, "regions": {name: region_to_dict(r) for name, r in obj.regions.items()}}
-    display: dict = {}
-    if obj.primitives:
-        display["primitives"] = [_primitive_to_dict(p) for p in obj.primitives]
-    if obj.mesh_file:
-        display["mesh_file"] = _mesh_path(obj.mesh_file, base_dir)
-    if display:
-        out["display"] = display
-    return out
+    from .objects import object_to_dict
+
+    return object_to_dict(obj, base_dir)
 
 
 def _contact_to_dict(c: Contact) -> dict:
