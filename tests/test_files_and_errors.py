@@ -238,3 +238,21 @@ def test_offline_and_export_hand_check_their_outputs_first(tmp_path, capsys):
     assert main(["export-hand", "sa", "-o", str(tmp_path)]) == EXIT_BAD_INPUT
     with pytest.raises(SystemExit):
         main(["offline", "sa", "-o", str(tmp_path / "s.json"), "--seed", "-3"])
+
+
+def test_a_display_mesh_file_is_read_when_the_task_is(tmp_path, capsys):
+    """Any mesh format for display; a file that is not a mesh is refused when the task is
+    read (by `show` too), not later when drawing."""
+    import trimesh
+
+    good = tmp_path / "cube.stl"
+    trimesh.creation.box((10, 10, 10)).export(good)
+    bad = tmp_path / "notes.obj"
+    bad.write_text("this is not a mesh\n")
+    base = dumps_task(pincer_task(30.0))
+    for name, mesh in (("good", good), ("bad", bad)):
+        text = base.replace("object:\n", f"object:\n  display: {{mesh_file: {mesh.name}}}\n", 1)
+        (tmp_path / f"{name}.yaml").write_text(text)
+    assert main(["show", str(tmp_path / "good.yaml")]) == EXIT_OK
+    assert main(["show", str(tmp_path / "bad.yaml")]) == EXIT_BAD_INPUT
+    assert "notes.obj" in _err(capsys)

@@ -7,10 +7,10 @@
   Not force closure (epsilon 0); the squeeze alone pushes the box out of the hand.
 
 The four-finger grasp is the best-ranked of ``solve --best 40 --starts 300 --method local``
-on ``box-four-fingers.yaml`` (seed 0) among those that start without hand-object
-penetration (hand-object collision is not part of the task: the residual function does
-not see it) and hold in the physics test; its joint angles and object pose are stored
-below so that the pictures and the tests do not depend on the local solver's version.
+on ``box-four-fingers.yaml`` (seed 0) among those that hold in the physics test; the box
+is a solid of the task, so the residual function also checks that no link passes through
+it.  Its joint angles and object pose are stored below so that the pictures and the tests
+do not depend on the local solver's version.
 Both grasps are re-verified (:func:`prehension.make_solution`) when built.
 
 Run ``python examples/quality/box_grasps.py`` to write the two task files and the two
@@ -30,6 +30,7 @@ from prehension import (
     BezierPatch, BezierRegion, Configuration, Contact, GraspObject, SolveResult, Task, make_solution, schunk_sa_hand,
 )  # fmt: skip
 from prehension.objects.meshes import Box
+from prehension.objects.solid import PrimitiveSolid
 
 HERE = Path(__file__).resolve().parent
 WIDTH_MM, SIDE_MM, PATCH_MM = 50.0, 100.0, 90.0
@@ -63,7 +64,8 @@ def box() -> GraspObject:
         "plus_x": _face((h, 0, 0), (0, 1, 0), (0, 0, 1), PATCH_MM),  # normal +x
         "minus_x": _face((-h, 0, 0), (0, 0, 1), (0, 1, 0), PATCH_MM),  # normal -x
     }
-    return GraspObject("box", regions, (Box((0.0, 0.0, 0.0), (WIDTH_MM, SIDE_MM, SIDE_MM)),))
+    solid = PrimitiveSolid((Box((0.0, 0.0, 0.0), (WIDTH_MM, SIDE_MM, SIDE_MM)),))
+    return GraspObject("box", regions, solid=solid)  # a solid: the hand may not pass through it
 
 
 def four_finger_task() -> Task:

@@ -213,9 +213,11 @@ def _solution_table(solution, status: str) -> Table:
     table.add_column("deg", justify="right")
     for name, value in solution.joint_angles.items():
         table.add_row(name, f"{np.degrees(value):.3f}")
-    worst = solution.report
+    report = solution.report
+    into = [c for c in report.checks if c.kind == "object_collision"]
+    object_note = f"; no link more than {into[0].tolerance:g} mm into the object (deepest {report.worst('object_collision'):.2g} mm)" if into else ""
     table.caption = (
-        f"contacts within {worst.worst('contact_distance'):.1e} mm and {worst.worst('contact_normal'):.1e} deg; "
-        f"limits and couplings exact; no self-collision"
+        f"contacts within {report.worst('contact_distance'):.1e} mm and {report.worst('contact_normal'):.1e} deg; "
+        f"limits and couplings exact; no self-collision{object_note}"
     )
     return table

@@ -13,7 +13,8 @@ from .args import finite
 from .codes import EXIT_BAD_INPUT, EXIT_OK
 from .solve import task_inputs
 
-INPUT_HELP = "result file (.json) written by 'prehension solve', or a task: built-in name, .yaml or .world file"
+INPUT_HELP = ("result file (.json) written by 'prehension solve', a task (built-in name, .yaml or .world file), "
+              "or a hand alone (built-in hand, .urdf, .xml/.mjcf)")
 
 
 def add_parsers(sub) -> None:
@@ -38,8 +39,13 @@ def _common(p, suffix: str) -> None:
 
 
 def _load_scene(args):
-    from ..viewer import build_scene, load_grasp
+    """The scene of a result or a task, or of a hand alone (a built-in hand or a hand file)."""
+    from ..viewer import build_hand_scene, build_scene, load_grasp
+    from .hands import hand_named
 
+    hand = hand_named(args.input) if args.solution is None else None
+    if hand is not None:
+        return build_hand_scene(hand)
     loaded = load_grasp(args.input, args.solution)
     return build_scene(loaded.task, loaded.pose, status=loaded.status)
 

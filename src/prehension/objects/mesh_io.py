@@ -25,7 +25,7 @@ import numpy as np
 from ..errors import InvalidObject
 from .meshes import Mesh
 
-__all__ = ["UNITS", "MESH_SUFFIXES", "load_mesh", "checked_mesh", "scale_of"]
+__all__ = ["UNITS", "MESH_SUFFIXES", "load_mesh", "load_display_mesh", "checked_mesh", "scale_of"]
 
 # mm per unit
 UNITS = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4}
@@ -78,6 +78,18 @@ def load_mesh(path, scale: float, *, closed: bool = True) -> Mesh:
     path = Path(path)
     vertices, faces = _read(path)
     return checked_mesh(vertices * float(scale), faces, str(path), closed=closed)
+
+
+def load_display_mesh(path) -> Mesh:
+    """A mesh file that is only drawn (``display.mesh_file``, mm): any triangles of any
+    readable format, finite and indexing their vertices; open or flat is fine."""
+    path = Path(path)
+    vertices, faces = _read(path)
+    if not np.all(np.isfinite(vertices)):
+        raise InvalidObject(f"{path}: mesh has non-finite vertex coordinates (NaN or infinity)")
+    if faces.min() < 0 or faces.max() >= len(vertices):
+        raise InvalidObject(f"{path}: faces index vertices 0..{len(vertices) - 1}, got {faces.min()}..{faces.max()}")
+    return Mesh(vertices, faces)
 
 
 def checked_mesh(vertices, faces, source: str, *, closed: bool = True) -> Mesh:

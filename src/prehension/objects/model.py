@@ -27,7 +27,9 @@ class GraspObject:
         name: object name.
         regions: named contact regions in the object frame.
         primitives: display primitives (see :mod:`prehension.objects.meshes`).
-        mesh_file: optional path of a display mesh (OFF) used instead of the primitives.
+        mesh_file: optional path of a display mesh (OFF, OBJ, STL, PLY, GLB; mm) drawn
+            instead of the primitives; read (and refused if it is not a mesh) when the
+            object is made.
         solid: the object's closed surface (a mesh file or a union of primitives, see
             :mod:`prehension.objects.solid`), or ``None``: then the object has no
             collision geometry and only its regions constrain a grasp.
@@ -59,6 +61,8 @@ class GraspObject:
         tol = float(self.surface_tolerance_mm)
         if not (np.isfinite(tol) and tol > 0):
             raise InvalidObject(f"object {self.name!r}: surface_tolerance_mm must be a positive number of mm, got {tol}")
+        if self.mesh_file is not None:
+            self._display_file_mesh  # read now: a bad display file is refused here, not when drawing
         if self.solid is not None:
             from .surface import check_regions_on_surface
 
@@ -90,14 +94,19 @@ class GraspObject:
         """Whether the hand is checked against this object's solid."""
         return self.solid is not None and self.collisions
 
+    @cached_property
+    def _display_file_mesh(self) -> Mesh:
+        """The display mesh file [mm], read through trimesh (any closed or open mesh)."""
+        from .mesh_io import load_display_mesh
+
+        return load_display_mesh(self.mesh_file)
+
     def display_mesh(self) -> Mesh:
         """What the viewer draws, object frame [mm]: the solid's surface together with the
         display mesh file, or else the display primitives (empty when there is none)."""
         parts = [self.surface] if self.solid is not None else []
         if self.mesh_file is not None:
-            from .meshes import read_off
-
-            parts.append(read_off(self.mesh_file))
+            parts.append(self._display_file_mesh)
         else:
             parts.append(to_mesh(self.primitives))
         return Mesh.concatenate(parts)

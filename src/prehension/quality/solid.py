@@ -2,10 +2,13 @@
 
 :func:`object_solid` is the **one** place that reads an object's shape for physics and
 for the torque scale of the quality measures, so that it adapts in one place when the
-object model gains new kinds of shape.  Today a :class:`~prehension.objects.GraspObject`
+object model gains new kinds of shape.  A :class:`~prehension.objects.GraspObject`
 offers, in this order of preference:
 
-* a mesh file (``mesh_file``): one piece, the mesh as it is (convex or not);
+* its solid (``solid``, the shape the hand may not pass through): a union of primitives
+  gives one convex piece per primitive (as display primitives below), a mesh file one
+  piece, its closed surface as it is (convex or not);
+* a display mesh file (``mesh_file``): one piece, the mesh as it is (convex or not);
 * display primitives: one convex piece per primitive (the convex hull of its tessellation;
   a torus, the one primitive that is not convex, is cut into :data:`TORUS_SECTORS` convex
   sectors of its tube);
@@ -30,6 +33,7 @@ from ..geometry.regions import PointRegion, Region, SphereCap
 from ..geometry.rotations import orthonormal_frame
 from ..objects.meshes import Mesh, Torus
 from ..objects.model import GraspObject
+from ..objects.solid import PrimitiveSolid
 
 __all__ = ["Solid", "MassProperties", "object_solid", "mass_properties", "object_reference", "hull_mesh", "TORUS_SECTORS", "object_center"]
 
@@ -75,6 +79,12 @@ def object_solid(obj: GraspObject) -> Solid:
 
 
 def _build_solid(obj: GraspObject) -> Solid:
+    if isinstance(obj.solid, PrimitiveSolid):
+        pieces = [piece for prim in obj.solid.primitives for piece in _primitive_pieces(prim)]
+        return Solid(tuple(pieces), (True,) * len(pieces), "primitives")
+    if obj.solid is not None:
+        mesh = obj.surface
+        return Solid((mesh,), (_is_convex(mesh),), "mesh file")
     if obj.mesh_file is not None:
         mesh = obj.display_mesh()
         if len(mesh.faces) == 0:

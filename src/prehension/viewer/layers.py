@@ -10,6 +10,7 @@ from typing import Mapping
 
 import numpy as np
 
+from ..hands.model import Hand
 from ..objects.meshes import Mesh
 from ..tasks.model import Task
 from . import scene as S
@@ -39,18 +40,18 @@ def _merged(meshes_in_palm: list[Mesh], color: str, opacity: float = 1.0, closed
     return S.TriangleMesh(mesh.vertices, mesh.faces, color, opacity, closed)
 
 
-def hand_layer(task: Task, T_palm_link: Mapping[str, np.ndarray], penetrating: Mapping[str, float] | None = None) -> "S.Layer":
+def hand_layer(hand: Hand, T_palm_link: Mapping[str, np.ndarray], penetrating: Mapping[str, float] | None = None) -> "S.Layer":
     """Every link's collision capsules (red for the links in ``penetrating``, those deeper
     than the tolerance into the object); a thin segment between joint centres for links
     without any."""
-    hand, penetrating = task.hand, penetrating or {}
+    penetrating = penetrating or {}
     palm, fingers, red, lines = [], [], [], []
     for link in hand.links:
         T = T_palm_link[link.name]
         placed = [capsule_mesh(c).transformed(T) for c in link.collision]
         (red if link.name in penetrating else palm if link.name == hand.palm else fingers).extend(placed)
         if not link.collision:
-            lines.extend(_skeleton(task, link.name, T))
+            lines.extend(_skeleton(hand, link.name, T))
     meshes = (
         _merged(palm, S.PALM_COLOR, closed=True), _merged(fingers, S.HAND_COLOR, closed=True),
         _merged(red, S.PENETRATION_COLOR, closed=True),
@@ -77,9 +78,8 @@ def penetrating_links(task: Task, pose: GraspPose, tolerance_mm: float = 0.5) ->
     return {link: d for link, d in depth.items() if d > tolerance_mm}
 
 
-def _skeleton(task: Task, link: str, T: np.ndarray) -> list["S.Polyline"]:
+def _skeleton(hand: Hand, link: str, T: np.ndarray) -> list["S.Polyline"]:
     """Segments from a shapeless link's joint centre to the centres of its child joints."""
-    hand = task.hand
     own = hand.joint_of_link(link)
     start = own.origin_in_child if own is not None else np.zeros(3)
     ends = [j.origin_in_parent for j in hand.joints if j.parent == link]
@@ -111,6 +111,15 @@ def hand_region_layer(task: Task, T_palm_link: Mapping[str, np.ndarray], colors:
         seen.add(contact.hand_region)
         hr = task.hand.region(contact.hand_region)
         mesh = _merged([region_mesh(hr.region).transformed(T_palm_link[hr.link])], colors[contact.name])
+        meshes += [mesh] if mesh is not None else []
+    return S.Layer("hand_regions", "hand regions", tuple(meshes))
+
+
+def all_hand_regions_layer(hand: Hand, T_palm_link: Mapping[str, np.ndarray]) -> "S.Layer":
+    """Every region of a hand (a hand shown alone), each in a colour of its own."""
+    meshes = []
+    for k, (name, hr) in enumerate(hand.regions.items()):
+        mesh = _merged([region_mesh(hr.region).transformed(T_palm_link[hr.link])], S.CONTACT_COLORS[k % len(S.CONTACT_COLORS)])
         meshes += [mesh] if mesh is not None else []
     return S.Layer("hand_regions", "hand regions", tuple(meshes))
 

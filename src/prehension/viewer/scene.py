@@ -23,7 +23,7 @@ from .grasp import REFERENCE, GraspPose, beside_the_hand, link_poses, pose_from_
 
 __all__ = [
     "TriangleMesh", "Polyline", "PointSet", "ArrowSet", "Layer", "LegendEntry", "Scene", "build_scene",
-    "camera_basis", "shade_faces",
+    "build_hand_scene", "camera_basis", "shade_faces",
 ]  # fmt: skip
 
 HAND_COLOR = "#a9b4bf"
@@ -204,12 +204,12 @@ def build_scene(task: Task, grasp=None, *, status: str | None = None) -> Scene:
     colors = {c.name: CONTACT_COLORS[i % len(CONTACT_COLORS)] for i, c in enumerate(task.contacts)}
     if pose is None:
         links = link_poses(task, reference_angles(task))
-        hand = hand_layer(task, links).all_points_mm()
+        hand = hand_layer(task.hand, links).all_points_mm()
         pose = GraspPose(links, beside_the_hand(hand.min(0), hand.max(0), *object_extent_mm(task)))
     scale_mm = _arrow_length_mm(task, pose)
     red = penetrating_links(task, pose)
     layers = (
-        hand_layer(task, pose.T_palm_link, red),
+        hand_layer(task.hand, pose.T_palm_link, red),
         object_layer(task, pose.T_palm_object),
         hand_region_layer(task, pose.T_palm_link, colors),
         object_region_layer(task, pose.T_palm_object, colors),
@@ -226,6 +226,35 @@ def build_scene(task: Task, grasp=None, *, status: str | None = None) -> Scene:
         legend += (LegendEntry("link into the object (> 0.5 mm)", PENETRATION_COLOR),)
     caption = _caption(pose) + ((_penetration_line(red),) if red else ())
     return Scene(task.name, status, _title(task, pose, status), caption, layers, legend)
+
+
+def build_hand_scene(hand) -> Scene:
+    """The picture of a hand alone (``prehension view HAND``): its links at zero angles
+    clamped into the limits (couplings applied), every hand region (found fingertips
+    included), and the palm and link frames."""
+    from ..hands.kinematics import forward_kinematics
+    from .layers import all_hand_regions_layer, hand_layer
+
+    q = np.clip(np.zeros(hand.n_dof), hand.lower, hand.upper)
+    for c in hand.couplings:
+        q[hand.dof_index(c.dof)] = c.ratio * q[hand.dof_index(c.source)] + c.offset
+    T = forward_kinematics(hand, np.clip(q, hand.lower, hand.upper)).T_palm_link[0]
+    links = {name: T[i] for i, name in enumerate(hand.link_names)}
+    frames = [(np.eye(4), 60.0)] + [(links[name], 15.0) for name in hand.link_names[1:]]
+    lines = tuple(
+        Polyline(np.array([F[:3, 3], F[:3, 3] + size * F[:3, axis]]), color, 2.0)
+        for F, size in frames for axis, color in enumerate(AXIS_COLORS)
+    )  # fmt: skip
+    layers = (
+        hand_layer(hand, links),
+        all_hand_regions_layer(hand, links),
+        Layer("frames", "frames (x y z = red green blue)", (), lines, visible=False, on_top=True),
+    )
+    fingers = ", ".join(f.name for f in hand.fingers) or "none"
+    caption = (f"fingers: {fingers}; regions: {', '.join(hand.regions) or 'none'}",
+               "links at zero angles clamped into their limits; palm frame, mm")  # fmt: skip
+    legend = (LegendEntry("hand (collision capsules)", HAND_COLOR),)
+    return Scene(hand.name, "hand", f"hand {hand.name!r}: {len(hand.links)} links, {hand.n_dof} joint angles", caption, layers, legend)
 
 
 def _penetration_line(red: dict[str, float]) -> str:

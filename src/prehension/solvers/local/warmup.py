@@ -19,10 +19,12 @@ COMPILING_MESSAGE = "compiling the local solver once (about a minute); later run
 
 
 def _entry_points():
-    from ...hands import _capsules
+    """The compiled functions every local solve runs (the kernel's entry): a solve may not
+    reach others (e.g. ``hands._capsules._max_depths`` serves point problems only), so
+    their missing cache must not announce a compilation that will not happen."""
     from . import _kernel
 
-    return (_kernel.run_states, _capsules._max_depths)
+    return (_kernel.run_states,)
 
 
 def compile_pending() -> bool:
