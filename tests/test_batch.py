@@ -20,22 +20,10 @@ from prehension.errors import PrehensionError
 from prehension.solve import solve
 from prehension.tasks.library import builtin_task_names
 from prehension.tasks.yaml_io import dumps_task, task_to_dict
+from conftest import write_jsonl
 from tiny_tasks import pincer_task
 
 PINCER_MM = (30.0, 35.0, 40.0, 44.0, 46.0, 60.0)  # 60 mm: beyond reach, the local solver gives up
-
-
-@pytest.fixture(scope="module")
-def client():
-    from prehension.parallel import cluster
-
-    with cluster(workers=2) as c:
-        yield c
-
-
-def write_jsonl(path, lines) -> str:
-    path.write_text("".join(json.dumps(line) + "\n" for line in lines))
-    return str(path)
 
 
 @pytest.fixture

@@ -18,22 +18,10 @@ from prehension.cli import EXIT_CHECK_FAILED, EXIT_OK, main
 from prehension.errors import PrehensionError
 from prehension.tasks.library import builtin_task_names
 from prehension.tasks.yaml_io import dumps_task, task_to_dict
+from conftest import write_jsonl
 from tiny_tasks import pincer_task
 
 TIMES = ("seconds",)  # measured, so they depend on the chunking; nothing else may
-
-
-@pytest.fixture(scope="module")
-def client():
-    from prehension.parallel import cluster
-
-    with cluster(workers=2) as c:
-        yield c
-
-
-def write_jsonl(path, lines) -> str:
-    path.write_text("".join(json.dumps(line) + "\n" for line in lines))
-    return str(path)
 
 
 @pytest.fixture
