@@ -414,18 +414,28 @@ def segment_distances(m, starts, ends):
 
 
 @njit(cache=True)
-def capsule_depths(m, starts, ends, radius, step):
+def capsule_depths(m, starts, ends, radius, step, cap):
     """Penetration depth of capsules (segments ``starts``-``ends`` (N, 3), ``radius`` (N,)),
     (N,) [mm]: ``max(0, r - min sd)`` over the segment, exact for a segment outside the
-    surface; a segment reaching inside is sampled every ``step`` mm."""
+    surface; a segment reaching inside is sampled every ``step`` mm.
+
+    ``cap`` [mm] (``inf`` for every depth): where a depth is known to exceed ``cap`` without
+    sampling, a lower bound above ``cap`` is returned instead of the depth (a segment that
+    touches or enters the surface is at least ``r`` deep, one wholly inside ``r + d``).  So
+    every value at most ``cap`` is the depth, and a value above ``cap`` means a depth above it:
+    what a yes/no test against ``cap`` needs, without the samples."""
     n = starts.shape[0]
     out = np.zeros(n)
     one, q = np.empty((1, 3)), np.empty((1, 3))
     for i in range(n):
         d = np.sqrt(_segment_query(m, starts[i], ends[i]))
         one[0] = starts[i]
-        if d > 0.0 and signed_distances(m, one, q)[0] > 0.0:  # wholly outside: exact
+        outside = d > 0.0 and signed_distances(m, one, q)[0] > 0.0
+        if outside:  # wholly outside: exact
             out[i] = max(0.0, radius[i] - d)
+            continue
+        if radius[i] + d > cap:  # touching or inside: at least r (+ d when wholly inside)
+            out[i] = radius[i] + d
             continue
         seg = ends[i] - starts[i]
         k = int(np.sqrt(_dot(seg, seg)) / step) + 2
@@ -476,12 +486,14 @@ class MeshDistance:
         b = np.ascontiguousarray(np.asarray(ends, dtype=float).reshape(-1, 3))
         return segment_distances(self.arrays, a, b)
 
-    def capsule_depth(self, starts, ends, radius, step: float = 0.25) -> np.ndarray:
-        """Penetration depth of capsules ``starts (N, 3)``-``ends (N, 3)``, ``radius (N,)`` [mm], (N,) [mm]."""
+    def capsule_depth(self, starts, ends, radius, step: float = 0.25, cap: float = np.inf) -> np.ndarray:
+        """Penetration depth of capsules ``starts (N, 3)``-``ends (N, 3)``, ``radius (N,)`` [mm], (N,) [mm];
+        with ``cap`` [mm], depths above it may be returned as any value above it (see
+        :func:`capsule_depths`: much cheaper for a yes/no test)."""
         a = np.ascontiguousarray(np.asarray(starts, dtype=float).reshape(-1, 3))
         b = np.ascontiguousarray(np.asarray(ends, dtype=float).reshape(-1, 3))
         r = np.ascontiguousarray(np.asarray(radius, dtype=float).reshape(-1))
-        return capsule_depths(self.arrays, a, b, r, float(step))
+        return capsule_depths(self.arrays, a, b, r, float(step), float(cap))
 
     def closest_faces(self, points) -> np.ndarray:
         """Index (in the original mesh) of the face closest to each point, (N,)."""
