@@ -113,6 +113,6 @@ def test_cli_offline_writes_the_file_and_prints_table1(tmp_path):
     assert "Table 1" in text and "0.517" in text and f"wrote {out}" in text
     with pytest.raises(PrehensionError, match="already exists"):
         cli_offline("schunk-sa", out, M=6, N=2, imax=1, console=Console(file=buf))
-    with pytest.raises(PrehensionError, match="unknown hand"):
+    with pytest.raises(PrehensionError, match="'allegro' is neither a built-in hand"):
         cli_offline("allegro", tmp_path / "x.json", console=Console(file=buf))
     assert len(seq) == 1

@@ -20,53 +20,58 @@ from prehension.solvers.local import (
     PointProblems,
     random_point_problems,
     solve_local,
+    refine_local,
     solve_local_batch,
 )
 from prehension.solvers.local import _kernel as K
-from prehension.solvers.local._group import hand_tables
+from prehension.solvers.local import _regions as RG
+from prehension.solvers.local._layout import S_K, S_X
+from prehension.solvers.local._linalg import dls_contacts
 from prehension.solvers.local.problems import group_from_tasks
 
 DEG = np.pi / 180.0
 
 
 # -- helpers: the kernel's residual at a state ----------------------------------------------
+def _rodrigues(w):
+    th = np.linalg.norm(w)
+    if th == 0.0:
+        return np.eye(3)
+    k = np.array([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]]) / th
+    return np.eye(3) + np.sin(th) * k + (1 - np.cos(th)) * k @ k
+
+
 class _State:
     """Call the kernel's residual/Jacobian from Python for one problem of a group."""
 
     def __init__(self, group, problem=0, wn=25.0):
-        self.g, self.wn = group, wn
-        self.t = hand_tables(group.hand)
+        self.g = group
         self.data = group.pdata[problem]
-        self.piv = self.data[group.piv_off : group.piv_off + 3]
+        self.piv = self.data[group.layout.pivot_offset : group.layout.pivot_offset + 3]
+        self.opt = LocalOptions(normal_weight_mm=wn).kernel_options()
 
     def residual(self, x, R, t, jac=True):
-        g, T = self.g, self.t
-        C, nx, ndof = len(g.contacts), g.nx, g.hand.n_dof
-        q = np.zeros(ndof)
-        K._q_from_free(x, g.dof_free, g.dof_ratio, g.dof_offset, g.q_fixed, q)
-        Rl, rl = np.zeros((T["n_links"], 3, 3)), np.zeros((T["n_links"], 3))
-        ax, org = np.zeros((ndof, 3)), np.zeros((ndof, 3))
-        K._fk(q, T["jp"], T["jc"], T["jkind"], T["joff"], T["jP"], T["jQ"], T["ju"], T["jR0"], T["jv"],
-              Rl, rl, ax, org, np.zeros((3, 3)), np.zeros((3, 3)), np.zeros(3))  # fmt: skip
+        C, nx = len(self.g.contacts), self.g.nx
         f, J = np.zeros(6 * C), np.zeros((6 * C, nx))
-        ph, nh, po, no = (np.zeros((C, 3)) for _ in range(4))
-        K._residual(x, R, t, self.data, self.piv, g.cint, g.cdofs, g.cnd, g.dof_free, g.dof_ratio, self.wn, jac,
-                    Rl, rl, ax, org, f, J, ph, nh, po, no, g.nf)  # fmt: skip
+        K.residual_at(x, R, t, self.data, self.g.arrays, self.g.layout, self.opt, f, J)
         return f, J
 
     def moved(self, x, R, t, dx):
-        Rn, tn = np.zeros((3, 3)), np.zeros(3)
-        K._apply_twist(dx, self.g.nf, R, t, self.piv, Rn, tn, np.zeros((3, 3)))
-        xn = x + np.where((np.arange(self.g.nx) < self.g.nf) | (np.arange(self.g.nx) >= self.g.nf + 6), dx, 0.0)
+        """The state moved by ``dx``: the object by its twist about the pivot, the rest added."""
+        nf = self.g.nf
+        cp = R @ self.piv + t
+        Rn = _rodrigues(dx[nf : nf + 3]) @ R
+        tn = cp + dx[nf + 3 : nf + 6] - Rn @ self.piv
+        xn = x + np.where((np.arange(self.g.nx) < nf) | (np.arange(self.g.nx) >= nf + 6), dx, 0.0)
         return xn, Rn, tn
 
 
 def _state_from_case(case, group):
     """Unknowns x and pose (R, t) of an FK case's known configuration."""
     x = group.x_default.copy()
-    x[: group.nf] = case.config.joint_angles[group.free]
+    x[: group.nf] = case.config.joint_angles[list(group.free)]
     for c, (h, o) in enumerate(case.config.contact_params):
-        xh, kh, xo, ko = (group.cint[c, k] for k in (K.C_XH, K.C_KH, K.C_XO, K.C_KO))
+        (xh, kh), (xo, ko) = group.layout.sides[c, 0, [S_X, S_K]], group.layout.sides[c, 1, [S_X, S_K]]
         x[xh : xh + kh], x[xo : xo + ko] = h, o
     T = case.config.T_palm_object
     return x, T[:3, :3].copy(), T[:3, 3].copy()
@@ -93,7 +98,7 @@ def test_kernel_jacobian_matches_finite_differences(sa_hand, seed):
     st = _State(group)
     x, R, t = _state_from_case(case, group)
     x[: group.nf] += rng.uniform(-0.1, 0.1, group.nf)  # away from the solution
-    x = np.clip(x, group.lo, group.hi)
+    x = np.clip(x, group.layout.lo, group.layout.hi)
     f, J = st.residual(x, R, t)
     h = 1e-6
     Jn = np.zeros_like(J)
@@ -107,12 +112,11 @@ def test_kernel_jacobian_matches_finite_differences(sa_hand, seed):
 
 
 def _kernel_region(region, prm):
-    from prehension.solvers.local._group import region_code, region_data
-
-    kind, m, n, _ = region_code(region)
-    p, nn, dp, dn = np.zeros(3), np.zeros(3), np.zeros((3, 2)), np.zeros((3, 2))
-    K._region(kind, 0, m, n, region_data(region), np.asarray(prm, dtype=float), p, nn, dp, dn, True)
-    return p, nn, dp, dn
+    kind, m, n, _ = RG.code(region)
+    ws = RG.RegionScratch.allocate()  # a package type: numba's cache index must not name a test module
+    side = np.array([kind, 0, m, n, 0, len(prm)], dtype=np.int64)
+    RG.evaluate(side, RG.pack(region), np.asarray(prm, dtype=float), True, ws)
+    return ws.pt, ws.nr, ws.dpt, ws.dnr
 
 
 def test_kernel_regions_agree_with_the_foundation(rng):
@@ -133,13 +137,11 @@ def test_kernel_regions_agree_with_the_foundation(rng):
 
 def test_cap_projection_keeps_parameters_in_the_cone():
     cap = SphereCap((0.0, 0.0, 0.0), 13.0, (0.14, 0.0, 0.99), 60 * DEG)
-    from prehension.solvers.local._group import region_data
-
-    data = region_data(cap)
+    data = RG.pack(cap)
     lo, hi = np.full(2, -np.pi), np.full(2, np.pi)
     for a, g in [(1.5, 0.2), (-2.0, 1.0), (0.1, -1.4), (3.5, 2.0)]:
         x = np.array([a, g])
-        K._project_params(K.K_CAP, 0, data, x, 0, lo, hi, 1e-9)
+        RG.project(RG.K_CAP, 0, data, x, 0, lo, hi, 1e-9)
         assert cap.domain_violation(x)[0] == 0.0
         assert np.degrees(np.arccos(cap.normals(x)[0] @ cap.axis)) == pytest.approx(60.0, abs=1e-6)
 
@@ -157,7 +159,8 @@ def test_a_damped_step_decreases_the_error_on_a_smooth_problem(sa_hand):
     f, J = st.residual(x, R, t)
     A, L, Js = np.zeros((6 * C, 6 * C)), np.zeros((6 * C, 6 * C)), np.zeros((6 * C, nx))
     y, dx, frozen = np.zeros(6 * C), np.zeros(nx), np.zeros(nx, dtype=bool)
-    assert K._dls_step(J, f, C, nx, group.Dinv, frozen, group.pcols, group.pn, 0.02**2, A, L, y, dx, Js)
+    L_ = group.layout
+    assert dls_contacts(J, f, (L_.col_scale, frozen), (L_.shared, L_.n_shared), 0.02**2, (A, L, y, dx, Js))
     f1, _ = st.residual(*st.moved(x, R, t, dx))
     assert np.linalg.norm(f1) < 0.1 * np.linalg.norm(f)
     f_half, _ = st.residual(*st.moved(x, R, t, 0.5 * dx))
@@ -283,8 +286,8 @@ def test_empty_batches_and_bad_input():
 
 def test_without_approximate_every_answer_is_strict_and_loose_ones_are_only_closest_misses(sa_hand):
     pp = random_point_problems(30, sa_hand, seed=21)
-    loose = solve_local_batch(pp, LocalOptions(polish=False, approximate=True, strict_retries=0))
-    strict = solve_local_batch(pp, LocalOptions(polish=False, strict_retries=0))
+    loose = solve_local_batch(pp, LocalOptions(i_max=12, polish=False, approximate=True, strict_retries=0))
+    strict = solve_local_batch(pp, LocalOptions(i_max=12, polish=False, strict_retries=0))  # no strict answer: every pose
     approx = [r for r in loose if r.status == Status.APPROXIMATE]
     assert approx, "unpolished iterations should leave some answers within d_min only"
     for rec in strict:
@@ -366,3 +369,105 @@ def test_refine_local_reaches_a_verified_configuration_near_a_known_one(sa_hand,
             assert contact_mm < 1e-6
     assert max(reached.best()) < 1e-6
     assert refine_local(task, []).configurations == ()
+
+
+# -- the repair phase and batches ---------------------------------------------------------------
+def _colliding_pinch(hand, seed):
+    """A thumb-index configuration in self-collision between the two moving fingers (not
+    between the two fingertips), and the point-contact task its fingertip cap centres make
+    (so the configuration solves it exactly)."""
+    from prehension.hands.collision import collision_pairs, max_penetration
+    from prehension.solvers.local.problems import random_hand_configurations
+
+    rng = np.random.default_rng(seed)
+    regions = ("thumb_tip", "index_tip")
+    moving = {link for f in ("thumb", "index") for link in hand.finger(f).links}
+    pairs = collision_pairs(hand)
+    for _ in range(200):
+        q = random_hand_configurations(hand, ("thumb", "index"), 1, rng, collision_free=False)
+        pose = forward_kinematics(hand, q)
+        clearance, names = capsule_clearances(hand, pose)
+        worst = int(np.argmin(clearance[0]))
+        tips = {hand.region(r).link for r in regions}
+        if not (0.2 < -clearance[0, worst] < 3.0) or not set(names[worst]) <= moving or set(names[worst]) == tips:
+            continue  # a collision of the two fingertips themselves may have no way out
+        pts, nrm = [], []
+        for r in regions:
+            h = hand.region(r)
+            p, n = h.region.evaluate(np.zeros((1, 2)))
+            li = hand.link_index(h.link)
+            pts.append(pose.points(li, p)[0])
+            nrm.append(-pose.directions(li, n)[0])
+        problem = PointProblems(hand, regions, np.array([pts]), np.array([nrm]))
+        assert max_penetration(hand, pose)[0] > 0.0 and len(pairs.first)
+        return q[0], problem
+    raise AssertionError("no colliding pinch found")
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_a_colliding_answer_is_repaired_into_a_collision_free_strict_one(sa_hand, seed):
+    from prehension.solvers.local.solver import _unknowns_of, run_kernel
+    from prehension.tasks.model import Configuration
+
+    q, problem = _colliding_pinch(sa_hand, seed)
+    task = problem.task(0)
+    start = Configuration(q, np.eye(4), ((np.zeros(2), np.zeros(0)), (np.zeros(2), np.zeros(0))))
+    assert make_solution(task, start, Tolerances(penetration_mm=np.inf)) is not None  # exact, but colliding
+    assert make_solution(task, start) is None
+    group = group_from_tasks([task])
+    out = run_kernel(group, np.zeros(1, dtype=np.int64), _unknowns_of(group, [start]), LocalOptions())
+    assert out.iterations[0] == 0  # the start already holds every contact
+    assert out.repair_iterations[0] > 0
+    assert out.status[0] == K.STRICT, K.MESSAGES[out.status[0]]
+    (config,) = refine_local(task, [start]).configurations
+    assert config is not None
+    sol = make_solution(task, config)  # strict default tolerances: contacts, limits, no collision
+    assert sol is not None
+    clearance, _ = capsule_clearances(sa_hand, forward_kinematics(sa_hand, config.joint_angles))
+    assert clearance.min() >= 0.0
+    unrepaired = run_kernel(group, np.zeros(1, dtype=np.int64), _unknowns_of(group, [start]), LocalOptions(repair_iterations=0))
+    assert unrepaired.status[0] == K.COLLIDING
+
+
+def test_every_status_code_has_a_message():
+    codes = {getattr(K, n) for n in ("NOT_RUN", "STRICT", "WITHIN_DMIN", "STALLED", "K_MAX", "SINGULAR", "COLLIDING")}
+    assert codes == set(K.MESSAGES) and len(codes) == 7
+    assert all(isinstance(m, str) and m for m in K.MESSAGES.values())
+
+
+def test_a_batch_gives_what_one_call_per_problem_gives(sa_hand):
+    pp = random_point_problems(12, sa_hand, seed=31)
+    batch = solve_local_batch(pp)
+    for rec in batch:
+        one = solve_local_batch(pp.subset([rec.index]))[0]
+        assert (one.status, one.solved_with_pose, one.per_pose_iterations) == (rec.status, rec.solved_with_pose, rec.per_pose_iterations)
+        if rec.joint_angles is not None:
+            np.testing.assert_allclose(one.joint_angles, rec.joint_angles, atol=1e-12)
+            np.testing.assert_allclose(one.T_palm_object, rec.T_palm_object, atol=1e-9)
+
+
+def test_hand_arrays_are_built_once_and_not_stored_on_the_hand(sa_hand):
+    from prehension.solvers.local._layout import HandArrays, hand_arrays
+
+    a1, key1 = hand_arrays(sa_hand)
+    a2, key2 = hand_arrays(sa_hand)
+    assert a1 is a2 and key1 == key2
+    fresh = HandArrays.from_hand(sa_hand)
+    assert all(np.array_equal(np.asarray(u), np.asarray(v)) for u, v in zip(fresh, a1))
+    solve_local_batch(random_point_problems(2, sa_hand, seed=1))
+    assert not [k for k in vars(sa_hand) if k.startswith("_local")]
+
+
+def test_compile_pending_tells_a_first_run_from_a_cached_one(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    from prehension.solvers.local import compile_pending, warm_up
+
+    assert warm_up() >= 0.0
+    assert compile_pending() is False  # compiled or loaded in this process
+    code = "from prehension.solvers.local import compile_pending; print(compile_pending())"
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}  # an empty cache: a fresh install
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
+    assert out.stdout.strip() == "True", out.stderr

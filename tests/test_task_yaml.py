@@ -254,13 +254,22 @@ def test_load_task_from_file_and_docs_example(tmp_path):
     task = load_task(path)
     assert task.name == "knob-pinch"
     blocks = re.findall(r"```yaml\n(.*?)```", DOCS.read_text(encoding="utf-8"), re.S)
-    assert len(blocks) == 2
+    assert len(blocks) == 3  # a task, a hand file reference, an inline hand
     doc_task = loads_task(blocks[0], source=str(DOCS))
-    assert doc_task.name == "mug-pinch" and len(doc_task.contacts) == 3
-    _, normal = doc_task.object.regions["handle_outer"].evaluate([[0.5, 0.5]])
-    np.testing.assert_allclose(normal, [[1.0, 0.0, 0.0]], atol=1e-15)  # outward, as the comment says
-    doc_hand = hand_from_dict(yaml.safe_load(blocks[1]), source="docs")
+    assert doc_task.name == "mug-pinch" and len(doc_task.contacts) == 2
+    _, normal = doc_task.object.regions["handle_left"].evaluate([[0.5, 0.5]])
+    np.testing.assert_allclose(normal[0] / np.linalg.norm(normal[0]), [0.0, 1.0, 0.0], atol=0.05)  # +y, as the comment says
+    from prehension import solve
+
+    result = solve(doc_task, method="local")  # the example is a grasp that exists, penetration-free
+    assert result.status == "solved", result.message
+    from prehension.tasks.format.hand_files import HandFileSpec
+
+    reference = HandFileSpec.model_validate(yaml.safe_load(blocks[1])["hand"])  # the schema takes it
+    assert reference.fingertips["index"].half_angle_deg == 45
+    doc_hand = hand_from_dict(yaml.safe_load(blocks[2]), source="docs")
     assert doc_hand.dof_names == ("left_abd", "left_flex", "right_flex")
+    assert doc_hand.opposing_finger == "left" and doc_hand.frames["left_tip_frame"].link == "left"
     assert doc_hand.links[1].collision[0].a.tolist() == doc_hand.links[1].collision[0].b.tolist() == [30.0, 0.0, 0.0]
 
 
@@ -398,7 +407,10 @@ def test_hand_file_reference(tmp_path, rng):
     path.write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
     task = load_task(path)
     _assert_same_task(_custom_task(), task, rng)
-    assert task_to_dict(task)["hand"] == hand_to_dict(_custom_hand())  # written back inline
+    assert task_to_dict(task, base_dir=tmp_path)["hand"] == {"file": "hands/gripper.yaml"}  # written back as named
+    inline = task_to_dict(task, hand_inline=True)["hand"]  # as in result files: the hand and where it came from
+    assert inline.pop("source")["path"] == str((tmp_path / "hands" / "gripper.yaml").resolve())
+    assert inline == hand_to_dict(_custom_hand())
 
     (tmp_path / "hands" / "gripper.yaml").write_text("name: g\nlinks: []\n", encoding="utf-8")
     with pytest.raises(InvalidTask, match=r"hand\.file: .*gripper\.yaml: links: needs at least 1 item") as info:
@@ -494,7 +506,7 @@ BAD_CASES = {
                               r"hand: unknown built-in hand 'shunk-sa'; built-in hands are: schunk-sa"),
     "hand of wrong type": (("hand: schunk-sa", "hand: [1, 2]"), r"hand: give a built-in hand name \(schunk-sa\)"),
     "misspelt key": (("  name: knob\n", "  name: knob\n  colour: red\n"),
-                     r"object: extra key 'colour' not allowed here; allowed keys: name, regions, display"),
+                     r"object: extra key 'colour' not allowed here; allowed keys: name, regions, mesh, scale, units, shape, collisions, surface_tolerance_mm, display"),
     "misspelt top-level key": (("fingers:", "finger:"), r"extra key 'finger' not allowed .*did you mean 'fingers'"),
     "missing contacts": (("contacts:\n  - {hand: index_tip, object: knob}\n  - {hand: thumb_tip, object: bump}\n", ""),
                          r"bad\.yaml: contacts: field required"),

@@ -100,8 +100,8 @@ def test_shared_hand_dofs_limits_couplings(path):
         assert c.source == mimics[c.dof].get("joint")
         assert c.ratio == float(mimics[c.dof].get("multiplier"))
         assert c.offset == float(mimics[c.dof].get("offset"))
-    assert hand.palm == "base_link"
-    assert not hand.regions
+    assert hand.palm == {"svh": "right_hand_e1", "allegro_right": "base_link"}[hand.name]  # where the fingers branch
+    assert set(hand.regions) == {f"{f.name}_tip" for f in hand.fingers}  # one fingertip per finger, fitted
 
 
 @requires_hands
@@ -114,13 +114,23 @@ def test_svh_and_allegro_counts():
         n_fixed = sum(j.get("type") == "fixed" for j in root.findall("joint"))
         assert len(hand.links) == len(root.findall("link")) - n_fixed == 1 + hand.n_dof
     assert len(svh.links) == 21 and len(allegro.links) == 17
-    assert [f.name for f in allegro.fingers] == ["link_3.0_tip", "link_7.0_tip", "link_11.0_tip", "link_15.0_tip"]
+    assert [(f.name, f.links[0]) for f in allegro.fingers] == [
+        ("index", "link_0.0"), ("middle", "link_4.0"), ("ring", "link_8.0"), ("thumb", "link_12.0"),
+    ]  # fmt: skip
     assert all(len(f.links) == 4 for f in allegro.fingers)
-    assert [f.name for f in svh.fingers] == ["thtip", "right_hand_e2", "fftip", "mftip", "rftip", "lftip"]
-    assert svh.finger("mftip").links == ("right_hand_k", "right_hand_o", "right_hand_s")
-    for hand in (svh, allegro):  # every link but the palm is in exactly one finger
+    assert [(f.name, f.links[-1]) for f in svh.fingers] == [
+        ("thumb", "right_hand_c"), ("index", "right_hand_t"), ("middle", "right_hand_s"), ("ring", "right_hand_r"),
+        ("little", "right_hand_q"),
+    ]  # fmt: skip
+    assert svh.finger("middle").links == ("right_hand_k", "right_hand_o", "right_hand_s")
+    assert svh.opposing_finger == allegro.opposing_finger == "thumb"
+    # every link but the palm is in exactly one finger, but the SVH's second palm part
+    # (it carries the ring and little fingers and moves with the thumb's opposition)
+    for hand, palm_parts in ((svh, ["right_hand_e2"]), (allegro, [])):
         in_fingers = [link for f in hand.fingers for link in f.links]
-        assert sorted(in_fingers) == sorted(hand.link_names[1:])
+        assert sorted(in_fingers + palm_parts) == sorted(hand.link_names[1:])
+    assert svh.frames["fftip"].link == "right_hand_t"
+    np.testing.assert_allclose(svh.frames["fftip"].origin, [14.0, 0.0, 0.0], atol=1e-12)
 
 
 @requires_hands
@@ -134,11 +144,18 @@ def test_fk_matches_independent_urdf_chain(path, rng):
         for c in hand.couplings:
             expected = c.ratio * q[hand.dof_index(c.source)] + c.offset
             assert q[hand.dof_index(c.dof)] == pytest.approx(expected, abs=1e-15)
-        ref = _reference_fk(joints, hand.palm, q_file)
+        root = ET.parse(path).getroot().find("link").get("name")  # both files list their root first
+        ref = _reference_fk(joints, root, q_file)  # T_root_link; the palm may lie below the root
         pose = forward_kinematics(hand, q)
         for i, link in enumerate(hand.link_names):
-            np.testing.assert_allclose(pose.R_palm_link[0, i], ref[link][:3, :3], atol=1e-12)
-            np.testing.assert_allclose(pose.r_palm_link[0, i], 1000.0 * ref[link][:3, 3], atol=1e-9)
+            T = np.linalg.solve(ref[hand.palm], ref[link])  # T_palm_link
+            np.testing.assert_allclose(pose.R_palm_link[0, i], T[:3, :3], atol=1e-12)
+            np.testing.assert_allclose(pose.r_palm_link[0, i], 1000.0 * T[:3, 3], atol=1e-9)
+        for name, frame in hand.frames.items():  # merged links stay where the file puts them
+            T = np.linalg.solve(ref[hand.palm], ref[name])
+            T_palm_frame = pose.T_palm_link[0, hand.link_index(frame.link)] @ frame.T_link_frame
+            np.testing.assert_allclose(T_palm_frame[:3, :3], T[:3, :3], atol=1e-12)
+            np.testing.assert_allclose(T_palm_frame[:3, 3], 1000.0 * T[:3, 3], atol=1e-9)
 
 
 @requires_hands
@@ -193,7 +210,12 @@ def test_fixed_joint_in_the_middle_is_merged():
     np.testing.assert_allclose(pose.r_palm_link[0, 2], [10 - 50 * math.sin(t1), 50 * math.cos(t1), 0.0], atol=1e-12)
     Rz = Rotation.from_rotvec([0, 0, t1 + math.pi / 2]).as_matrix()
     np.testing.assert_allclose(pose.R_palm_link[0, 2], Rz @ Rotation.from_rotvec([t2, 0, 0]).as_matrix(), atol=1e-12)
-    assert [f.name for f in hand.fingers] == ["c"] and hand.fingers[0].links == ("a", "c")
+    assert [f.name for f in hand.fingers] == ["a"] and hand.fingers[0].links == ("a", "c")
+    assert hand.frames["b"].link == "a"  # the merged link stays as a named frame
+    np.testing.assert_allclose(hand.frames["b"].origin, [0.0, 20.0, 0.0], atol=1e-12)
+    with pytest.raises(InvalidHand, match=r"'b' not found: it is a frame fixed to link 'a'.*\[0, 20, 0\] mm"):
+        hand.link_index("b")
+    assert any("kept as named frames: b (on a)" in n for n in hand.notes)
 
 
 def test_continuous_joint_default_axis_and_length_unit():
@@ -228,10 +250,31 @@ def test_root_cuts_an_arm_at_the_wrist():
         _joint("slide", "base", "palm", jtype="prismatic") + _joint("j1", "palm", "a") + _joint("j2", "a", "b"),
         ("base", "palm", "a", "b"),
     )
-    with pytest.raises(InvalidHand, match=r"'slide' is 'prismatic'.*revolute, continuous and fixed.*root="):
-        hand_from_urdf(arm)
+    hand, warnings = load_urdf_hand(arm)  # a single chain: no branch, the root stays the palm
+    assert hand.palm == "base" and hand.dof_names == ("j1", "j2")
+    assert warnings == [
+        "joint 'slide' is prismatic; prehension models revolute joints only: it is held at its reference "
+        "position and 'palm' merged into its parent"
+    ]
     hand = hand_from_urdf(arm, root="palm")
     assert hand.palm == "palm" and hand.dof_names == ("j1", "j2")
+    assert not any(n.startswith("warning") for n in hand.notes)
+
+
+def test_palm_is_where_the_fingers_branch():
+    """A forearm and a wrist above the branching link are cut off, with a note."""
+    text = _urdf(
+        _joint("wrist", "forearm", "palm") + _joint("i1", "palm", "a") + _joint("t1", "palm", "b"),
+        ("forearm", "palm", "a", "b"),
+    )
+    hand = hand_from_urdf(text)
+    assert hand.palm == "palm" and hand.dof_names == ("i1", "t1")
+    assert [f.links for f in hand.fingers] == [("a",), ("b",)]
+    (note,) = [n for n in hand.notes if n.startswith("palm:")]
+    assert "cut off above it: link(s) forearm and joint(s) wrist; read the file with root='forearm'" in note
+    kept = hand_from_urdf(text, root="forearm")
+    assert kept.palm == "forearm" and kept.dof_names == ("wrist", "i1", "t1")
+    assert not any(n.startswith("palm:") for n in kept.notes)
 
 
 def test_finger_names_use_a_common_stem():
@@ -250,10 +293,14 @@ def test_finger_names_use_a_common_stem():
     ]
 
 
-def test_branching_chain_ends_a_finger():
-    text = _urdf(_joint("j1", "palm", "a") + _joint("j2", "a", "b") + _joint("j3", "a", "c"))
+def test_branching_link_belongs_to_no_finger():
+    text = _urdf(_joint("j1", "palm", "a") + _joint("j2", "a", "b") + _joint("j3", "a", "c") + _joint("j4", "palm", "d"),
+                 ("palm", "a", "b", "c", "d"))  # fmt: skip
     hand = hand_from_urdf(text)
-    assert [(f.name, f.links) for f in hand.fingers] == [("a", ("a",)), ("b", ("b",)), ("c", ("c",))]
+    assert hand.palm == "palm"
+    assert [(f.name, f.links) for f in hand.fingers] == [("d", ("d",)), ("b", ("b",)), ("c", ("c",))]
+    assert hand.finger_of_link("a") is None
+    assert list(hand.chain_dofs("b")) == [hand.dof_index("j1"), hand.dof_index("j2")]
 
 
 # -- errors ----------------------------------------------------------------------------------------
@@ -266,18 +313,17 @@ def test_branching_chain_ends_a_finger():
         (_urdf(_joint("j", "palm", "ghost"), ("palm",)), r"joint 'j': its child link 'ghost' is not defined"),
         (_urdf(_joint("j", "a", "b") + _joint("k", "b", "a"), ("a", "b")), r"no root link.*cycle"),
         (_urdf(_joint("j", "palm", "a") + _joint("k", "b", "c") + _joint("m", "c", "b")), r"cycle"),
-        (_urdf(_joint("j", "palm", "a", jtype="floating"), ("palm", "a")), r"'j' is 'floating'"),
         (_urdf(_joint("j", "palm", "a") + _joint("k", "palm", "a"), ("palm", "a")), r"'a' is the child of several"),
         (
             _urdf(
                 _joint("f", "palm", "a", jtype="fixed") + _joint("j", "a", "b", extra="<mimic joint='f'/>"),
                 ("palm", "a", "b"),
             ),
-            r"'j' mimics joint 'f', which is fixed",
+            r"'j' follows joint 'f' \(a coupling\), which is fixed",
         ),
         (
             _urdf(_joint("j", "palm", "a", extra="<mimic joint='nope'/>"), ("palm", "a")),
-            r"mimics joint 'nope'.*not defined",
+            r"follows joint 'nope'.*not defined",
         ),
         (
             _urdf(
@@ -285,7 +331,7 @@ def test_branching_chain_ends_a_finger():
                 + _joint("k", "a", "b", extra="<mimic joint='j'/>"),
                 ("palm", "a", "b"),
             ),
-            r"mimic joints form a cycle",
+            r"couplings form a cycle",
         ),
         (_urdf(_joint("j", "palm", "a").replace("<limit lower='-1' upper='1'/>", ""), ("palm", "a")), r"no <limit"),
     ],
@@ -297,8 +343,8 @@ def test_invalid_urdf(text, pattern):
 
 def test_error_names_the_file(tmp_path):
     path = tmp_path / "broken.urdf"
-    path.write_text(_urdf(_joint("j", "palm", "a", jtype="prismatic"), ("palm", "a")))
-    with pytest.raises(InvalidHand, match=r"broken\.urdf: joint 'j' is 'prismatic'"):
+    path.write_text(_urdf(_joint("j", "palm", "a").replace("<limit lower='-1' upper='1'/>", ""), ("palm", "a")))
+    with pytest.raises(InvalidHand, match=r"broken\.urdf: revolute joint 'j' has no <limit"):
         hand_from_urdf(path)
     with pytest.raises(InvalidHand, match=r"missing\.urdf: cannot read"):
         hand_from_urdf(tmp_path / "missing.urdf")

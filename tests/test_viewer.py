@@ -261,3 +261,19 @@ def test_render_without_matplotlib_says_what_to_install(result_file, tmp_path, m
     assert main(["render", str(result_file), "-o", str(tmp_path / "x.png")]) == EXIT_BAD_INPUT
     assert 'pip install "prehension[plot]"' in capsys.readouterr().err
     assert not (tmp_path / "x.png").exists()
+
+
+def test_a_hand_alone_can_be_viewed(tmp_path, capsys):
+    """`view HAND` / `render HAND`: a built-in hand or a hand file, with its regions."""
+    from prehension.cli import EXIT_OK, main
+    from prehension.hands.sa_hand import schunk_sa_hand
+    from prehension.viewer import build_hand_scene
+
+    scene = build_hand_scene(schunk_sa_hand())
+    keys = [layer.key for layer in scene.layers]
+    assert keys == ["hand", "hand_regions", "frames"]
+    assert len(scene.layers[1].meshes) == len(schunk_sa_hand().regions)
+    assert "thumb" in scene.caption[0] and "thumb_tip" in scene.caption[0]
+    out = tmp_path / "sa.html"
+    assert main(["view", "sa", "-o", str(out)]) == EXIT_OK
+    assert "schunk-sa" in out.read_text()

@@ -23,8 +23,15 @@ from .geometry.regions import BezierRegion, PointRegion, Region, SphereCap
 from .hands.kinematics import HandPose, forward_kinematics
 from .hands.model import Capsule, Coupling, Finger, Hand, HandRegion, Joint, Link
 from .hands.sa_hand import schunk_sa_hand
+from .hands.files import load_hand_file
+from .hands.mjcf import hand_from_mjcf
 from .hands.urdf import hand_from_urdf
+from .best import BestOptions, solve_best
+from .objects.mesh_io import load_mesh
 from .objects.model import GraspObject
+from .objects.pick import PickedRegion, region_from_mesh
+from .objects.solid import MeshFileSolid, PrimitiveSolid
+from .quality import GraspQuality, QualityOptions, grasp_quality
 from .results import Solution, SolveResult, Status, make_solution, read_result, write_result
 from .solve import solve
 from .tasks.cuik_import import import_world
@@ -48,12 +55,15 @@ __all__ = [
     "BezierPatch", "Region", "BezierRegion", "SphereCap", "PointRegion",
     # hands
     "Hand", "Joint", "Link", "Capsule", "Coupling", "Finger", "HandRegion", "HandPose",
-    "forward_kinematics", "schunk_sa_hand", "hand_from_urdf",
+    "forward_kinematics", "schunk_sa_hand", "hand_from_urdf", "hand_from_mjcf", "load_hand_file",
     # objects and tasks
-    "GraspObject", "Task", "Contact", "Configuration",
+    "GraspObject", "MeshFileSolid", "PrimitiveSolid", "load_mesh", "region_from_mesh", "PickedRegion",
+    "Task", "Contact", "Configuration",
     "evaluate", "Tolerances", "ResidualReport",
     "load_task", "loads_task", "dump_task", "dumps_task", "import_world",
     "builtin_task_names", "load_builtin_task", "resolve_task", "move_object_region", "turn_object_region",
     # solving and results
     "solve", "SolveResult", "Solution", "Status", "make_solution", "write_result", "read_result",
+    # does the grasp hold? (the physics test: prehension.sim, extra "sim")
+    "grasp_quality", "QualityOptions", "GraspQuality", "solve_best", "BestOptions",
 ]  # fmt: skip

@@ -24,6 +24,8 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import signal
+import threading
 from concurrent.futures import Executor
 from typing import Iterator
 
@@ -84,11 +86,35 @@ def cluster(scheduler: str | None = None, workers: int | None = None, *, dashboa
         with _connect(distributed, str(scheduler).strip()) as client:
             yield client
         return
-    with distributed.LocalCluster(
-        n_workers=workers or default_workers(), threads_per_worker=1, processes=True,
-        dashboard_address=":8787" if dashboard else ":0", silence_logs=logging.ERROR,
-    ) as local, distributed.Client(local) as client:  # fmt: skip
+    from ._dask_plugins import IgnoreCtrlC
+
+    with _ctrl_c_ignored():  # the worker processes spawned now inherit it (see IgnoreCtrlC)
+        local = distributed.LocalCluster(
+            n_workers=workers or default_workers(), threads_per_worker=1, processes=True,
+            dashboard_address=":8787" if dashboard else ":0", silence_logs=logging.ERROR,
+        )  # fmt: skip
+    with local, distributed.Client(local) as client:
+        client.register_plugin(IgnoreCtrlC())  # and the workers started later, to replace a lost one
         yield client
+
+
+@contextlib.contextmanager
+def _ctrl_c_ignored():
+    """Ignore Ctrl-C (SIGINT) in this process while a local cluster starts.
+
+    An ignored signal stays ignored across ``exec``, and Python then installs no
+    KeyboardInterrupt handler: the worker processes spawned meanwhile never print a
+    traceback when a terminal sends Ctrl-C to the whole foreground group.  A Ctrl-C
+    pressed during those seconds is lost (the command then takes the next one).
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def _connect(distributed, address: str):

@@ -13,7 +13,7 @@ so that ``prehension check`` -- or any other program -- can re-verify them alone
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -22,6 +22,7 @@ import numpy as np
 from .atomic import read_json, to_plain, write_json_atomic
 from .errors import InvalidTask
 from .hands.kinematics import forward_kinematics
+from .tasks.idle import settle_idle_fingers
 from .tasks.model import Configuration, Task
 from .tasks.residuals import ResidualReport, Tolerances, evaluate
 
@@ -77,6 +78,11 @@ class Solution:
         link_poses: every link's pose ``T_palm_link`` (4, 4) [mm], by link name.
         contacts: per contact, where it is made.
         report: the residual report that verified it.
+        tolerances: the tolerances it was verified with (the strict defaults for a
+            solution of a ``"solved"`` result).
+        idle_moved: dofs of fingers that do not take part whose angle differs from the
+            task's idle value (moved within their limits to clear a collision); every
+            other idle dof is at its idle value.
     """
 
     joint_angles: Mapping[str, float]
@@ -84,6 +90,8 @@ class Solution:
     link_poses: Mapping[str, np.ndarray]
     contacts: tuple[ContactResult, ...]
     report: ResidualReport
+    tolerances: Tolerances = Tolerances()
+    idle_moved: tuple[str, ...] = ()
 
     @property
     def q(self) -> np.ndarray:
@@ -130,12 +138,16 @@ def make_solution(task: Task, config: Configuration, tolerances: Tolerances = To
     """Verify ``config`` against ``task``; the :class:`Solution` if it passes, else ``None``.
 
     This is the only way solvers build solutions, so every returned configuration has been
-    re-checked against the original constraints.
+    re-checked against the original constraints.  Idle fingers that pass through the
+    object are first moved clear of it (:func:`~prehension.tasks.idle.settle_idle_fingers`):
+    they make no contact, so only collisions depend on them.
     """
-    report = evaluate(task, config, tolerances)
+    config.check_against(task)
+    config = settle_idle_fingers(task, config, tolerances.object_penetration_mm)
+    pose = forward_kinematics(task.hand, config.joint_angles)
+    report = evaluate(task, config, tolerances, pose=pose)
     if not report.ok:
         return None
-    pose = forward_kinematics(task.hand, config.joint_angles)
     T = pose.T_palm_link[0]
     contacts = tuple(
         ContactResult(
@@ -144,17 +156,25 @@ def make_solution(task: Task, config: Configuration, tolerances: Tolerances = To
         )  # fmt: skip
         for s in report.contacts
     )
+    idle = task.idle_vector
+    moved = tuple(
+        d for i, d in enumerate(task.hand.dof_names) if not task.active_mask[i] and config.joint_angles[i] != idle[i]
+    )
     return Solution(
         dict(zip(task.hand.dof_names, (float(x) for x in config.joint_angles))),
         config.T_palm_object.copy(),
         {name: T[i] for i, name in enumerate(task.hand.link_names)},
         contacts,
         report,
+        tolerances,
+        moved,
     )
 
 
 # -- files ------------------------------------------------------------------------------
-def _solution_to_dict(sol: Solution) -> dict:
+def _solution_to_dict(sol: Solution, task: Task, quality=None) -> dict:
+    from .quality import QualityOptions, quality_entry
+
     return {
         "joint_angles_deg": {k: float(np.degrees(v)) for k, v in sol.joint_angles.items()},
         "joint_angles_rad": dict(sol.joint_angles),
@@ -175,32 +195,42 @@ def _solution_to_dict(sol: Solution) -> dict:
             for c in sol.contacts
         ],
         "worst": {k: sol.report.worst(k) for k in sorted({c.kind for c in sol.report.checks})},
+        "tolerances": asdict(sol.tolerances),
+        "idle_moved": list(sol.idle_moved),
+        "quality": quality_entry(task, sol.T_palm_object, sol.contacts, quality or QualityOptions()),
     }
 
 
-def result_to_dict(result: SolveResult) -> dict:
-    """A JSON-ready dict: units in keys, the task embedded."""
+def result_to_dict(result: SolveResult, quality=None, *, embed_task: bool = True) -> dict:
+    """A JSON-ready dict: units in keys, the task embedded (unless ``embed_task`` is false:
+    a batch stores each distinct task once and its records refer to it); each solution's
+    grasp quality measured with ``quality`` (:class:`prehension.quality.QualityOptions`,
+    default ones if ``None``)."""
     from .tasks.yaml_io import task_to_dict
 
-    return {
+    head = {
         "prehension": RESULT_TAG,
         "units": {"length": "mm", "angle": "rad unless the key ends in _deg"},
         "frames": "poses are T_palm_X (x_palm = T x_X); points and normals in the palm frame",
-        "task": task_to_dict(result.task),
+    }
+    if embed_task:
+        head["task"] = task_to_dict(result.task, hand_inline=True)  # a result file is re-checkable alone
+    return {
+        **head,
         "method": result.method,
         "status": result.status,
         "success": result.success,
         "message": result.message,
         "seconds": result.seconds,
         "stats": to_plain(dict(result.stats)),
-        "solutions": [_solution_to_dict(s) for s in result.solutions],
+        "solutions": [_solution_to_dict(s, result.task, quality) for s in result.solutions],
         "unverified_boxes": [{"lower": lo.tolist(), "upper": hi.tolist()} for lo, hi in result.unverified_boxes],
     }
 
 
-def write_result(result: SolveResult, path) -> None:
-    """Write the result file atomically (never a half-written file)."""
-    write_json_atomic(path, result_to_dict(result))
+def write_result(result: SolveResult, path, quality=None) -> None:
+    """Write the result file atomically (never a half-written file); ``quality`` as in :func:`result_to_dict`."""
+    write_json_atomic(path, result_to_dict(result, quality))
 
 
 def read_result(path) -> tuple[Task, dict]:

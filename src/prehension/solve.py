@@ -18,11 +18,11 @@ import time
 from dataclasses import replace
 from typing import Callable, Literal
 
-from .errors import PrehensionError
+from .errors import InvalidTask, PrehensionError
 from .results import SolveResult, Status
 from .tasks.model import Task
 
-__all__ = ["solve"]
+__all__ = ["solve", "check_sequence"]
 
 
 def solve(
@@ -37,17 +37,30 @@ def solve(
     checkpoint=None,
     resume: bool = False,
     progress: Callable[[dict], None] | None = None,
+    sequence=None,
 ) -> SolveResult:
-    """Solve ``task`` with the chosen method (see the module docstring)."""
+    """Solve ``task`` with the chosen method (see the module docstring).
+
+    ``sequence``: the local solver's initial poses (an
+    :class:`~prehension.solvers.local.InitialPoseSequence`, e.g. from ``prehension
+    offline``); it must have been made for the task's hand (checked by
+    :func:`check_sequence`).  Default: the hand's shipped sequence, else the default one.
+    """
     if method not in ("auto", "local", "complete"):
         raise PrehensionError(f"method must be 'auto', 'local' or 'complete', got {method!r}")
+    if sequence is not None:
+        check_sequence(sequence, task.hand)
     started = time.perf_counter()
     if method in ("auto", "local"):
-        local = _solve_local(task, local_options, seed)
+        if progress is not None:
+            progress({"stage": "local solver"})
+        local = _solve_local(task, local_options, seed, sequence)
         if local.success or method == "local":
             return local
     from .solvers.complete.search import BranchAndPruneOptions, solve_complete
 
+    if progress is not None:
+        progress({"stage": "complete solver"})
     result = solve_complete(
         task, complete_options or BranchAndPruneOptions(), executor=executor, workers=workers,
         checkpoint=checkpoint, resume=resume, progress=progress,
@@ -63,7 +76,26 @@ def solve(
     return result
 
 
-def _solve_local(task: Task, options, seed: int) -> SolveResult:
+def _solve_local(task: Task, options, seed: int, sequence=None) -> SolveResult:
     from .solvers.local import LocalOptions, solve_local
 
-    return solve_local(task, options or LocalOptions(), seed=seed)
+    return solve_local(task, options or LocalOptions(), sequence, seed=seed)
+
+
+def check_sequence(sequence, hand) -> None:
+    """Raise :class:`InvalidTask` unless ``sequence`` was made for ``hand``: the same hand
+    name, and every pose component it names is one of the hand's (angles and fingertips)."""
+    from .solvers.local.sequence import pose_space
+
+    if sequence.hand != hand.name:
+        raise InvalidTask(
+            f"the initial-pose sequence was made for hand {sequence.hand!r}, not for the task's hand {hand.name!r}; "
+            f"make one with: prehension offline HAND -o seq.json"
+        )
+    names = set(pose_space(hand)[0])
+    unknown = [n for n in sequence.names if n not in names]
+    if unknown:
+        raise InvalidTask(
+            f"the initial-pose sequence names pose components hand {hand.name!r} does not have: "
+            f"{', '.join(unknown[:5])}{' ...' if len(unknown) > 5 else ''}; it was made for another version of the hand"
+        )

@@ -2,9 +2,9 @@
 
 Exit codes: 0 every task of the input has a done record (solved, infeasible or gave up);
 2 bad input (a malformed line, named by file and line, or tasks recorded ``invalid``);
-1 some task ended in ``error`` (a crash; its record says which); 130 stopped by Ctrl-C
-(what finished is saved: run the same command again to go on).  Tasks left by
-``--max-tasks`` also give 1.
+1 some task ended in ``error`` (a crash; its record says which); 4 stopped before every
+task was done -- by Ctrl-C (as ``prehension solve`` when interrupted) or ``--max-tasks`` --
+what finished is saved: run the same command again to go on.
 """
 
 from __future__ import annotations
@@ -16,12 +16,14 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, ProgressColum
 from rich.progress import TimeRemainingColumn
 from rich.text import Text
 
-from .codes import EXIT_BAD_INPUT, EXIT_OK
+from . import args as types
+from .best import add_batch_arguments, batch_extras
+from .codes import EXIT_BAD_INPUT, EXIT_GAVE_UP, EXIT_OK
 
 __all__ = ["add_parser", "cmd_batch"]
 
 EXIT_ERRORS = 1
-EXIT_INTERRUPTED = 130
+EXIT_INTERRUPTED = EXIT_GAVE_UP  # as `prehension solve` stopped by Ctrl-C
 
 
 def add_parser(sub) -> None:
@@ -34,14 +36,21 @@ def add_parser(sub) -> None:
                    help="auto (default): the local solver, then the complete one if it fails")  # fmt: skip
     where = p.add_mutually_exclusive_group()
     where.add_argument("--scheduler", metavar="ADDR", help="a running Dask scheduler, e.g. tcp://host:8786")
-    where.add_argument("--workers", type=int, help="size of the local cluster (processes; default: the cores)")
-    p.add_argument("--seed", type=int, default=0, help="base seed; each task's seed is derived from it and its id")
-    p.add_argument("--time-limit", type=float, default=None, metavar="SECONDS",
-                   help="complete solver: give up on a task after this long")  # fmt: skip
-    p.add_argument("--chunk-size", type=int, default=None, help="tasks per Dask task (default: 8 local, 1 otherwise)")
-    p.add_argument("--retry-gave-up", action="store_true", help="solve again the tasks recorded as gave_up")
-    p.add_argument("--max-tasks", type=int, default=None, help="stop after this many tasks (re-run to go on)")
+    where.add_argument("--workers", type=types.positive_int, help="size of the local cluster (processes; default: the cores)")
+    p.add_argument("--seed", type=types.seed, default=0, help="base seed; each task's seed is derived from it and its id")
+    p.add_argument("--time-limit", type=types.seconds, default=types.DEFAULT_TIME_LIMIT_S, metavar="SECONDS",
+                   help=f"complete solver: give up on a task after this long (default {types.DEFAULT_TIME_LIMIT_S:g} s; 0: no limit)")  # fmt: skip
+    p.add_argument("--chunk-size", type=types.positive_int, default=None,
+                   help="tasks per Dask task (default: local up to 64, four chunks per worker at least; 1 otherwise)")
+    p.add_argument("--self-contained", action="store_true",
+                   help="every record embeds its task (default: each distinct task stored once, records refer to it)")
+    p.add_argument("--retry-gave-up", action="store_true", help="solve again the tasks recorded as gave_up (or approximate)")
+    p.add_argument("--max-tasks", type=types.positive_int, default=None, help="stop after this many tasks (re-run to go on)")
+    p.add_argument("--sequence", type=Path, action="append", default=[], metavar="FILE",
+                   help="local solver: initial poses from 'prehension offline' (.json), used by the tasks of its "
+                        "hand; repeat for several hands")  # fmt: skip
     p.add_argument("--quiet", action="store_true", help="no progress bar or summary, only errors")
+    add_batch_arguments(p)
 
 
 class _RateColumn(ProgressColumn):
@@ -64,8 +73,9 @@ def cmd_batch(args, console: Console) -> int:
     from ..parallel import check_where, cluster
 
     options = BatchOptions(
-        method=args.method, seed=args.seed, time_limit_s=args.time_limit, chunk_size=args.chunk_size,
-        retry_gave_up=args.retry_gave_up, max_tasks=args.max_tasks,
+        method=args.method, seed=args.seed, time_limit_s=types.time_limit(args.time_limit), chunk_size=args.chunk_size,
+        retry_gave_up=args.retry_gave_up, max_tasks=args.max_tasks, self_contained=args.self_contained,
+        sequences=_sequences(args.sequence), **batch_extras(args),
     )  # fmt: skip
     check_where(args.scheduler, args.workers)
     check_output(args.input, args.output)
@@ -80,6 +90,13 @@ def cmd_batch(args, console: Console) -> int:
         summary = run_batch(entries, args.output, client, options, progress)
     _report(console, summary)
     return _exit_code(summary)
+
+
+def _sequences(paths) -> tuple:
+    """The ``--sequence`` files, read and checked, as JSON mappings (they travel to the workers)."""
+    from ..solvers.local.sequence import InitialPoseSequence
+
+    return tuple(InitialPoseSequence.load(p).to_dict() for p in paths)
 
 
 def _report(console: Console, summary) -> None:
@@ -102,6 +119,8 @@ def _exit_code(summary) -> int:
         return EXIT_INTERRUPTED
     if summary.counts.get("invalid"):
         return EXIT_BAD_INPUT
-    if summary.counts.get("error") or summary.remaining:
+    if summary.counts.get("error"):
         return EXIT_ERRORS
+    if summary.remaining:
+        return EXIT_INTERRUPTED
     return EXIT_OK

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from rich.console import Console
 
+from ..atomic import check_output_path
 from ..errors import PrehensionError
 from .codes import EXIT_OK
 
@@ -12,6 +13,7 @@ def cmd_import(args, console: Console) -> int:
     from ..tasks.cuik_import import import_world
     from ..tasks.yaml_io import dump_task
 
+    check_output_path(args.output, "task file", inputs=[args.world], suffixes=(".yaml", ".yml"))
     if args.output.exists() and not args.force:
         raise PrehensionError(f"{args.output} already exists; pass --force to overwrite it")
     couplings = tuple(_parse_coupling(c) for c in args.couple)

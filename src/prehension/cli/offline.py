@@ -1,8 +1,12 @@
 """``prehension offline HAND``: search a hand's sequence of initial poses (local solver, sec. 3.2).
 
-The grid points of each step run on a Dask cluster (``--scheduler ADDR`` or
-``--workers N``) or inline (the default); the sequence is the same either way for the
-same ``--seed``.
+HAND is any hand (a built-in name, a URDF / MJCF / hand YAML file, see
+:mod:`prehension.cli.hands`).  The random problems touch the hand's fingertips: every
+``<finger>_tip`` sphere cap (the opposing finger's first), or the regions given with
+``--regions``; the SA hand's default is the paper's four fingertips.  The grid points of
+each step run on a Dask cluster (``--scheduler ADDR`` or ``--workers N``) or inline (the
+default); the sequence is the same either way for the same ``--seed``.  ``solve
+--sequence FILE`` and ``batch --sequence FILE`` use the file.
 """
 
 from __future__ import annotations
@@ -14,36 +18,38 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, Ti
 from rich.table import Table
 
 from ..errors import PrehensionError
+from . import args as types
 from .codes import EXIT_OK
 
-__all__ = ["add_parser", "cmd_offline", "cli_offline"]
+__all__ = ["add_parser", "cmd_offline", "cli_offline", "fingertip_regions"]
 
-HANDS = ("schunk-sa", "sa")
 
 
 def add_parser(sub) -> None:
     """The ``offline`` sub-command."""
     off = sub.add_parser("offline", help="local solver: compute a hand's sequence of initial poses (sec. 3.2)")
-    off.add_argument("hand", help="built-in hand name (schunk-sa)")
+    off.add_argument("hand", help="built-in hand (schunk-sa, alias sa), hand file (.urdf; .xml/.mjcf for MJCF; .yaml)")
+    off.add_argument("--regions", metavar="A,B", help="hand regions of the random problems (default: every fingertip)")
     off.add_argument("-o", "--output", type=Path, required=True, help="sequence file to write (.json)")
-    off.add_argument("--M", type=int, default=5000, help="random problems per step (paper: 5000)")
-    off.add_argument("--N", type=int, default=30, help="grid values per lambda (paper: 30)")
-    off.add_argument("--imax", type=int, default=12, help="initial poses in the sequence (paper: 12)")
+    off.add_argument("--M", type=types.positive_int, default=5000, help="random problems per step (paper: 5000)")
+    off.add_argument("--N", type=types.positive_int, default=30, help="grid values per lambda (paper: 30)")
+    off.add_argument("--imax", type=types.positive_int, default=12, help="initial poses in the sequence (paper: 12)")
     where = off.add_mutually_exclusive_group()
     where.add_argument("--scheduler", metavar="ADDR", help="a running Dask scheduler, e.g. tcp://host:8786")
-    where.add_argument("--workers", type=int, default=None, help="local cluster of N processes (default: run inline)")
-    off.add_argument("--seed", type=int, default=0)
+    where.add_argument("--workers", type=types.positive_int, default=None, help="local cluster of N processes (default: run inline)")
+    off.add_argument("--seed", type=types.seed, default=0, help="random seed (an integer >= 0)")
     off.add_argument("--force", action="store_true", help="overwrite the output file if it exists")
 
 
 def cmd_offline(args, console: Console) -> int:
+    regions = tuple(r.strip() for r in args.regions.split(",") if r.strip()) if args.regions else None
     cli_offline(args.hand, args.output, M=args.M, N=args.N, imax=args.imax, workers=args.workers,
-                scheduler=args.scheduler, seed=args.seed, force=args.force, console=console)  # fmt: skip
+                scheduler=args.scheduler, seed=args.seed, force=args.force, console=console,
+                regions=regions)  # fmt: skip
     return EXIT_OK
 
 
-def _search(M, N, imax, seed, executor, console: Console):
-    from ..hands.sa_hand import schunk_sa_hand
+def _search(hand, regions, M, N, imax, seed, executor, console: Console):
     from ..solvers.local.offline import offline_sequence
 
     with Progress(
@@ -55,12 +61,14 @@ def _search(M, N, imax, seed, executor, console: Console):
         def progress(done, total, message):
             bar.update(task_id, completed=done, total=total, description=f"off-line search, {message}")
 
-        return offline_sequence(schunk_sa_hand(), M, N, imax, executor, progress, seed)
+        return offline_sequence(hand, M, N, imax, executor, progress, seed, hand_regions=regions)
 
 
 def _table(seq, M: int, N: int) -> Table:
     from ..solvers.local.offline import compare_with_paper
 
+    if seq.hand != "schunk-sa":
+        return _plain_table(seq, M, N)
     table = Table(title=f"Initial poses: ours (M={M}, N={N}) beside Table 1 of Claret & Suárez (M=5000, N=30)")
     for col in ("i", "ours l1", "ours l2", "E_i (ours)", "paper l1", "paper l2"):
         table.add_column(col, justify="right")
@@ -74,21 +82,60 @@ def _table(seq, M: int, N: int) -> Table:
     return table
 
 
+def _plain_table(seq, M: int, N: int) -> Table:
+    table = Table(title=f"Initial poses of {seq.hand} (M={M}, N={N})")
+    for col in ("i", "l1", "l2", "E_i"):
+        table.add_column(col, justify="right")
+    rates = seq.meta.get("best_rate_per_step", [])
+    for i, lam in enumerate(seq.lambdas):
+        e = f"{100 * rates[i]:.1f}%" if i < len(rates) else ""
+        table.add_row(str(i + 1), f"{lam[0]:.3f}", f"{lam[1]:.3f}", e)
+    return table
+
+
+def fingertip_regions(hand) -> tuple[str, ...]:
+    """The hand's ``<finger>_tip`` sphere caps, the opposing finger's first (the SA hand:
+    the paper's thumb, index, middle, ring)."""
+    from ..geometry.regions import SphereCap
+    from ..solvers.local.problems import SA_FOUR_TIPS
+
+    if hand.name == "schunk-sa" and set(SA_FOUR_TIPS) <= set(hand.regions):
+        return SA_FOUR_TIPS
+    order = sorted(hand.fingers, key=lambda f: f.name != hand.opposing_finger)
+    tips = [f"{f.name}_tip" for f in order]
+    tips = [t for t in tips if t in hand.regions and isinstance(hand.regions[t].region, SphereCap)]
+    if len(tips) < 2:
+        raise PrehensionError(
+            f"hand {hand.name!r} has {len(tips)} fingertip region(s); the off-line search needs at least two "
+            "(give --regions A,B,...)"
+        )
+    return tuple(tips)
+
+
 def cli_offline(hand_name: str, output, *, M: int = 5000, N: int = 30, imax: int = 12, workers: int | None = None,
-                scheduler: str | None = None, seed: int = 0, force: bool = False, console=None):  # fmt: skip
+                scheduler: str | None = None, seed: int = 0, force: bool = False, console=None,
+                regions: tuple[str, ...] | None = None):  # fmt: skip
     """What ``prehension offline HAND`` does: search with a rich progress bar (on a Dask
     cluster when ``scheduler`` or ``workers > 1``), write the file, print the sequence
-    beside the paper's Table 1.  Returns the :class:`InitialPoseSequence`."""
+    (beside the paper's Table 1 for the SA hand).  Returns the :class:`InitialPoseSequence`."""
     from ..parallel import executor_for
+    from ..tasks.format.hand_files import resolve_hand
+    from .hands import print_hand_warnings
+
+    from ..atomic import check_output_path
+    from .solve import task_inputs
 
     console = console or Console()
-    output = Path(output)
+    output = check_output_path(output, "sequence file", inputs=task_inputs(hand_name), suffixes=(".json",))
     if output.exists() and not force:
         raise PrehensionError(f"{output} already exists; pass --force to overwrite it")
-    if hand_name not in HANDS:
-        raise PrehensionError(f"unknown hand {hand_name!r}; hands with an off-line search: schunk-sa")
+    hand = resolve_hand(hand_name)
+    print_hand_warnings(console, hand)
+    regions = tuple(regions) if regions else fingertip_regions(hand)
+    for r in regions:
+        hand.region(r)  # an unknown name: an error listing the hand's regions
     with executor_for(scheduler, workers) as executor:
-        seq = _search(M, N, imax, seed, executor, console)
+        seq = _search(hand, regions, M, N, imax, seed, executor, console)
     seq.save(output)
     console.print(_table(seq, M, N))
     console.print(f"wrote {output} ({seq.meta['seconds']:.0f} s)")

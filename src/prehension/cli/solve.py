@@ -1,33 +1,87 @@
-"""``prehension solve``: the main job."""
+"""``prehension solve``: the main job.
+
+Every output (result file, ``--html``, ``--checkpoint``) is checked before any work starts
+(:func:`prehension.atomic.check_output_path`): not a folder, not an input, in a folder that
+exists and can be written.  Every run is bounded (``--time-limit``, 300 s by default; 0 for
+none) and visible (:mod:`.progress`).
+"""
 
 from __future__ import annotations
 
 import json
 import os
+import re
+import sys
 from pathlib import Path
 
 import numpy as np
 from rich.console import Console
-from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+from rich.markup import escape
 from rich.table import Table
 
+from ..atomic import check_output_path
 from ..errors import PrehensionError
 from ..results import Status, result_to_dict, write_result
+from . import args as types
+from .best import add_best_arguments, add_quality_arguments, best_options, best_table, quality_lines, quality_options
 from .codes import EXIT_APPROXIMATE, EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK
+from .hands import print_hand_warnings
+from .progress import LiveProgress
+
+__all__ = ["add_parser", "cmd_solve", "EXIT_OF_STATUS", "task_inputs"]
 
 EXIT_OF_STATUS = {
     Status.SOLVED: EXIT_OK, Status.INFEASIBLE: EXIT_INFEASIBLE, Status.GAVE_UP: EXIT_GAVE_UP,
     Status.APPROXIMATE: EXIT_APPROXIMATE,
 }  # fmt: skip
+TASK_HELP = "built-in task name, task file (.yaml) or CuikSuite file (.world)"
 
 
-def _output_path(args, task_name: str) -> Path:
-    return args.output if args.output is not None else Path(f"{task_name}.result.json")
+def add_parser(sub) -> None:
+    p = sub.add_parser("solve", help="find a grasp configuration (or prove there is none)")
+    p.add_argument("task", help=TASK_HELP)
+    p.add_argument("--method", choices=("auto", "local", "complete"), default="auto",
+                   help="auto (default): the local solver, then the complete one if it finds no strict solution")  # fmt: skip
+    p.add_argument("-o", "--output", type=Path, help="result file (default: TASK.result.json; an older one is kept as a backup)")
+    p.add_argument("--all", action="store_true",
+                   help="complete solver: describe the whole solution set down to --sigma (breadth first; "
+                        "every box is split to sigma, so this takes far longer than one solution)")  # fmt: skip
+    p.add_argument("--sigma", type=types.finite, default=0.1, help="complete solver: solution-box size (fraction of the initial box)")
+    p.add_argument("--workers", type=types.positive_int, default=1,
+                   help="complete solver: boxes processed in parallel on a local Dask cluster of N processes")  # fmt: skip
+    p.add_argument("--scheduler", metavar="ADDR", help="complete solver: process boxes on a running Dask cluster (tcp://host:8786)")
+    p.add_argument("--time-limit", type=types.seconds, default=types.DEFAULT_TIME_LIMIT_S, metavar="SECONDS",
+                   help=f"give up after this long (default {types.DEFAULT_TIME_LIMIT_S:g} s; 0: no limit)")  # fmt: skip
+    p.add_argument("--max-boxes", type=types.positive_int, default=None, help="complete solver: give up after this many boxes")
+    p.add_argument("--checkpoint", type=Path, help="complete solver: save the open boxes here when stopped (Ctrl-C too)")
+    p.add_argument("--resume", action="store_true", help="complete solver: continue from --checkpoint (same task and options only)")
+    p.add_argument("--seed", type=types.seed, default=0, help="random seed of the local solver (an integer >= 0)")
+    p.add_argument("--sequence", type=Path, metavar="FILE", help="local solver: initial poses from 'prehension offline' (.json)")
+    p.add_argument("--approximate", action="store_true",
+                   help="accept an answer within the paper's d_min tolerances (1.5 mm) when no strict solution is found: "
+                        "status 'approximate', exit code 6, never 'solved'")  # fmt: skip
+    p.add_argument("--quiet", action="store_true", help="no progress or tables, only errors")
+    p.add_argument("--json", action="store_true", help="print the result summary as JSON on stdout")
+    p.add_argument("--html", type=Path, metavar="FILE", help="also write the 3-D view of the grasp (as 'prehension view')")
+    add_quality_arguments(p)
+    add_best_arguments(p)
+
+
+def task_inputs(text: str) -> list[Path]:
+    """The files a task argument names (none for a built-in task name)."""
+    path = Path(text)
+    return [path] if path.is_file() else []
+
+
+def _default_output(task_name: str) -> Path:
+    """``NAME.result.json`` in the current folder, with the name made a safe, visible file name."""
+    stem = re.sub(r"[^A-Za-z0-9._+-]+", "_", task_name).lstrip("._") or "task"
+    return Path(f"{stem}.result.json")
 
 
 def _keep_previous(path: Path) -> Path | None:
     """Move an existing file aside as ``path.~N~`` so nothing a user saved is lost."""
-    if not path.exists():
+    if not path.is_file():
         return None
     n = 1
     while Path(f"{path}.~{n}~").exists():
@@ -37,15 +91,38 @@ def _keep_previous(path: Path) -> Path | None:
     return backup
 
 
+def _check_outputs(args, task) -> Path:
+    """Every output checked before the solve: returns the result file's path."""
+    inputs = task_inputs(args.task)
+    path = check_output_path(args.output or _default_output(task.name), "result file", inputs=inputs)
+    named = [(path, "result file")]
+    if args.html is not None:
+        named.append((check_output_path(args.html, "--html", inputs=inputs), "--html"))
+    if args.checkpoint is not None:
+        named.append((check_output_path(args.checkpoint, "--checkpoint", inputs=inputs), "--checkpoint"))
+    for i, (a, what_a) in enumerate(named):
+        for b, what_b in named[i + 1 :]:
+            if a.resolve() == b.resolve():
+                raise PrehensionError(f"{what_a} and {what_b} are the same file {a}: give each its own file")
+    return path
+
+
 def _options(args):
     from ..solvers.complete.search import BranchAndPruneOptions
 
-    if args.workers < 1:
-        raise PrehensionError(f"--workers must be at least 1, got {args.workers}")
     return BranchAndPruneOptions(
         sigma=args.sigma, order="breadth" if args.all else "depth", all_solutions=args.all,
-        max_boxes=args.max_boxes, time_limit_s=args.time_limit,
+        max_boxes=args.max_boxes, time_limit_s=types.time_limit(args.time_limit),
     )  # fmt: skip
+
+
+def _sequence(args):
+    """The ``--sequence FILE`` of ``prehension offline``, or None."""
+    if getattr(args, "sequence", None) is None:
+        return None
+    from ..solvers.local.sequence import InitialPoseSequence
+
+    return InitialPoseSequence.load(args.sequence)
 
 
 def _local_options(args):
@@ -60,25 +137,43 @@ def cmd_solve(args, console: Console) -> int:
     from ..tasks.library import resolve_task
 
     task = resolve_task(args.task)
+    print_hand_warnings(console, task.hand)
+    sequence = _sequence(args)
     options = _options(args)
     if args.resume and args.checkpoint is None:
         raise PrehensionError("--resume needs --checkpoint FILE (the file the interrupted run saved)")
+    if args.resume and not args.checkpoint.is_file():
+        raise PrehensionError(f"cannot resume: no checkpoint file {args.checkpoint}")
+    path = _check_outputs(args, task)
+    quality, best = quality_options(args), best_options(args, options.time_limit_s)
     where = (args.scheduler, args.workers if args.workers > 1 else None)
     check_where(*where)
     if args.method == "local":  # the cluster only serves the complete solver's boxes
         where = (None, None)
+    if args.method in ("local", "auto"):
+        from ..solvers.local import COMPILING_MESSAGE, compile_pending
+
+        if compile_pending():
+            print(COMPILING_MESSAGE, file=sys.stderr, flush=True)
     with executor_for(*where) as executor:
-        with _progress(console, args) as update:
-            result = solve(
-                task, args.method, complete_options=options, seed=args.seed, executor=executor,
-                local_options=_local_options(args),
-                workers=executor.max_workers if executor is not None else 1, checkpoint=args.checkpoint,
-                resume=args.resume, progress=update,
-            )  # fmt: skip
-    path = _output_path(args, task.name)
+        with LiveProgress(console, enabled=not (args.quiet or args.json), time_limit_s=options.time_limit_s) as update:
+            workers = executor.max_workers if executor is not None else 1
+            if best is not None:
+                from ..best import solve_best
+
+                result = solve_best(task, best, args.method, seed=args.seed, complete_options=options,
+                                    executor=executor, workers=workers, progress=update, sequence=sequence)  # fmt: skip
+            else:
+                result = solve(
+                    task, args.method, complete_options=options, local_options=_local_options(args), seed=args.seed,
+                    executor=executor, workers=workers, checkpoint=args.checkpoint, resume=args.resume, progress=update,
+                    sequence=sequence,
+                )  # fmt: skip
     backup = _keep_previous(path)
-    write_result(result, path)
+    write_result(result, path, quality)
     _report(console, args, result, path, backup)
+    if result.solutions and not (args.quiet or args.json):
+        console.print(best_table(result) if best is not None else "\n".join(quality_lines(result, quality)))
     if args.html is not None:
         _write_view(console, args, result)
     elif not (args.quiet or args.json):
@@ -91,34 +186,10 @@ def _write_view(console: Console, args, result) -> None:
     from ..viewer import build_scene, write_html
 
     grasp = result.solutions[0] if result.solutions else None
-    scene = build_scene(result.task, grasp, status=None if grasp is not None else str(result.status))
+    scene = build_scene(result.task, grasp, status=None if result.success else str(result.status))
     html = write_html(scene, args.html)
     if not args.json:
         console.print(f"3-D view written to {html} (open it in a browser; it works offline)")
-
-
-class _progress:
-    """A live line: boxes done / open, depth, LPs (silent with --quiet or --json)."""
-
-    def __init__(self, console: Console, args):
-        self.enabled = not (args.quiet or args.json)
-        self.bar = Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(), console=console, transient=True)
-
-    def __enter__(self):
-        if not self.enabled:
-            return None
-        self.bar.__enter__()
-        self.id = self.bar.add_task("solving", total=None)
-        return self.update
-
-    def update(self, info: dict) -> None:
-        text = "  ".join(f"{k} {v}" for k, v in info.items())
-        self.bar.update(self.id, description=f"complete solver: {text}")
-
-    def __exit__(self, *exc):
-        if self.enabled:
-            self.bar.__exit__(*exc)
-        return False
 
 
 def _report(console: Console, args, result, path: Path, backup: Path | None) -> None:
@@ -127,24 +198,26 @@ def _report(console: Console, args, result, path: Path, backup: Path | None) -> 
         summary["result_file"] = str(path)
         if result.solutions:
             summary["joint_angles_deg"] = {k: float(np.degrees(v)) for k, v in result.solutions[0].joint_angles.items()}
-        print(json.dumps(summary, indent=1))
+        print(json.dumps(summary, indent=1, allow_nan=False))
         return
     style = {"solved": "bold green", "infeasible": "bold yellow", "gave_up": "bold red", "approximate": "bold magenta"}[result.status]
-    console.print(f"[{style}]{result.status}[/] ({result.method}, {result.seconds:.2f} s): {result.message}")
+    console.print(f"[{style}]{result.status}[/] ({result.method}, {result.seconds:.2f} s): {escape(result.message)}")
     if result.solutions:
-        console.print(_solution_table(result.solutions[0]))
+        console.print(_solution_table(result.solutions[0], result.status))
     console.print(f"result written to {path}" + (f" (previous one kept as {backup})" if backup else ""))
 
 
-def _solution_table(solution) -> Table:
-    table = Table(title="Solution", title_justify="left")
+def _solution_table(solution, status: str) -> Table:
+    table = Table(title="Solution" if status == Status.SOLVED else "Approximate answer (not a solution)", title_justify="left")
     table.add_column("joint angle")
     table.add_column("deg", justify="right")
     for name, value in solution.joint_angles.items():
         table.add_row(name, f"{np.degrees(value):.3f}")
-    worst = solution.report
+    report = solution.report
+    into = [c for c in report.checks if c.kind == "object_collision"]
+    object_note = f"; no link more than {into[0].tolerance:g} mm into the object (deepest {report.worst('object_collision'):.2g} mm)" if into else ""
     table.caption = (
-        f"contacts within {worst.worst('contact_distance'):.1e} mm and {worst.worst('contact_normal'):.1e} deg; "
-        f"limits and couplings exact; no self-collision"
+        f"contacts within {report.worst('contact_distance'):.1e} mm and {report.worst('contact_normal'):.1e} deg; "
+        f"limits and couplings exact; no self-collision{object_note}"
     )
     return table

@@ -25,8 +25,13 @@ def cmd_tasks(args, console: Console) -> int:
 
 def cmd_show(args, console: Console) -> int:
     from ..tasks.library import resolve_task
+    from .hands import hand_named, print_hand_warnings, show_hand
 
+    hand = hand_named(args.task)
+    if hand is not None:
+        return show_hand(hand, console)
     task = resolve_task(args.task)
+    print_hand_warnings(console, task.hand)
     console.print(f"[bold]{task.name}[/]  hand {task.hand.name!r}, object {task.object.name!r}")
     if task.description:
         console.print(task.description)

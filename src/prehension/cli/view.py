@@ -8,19 +8,23 @@ from pathlib import Path
 from rich.console import Console
 
 from ..errors import PrehensionError
+from ..atomic import check_output_path
+from .args import finite
 from .codes import EXIT_BAD_INPUT, EXIT_OK
+from .solve import task_inputs
 
-INPUT_HELP = "result file (.json) written by 'prehension solve', or a task: built-in name, .yaml or .world file"
+INPUT_HELP = ("result file (.json) written by 'prehension solve', a task (built-in name, .yaml or .world file), "
+              "or a hand alone (built-in hand, .urdf, .xml/.mjcf)")
 
 
 def add_parsers(sub) -> None:
     """Add the ``view`` and ``render`` sub-commands to ``sub`` (argparse sub-parsers)."""
     view = sub.add_parser("view", help="write an interactive 3-D view of a grasp or a task (one offline HTML file)")
     _common(view, ".html")
-    render = sub.add_parser("render", help="draw a grasp or a task as a picture (PNG; needs matplotlib)")
+    render = sub.add_parser("render", help="draw a grasp or a task as a picture (PNG, JPEG, PDF or SVG by the file name; needs matplotlib)")
     _common(render, ".png")
-    render.add_argument("--elev", type=float, default=None, metavar="DEG", help="view elevation [deg] (default 18)")
-    render.add_argument("--azim", type=float, default=None, metavar="DEG", help="view azimuth [deg] (default 35)")
+    render.add_argument("--elev", type=finite, default=None, metavar="DEG", help="view elevation [deg] (default 18)")
+    render.add_argument("--azim", type=finite, default=None, metavar="DEG", help="view azimuth [deg] (default 35)")
     render.add_argument("--size", default="900x700", metavar="WxH", help="picture size in pixels (default 900x700)")
     render.add_argument(
         "--layers", metavar="A,B", help="layers to draw (default: hand,object,hand_regions,object_regions,contacts; also frames)"
@@ -35,30 +39,39 @@ def _common(p, suffix: str) -> None:
 
 
 def _load_scene(args):
-    from ..viewer import build_scene, load_grasp
+    """The scene of a result or a task, or of a hand alone (a built-in hand or a hand file)."""
+    from ..viewer import build_hand_scene, build_scene, load_grasp
+    from .hands import hand_named
 
+    hand = hand_named(args.input) if args.solution is None else None
+    if hand is not None:
+        return build_hand_scene(hand)
     loaded = load_grasp(args.input, args.solution)
     return build_scene(loaded.task, loaded.pose, status=loaded.status)
 
 
-def _output(args, scene, suffix: str) -> Path:
+def _output(args, suffixes: tuple[str, ...]) -> Path:
+    """The output file, checked before any work (not a folder, not the input, writable)."""
     if args.output is not None:
-        return args.output
-    stem = Path(args.input).stem if Path(args.input).suffix else scene.task_name
-    return Path(stem + suffix)
+        path = args.output
+    else:
+        stem = Path(args.input).stem if Path(args.input).suffix else str(args.input)
+        path = Path((stem.lstrip(".") or "grasp") + suffixes[0])
+    return check_output_path(path, "output", inputs=task_inputs(args.input), suffixes=suffixes)
 
 
 def cmd_view(args, console: Console) -> int:
     from ..viewer import write_html
 
+    out = _output(args, (".html", ".htm"))
     scene = _load_scene(args)
-    path = write_html(scene, _output(args, scene, ".html"))
+    path = write_html(scene, out)
     console.print(f"wrote {path} ({path.stat().st_size / 1e6:.2f} MB): {scene.title}")
     return EXIT_OK
 
 
 def cmd_render(args, console: Console) -> int:
-    from ..viewer.render import render_png, require_matplotlib
+    from ..viewer.render import IMAGE_FORMATS, render_image, require_matplotlib
 
     try:
         require_matplotlib()  # before any work: say what to install
@@ -67,9 +80,9 @@ def cmd_render(args, console: Console) -> int:
         return EXIT_BAD_INPUT
     size = _size(args.size)
     layers = tuple(k.strip() for k in args.layers.split(",") if k.strip()) if args.layers else None
+    out = _output(args, tuple(IMAGE_FORMATS))
     scene = _load_scene(args)
-    path = render_png(scene, _output(args, scene, ".png"), elev_deg=args.elev, azim_deg=args.azim,
-                      size_px=size, layers=layers)  # fmt: skip
+    path = render_image(scene, out, elev_deg=args.elev, azim_deg=args.azim, size_px=size, layers=layers)
     console.print(f"wrote {path} ({size[0]}x{size[1]} px): {scene.title}")
     return EXIT_OK
 

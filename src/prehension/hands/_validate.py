@@ -19,6 +19,7 @@ def validate_hand(hand) -> None:
     _check_joint_tree(hand)
     _check_couplings(hand)
     _check_fingers_regions(hand)
+    _check_frames(hand)
 
 
 def _check_links(hand) -> None:
@@ -92,3 +93,15 @@ def _check_fingers_regions(hand) -> None:
         for link in (a, b):
             if link not in names:
                 raise InvalidHand(f"collision exclusion ({a!r}, {b!r}): link {link!r} not found")
+
+
+def _check_frames(hand) -> None:
+    names = set(hand.link_names)
+    for fname, frame in hand.frames.items():
+        if fname in names:
+            raise InvalidHand(f"named frame {fname!r} has the name of a link; frame and link names must differ")
+        if frame.link not in names:
+            raise InvalidHand(f"named frame {fname!r}: link {frame.link!r} not found; links are: {', '.join(hand.link_names)}")
+    if hand.opposing_finger is not None and hand.opposing_finger not in {f.name for f in hand.fingers}:
+        names = ", ".join(f.name for f in hand.fingers) or "(none defined)"
+        raise InvalidHand(f"opposing finger {hand.opposing_finger!r} not found; fingers are: {names}")

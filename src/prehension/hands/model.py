@@ -26,11 +26,18 @@ angle (a *degree of freedom*, "dof") has a name and limits ``[lower, upper]`` [r
 
 Couplings state one dof as a linear function of another, as URDF ``<mimic>`` does:
 ``q[dof] = ratio * q[source] + offset`` (the SA hand: distal = middle, ratio 1).
+
+Besides the kinematics a hand records what a reader needs to trust it: named frames
+fixed to links (URDF links merged by fixed joints, MJCF bodies without joints), the
+finger that opposes the others (:attr:`Hand.opposing_finger`), notes and warnings of its
+import (:attr:`Hand.notes`), the file it came from (:attr:`Hand.source`) and the
+report of each fingertip found automatically (:attr:`Hand.tip_fits`).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from ..frozen import FrozenMap
 from typing import Literal, Mapping
 
@@ -39,10 +46,16 @@ import numpy as np
 from ..errors import InvalidHand
 from ..geometry.regions import Region
 from ..geometry.vectors import unit3, vec3
+from .provenance import HandSource, TipFit
 
-__all__ = ["Joint", "Coupling", "Capsule", "Link", "Finger", "HandRegion", "Hand"]
+__all__ = ["Joint", "Coupling", "Capsule", "Link", "Finger", "HandRegion", "NamedFrame", "Hand"]
 
 _ORTHO_TOL = 1e-6
+
+
+def _limits_text(lo: float, hi: float) -> str:
+    """Joint limits for a message, in degrees (what users type) and radians (what the API takes)."""
+    return f"[{np.degrees(lo):.6g}, {np.degrees(hi):.6g}] deg ([{lo:.6g}, {hi:.6g}] rad)"
 
 
 def _vec3(value, what: str) -> np.ndarray:
@@ -117,9 +130,9 @@ class Joint:
             raise InvalidHand(f"{where}: a {self.kind} joint has {n} angle(s); give {n} dof name(s) and limit pair(s)")
         for d, lo, hi in zip(self.dof_names, self.lower, self.upper):
             if not (np.isfinite(lo) and np.isfinite(hi) and lo <= hi):
-                raise InvalidHand(f"{where}: limits of {d!r} must satisfy lower <= upper, got [{lo}, {hi}] rad")
+                raise InvalidHand(f"{where}: limits of {d!r} must satisfy lower <= upper, got {_limits_text(lo, hi)}")
             if hi - lo > 2 * np.pi + 1e-9:
-                raise InvalidHand(f"{where}: limits of {d!r} span more than 2*pi rad ([{lo}, {hi}])")
+                raise InvalidHand(f"{where}: limits of {d!r} span more than one turn (360 deg): {_limits_text(lo, hi)}")
         if self.kind == "universal":
             if self.axis_in_child is None:
                 raise InvalidHand(f"{where}: a universal joint needs axis_in_child (its second axis)")
@@ -209,6 +222,29 @@ class HandRegion:
 
 
 @dataclass(frozen=True, eq=False)
+class NamedFrame:
+    """A frame fixed to a link (a URDF link merged by a fixed joint, an MJCF body without
+    joints, an MJCF site): ``T_link_frame`` (4, 4), translation in mm."""
+
+    link: str
+    T_link_frame: np.ndarray
+
+    def __post_init__(self):
+        T = np.asarray(self.T_link_frame, dtype=float)
+        if T.shape != (4, 4) or not np.all(np.isfinite(T)):
+            raise InvalidHand(f"named frame on link {self.link!r}: T_link_frame must be a finite 4x4 transform")
+        _rotation(T[:3, :3], f"named frame on link {self.link!r}: rotation")
+        T = T.copy()
+        T.setflags(write=False)
+        object.__setattr__(self, "T_link_frame", T)
+
+    @property
+    def origin(self) -> np.ndarray:
+        """The frame's origin in the link frame [mm], shape (3,)."""
+        return self.T_link_frame[:3, 3]
+
+
+@dataclass(frozen=True, eq=False)
 class Hand:
     """A hand: a tree of links rooted at the palm, with joints, couplings and regions.
 
@@ -221,6 +257,15 @@ class Hand:
         regions: named contact regions on links.
         collision_exclusions: link pairs never checked for collision, besides the
             pairs joined by a joint (always excluded).
+        frames: named frames fixed to links (see :class:`NamedFrame`); a frame name is
+            not a link name, but naming one where a link is expected gets a hint.
+        opposing_finger: the finger that opposes the others (a thumb): the local solver
+            places the object from its contact.  Default: the finger named ``"thumb"``,
+            if there is one, else none.
+        notes: what the import of the hand noted or warned about (palm cut from an arm,
+            missing meshes, unsupported joints held fixed, frames merged...).
+        source: the hand file the hand was read from (None: built in code or inline).
+        tip_fits: per fingertip region name, how it was found (:class:`TipFit`).
     """
 
     name: str
@@ -230,13 +275,21 @@ class Hand:
     fingers: tuple[Finger, ...] = ()
     regions: Mapping[str, HandRegion] = field(default_factory=dict)
     collision_exclusions: tuple[tuple[str, str], ...] = ()
+    frames: Mapping[str, NamedFrame] = field(default_factory=dict)
+    opposing_finger: str | None = None
+    notes: tuple[str, ...] = ()
+    source: HandSource | None = None
+    tip_fits: Mapping[str, TipFit] = field(default_factory=dict)
 
     def __post_init__(self):
         set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731
-        for attr in ("links", "joints", "couplings", "fingers"):
+        for attr in ("links", "joints", "couplings", "fingers", "notes"):
             set_(attr, tuple(getattr(self, attr)))
-        set_("regions", FrozenMap(dict(self.regions)))
+        for attr in ("regions", "frames", "tip_fits"):
+            set_(attr, FrozenMap(dict(getattr(self, attr))))
         set_("collision_exclusions", tuple(tuple(p) for p in self.collision_exclusions))
+        if self.opposing_finger is None and any(f.name == "thumb" for f in self.fingers):
+            set_("opposing_finger", "thumb")
         from ._validate import validate_hand  # local: keeps this module about data
 
         validate_hand(self)
@@ -246,15 +299,15 @@ class Hand:
     def palm(self) -> str:
         return self.links[0].name
 
-    @property
+    @cached_property  # the hand is immutable: computed once
     def link_names(self) -> tuple[str, ...]:
         return tuple(link.name for link in self.links)
 
-    @property
+    @cached_property  # the hand is immutable: computed once
     def dof_names(self) -> tuple[str, ...]:
         return tuple(d for j in self.joints for d in j.dof_names)
 
-    @property
+    @cached_property  # the hand is immutable: computed once
     def n_dof(self) -> int:
         return len(self.dof_names)
 
@@ -262,7 +315,18 @@ class Hand:
         try:
             return self.link_names.index(name)
         except ValueError:
-            raise InvalidHand(f"link {name!r} not found; links are: {', '.join(self.link_names)}") from None
+            raise InvalidHand(self.missing_link_message(name)) from None
+
+    def missing_link_message(self, name: str) -> str:
+        """Why ``name`` is not a link: a hint when it is a named frame, else the links."""
+        frame = self.frames.get(name)
+        if frame is not None:
+            at = ", ".join(f"{x:.6g}" for x in frame.origin)
+            return (
+                f"link {name!r} not found: it is a frame fixed to link {frame.link!r} (merged at import), "
+                f"with its origin at [{at}] mm in that link's frame; name link {frame.link!r} instead"
+            )
+        return f"link {name!r} not found; links are: {', '.join(self.link_names)}"
 
     def dof_index(self, name: str) -> int:
         try:
@@ -312,7 +376,7 @@ class Hand:
             joint = self.joint_of_link(joint.parent)
         return tuple(out)
 
-    @property
+    @cached_property  # the hand is immutable: computed once
     def dof_offsets(self) -> tuple[int, ...]:
         """Index of each joint's first dof in the dof vector."""
         offs, k = [], 0
@@ -327,13 +391,32 @@ class Hand:
                 return f.name
         return None
 
+    def active_dofs(self, fingers) -> np.ndarray:
+        """(n_dof,) bool: the dofs that move the links of ``fingers``, closed under couplings.
+
+        A dof moves a link when its joint is the link's or an ancestor's.  A coupled dof
+        that moves brings its source along, and a source that moves brings every dof
+        coupled to it (on the Schunk SVH the index's spread is coupled to the little
+        finger's, so a task with the index moves both spreads).
+        """
+        mask = np.zeros(self.n_dof, dtype=bool)
+        for f in fingers:
+            for link in self.finger(f).links:
+                mask[list(self.chain_dofs(link))] = True
+        index = {d: i for i, d in enumerate(self.dof_names)}
+        for c in self.couplings:  # sources are never coupled: two passes close the set
+            if mask[index[c.dof]]:
+                mask[index[c.source]] = True
+        for c in self.couplings:
+            if mask[index[c.source]]:
+                mask[index[c.dof]] = True
+        return mask
+
     def with_regions(self, extra: Mapping[str, HandRegion]) -> "Hand":
         """A copy of this hand with more (or replaced) named regions."""
         merged = dict(self.regions)
         merged.update(extra)
-        return Hand(
-            self.name, self.links, self.joints, self.couplings, self.fingers, merged, self.collision_exclusions
-        )
+        return _replace(self, regions=merged)
 
     def with_limits(self, limits: Mapping[str, tuple[float, float]]) -> "Hand":
         """A copy with the limits of the named dofs replaced (``{dof: (lower, upper)}`` rad)."""
@@ -347,12 +430,10 @@ class Hand:
             lo = tuple(limits.get(d, (l, h))[0] for d, l, h in zip(j.dof_names, j.lower, j.upper))
             hi = tuple(limits.get(d, (l, h))[1] for d, l, h in zip(j.dof_names, j.lower, j.upper))
             joints.append(_replace(j, lower=lo, upper=hi))
-        return Hand(
-            self.name, self.links, tuple(joints), self.couplings, self.fingers, self.regions, self.collision_exclusions
-        )
+        return _replace(self, joints=tuple(joints))
 
     def without_couplings(self) -> "Hand":
-        return Hand(self.name, self.links, self.joints, (), self.fingers, self.regions, self.collision_exclusions)
+        return _replace(self, couplings=())
 
 
 def _replace(obj, **changes):

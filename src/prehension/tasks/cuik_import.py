@@ -265,9 +265,10 @@ def task_from_world(
     stem = Path(world.path).stem if world.path else "world"
     try:
         hand = Hand(stem, tuple(links), tuple(joints), tuple(cpl), tuple(fingers), hand_regions)
+        _check_body_files(world)
         obj = GraspObject(obj_name, object_regions, mesh_file=_object_mesh(world, obj_name))
         used = sorted({hand.finger_of_link(r.link) for r in hand_regions.values()} - {None})
-        task_name = name or (f"{Path(world.path).parent.name}" if world.path else stem)
+        task_name = name or (Path(world.path).resolve().parent.name if world.path else stem) or stem
         return Task(task_name, hand, obj, tuple(contacts), tuple(used), description=f"imported from {world.path}")
     except WorldFileError:
         raise
@@ -284,16 +285,36 @@ def _check_all_links_used(ctx: _Ctx, hand_links, frames, obj_name) -> None:
             )  # fmt: skip
 
 
+def _body_file(world: WorldFile, relative: str) -> Path | None:
+    """Where a ``body "file.off"`` of the world file is: its folder or up to three above it
+    (CuikSuite examples keep ``bodies/`` a level or two up)."""
+    folder = Path(world.path).resolve().parent
+    for base in (folder, *list(folder.parents)[:3]):
+        if (base / relative).is_file():
+            return base / relative
+    return None
+
+
+def _check_body_files(world: WorldFile) -> None:
+    """Every body file the world names exists (CuikSuite reads them all): else an error
+    naming the link, its line and where the file was looked for."""
+    if world.path is None:
+        return
+    for link in world.links:
+        for body in link.bodies:
+            if body.kind == "off" and body.path and _body_file(world, body.path) is None:
+                raise WorldFileError(
+                    f"link {link.name!r}: body file {body.path!r} not found (looked in the world file's folder "
+                    "and up to three folders above it)", path=world.path, line=link.line,
+                )  # fmt: skip
+
+
 def _object_mesh(world: WorldFile, obj_name: str) -> str | None:
     if world.path is None:
         return None
-    folder = Path(world.path).resolve().parent
     for body in world.link(obj_name).bodies:
-        if body.kind != "off" or not body.path:
-            continue
-        for base in (folder, *list(folder.parents)[:3]):  # CuikSuite examples keep bodies/ a level or two up
-            if (base / body.path).is_file():
-                return str(base / body.path)
+        if body.kind == "off" and body.path:
+            return str(_body_file(world, body.path))
     return None
 
 

@@ -369,8 +369,20 @@ class _Parser:
         value = operand()
         while self.peek().kind == "op" and self.peek().text in operators:
             op = self.advance()
+            self.operand_follows(op)
             value = self.checked(op, partial(_BINARY[op.text], value, operand()))
         return value
+
+    def operand_follows(self, op: _Token) -> None:
+        """Blame a dangling operator on its own line, not on what the next line starts."""
+        token, after = self.peek(), self.peek(1)
+        starts_next = (
+            token.kind == "eof"
+            or (token.kind == "id" and after.is_op(":="))
+            or (token.is_op("[") and after.kind == "id" and after.text.upper() in ("CONSTANTS", "LINKS", "JOINTS"))
+        )  # fmt: skip
+        if starts_next and token.line > op.line or token.kind == "eof":
+            raise _Problem(f"the expression ends with a dangling '{op.text}': an operand must follow it", op.line)
 
     def unary(self) -> float:
         token = self.peek()

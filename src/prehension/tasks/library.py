@@ -14,13 +14,36 @@ from pathlib import Path
 from ..errors import InvalidTask
 from .model import Task
 
-__all__ = ["builtin_task_names", "load_builtin_task", "resolve_task"]
+__all__ = ["builtin_task_names", "load_builtin_task", "resolve_task", "builtin_mesh_dir", "builtin_regions"]
 
 _PACKAGE = "prehension.tasks"
 
 
 def _builtin_dir():
     return resources.files(_PACKAGE).joinpath("builtin")
+
+
+def builtin_mesh_dir() -> Path:
+    """The folder of the built-in objects' meshes (``mesh:`` paths of built-in tasks are relative to its parent)."""
+    return Path(str(_builtin_dir())) / "meshes"
+
+
+def builtin_regions() -> dict[str, dict]:
+    """Every object region of the built-in task files, by object name.
+
+    Read from the files' YAML alone (no mesh is read), so that
+    ``scripts/make_builtin_meshes.py`` can make the meshes the regions must lie on.
+    """
+    from .format.read import region_from_dict
+    from .format.yaml_text import parse_yaml
+
+    out: dict[str, dict] = {}
+    for name in builtin_task_names():
+        text = _builtin_dir().joinpath(f"{name}.yaml").read_text(encoding="utf-8")
+        obj = parse_yaml(text, name)["object"]
+        for rname, spec in obj["regions"].items():
+            out.setdefault(obj["name"], {})[rname] = region_from_dict(spec, f"built-in task {name}: object.regions.{rname}")
+    return out
 
 
 @lru_cache(maxsize=None)
@@ -36,7 +59,7 @@ def load_builtin_task(name: str) -> Task:
     if name not in builtin_task_names():
         raise InvalidTask(f"unknown built-in task {name!r}; built-in tasks are: {', '.join(builtin_task_names())}")
     text = _builtin_dir().joinpath(f"{name}.yaml").read_text(encoding="utf-8")
-    return loads_task(text, source=f"built-in task {name}")
+    return loads_task(text, source=f"built-in task {name}", base_dir=Path(str(_builtin_dir())))
 
 
 def resolve_task(spec: str | Path, **world_options) -> Task:

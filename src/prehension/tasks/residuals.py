@@ -9,7 +9,10 @@ task and a configuration it reports, in physical units:
   (patch parameters outside [0, 1]; a sphere cap's normal outside its cone, in deg);
 * per joint angle: how far it lies outside its limits [deg];
 * per coupling: ``|q[dof] - (ratio q[source] + offset)|`` [deg];
-* per pair of collision capsules: the penetration depth [mm] (0 when apart).
+* per pair of collision capsules: the penetration depth [mm] (0 when apart);
+* per link with collision capsules, when the object has a solid that collides: how deep
+  the link reaches into the object [mm], the touching pads at their contacts excepted
+  (:mod:`prehension.tasks.object_collision` defines both exactly).
 
 Each value is compared with a :class:`Tolerances` entry; a configuration is a solution
 when every check passes.  The batch cores (:func:`contact_residuals`,
@@ -19,6 +22,7 @@ when every check passes.  The batch cores (:func:`contact_residuals`,
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -45,8 +49,11 @@ class Tolerances:
     """Largest violation of each kind that still counts as satisfied.
 
     The defaults are those of a *verified* solution: contacts within 1e-6 mm and 1e-6 deg,
-    limits and couplings exact up to rounding, no penetration.  The local solver's
-    acceptance test (``d_min`` of Claret & Suárez) passes looser contact tolerances.
+    limits and couplings exact up to rounding, no self-penetration, and no link deeper
+    than 0.5 mm into the object (``object_penetration_mm``: a hand and an object touch
+    over a patch, not a point, so a fraction of a millimetre is contact, not collision).
+    The local solver's acceptance test (``d_min`` of Claret & Suárez) passes looser
+    contact tolerances.
     """
 
     contact_mm: float = 1e-6
@@ -55,13 +62,14 @@ class Tolerances:
     limit_deg: float = 1e-9
     coupling_deg: float = 1e-9
     penetration_mm: float = 0.0
+    object_penetration_mm: float = 0.5
 
 
 @dataclass(frozen=True)
 class Check:
     """One constraint: ``value`` (>= 0) is its violation, in ``unit``."""
 
-    kind: str  # contact_distance | contact_normal | hand_region | object_region | joint_limit | coupling | collision
+    kind: str  # contact_distance | contact_normal | hand_region | object_region | joint_limit | coupling | collision | object_collision
     name: str
     value: float
     unit: str
@@ -140,14 +148,14 @@ def contact_residuals(task: Task, pose: HandPose, T_palm_object, params) -> dict
     for contact, (hp, op) in zip(task.contacts, params):
         hreg, oreg = task.hand_region(contact), task.object_region(contact)
         li = task.hand.link_index(hreg.link)
-        h_pt, h_n = hreg.region.evaluate(hp)
-        o_pt, o_n = oreg.evaluate(op)
+        h_pt, h_n, h_out = hreg.region.evaluate_checked(hp)
+        o_pt, o_n, o_out = oreg.evaluate_checked(op)
         out["hand_point"].append(pose.points(li, h_pt))
         out["hand_normal"].append(pose.directions(li, h_n))
         out["object_point"].append(_transform_points(T, o_pt))
         out["object_normal"].append(np.einsum("bij,bj->bi", T[:, :3, :3], o_n))
-        out["hand_region"].append(hreg.region.domain_violation(hp))
-        out["object_region"].append(oreg.domain_violation(op))
+        out["hand_region"].append(h_out)
+        out["object_region"].append(o_out)
     res = {k: np.stack(v, axis=1) for k, v in out.items()}
     res["distance_mm"] = np.linalg.norm(res["hand_point"] - res["object_point"], axis=-1)
     res["normal_angle_deg"] = np.degrees(angle_between(res["hand_normal"], -res["object_normal"]))
@@ -173,14 +181,18 @@ def coupling_violations(hand, q) -> np.ndarray:
 
 
 # -- one configuration, with names ------------------------------------------------------
-def evaluate(task: Task, config: Configuration, tolerances: Tolerances = Tolerances()) -> ResidualReport:
+def evaluate(task: Task, config: Configuration, tolerances: Tolerances = Tolerances(), *,
+             pose: HandPose | None = None) -> ResidualReport:  # fmt: skip
     """Check ``config`` against every constraint of ``task`` (see the module docstring).
 
     When ``config.contact_params`` is ``None``, the parameters of each contact are those
     that bring its two regions closest (:func:`~prehension.tasks.locate.locate_contact_params`).
+    ``pose``: ``forward_kinematics(task.hand, config.joint_angles)`` when the caller has
+    computed it already (it is not computed twice).
     """
     config.check_against(task)
-    pose = forward_kinematics(task.hand, config.joint_angles)
+    if pose is None:
+        pose = forward_kinematics(task.hand, config.joint_angles)
     T = config.T_palm_object[None]
     params = config.contact_params
     if params is None:
@@ -190,6 +202,7 @@ def evaluate(task: Task, config: Configuration, tolerances: Tolerances = Toleran
     checks = _contact_checks(task, res, tolerances)
     checks += _joint_checks(task, config.joint_angles, tolerances)
     checks += _collision_checks(task, pose, tolerances)
+    checks += _object_collision_checks(task, pose, config.T_palm_object, res["hand_point"][0], tolerances)
     states = tuple(
         ContactState(
             c.name, params[i][0], params[i][1],
@@ -227,8 +240,29 @@ def _joint_checks(task, q, tol) -> list[Check]:
 
 
 def _collision_checks(task, pose, tol) -> list[Check]:
+    """One check per pair of links: the deepest penetration of their capsule pairs [mm]."""
     clearance, names = capsule_clearances(task.hand, pose)
-    depth: dict[tuple[str, str], float] = {}
-    for (a, b), c in zip(names, clearance[0]):
-        depth[(a, b)] = max(depth.get((a, b), 0.0), float(max(-c, 0.0)))
-    return [Check("collision", f"{a}/{b}", v, "mm", tol.penetration_mm) for (a, b), v in depth.items()]
+    labels, group = _link_pairs(names)
+    depth = np.zeros(len(labels))
+    np.maximum.at(depth, group, np.maximum(-clearance[0], 0.0))
+    return [Check("collision", label, float(v), "mm", tol.penetration_mm) for label, v in zip(labels, depth)]
+
+
+@lru_cache(maxsize=64)
+def _link_pairs(names: tuple[tuple[str, str], ...]) -> tuple[tuple[str, ...], np.ndarray]:
+    """``("a/b" per link pair in order of first appearance, the link pair of each capsule
+    pair)`` for the capsule pairs' link ``names`` (the same tuple for every call on a hand)."""
+    order: dict = {}
+    group = np.array([order.setdefault(pair, len(order)) for pair in names], dtype=np.intp)
+    return tuple(f"{a}/{b}" for a, b in order), group
+
+
+def _object_collision_checks(task, pose, T_palm_object, hand_points_palm, tol) -> list[Check]:
+    if not task.object.collides:
+        return []
+    from .object_collision import link_penetrations
+
+    T = np.asarray(T_palm_object, dtype=float)
+    points = (hand_points_palm - T[:3, 3]) @ T[:3, :3]  # palm -> object frame, (C, 3)
+    depth = link_penetrations(task, pose, T, points)
+    return [Check("object_collision", link, v, "mm", tol.object_penetration_mm) for link, v in depth.items()]

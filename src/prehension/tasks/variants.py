@@ -3,6 +3,8 @@
 ``move_object_region(task, "knob_back", (0, 0, 200))`` shifts one Bézier region of the
 object (the object's display primitives stay where they are); ``turn_object_region``
 rotates one about its centre, e.g. by 180 degrees so that it faces away from the hand.
+A variant's object has no solid (the moved region no longer lies on its surface): it is
+drawn with its display primitives only and has no collision checks.
 """
 
 from __future__ import annotations
@@ -30,7 +32,8 @@ def _bezier_region(task: Task, name: str) -> BezierRegion:
 def _with_region(task: Task, name: str, region: BezierRegion, label: str) -> Task:
     regions = dict(task.object.regions)
     regions[name] = region
-    return replace(task, name=f"{task.name} ({name} {label})", object=replace(task.object, regions=regions))
+    obj = replace(task.object, regions=regions, solid=None)
+    return replace(task, name=f"{task.name} ({name} {label})", object=obj)
 
 
 def move_object_region(task: Task, name: str, offset_mm) -> Task:

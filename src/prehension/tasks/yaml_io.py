@@ -14,7 +14,9 @@ Schema (format ``task/1``)::
     description: "..."              # optional free text
     hand: schunk-sa                 # a built-in hand name (BUILTIN_HANDS), or an inline hand
                                     # mapping (below), or {file: hand.yaml}: a YAML file that
-                                    # holds an inline hand mapping (path relative to this file)
+                                    # holds an inline hand mapping (path relative to this file),
+                                    # or {urdf: hand.urdf} / {mjcf: hand.xml} with optional root,
+                                    # name, fingertips (tasks/format/hand_files.py, docs/hands.md)
     hand_limits_deg:                # optional: replace limits, {angle: [lower, upper]}
       index_mcp_abd: [-22.5, 22.5]
     hand_couplings: true            # optional (default true); false drops every coupling
@@ -29,6 +31,13 @@ Schema (format ``task/1``)::
                                     #   (M+1) x (N+1) grid; outward normal = p_u x p_v
         rim: {point: [x, y, z], normal: [nx, ny, nz]}
         bump: {sphere_cap: {center: [x, y, z], radius: r, axis: [ax, ay, az], half_angle_deg: a}}
+      mesh: teapot.obj              # optional solid: a mesh file (OBJ, STL, PLY, OFF, GLB),
+      units: mm                     #   relative to this file, with units (mm, cm, m, in) or
+                                    #   scale (mm per file unit); or instead of mesh:
+      shape: [{box: {...}}, ...]    #   closed primitives (as in display) united into the solid
+      collisions: true              # optional (default true): check the hand against the solid
+      surface_tolerance_mm: 0.5     # optional: how far regions may lie from the solid's surface
+                                    # (every region is checked on it, normals outward: docs/objects.md)
       display:                      # optional, only for looking at grasps
         primitives:                 # each item has exactly one key:
           - {box: {center: [0, 0, 0], size: [10, 20, 30]}}
@@ -65,11 +74,16 @@ Inline hand mapping (also the content of a ``{file: ...}`` hand file)::
     fingers: [{name: index, links: [index_proximal, index_middle, index_distal]}]
     regions: {index_tip: {link: index_distal, sphere_cap: {...}}}
     collision_exclusions: [[link_a, link_b]]
+    frames: {tip_frame: {link: index_distal, origin: [x, y, z], rotation: [[...], [...], [...]]}}
+    opposing_finger: thumb          # optional (default: the finger named thumb)
+    source: {format: urdf, path: /abs/hand.urdf, sha256: ..., options: {}}  # optional, informational
 
 Writing (:func:`task_to_dict`): a hand whose name is a built-in one and that differs from
 that built-in only in limits, regions, or by having no couplings is written as the
 name plus ``hand_limits_deg`` / ``hand_couplings: false`` / ``hand_regions`` for just the
-differences; any other hand is written inline.  Angles are written in degrees rounded to
+differences; a hand read from a file is written the same way as its file reference (while
+the file still gives that hand); any other hand is written inline, and result files
+always hold the hand inline with its ``source``.  Angles are written in degrees rounded to
 12 decimals, and unit vectors as the nearest value that the model's own normalisation
 leaves unchanged, so that reading a written task and writing it again gives the same
 dict.

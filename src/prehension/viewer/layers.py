@@ -10,6 +10,7 @@ from typing import Mapping
 
 import numpy as np
 
+from ..hands.model import Hand
 from ..objects.meshes import Mesh
 from ..tasks.model import Task
 from . import scene as S
@@ -18,7 +19,7 @@ from .tessellate import capsule_mesh, region_center, region_mesh
 
 __all__ = [
     "hand_layer", "object_layer", "hand_region_layer", "object_region_layer", "contact_layer", "frame_layer",
-    "object_extent_mm",
+    "object_extent_mm", "penetrating_links",
 ]  # fmt: skip
 
 
@@ -39,23 +40,46 @@ def _merged(meshes_in_palm: list[Mesh], color: str, opacity: float = 1.0, closed
     return S.TriangleMesh(mesh.vertices, mesh.faces, color, opacity, closed)
 
 
-def hand_layer(task: Task, T_palm_link: Mapping[str, np.ndarray]) -> "S.Layer":
-    """Every link's collision capsules; a thin segment between joint centres for links without any."""
-    hand = task.hand
-    palm, fingers, lines = [], [], []
+def hand_layer(hand: Hand, T_palm_link: Mapping[str, np.ndarray], penetrating: Mapping[str, float] | None = None) -> "S.Layer":
+    """Every link's collision capsules (red for the links in ``penetrating``, those deeper
+    than the tolerance into the object); a thin segment between joint centres for links
+    without any."""
+    penetrating = penetrating or {}
+    palm, fingers, red, lines = [], [], [], []
     for link in hand.links:
         T = T_palm_link[link.name]
         placed = [capsule_mesh(c).transformed(T) for c in link.collision]
-        (palm if link.name == hand.palm else fingers).extend(placed)
+        (red if link.name in penetrating else palm if link.name == hand.palm else fingers).extend(placed)
         if not link.collision:
-            lines.extend(_skeleton(task, link.name, T))
-    meshes = (_merged(palm, S.PALM_COLOR, closed=True), _merged(fingers, S.HAND_COLOR, closed=True))
+            lines.extend(_skeleton(hand, link.name, T))
+    meshes = (
+        _merged(palm, S.PALM_COLOR, closed=True), _merged(fingers, S.HAND_COLOR, closed=True),
+        _merged(red, S.PENETRATION_COLOR, closed=True),
+    )  # fmt: skip
     return S.Layer("hand", "hand", tuple(m for m in meshes if m is not None), tuple(lines))
 
 
-def _skeleton(task: Task, link: str, T: np.ndarray) -> list["S.Polyline"]:
+def penetrating_links(task: Task, pose: GraspPose, tolerance_mm: float = 0.5) -> dict[str, float]:
+    """Links deeper than ``tolerance_mm`` into the object in ``pose``, with their depth [mm]
+    (as the residual function measures it, the touching pads excepted); empty when the
+    object has no colliding solid or the pose makes no contact."""
+    if not task.object.collides or not pose.has_solution:
+        return {}
+    from ..hands.kinematics import HandPose
+    from ..tasks.object_collision import link_penetrations
+
+    T_links = np.stack([pose.T_palm_link[name] for name in task.hand.link_names])[None]  # (1, L, 4, 4)
+    n = task.hand.n_dof
+    hand_pose = HandPose(T_links[..., :3, :3], T_links[..., :3, 3], np.zeros((1, n, 3)), np.zeros((1, n, 3)))
+    T = pose.T_palm_object
+    by_name = {c.name: c.hand_point for c in pose.contacts}
+    points = [(by_name.get(c.name, np.full(3, np.inf)) - T[:3, 3]) @ T[:3, :3] for c in task.contacts]
+    depth = link_penetrations(task, hand_pose, T, points)
+    return {link: d for link, d in depth.items() if d > tolerance_mm}
+
+
+def _skeleton(hand: Hand, link: str, T: np.ndarray) -> list["S.Polyline"]:
     """Segments from a shapeless link's joint centre to the centres of its child joints."""
-    hand = task.hand
     own = hand.joint_of_link(link)
     start = own.origin_in_child if own is not None else np.zeros(3)
     ends = [j.origin_in_parent for j in hand.joints if j.parent == link]
@@ -87,6 +111,15 @@ def hand_region_layer(task: Task, T_palm_link: Mapping[str, np.ndarray], colors:
         seen.add(contact.hand_region)
         hr = task.hand.region(contact.hand_region)
         mesh = _merged([region_mesh(hr.region).transformed(T_palm_link[hr.link])], colors[contact.name])
+        meshes += [mesh] if mesh is not None else []
+    return S.Layer("hand_regions", "hand regions", tuple(meshes))
+
+
+def all_hand_regions_layer(hand: Hand, T_palm_link: Mapping[str, np.ndarray]) -> "S.Layer":
+    """Every region of a hand (a hand shown alone), each in a colour of its own."""
+    meshes = []
+    for k, (name, hr) in enumerate(hand.regions.items()):
+        mesh = _merged([region_mesh(hr.region).transformed(T_palm_link[hr.link])], S.CONTACT_COLORS[k % len(S.CONTACT_COLORS)])
         meshes += [mesh] if mesh is not None else []
     return S.Layer("hand_regions", "hand regions", tuple(meshes))
 

@@ -19,9 +19,20 @@ from ..atomic import write_bytes_atomic
 from ..errors import PrehensionError
 from .scene import BACKGROUND, Layer, Scene, camera_basis, shade_faces
 
-__all__ = ["render_png", "require_matplotlib"]
+__all__ = ["render_png", "render_image", "require_matplotlib", "IMAGE_FORMATS"]
 
 _INSTALL = 'pip install "prehension[plot]"'
+IMAGE_FORMATS = {".png": "png", ".jpg": "jpeg", ".jpeg": "jpeg", ".pdf": "pdf", ".svg": "svg"}  # suffix -> format
+
+
+def image_format(path) -> str:
+    """The picture format a file name asks for; a :class:`PrehensionError` for any other."""
+    suffix = Path(path).suffix.lower()
+    if suffix not in IMAGE_FORMATS:
+        raise PrehensionError(
+            f"cannot tell the picture format of {path}: the file name must end in {', '.join(IMAGE_FORMATS)}"
+        )
+    return IMAGE_FORMATS[suffix]
 
 
 def require_matplotlib():
@@ -34,11 +45,14 @@ def require_matplotlib():
     return matplotlib
 
 
-def render_png(
+def render_image(
     scene: Scene, path, *, elev_deg: float | None = None, azim_deg: float | None = None,
     size_px: tuple[int, int] = (900, 700), dpi: int = 100, layers: tuple[str, ...] | None = None,
 ) -> Path:  # fmt: skip
-    """Draw ``scene`` into a PNG file (written atomically); the path written.
+    """Draw ``scene`` into a picture file (written atomically); the path written.
+
+    The format follows the file name: ``.png``, ``.jpg``/``.jpeg``, ``.pdf`` or ``.svg``
+    (:data:`IMAGE_FORMATS`); any other suffix is refused before drawing.
 
     Args:
         elev_deg, azim_deg: view direction (matplotlib's ``view_init``); default: the scene's.
@@ -50,10 +64,13 @@ def render_png(
     from matplotlib.figure import Figure
 
     path = Path(path)
+    fmt = image_format(path)
     if not path.parent.is_dir():
         raise PrehensionError(f"cannot write {path}: folder {path.parent} does not exist")
     elev = scene.view_elev_deg if elev_deg is None else float(elev_deg)
     azim = scene.view_azim_deg if azim_deg is None else float(azim_deg)
+    if not (np.isfinite(elev) and np.isfinite(azim)):
+        raise PrehensionError(f"the view angles must be finite numbers of degrees, got elevation {elev} and azimuth {azim}")
     shown = _layers(scene, layers)
     fig = Figure(figsize=(size_px[0] / dpi, size_px[1] / dpi), dpi=dpi, facecolor=BACKGROUND)
     FigureCanvasAgg(fig)
@@ -70,9 +87,12 @@ def render_png(
     _draw_scale_bar(ax, bar)
     _annotate(fig, scene, columns)
     buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=dpi, facecolor=BACKGROUND)
+    fig.savefig(buffer, format=fmt, dpi=dpi, facecolor=BACKGROUND)
     write_bytes_atomic(path, buffer.getvalue())
     return path
+
+
+render_png = render_image  # the name of earlier releases; any format of IMAGE_FORMATS
 
 
 def _layers(scene: Scene, keys) -> list[Layer]:

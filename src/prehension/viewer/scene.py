@@ -8,7 +8,8 @@ configuration or a :class:`~prehension.viewer.grasp.GraspPose`).
 
 Colours: the hand is steel grey, the object sand and translucent; each contact has its own
 colour, shared by its hand region, its object region, its point and the normal out of the
-hand; normals out of the object are dark slate.
+hand; normals out of the object are dark slate; links that reach more than 0.5 mm into the
+object (the residual function's ``object_collision`` check) are red.
 """
 
 from __future__ import annotations
@@ -22,12 +23,13 @@ from .grasp import REFERENCE, GraspPose, beside_the_hand, link_poses, pose_from_
 
 __all__ = [
     "TriangleMesh", "Polyline", "PointSet", "ArrowSet", "Layer", "LegendEntry", "Scene", "build_scene",
-    "camera_basis", "shade_faces",
+    "build_hand_scene", "camera_basis", "shade_faces",
 ]  # fmt: skip
 
 HAND_COLOR = "#a9b4bf"
 PALM_COLOR = "#8f9baa"
 OBJECT_COLOR = "#d9c49a"
+PENETRATION_COLOR = "#d62728"  # links that reach into the object
 OBJECT_OPACITY = 0.38
 SPARE_REGION_COLOR = "#a9b7c6"  # object regions no contact names
 OBJECT_NORMAL_COLOR = "#2f3b4a"
@@ -195,26 +197,69 @@ def build_scene(task: Task, grasp=None, *, status: str | None = None) -> Scene:
     """
     from .layers import (
         contact_layer, frame_layer, hand_layer, hand_region_layer, object_extent_mm, object_layer, object_region_layer,
+        penetrating_links,
     )  # fmt: skip
 
     pose = _as_pose(task, grasp)
     colors = {c.name: CONTACT_COLORS[i % len(CONTACT_COLORS)] for i, c in enumerate(task.contacts)}
     if pose is None:
         links = link_poses(task, reference_angles(task))
-        hand = hand_layer(task, links).all_points_mm()
+        hand = hand_layer(task.hand, links).all_points_mm()
         pose = GraspPose(links, beside_the_hand(hand.min(0), hand.max(0), *object_extent_mm(task)))
     scale_mm = _arrow_length_mm(task, pose)
+    red = penetrating_links(task, pose)
     layers = (
-        hand_layer(task, pose.T_palm_link),
+        hand_layer(task.hand, pose.T_palm_link, red),
         object_layer(task, pose.T_palm_object),
         hand_region_layer(task, pose.T_palm_link, colors),
         object_region_layer(task, pose.T_palm_object, colors),
         contact_layer(task, pose, colors, scale_mm),
         frame_layer(task, pose, scale_mm),
     )
+    if pose.has_solution:
+        from .cones import friction_cone_layer
+
+        layers += (friction_cone_layer(pose, colors, scale_mm),)
     status = status or pose.status
     legend = _legend(task, colors, has_hand=bool(layers[0].meshes), has_object=bool(layers[1].meshes))
-    return Scene(task.name, status, _title(task, pose, status), _caption(pose), layers, legend)
+    if red:
+        legend += (LegendEntry("link into the object (> 0.5 mm)", PENETRATION_COLOR),)
+    caption = _caption(pose) + ((_penetration_line(red),) if red else ())
+    return Scene(task.name, status, _title(task, pose, status), caption, layers, legend)
+
+
+def build_hand_scene(hand) -> Scene:
+    """The picture of a hand alone (``prehension view HAND``): its links at zero angles
+    clamped into the limits (couplings applied), every hand region (found fingertips
+    included), and the palm and link frames."""
+    from ..hands.kinematics import forward_kinematics
+    from .layers import all_hand_regions_layer, hand_layer
+
+    q = np.clip(np.zeros(hand.n_dof), hand.lower, hand.upper)
+    for c in hand.couplings:
+        q[hand.dof_index(c.dof)] = c.ratio * q[hand.dof_index(c.source)] + c.offset
+    T = forward_kinematics(hand, np.clip(q, hand.lower, hand.upper)).T_palm_link[0]
+    links = {name: T[i] for i, name in enumerate(hand.link_names)}
+    frames = [(np.eye(4), 60.0)] + [(links[name], 15.0) for name in hand.link_names[1:]]
+    lines = tuple(
+        Polyline(np.array([F[:3, 3], F[:3, 3] + size * F[:3, axis]]), color, 2.0)
+        for F, size in frames for axis, color in enumerate(AXIS_COLORS)
+    )  # fmt: skip
+    layers = (
+        hand_layer(hand, links),
+        all_hand_regions_layer(hand, links),
+        Layer("frames", "frames (x y z = red green blue)", (), lines, visible=False, on_top=True),
+    )
+    fingers = ", ".join(f.name for f in hand.fingers) or "none"
+    caption = (f"fingers: {fingers}; regions: {', '.join(hand.regions) or 'none'}",
+               "links at zero angles clamped into their limits; palm frame, mm")  # fmt: skip
+    legend = (LegendEntry("hand (collision capsules)", HAND_COLOR),)
+    return Scene(hand.name, "hand", f"hand {hand.name!r}: {len(hand.links)} links, {hand.n_dof} joint angles", caption, layers, legend)
+
+
+def _penetration_line(red: dict[str, float]) -> str:
+    worst = sorted(red.items(), key=lambda kv: -kv[1])
+    return "into the object (red): " + ", ".join(f"{link} {depth:.1f} mm" for link, depth in worst)
 
 
 def _as_pose(task: Task, grasp) -> GraspPose | None:

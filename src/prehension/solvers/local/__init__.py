@@ -7,7 +7,8 @@ Public API:
 * :class:`LocalOptions` -- the paper's parameters (``i_max``, ``k_max``, ``d_min``...) and ours;
 * :class:`PointProblems`, :func:`random_point_problems` -- the compact batch form and the
   paper's random feasible problems;
-* :class:`InitialPoseSequence`, :func:`default_sequence`, :func:`offline_sequence` -- sec. 3.2.
+* :class:`InitialPoseSequence`, :func:`default_sequence`, :func:`offline_sequence` -- sec. 3.2;
+* :func:`compile_pending`, :func:`warm_up` -- the first run compiles the kernel once.
 
 See ``docs/local-solver.md``.
 """
@@ -16,6 +17,7 @@ from .options import LocalOptions
 from .problems import PointProblems, random_point_problems
 from .sequence import PAPER_TABLE1, InitialPoseSequence, default_sequence
 from .solver import LocalBatch, LocalRecord, Refinement, refine_local, solve_local, solve_local_batch
+from .warmup import COMPILING_MESSAGE, compile_pending, warm_up
 
 __all__ = [
     "LocalOptions",
@@ -31,6 +33,9 @@ __all__ = [
     "default_sequence",
     "offline_sequence",
     "PAPER_TABLE1",
+    "compile_pending",
+    "warm_up",
+    "COMPILING_MESSAGE",
 ]
 
 

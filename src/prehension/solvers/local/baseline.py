@@ -15,50 +15,41 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import replace
 
 import numpy as np
 from scipy.optimize import least_squares
 
 from . import _kernel as K
-from ._kernel import njit
+from ._jit import njit
+from ._linalg import mat_mat, mat_vec, rot
 from .options import LocalOptions
 from .problems import PointProblems
 from .sequence import InitialPoseSequence, default_sequence
-from .solver import _check, _contact_checks_points, _pose_index
+from .solver import _check, _contact_checks_points, _pose_index, run_kernel
 
 __all__ = ["least_squares_batch"]
 
 
 @njit(cache=True)
-def _fun_jac(z, R0, cp0, data, piv, cint, cdofs, cnd, dof_free, dof_ratio, dof_offset, q_fixed,
-             jp, jc, jkind, joff, jP, jQ, ju, jR0, jv, n_links, nf, wn, f, J, R, t):  # fmt: skip
+def _fun_jac(z, R0, cp0, data, hand, lay, opt, out):
     """Residual and exact Jacobian at ``z`` where the twist entries are a rotation vector
-    ``w`` and a shift ``v`` of the pivot from the initial pose ``(R0, pivot cp0)``."""
-    C = cint.shape[0]
-    ndof = dof_free.shape[0]
+    ``w`` and a shift ``v`` of the pivot from the initial pose ``(R0, pivot cp0)``.
+    ``out = (f, J, R, t)``."""
+    f, J, R, t = out
+    nf = lay.nf
+    piv = data[lay.pivot_offset : lay.pivot_offset + 3]
     w0, w1, w2 = z[nf], z[nf + 1], z[nf + 2]
     th = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
     Rw = np.eye(3)
     if th > 0.0:
-        K._rot(w0 / th, w1 / th, w2 / th, th, Rw)
-    K._mm(Rw, R0, R)
+        rot(w0 / th, w1 / th, w2 / th, th, Rw)
+    mat_mat(Rw, R0, R)
     pv = np.empty(3)
-    K._mv(R, piv, pv)
+    mat_vec(R, piv, pv)
     for i in range(3):
         t[i] = cp0[i] + z[nf + 3 + i] - pv[i]
-    q = np.zeros(ndof)
-    K._q_from_free(z, dof_free, dof_ratio, dof_offset, q_fixed, q)
-    Rl = np.zeros((n_links, 3, 3))
-    rl = np.zeros((n_links, 3))
-    ax = np.zeros((ndof, 3))
-    org = np.zeros((ndof, 3))
-    K._fk(q, jp, jc, jkind, joff, jP, jQ, ju, jR0, jv, Rl, rl, ax, org, np.zeros((3, 3)), np.zeros((3, 3)), np.zeros(3))
-    ph = np.zeros((C, 3))
-    nh = np.zeros((C, 3))
-    po = np.zeros((C, 3))
-    no = np.zeros((C, 3))
-    K._residual(z, R, t, data, piv, cint, cdofs, cnd, dof_free, dof_ratio, wn, True, Rl, rl, ax, org, f, J,
-                ph, nh, po, no, nf)  # fmt: skip
+    K.residual_at(z, R, t, data, hand, lay, opt, f, J)
     # the kernel's twist columns are derivatives along a left increment; d Rot(w) = [J_l(w) dw]x Rot(w)
     Jl = np.eye(3)
     if th > 1e-12:
@@ -66,7 +57,7 @@ def _fun_jac(z, R0, cp0, data, piv, cint, cdofs, cnd, dof_free, dof_ratio, dof_o
         b = (th - math.sin(th)) / (th * th * th)
         Wx = np.array([[0.0, -w2, w1], [w2, 0.0, -w0], [-w1, w0, 0.0]])
         Jl = np.eye(3) + a * Wx + b * (Wx @ Wx)
-    for r in range(6 * C):
+    for r in range(f.shape[0]):
         c0, c1, c2 = J[r, nf], J[r, nf + 1], J[r, nf + 2]
         for k in range(3):
             J[r, nf + k] = c0 * Jl[0, k] + c1 * Jl[1, k] + c2 * Jl[2, k]
@@ -90,15 +81,11 @@ def least_squares_batch(
     rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(0 if rng is None else rng)
     group = problems.group(options.joint_scale_mm)
     P, nx, nf, imax = len(problems), group.nx, group.nf, options.i_max
-    args = group.kernel_args()
-    (jp, jc, jkind, joff, jP, jQ, ju, jR0, jv, n_links) = args[:10]
     pidx = _pose_index(group, sequence)
     use = pidx >= 0
-    init_opt = options.kernel_array()
-    init_opt[K.O_KMAX] = 0
-    init_opt[K.O_NPOLISH] = 0
-    init_opt[K.O_NREPAIR] = 0
-    lo, hi = group.lo.copy(), group.hi.copy()
+    start_only = replace(options, k_max=0, polish=False, repair_iterations=0)
+    kopt = options.kernel_options()
+    lo, hi = group.layout.lo.copy(), group.layout.hi.copy()
     lo[nf : nf + 6], hi[nf : nf + 6] = -np.inf, np.inf
     hi = np.maximum(hi, lo + 1e-12)
     check = lambda idx, pose, T, prm: _contact_checks_points(problems, idx, pose, T, prm)  # noqa: E731
@@ -110,33 +97,26 @@ def least_squares_batch(
     per_pose_time = np.zeros((P, imax))
     for p in range(P):
         data = group.pdata[p]
-        piv = data[group.piv_off : group.piv_off + 3]
+        piv = data[group.layout.pivot_offset : group.layout.pivot_offset + 3]
         t_p = time.perf_counter()
         for i in range(imax):
             t_i = time.perf_counter()
             lam = sequence.lambdas[i : i + 1] if (options.initial == "sequence" and i < len(sequence)) else rng.uniform(0, 1, (1, 2))
             x0 = group.x_default[None].copy()
             x0[:, use] = sequence.poses(lam)[:, pidx[use]]
-            st, it, pit = (np.zeros(1, dtype=np.int64) for _ in range(3))
-            xo, Ro, to, eo = np.zeros((1, nx)), np.zeros((1, 3, 3)), np.zeros((1, 3)), np.zeros((1, 2))
-            K.run_states(np.array([p]), x0, group.pdata, group.piv_off, *args, init_opt, st, it, pit, xo, Ro, to, eo)
-            R0 = Ro[0].copy()
-            cp0 = R0 @ piv + to[0]
-            z0 = np.clip(xo[0], lo, hi)
-            f = np.zeros(6 * C)
-            J = np.zeros((6 * C, nx))
-            R = np.zeros((3, 3))
-            t = np.zeros(3)
+            init = run_kernel(group, np.array([p]), x0, start_only)
+            R0 = init.R[0].copy()
+            cp0 = R0 @ piv + init.t[0]
+            z0 = np.clip(init.x[0], lo, hi)
+            buffers = (np.zeros(6 * C), np.zeros((6 * C, nx)), np.zeros((3, 3)), np.zeros(3))
             cache = {}
 
             def evaluate(z):
                 key = z.tobytes()
                 if key not in cache:
                     cache.clear()
-                    _fun_jac(z, R0, cp0, data, piv, group.cint, group.cdofs, group.cnd, group.dof_free, group.dof_ratio,
-                             group.dof_offset, group.q_fixed, jp, jc, jkind, joff, jP, jQ, ju, jR0, jv, n_links, nf,
-                             options.normal_weight_mm, f, J, R, t)  # fmt: skip
-                    cache[key] = (f.copy(), J.copy(), R.copy(), t.copy())
+                    _fun_jac(z, R0, cp0, data, group.arrays, group.layout, kopt, buffers)
+                    cache[key] = tuple(b.copy() for b in buffers)
                 return cache[key]
 
             sol = least_squares(

@@ -48,18 +48,16 @@ def grid_values(N: int) -> np.ndarray:
 
 # -- hands across processes ----------------------------------------------------------------
 def _hand_spec(hand: Hand):
-    """A picklable recipe for ``hand`` (the Hand itself holds a mappingproxy)."""
+    """A small picklable recipe for ``hand``: the built-in SA hand by name, any other hand
+    itself (a Hand pickles whole, its opposing finger and frames included)."""
     from ...hands.sa_hand import schunk_sa_hand
-    from ._group import hand_key
+    from ._layout import hand_arrays
 
-    if hand.name == "schunk-sa" and hand_key(hand) == hand_key(schunk_sa_hand()) and set(hand.regions) == set(
+    if hand.name == "schunk-sa" and hand_arrays(hand)[1] == hand_arrays(schunk_sa_hand())[1] and set(hand.regions) == set(
         schunk_sa_hand().regions
     ):
         return ("schunk-sa",)
-    return (
-        "hand",
-        (hand.name, hand.links, hand.joints, hand.couplings, hand.fingers, dict(hand.regions), hand.collision_exclusions),
-    )
+    return ("hand", hand)
 
 
 _HANDS: dict = {}
@@ -73,7 +71,7 @@ def _hand_from_spec(spec) -> Hand:
 
             _HANDS[key] = schunk_sa_hand()
         return _HANDS[key]
-    return Hand(*spec[1])
+    return spec[1]
 
 
 def _evaluate_chunk(payload) -> np.ndarray:

@@ -5,7 +5,8 @@ Paper -> here:
 ==================  ==================  =========================================================
 paper               option              meaning
 ==================  ==================  =========================================================
-``i_max = 12``      ``i_max``           initial poses tried (outer loop of Algorithm 1)
+``i_max = 12``      ``i_max``           initial poses tried (outer loop of Algorithm 1); ours
+                                        64: the sequence's 12, then random hand poses
 ``k_max = 100``     ``k_max``           Jacobian iterations per initial pose
 ``d_min = 1.5 mm``  ``d_min_mm``        a contact holds when ``|p - p*| < d_min`` and
                                         ``|r - r*| < d_min`` (eq. 9)
@@ -56,7 +57,11 @@ class LocalOptions:
     """Settings of :func:`prehension.solvers.local.solve_local` (see the module docstring).
 
     Attributes:
-        i_max: initial poses tried per problem (paper: 12).
+        i_max: initial poses tried per problem (paper: 12; here 64: the off-line
+            sequence's poses first, then random collision-free hand poses of the whole
+            pose space, drawn per problem -- measured on forward-built problems with 30
+            and 60 deg fingertip caps: 99.4% strictly solved with 12 poses, 99.97% with 64,
+            the extra poses costing only the problems the first ones miss).
         k_max: Jacobian iterations per initial pose (paper: 100).
         d_min_mm: contact tolerance of the iterations [mm] (paper: 1.5).
         s_min_mm: smallest total motion of the contacts that counts as progress [mm]
@@ -97,7 +102,7 @@ class LocalOptions:
         cap_margin_rad: sphere-cap parameters are kept this far inside the cone.
     """
 
-    i_max: int = 12
+    i_max: int = 64
     k_max: int = 100
     d_min_mm: float = 1.5
     s_min_mm: float = 1.0
@@ -149,7 +154,9 @@ class LocalOptions:
             need(np.isfinite(v) and v >= 0, f"{name} must be a number >= 0, got {v!r}")
         need(self.psi_rule in ("paper", "procrustes"), f"psi_rule must be 'paper' or 'procrustes', got {self.psi_rule!r}")
         need(self.initial in ("sequence", "random"), f"initial must be 'sequence' or 'random', got {self.initial!r}")
-        need(isinstance(self.approximate, (bool, np.bool_)), f"approximate must be True or False, got {self.approximate!r}")
+        for name in ("approximate", "polish", "active_set", "check_collisions"):
+            v = getattr(self, name)
+            need(isinstance(v, (bool, np.bool_)), f"{name} must be True or False, got {v!r}")
         need(self.tolerances is None or isinstance(self.tolerances, Tolerances), "tolerances must be a Tolerances or None")
 
     @property
@@ -165,23 +172,14 @@ class LocalOptions:
             return self.tolerances
         return Tolerances(contact_mm=self.d_min_mm, normal_deg=self.normal_tolerance_deg)
 
-    def kernel_array(self) -> np.ndarray:
-        """The float options of :func:`._kernel.run_states`."""
-        opt = np.zeros(K.N_OPT)
-        opt[K.O_ALPHA] = self.alpha
-        opt[K.O_MU] = self.damping_mm
-        opt[K.O_DMIN] = self.d_min_mm
-        opt[K.O_WN] = self.normal_weight_mm
-        opt[K.O_SMIN] = self.s_min_mm
-        opt[K.O_NSTALL] = self.n_stall
-        opt[K.O_KMAX] = self.k_max
-        opt[K.O_MAXSTEP] = self.max_step_mm
-        opt[K.O_NPOLISH] = self.polish_iterations if self.polish else 0
-        opt[K.O_POLISH_P] = self.polish_tol_mm
-        opt[K.O_POLISH_N] = self.polish_tol_mm
-        opt[K.O_ACTIVE] = 1.0 if self.active_set else 0.0
-        opt[K.O_PSI_MODE] = 0.0 if self.psi_rule == "paper" else 1.0
-        opt[K.O_CAP_MARGIN] = self.cap_margin_rad
-        opt[K.O_NREPAIR] = self.repair_iterations if self.check_collisions else 0
-        opt[K.O_COL_MARGIN] = self.collision_margin_mm
-        return opt
+    def kernel_options(self) -> K.Options:
+        """The options as the kernel takes them (:class:`._kernel.Options`)."""
+        return K.Options(
+            alpha=float(self.alpha), damping_sq=float(self.damping_mm) ** 2, d_min=float(self.d_min_mm),
+            w_n=float(self.normal_weight_mm), s_min=float(self.s_min_mm), n_stall=int(self.n_stall),
+            k_max=int(self.k_max), max_step=float(self.max_step_mm),
+            n_polish=int(self.polish_iterations) if self.polish else 0, polish_tol=float(self.polish_tol_mm),
+            active_set=bool(self.active_set), procrustes=self.psi_rule == "procrustes",
+            cap_margin=float(self.cap_margin_rad), n_repair=int(self.repair_iterations),
+            collision_margin=float(self.collision_margin_mm), check_collisions=bool(self.check_collisions),
+        )  # fmt: skip

@@ -16,19 +16,22 @@ expressed in a random object frame.  The true configuration is kept in ``truth``
 
 from __future__ import annotations
 
+import weakref
+from collections import OrderedDict
 from dataclasses import dataclass, field
 from typing import Mapping
 
 import numpy as np
 
 from ...errors import InvalidTask
-from ...geometry.regions import BezierRegion, PointRegion
-from ...hands.collision import capsule_clearances
+from ...geometry.regions import BezierRegion, PointRegion, SphereCap
+from ...hands.collision import max_penetration
 from ...hands.kinematics import forward_kinematics
 from ...hands.model import Hand
 from ...objects.model import GraspObject
 from ...tasks.model import Contact, Task
-from ._group import Group, build_group, region_code, region_data, region_reference_point, region_size
+from . import _regions as RG
+from ._layout import Group, build_group, hand_arrays
 
 __all__ = ["PointProblems", "random_point_problems", "SA_FOUR_TIPS", "group_from_tasks", "structure_key"]
 
@@ -72,7 +75,8 @@ class PointProblems:
         for name in self.hand_regions:
             self.hand.region(name)
         object.__setattr__(self, "points", p)
-        object.__setattr__(self, "normals", n / norm)
+        unit = np.abs(norm - 1.0) <= 4e-16  # already unit: kept as given (subsets re-create problems)
+        object.__setattr__(self, "normals", np.where(unit, n, n / norm))
 
     def __len__(self) -> int:
         return self.points.shape[0]
@@ -96,37 +100,25 @@ class PointProblems:
 
     def group(self, joint_scale_mm: float = 40.0) -> Group:
         """The kernel's arrays for these problems."""
-        hand = self.hand
-        C = len(self.hand_regions)
-        P = len(self)
+        hand, C, P = self.hand, len(self.hand_regions), len(self)
         hregs = [hand.region(r) for r in self.hand_regions]
-        hdata = [region_data(h.region) for h in hregs]
         blocks = []
-        for c in range(C):
-            blocks.append(np.broadcast_to(hdata[c], (P, hdata[c].size)))
-            blocks.append(self.points[:, c])
-            blocks.append(self.normals[:, c])
+        for c, h in enumerate(hregs):
+            data = RG.pack(h.region)
+            blocks += [np.broadcast_to(data, (P, data.size)), self.points[:, c], self.normals[:, c]]
         piv = self.points.mean(axis=1)
-        blocks.append(piv)
-        pdata = np.concatenate(blocks, axis=1)
-        piv_off = pdata.shape[1] - 3
-        fingers = self.fingers
-        active = _active_mask(hand, fingers)
-        idle = np.clip(0.0, hand.lower, hand.upper)
-        extent = float(np.median(np.max(np.linalg.norm(self.points - piv[:, None], axis=-1), axis=1))) if P else 10.0
+        extent = np.max(np.linalg.norm(self.points - piv[:, None], axis=-1), axis=1, initial=0.0)
+        pdata = np.concatenate(blocks + [piv, extent[:, None]], axis=1)
         first = [PointRegion(self.points[0, c], self.normals[0, c]) for c in range(C)] if P else []
         return build_group(
-            hand, fingers, active, idle, [f"{h}->p{c}" for c, h in enumerate(self.hand_regions)],
-            [(h.link, h.region) for h in hregs], first, pdata, piv_off, [1.0] * C, extent, joint_scale_mm,
+            hand, _active_mask(hand, self.fingers), np.clip(0.0, hand.lower, hand.upper),
+            [f"{h}->p{c}" for c, h in enumerate(self.hand_regions)], [(h.link, h.region) for h in hregs], first,
+            pdata, [1.0] * C, joint_scale_mm,
         )  # fmt: skip
 
 
 def _active_mask(hand: Hand, fingers) -> np.ndarray:
-    mask = np.zeros(hand.n_dof, dtype=bool)
-    for f in fingers:
-        for link in hand.finger(f).links:
-            mask[list(hand.chain_dofs(link))] = True
-    return mask
+    return hand.active_dofs(fingers)  # as Task.active_mask: closed under couplings
 
 
 def random_params(region, rng, n: int) -> np.ndarray:
@@ -143,6 +135,19 @@ def random_params(region, rng, n: int) -> np.ndarray:
         ok = region.domain_violation(cand) == 0.0
         out = np.concatenate([out, cand[ok]])
     return out[:n]
+
+
+def cone_params(cap, rng, n: int, rim_fraction: float) -> np.ndarray:
+    """``n`` sphere-cap parameters whose normals are uniform over the cap's area, a share
+    ``rim_fraction`` of them exactly on its rim (the cone's boundary), (n, 2)."""
+    h = min(cap.half_angle, np.pi)
+    cos_t = rng.uniform(np.cos(h), 1.0, n)
+    cos_t[rng.uniform(0.0, 1.0, n) < rim_fraction] = np.cos(h)
+    phi = rng.uniform(0.0, 2.0 * np.pi, n)
+    sin_t = np.sqrt(np.maximum(1.0 - cos_t**2, 0.0))
+    e1, e2, m = cap.frame.T
+    normals = cos_t[:, None] * m + sin_t[:, None] * (np.cos(phi)[:, None] * e1 + np.sin(phi)[:, None] * e2)
+    return cap.params_for_normal(normals)
 
 
 def random_rotations(rng, n: int) -> np.ndarray:
@@ -178,8 +183,7 @@ def random_hand_configurations(hand: Hand, fingers, n: int, rng, collision_free:
         ok = np.all((q >= hand.lower) & (q <= hand.upper), axis=1)
         q = q[ok]
         if collision_free and len(q):
-            clearance, _ = capsule_clearances(hand, forward_kinematics(hand, q))
-            q = q[np.all(clearance > 0.0, axis=1)] if clearance.shape[1] else q
+            q = q[max_penetration(hand, forward_kinematics(hand, q), stop_at_first=True) <= 0.0]
         out = np.concatenate([out, q])
     return out[:n]
 
@@ -192,6 +196,7 @@ def random_point_problems(
     *,
     collision_free: bool = True,
     object_offset_mm: float = 100.0,
+    rim_fraction: float | None = None,
 ) -> PointProblems:
     """``n`` feasible point-contact problems made by forward kinematics (seeded).
 
@@ -203,6 +208,9 @@ def random_point_problems(
         collision_free: reject configurations in self-collision.
         object_offset_mm: the object frame is a random rotation and a translation of up to
             this much (each coordinate) away from the palm frame.
+        rim_fraction: ``None``: cap parameters uniform in their box, kept inside the cone;
+            a number: normals uniform over each cap's area (:func:`cone_params`), that
+            share of them exactly on the rim.
     """
     from ...hands.sa_hand import schunk_sa_hand
 
@@ -215,7 +223,11 @@ def random_point_problems(
     )
     q = random_hand_configurations(hand, fingers, n, rng, collision_free)
     pose = forward_kinematics(hand, q)
-    params = [random_params(h.region, rng, n) for h in hregs]
+    params = [
+        cone_params(h.region, rng, n, rim_fraction)
+        if rim_fraction is not None and isinstance(h.region, SphereCap) else random_params(h.region, rng, n)
+        for h in hregs
+    ]  # fmt: skip
     R = random_rotations(rng, n)
     t = rng.uniform(-object_offset_mm, object_offset_mm, (n, 3))
     pts, nrm = [], []
@@ -241,43 +253,68 @@ def random_point_problems(
 
 
 # -- tasks ------------------------------------------------------------------------------
-def structure_key(task: Task) -> tuple:
-    """Tasks with equal keys share one group (same hand kinematics, moving angles and
-    region kinds and sizes); see :mod:`._group`."""
-    from ._group import hand_key
+_KEYS: "weakref.WeakKeyDictionary[Task, tuple]" = weakref.WeakKeyDictionary()
+_TEMPLATES: "OrderedDict[tuple, Group]" = OrderedDict()  # structure key -> a group of that structure
+_TEMPLATES_KEPT = 32
 
-    per_contact = []
+
+def structure_key(task: Task) -> tuple:
+    """Tasks with equal keys share one group: same hand (kinematics, capsules, and name: its
+    shipped sequence), moving angles, and per contact the region kinds and everything the
+    layout takes from a group's first task -- the regions' sizes (the scales of their
+    parameters) and their parameters' boxes -- so that a task's answer does not depend on
+    the other tasks of its batch; see :mod:`._layout`.  Computed once per task object."""
+    key = _KEYS.get(task)
+    if key is None:
+        per_contact = []
+        for c in task.contacts:
+            h, o = task.hand_region(c), task.object_region(c)
+            boxes = tuple(np.concatenate(RG.unknown_box(r)[:2]).tobytes() for r in (h.region, o))
+            per_contact.append((h.link, RG.code(h.region)[:3], RG.code(o)[:3], RG.size(h.region), RG.size(o), boxes))
+        key = (hand_arrays(task.hand)[1], task.hand.name, tuple(task.fingers), task.active_mask.tobytes(),
+               task.idle_vector.tobytes(), tuple(per_contact))  # fmt: skip
+        _KEYS[task] = key
+    return key
+
+
+def _task_row(task: Task) -> np.ndarray:
+    """One task's row of region data, then its pivot and object extent [mm]."""
+    blocks, refs = [], []
     for c in task.contacts:
-        h = task.hand_region(c)
-        per_contact.append((h.link, region_code(h.region)[:3], region_code(task.object_region(c))[:3]))
-    return (hand_key(task.hand), tuple(task.fingers), task.active_mask.tobytes(), task.idle_vector.tobytes(), tuple(per_contact))
+        oreg = task.object_region(c)
+        blocks += [RG.pack(task.hand_region(c).region), RG.pack(oreg)]
+        refs.append(RG.reference_point(oreg))
+    refs = np.array(refs)
+    piv = refs.mean(axis=0)
+    return np.concatenate(blocks + [piv, [np.max(np.linalg.norm(refs - piv, axis=1))]])
 
 
 def group_from_tasks(tasks, joint_scale_mm: float = 40.0) -> Group:
-    """The kernel's arrays for tasks that share one structure (see :func:`structure_key`)."""
+    """The kernel's arrays for tasks that share one structure (see :func:`structure_key`).
+
+    The layout of a structure is built once and kept (the last few structures, with the
+    hand object they were built for); only the tasks' data rows are new.
+    """
     tasks = list(tasks)
     first = tasks[0]
     key = structure_key(first)
-    rows, extents = [], []
-    for task in tasks:
-        if task is not first and structure_key(task) != key:
-            raise InvalidTask("group_from_tasks: the tasks do not share one hand and one structure")
-        blocks, refs = [], []
-        for c in task.contacts:
-            blocks.append(region_data(task.hand_region(c).region))
-            oreg = task.object_region(c)
-            blocks.append(region_data(oreg))
-            refs.append(region_reference_point(oreg))
-        refs = np.array(refs)
-        piv = refs.mean(axis=0)
-        blocks.append(piv)
-        rows.append(np.concatenate(blocks))
-        extents.append(float(np.max(np.linalg.norm(refs - piv, axis=1))))
-    pdata = np.array(rows)
-    hand = first.hand
-    return build_group(
-        hand, first.fingers, first.active_mask, first.idle_vector, [c.name for c in first.contacts],
+    if any(t is not first and structure_key(t) != key for t in tasks):
+        raise InvalidTask("group_from_tasks: the tasks do not share one hand and one structure")
+    rows = np.array([_task_row(t) for t in tasks])
+    # what else the layout takes from the first task: object region sizes and boxes
+    oregs = [first.object_region(c) for c in first.contacts]
+    shape = (key, joint_scale_mm, tuple(RG.size(r) for r in oregs), tuple(tuple(RG.unknown_box(r)[1]) for r in oregs))
+    template = _TEMPLATES.get(shape)
+    if template is not None and template.hand is first.hand:
+        _TEMPLATES.move_to_end(shape)
+        return template.with_data(rows)
+    group = build_group(
+        first.hand, first.active_mask, first.idle_vector, [c.name for c in first.contacts],
         [(first.hand_region(c).link, first.hand_region(c).region) for c in first.contacts],
-        [first.object_region(c) for c in first.contacts], pdata, pdata.shape[1] - 3,
-        [region_size(first.object_region(c)) for c in first.contacts], float(np.median(extents)), joint_scale_mm,
+        [first.object_region(c) for c in first.contacts], rows,
+        [RG.size(first.object_region(c)) for c in first.contacts], joint_scale_mm,
     )  # fmt: skip
+    _TEMPLATES[shape] = group
+    while len(_TEMPLATES) > _TEMPLATES_KEPT:
+        _TEMPLATES.popitem(last=False)
+    return group

@@ -105,7 +105,8 @@ class InitialPoseSequence:
         """Eq. 11 for ``lambdas (S, 2)`` -> poses (S, D)."""
         lam = np.atleast_2d(np.asarray(lambdas, dtype=float))
         k = 3.0 * self.sigmas * (2.0 * lam - 1.0)  # (S, 2)
-        return self.mean + k @ self.components
+        # elementwise, not a matrix product: each row's rounding independent of the batch size
+        return self.mean + k[:, 0:1] * self.components[0] + k[:, 1:2] * self.components[1]
 
     def pose(self, i: int) -> np.ndarray:
         """The ``i``-th pose of the sequence (0-based), (D,)."""
@@ -207,11 +208,11 @@ def principal_directions(samples: np.ndarray) -> tuple[np.ndarray, np.ndarray, n
 _DEFAULTS: dict = {}
 
 
-def default_sequence(hand: Hand, n_samples: int = 4000, seed: int = 0) -> InitialPoseSequence:
+def default_sequence(hand: Hand, n_samples: int = 1000, seed: int = 0) -> InitialPoseSequence:
     """The shipped sequence of a hand if there is one, else PCA + the paper's lambdas (cached)."""
-    from ._group import hand_key
+    from ._layout import hand_arrays
 
-    key = (hand_key(hand), n_samples, seed)
+    key = (hand_arrays(hand)[1], n_samples, seed)
     if key in _DEFAULTS:
         return _DEFAULTS[key]
     seq = shipped_sequence(hand)

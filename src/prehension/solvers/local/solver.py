@@ -8,7 +8,7 @@ of initial poses the paper's algorithm would give it, while the compiled kernel
 (:mod:`._kernel`) runs the inner loops of the whole wave at once.  After each wave the
 local solutions are checked with the foundation's own batch functions
 (:func:`~prehension.hands.kinematics.forward_kinematics`,
-:func:`~prehension.hands.collision.capsule_clearances` -- the paper's Check_Collisions --,
+:func:`~prehension.hands.collision.max_penetration` -- the paper's Check_Collisions --,
 :func:`~prehension.tasks.residuals.limit_violations`,
 :func:`~prehension.tasks.residuals.coupling_violations` and the contact residuals of
 :mod:`prehension.tasks.residuals`); a problem whose local solution fails them goes on to
@@ -26,6 +26,7 @@ re-checks every configuration with :func:`~prehension.results.make_solution`, so
 from __future__ import annotations
 
 import time
+import zlib
 from dataclasses import asdict, dataclass, field
 from typing import Any, Mapping, Sequence
 
@@ -33,18 +34,18 @@ import numpy as np
 
 from ...errors import InvalidTask
 from ...geometry.rotations import angle_between
-from ...hands.collision import capsule_clearances
+from ...hands.collision import max_penetration
 from ...hands.kinematics import HandPose, forward_kinematics
-from ...results import SolveResult, Status, make_solution
+from ...results import Solution, SolveResult, Status, make_solution
 from ...tasks.model import Configuration, Task
 from ...tasks.residuals import Tolerances, contact_residuals, coupling_violations, limit_violations
 from . import _kernel as K
-from ._group import Group
+from ._layout import S_K, S_X, Group
 from .options import LocalOptions
 from .problems import PointProblems, group_from_tasks, structure_key
-from .sequence import InitialPoseSequence, default_sequence
+from .sequence import InitialPoseSequence, default_sequence, sample_poses
 
-__all__ = ["solve_local", "solve_local_batch", "refine_local", "Refinement", "LocalRecord", "LocalBatch", "STRICT"]
+__all__ = ["solve_local", "solve_local_batch", "refine_local", "run_kernel", "Refinement", "LocalRecord", "LocalBatch", "STRICT"]
 
 STRICT = Tolerances()
 
@@ -86,6 +87,7 @@ class LocalRecord:
     max_distance_mm: float
     max_normal_deg: float
     i_max: int = 12
+    verified: tuple | None = field(default=None, repr=False)  # (task, Solution) checked strictly in the waves
 
     @property
     def status(self) -> str:
@@ -143,6 +145,11 @@ class LocalRecord:
         config = self.configuration()
         if config is None:
             return SolveResult(task, "local", Status.GAVE_UP, self.message, (), seconds, stats)
+        if self.verified is not None and self.success and self.verified[0] is task:
+            sol = self.verified[1]  # made by make_solution (strict tolerances) when the waves checked it
+            return SolveResult(task, "local", Status.SOLVED, self.message, (sol,), seconds,
+                               {**stats, "max_contact_distance_mm": sol.report.worst("contact_distance"),
+                                "max_normal_angle_deg": sol.report.worst("contact_normal")})  # fmt: skip
         sol = make_solution(task, config, STRICT)
         status = Status.SOLVED
         if sol is None and options.approximate:
@@ -234,15 +241,51 @@ def _contact_checks_points(problems: PointProblems, idx, pose: HandPose, T, para
 
 
 def _contact_checks_tasks(tasks, idx, pose: HandPose, T, params):
-    """Contact residuals of tasks: the foundation's :func:`contact_residuals`, one task at a time."""
-    out = [[], [], [], []]
+    """Contact residuals of tasks: the foundation's :func:`contact_residuals`, one task at a
+    time, and the object penetration of the links that move with the task (idle fingers are
+    cleared afterwards by :func:`~prehension.tasks.idle.settle_idle_fingers`) [mm]."""
+    out = [[], [], [], [], []]
     for s, i in enumerate(idx):
         sub = HandPose(pose.R_palm_link[s : s + 1], pose.r_palm_link[s : s + 1], pose.axis_palm[s : s + 1], pose.origin_palm[s : s + 1])
         prm = [(h[s : s + 1], o[s : s + 1]) for h, o in params]
         res = contact_residuals(tasks[i], sub, T[s : s + 1], prm)
         for k, key in enumerate(("distance_mm", "normal_angle_deg", "hand_region", "object_region")):
             out[k].append(res[key][0])
+        out[4].append(_object_depth(tasks[i], sub, T[s], res["hand_point"][0]))
     return tuple(np.array(v) for v in out)
+
+
+def _check_tasks(group: Group, tasks, idx, x, R, t, options: LocalOptions):
+    """As :func:`_check`, for tasks, with the one residual function itself: each local
+    solution goes through :func:`~prehension.results.make_solution` (strict, else with the
+    acceptance tolerances; idle fingers moved clear of the object there).  Also returns
+    the strict solutions made (``None`` elsewhere), which the records keep."""
+    S = len(idx)
+    q = group.q_of(x)
+    T = np.zeros((S, 4, 4))
+    T[:, :3, :3], T[:, :3, 3], T[:, 3, 3] = R, t, 1.0
+    params = group.params_of(x)
+    level, dmax, amax, sols = np.zeros(S, dtype=np.int64), np.zeros(S), np.zeros(S), [None] * S
+    for s, i in enumerate(idx):
+        config = Configuration(q[s], T[s], tuple((h[s], o[s]) for h, o in params))
+        sols[s] = make_solution(tasks[i], config, STRICT)
+        loose = make_solution(tasks[i], config, options.acceptance) if sols[s] is None else None
+        held = sols[s] if sols[s] is not None else loose
+        level[s] = 2 if sols[s] is not None else (1 if loose is not None else 0)
+        if held is not None:
+            dmax[s], amax[s] = held.report.worst("contact_distance"), held.report.worst("contact_normal")
+        else:
+            dmax[s] = amax[s] = np.inf
+    return level, q, T, params, dmax, amax, sols
+
+
+def _object_depth(task: Task, pose: HandPose, T, hand_points_palm) -> float:
+    if not task.object.collides:
+        return 0.0
+    from ...tasks.object_collision import link_penetrations, moving_links
+
+    points = (hand_points_palm - T[:3, 3]) @ T[:3, :3]
+    return max(link_penetrations(task, pose, T, points, moving_links(task)).values(), default=0.0)
 
 
 def _check(group: Group, contact_fn, idx, x, R, t, options: LocalOptions):
@@ -256,12 +299,12 @@ def _check(group: Group, contact_fn, idx, x, R, t, options: LocalOptions):
     T[:, 3, 3] = 1.0
     params = group.params_of(x)
     pose = forward_kinematics(hand, q)
-    clearance, _ = capsule_clearances(hand, pose)
-    depth = np.max(np.maximum(-clearance, 0.0), axis=1) if clearance.shape[1] else np.zeros(S)
+    depth = max_penetration(hand, pose)
     lim = np.degrees(np.max(limit_violations(hand, q), axis=1))
     cpl = coupling_violations(hand, q)
     cpl = np.degrees(np.max(cpl, axis=1)) if cpl.shape[1] else np.zeros(S)
-    dist, ang, hreg, oreg = contact_fn(idx, pose, T, params)
+    dist, ang, hreg, oreg, *rest = contact_fn(idx, pose, T, params)
+    odepth = rest[0] if rest else np.zeros(S)  # object penetration (tasks with a solid)
     dmax, amax = dist.max(axis=1), ang.max(axis=1)
     region = np.maximum(hreg.max(axis=1), oreg.max(axis=1))
 
@@ -270,6 +313,7 @@ def _check(group: Group, contact_fn, idx, x, R, t, options: LocalOptions):
             (dmax <= tol.contact_mm) & (amax <= tol.normal_deg) & (region <= tol.region)
             & (lim <= tol.limit_deg) & (cpl <= tol.coupling_deg)
             & ((depth <= tol.penetration_mm) | (not options.check_collisions))
+            & ((odepth <= tol.object_penetration_mm) | (not options.check_collisions))
         )  # fmt: skip
 
     level = np.where(passes(STRICT), 2, np.where(passes(options.acceptance), 1, 0))
@@ -282,112 +326,173 @@ def _pose_index(group: Group, sequence: InitialPoseSequence) -> np.ndarray:
     return np.array([names.get(n, -1) if n is not None else -1 for n in group.pose_names], dtype=np.int64)
 
 
-def _solve_group(group: Group, contact_fn, options: LocalOptions, sequence: InitialPoseSequence, rng, t_start):
-    P = group.n_problems
-    imax = options.i_max
-    nx = group.nx
-    pidx = _pose_index(group, sequence)
-    use = pidx >= 0
-    opt = options.kernel_array()
-    args = group.kernel_args()
+def run_kernel(group: Group, problem: np.ndarray, x0: np.ndarray, options: LocalOptions) -> K.Outputs:
+    """Run the kernel on states ``(problem[s], x0[s])`` of a group -> :class:`._kernel.Outputs`."""
+    out = K.Outputs.allocate(len(problem), group.nx)
+    if len(problem):
+        K.run_states(np.asarray(problem, dtype=np.int64), np.ascontiguousarray(x0, dtype=float), group.pdata,
+                     group.arrays, group.layout, options.kernel_options(), out)  # fmt: skip
+    return out
 
-    solved_with = np.zeros(P, dtype=np.int64)
-    tried = np.zeros(P, dtype=np.int64)
-    iters = np.zeros((P, imax), dtype=np.int64)
-    polish = np.zeros(P, dtype=np.int64)
-    rejected = np.zeros(P, dtype=np.int64)
-    level = np.zeros(P, dtype=np.int64)
-    retries = np.zeros(P, dtype=np.int64)
-    out_q = np.zeros((P, group.hand.n_dof))
-    out_T = np.zeros((P, 4, 4))
-    out_x = np.zeros((P, nx))
-    out_d = np.zeros(P)
-    out_a = np.zeros(P)
-    miss, miss_d, miss_a = np.full(P, np.inf), np.full(P, np.nan), np.full(P, np.nan)  # closest d_min miss
+
+@dataclass
+class _Tally:
+    """What the waves found so far, per problem (see :class:`LocalRecord`)."""
+
+    P: int
+    imax: int
+    nx: int
+    n_dof: int
+
+    def __post_init__(self):
+        P, z = self.P, np.zeros
+        self.solved_with, self.tried, self.polish = z(P, np.int64), z(P, np.int64), z(P, np.int64)
+        self.rejected, self.level, self.retries = z(P, np.int64), z(P, np.int64), z(P, np.int64)
+        self.iters = z((P, self.imax), np.int64)
+        self.q, self.T, self.x = z((P, self.n_dof)), z((P, 4, 4)), z((P, self.nx))
+        self.d, self.a = z(P), z(P)
+        self.miss, self.miss_d, self.miss_a = np.full(P, np.inf), np.full(P, np.nan), np.full(P, np.nan)
+        self.verified: list = [None] * P  # strict solutions already made by make_solution
+
+    def closest_miss(self, pi, lev, dmax, amax):
+        """Remember the closest ``d_min``-only answer of each problem."""
+        worst = np.maximum(dmax, amax)
+        closer = (lev == 1) & (worst < self.miss[pi])
+        self.miss[pi[closer]], self.miss_d[pi[closer]], self.miss_a[pi[closer]] = worst[closer], dmax[closer], amax[closer]
+
+    def hold(self, pi, wave, out, sel, lev, q, T, dmax, amax):
+        """Keep the answers ``sel`` (states of this wave) of problems ``pi``."""
+        self.solved_with[pi], self.polish[pi], self.level[pi] = wave + 1, out.polish_iterations[sel], lev
+        self.q[pi], self.T[pi], self.x[pi], self.d[pi], self.a[pi] = q, T, out.x[sel], dmax, amax
+
+    def record(self, group: Group, p: int, task=None) -> "LocalRecord":
+        held = self.solved_with[p] > 0
+        n = int(self.tried[p])
+        params = tuple((h[0], o[0]) for h, o in group.params_of(self.x[p])) if held else None
+        lev = int(self.level[p])
+        return LocalRecord(
+            p, lev == 2, ("strict" if lev == 2 else "d_min") if held else None,
+            self.q[p].copy() if held else None, self.T[p].copy() if held else None, params,
+            int(self.solved_with[p]), n, int(self.iters[p, :n].sum()), tuple(int(v) for v in self.iters[p, :n]),
+            int(self.polish[p]), int(self.rejected[p]),
+            float(self.d[p] if held else self.miss_d[p]), float(self.a[p] if held else self.miss_a[p]), self.imax,
+            (task, self.verified[p]) if (task is not None and self.verified[p] is not None) else None,
+        )  # fmt: skip
+
+
+def _starts(group: Group, sequence: InitialPoseSequence, wave: int, todo: np.ndarray, options: LocalOptions,
+            rng, extra: "_RandomPoses") -> np.ndarray:  # fmt: skip
+    """Unknowns (S, nx) of wave ``wave`` for problems ``todo``: the sequence's pose; beyond
+    its length random hand poses of the whole pose space (:class:`_RandomPoses`: the
+    sequence's poses all lie in one plane); with ``initial="random"`` random lambdas."""
+    S = len(todo)
+    if options.initial == "sequence" and wave >= len(sequence):
+        return _place_poses(group, extra.names, np.array([extra.pose(group, p, wave - len(sequence)) for p in todo]))
+    if options.initial == "sequence":
+        lam = np.repeat(sequence.lambdas[wave : wave + 1], S, axis=0)
+    elif isinstance(rng, list):  # one generator per problem: its draws do not depend on the batch
+        lam = np.array([rng[p].uniform(0.0, 1.0, 2) for p in todo]).reshape(S, 2)
+    else:
+        lam = rng.uniform(0.0, 1.0, (S, 2))
+    return _place_poses(group, sequence.names, sequence.poses(lam))
+
+
+class _RandomPoses:
+    """Random collision-free hand poses for the waves beyond the sequence, drawn per problem
+    from a generator seeded by ``(seed, the problem's data)``: a problem gets the same
+    poses in any batch, so a batch gives what one call per problem gives."""
+
+    def __init__(self, hand, seed, count: int):
+        self.hand, self.seed, self.count = hand, seed, count  # seed: one int, or one per problem
+        self.names: tuple = ()
+        self._poses: dict[int, np.ndarray] = {}
+
+    def pose(self, group: Group, p: int, k: int) -> np.ndarray:
+        if p not in self._poses:
+            key = zlib.crc32(np.ascontiguousarray(group.pdata[p]).tobytes())
+            seed = self.seed[p] if isinstance(self.seed, list) else self.seed
+            self.names, self._poses[p] = sample_poses(self.hand, self.count, np.random.default_rng([seed, key]))
+        return self._poses[p][k]
+
+
+def _place_poses(group: Group, names, poses: np.ndarray) -> np.ndarray:
+    """The group's unknowns (S, nx) with the named pose components ``poses (S, D)`` placed."""
+    where = {n: i for i, n in enumerate(names)}
+    pidx = np.array([where.get(n, -1) if n is not None else -1 for n in group.pose_names], dtype=np.int64)
+    use = pidx >= 0
+    x0 = np.repeat(group.x_default[None], poses.shape[0], axis=0)
+    x0[:, use] = poses[:, pidx[use]]
+    return x0
+
+
+def _wave(group, checker, options, tally: _Tally, todo, wave, x0) -> tuple[np.ndarray, float]:
+    """Run one wave for problems ``todo``; the problems done after it, and the check time.
+
+    ``checker(idx, x, R, t) -> (level, q, T, params, dmax, amax, solutions)`` judges the
+    local solutions (:func:`_check` for point problems, :func:`_check_tasks` for tasks).
+    """
+    out = run_kernel(group, todo, x0, options)
+    t1 = time.perf_counter()
+    tally.tried[todo] += 1
+    tally.iters[todo, wave] = out.iterations
+    tally.rejected[todo[out.status == K.COLLIDING]] += 1
+    had_fallback = tally.level[todo] == 1
+    got_strict = np.zeros(len(todo), dtype=bool)
+    sel = np.flatnonzero(np.isin(out.status, K.LOCAL_SOLUTIONS))
+    if sel.size:
+        pi = todo[sel]
+        lev, q, T, _, dmax, amax, sols = checker(pi, out.x[sel], out.R[sel], out.t[sel])
+        tally.closest_miss(pi, lev, dmax, amax)
+        # keep a strict answer always; a d_min answer only when asked for and there is none yet
+        keep = (lev == 2) | ((lev == 1) & (tally.level[pi] == 0) & options.approximate)
+        tally.hold(pi[keep], wave, out, sel[keep], lev[keep], q[keep], T[keep], dmax[keep], amax[keep])
+        for k in np.flatnonzero(keep):
+            tally.verified[pi[k]] = sols[k]
+        tally.rejected[pi[lev == 0]] += 1
+        got_strict[sel[lev == 2]] = True
+        tally.retries[pi[(lev == 1) & keep]] = options.strict_retries
+    # done with a strict answer, or with a d_min answer and no retries left
+    tally.retries[todo[had_fallback & ~got_strict]] -= 1
+    done = got_strict | ((tally.level[todo] == 1) & (tally.retries[todo] <= 0))
+    return done, time.perf_counter() - t1
+
+
+def _solve_group(group: Group, checker, options: LocalOptions, sequence: InitialPoseSequence, rng, t_start, tasks=None):
+    P, imax = group.n_problems, options.i_max
+    tally = _Tally(P, imax, group.nx, group.hand.n_dof)
+    seeds = [int(r.integers(2**62)) for r in rng] if isinstance(rng, list) else int(rng.integers(2**62))
+    extra = _RandomPoses(group.hand, seeds, max(imax - len(sequence), 0))
     wave_seconds = np.zeros(imax)
     todo = np.arange(P)
     kernel_s = check_s = 0.0
     for i in range(imax):
-        if todo.size == 0:
-            wave_seconds[i] = time.perf_counter() - t_start
-            continue
-        S = todo.size
-        if options.initial == "sequence" and i < len(sequence):
-            lam = np.repeat(sequence.lambdas[i : i + 1], S, axis=0)
-        else:
-            lam = rng.uniform(0.0, 1.0, (S, 2))
-        poses = sequence.poses(lam)
-        x0 = np.repeat(group.x_default[None], S, axis=0)
-        x0[:, use] = poses[:, pidx[use]]
-        status = np.zeros(S, dtype=np.int64)
-        it = np.zeros(S, dtype=np.int64)
-        pit = np.zeros(S, dtype=np.int64)
-        xo = np.zeros((S, nx))
-        Ro = np.zeros((S, 3, 3))
-        to = np.zeros((S, 3))
-        eo = np.zeros((S, 2))
-        t0 = time.perf_counter()
-        K.run_states(todo, x0, group.pdata, group.piv_off, *args, opt, status, it, pit, xo, Ro, to, eo)
-        t1 = time.perf_counter()
-        kernel_s += t1 - t0
-        tried[todo] += 1
-        iters[todo, i] = it
-        local = (status == K.SOLVED_STRICT) | (status == K.SOLVED_DMIN)
-        rejected[todo[status == K.FAILED_COLLISION]] += 1
-        had_fallback = level[todo] == 1
-        got_strict = np.zeros(S, dtype=bool)
-        if local.any():
-            sel = np.flatnonzero(local)
-            lev, q, T, params, dmax, amax = _check(group, contact_fn, todo[sel], xo[sel], Ro[sel], to[sel], options)
-            closer = (lev == 1) & (np.maximum(dmax, amax) < miss[todo[sel]])
-            miss_d[todo[sel[closer]]], miss_a[todo[sel[closer]]] = dmax[closer], amax[closer]
-            miss[todo[sel[closer]]] = np.maximum(dmax, amax)[closer]
-            # keep a strict answer always; a d_min answer only when asked for and there is none yet
-            keep = (lev == 2) | ((lev == 1) & (level[todo[sel]] == 0) & options.approximate)
-            g = sel[keep]
-            pi = todo[g]
-            solved_with[pi] = i + 1
-            polish[pi] = pit[g]
-            level[pi] = lev[keep]
-            out_q[pi] = q[keep]
-            out_T[pi] = T[keep]
-            out_x[pi] = xo[g]
-            out_d[pi] = dmax[keep]
-            out_a[pi] = amax[keep]
-            rejected[todo[sel[lev == 0]]] += 1
-            got_strict[sel[lev == 2]] = True
-            new_fb = sel[(lev == 1) & keep]
-            retries[todo[new_fb]] = options.strict_retries
-        # a problem is done with a strict answer, or with a d_min answer and no retries left
-        retries[todo[had_fallback & ~got_strict]] -= 1
-        done = got_strict | ((level[todo] == 1) & (retries[todo] <= 0))
-        check_s += time.perf_counter() - t1
-        todo = todo[~done]
+        if todo.size:
+            x0 = _starts(group, sequence, i, todo, options, rng, extra)
+            t0 = time.perf_counter()
+            done, dt = _wave(group, checker, options, tally, todo, i, x0)
+            check_s += dt
+            kernel_s += time.perf_counter() - t0 - dt
+            todo = todo[~done]
         wave_seconds[i] = time.perf_counter() - t_start
-    params_all = group.params_of(out_x)
-    records = []
-    for p in range(P):
-        held = solved_with[p] > 0
-        n_tried = int(tried[p])
-        records.append(
-            LocalRecord(
-                p, bool(level[p] == 2), ("strict" if level[p] == 2 else "d_min") if held else None,
-                out_q[p].copy() if held else None, out_T[p].copy() if held else None,
-                tuple((h[p].copy(), o[p].copy()) for h, o in params_all) if held else None,
-                int(solved_with[p]), n_tried, int(iters[p, :n_tried].sum()),
-                tuple(int(v) for v in iters[p, :n_tried]), int(polish[p]), int(rejected[p]),
-                float(out_d[p] if held else miss_d[p]), float(out_a[p] if held else miss_a[p]), imax,
-            )  # fmt: skip
-        )
-    strict = level == 2
-    solved_after = np.array([strict & (solved_with <= i + 1) for i in range(imax)]).sum(axis=1)
+    records = [tally.record(group, p, tasks[p] if tasks is not None else None) for p in range(P)]
+    strict = tally.level == 2
+    solved_after = np.array([np.sum(strict & (tally.solved_with <= i + 1)) for i in range(imax)])
     return records, wave_seconds, solved_after, {"kernel": kernel_s, "checks": check_s}
 
 
-def _as_rng(rng):
+def _as_rng(rng, n: int):
+    """One generator for the batch, or a list of ``n`` (one per problem) from a sequence."""
     if isinstance(rng, np.random.Generator):
         return rng
+    if isinstance(rng, (list, tuple, np.ndarray)):
+        if len(rng) != n:
+            raise InvalidTask(f"solve_local_batch: rng holds {len(rng)} seeds for {n} problems; give one per problem")
+        return [r if isinstance(r, np.random.Generator) else np.random.default_rng(r) for r in rng]
     return np.random.default_rng(0 if rng is None else rng)
+
+
+def _subset(rng, members):
+    return [rng[k] for k in members] if isinstance(rng, list) else rng
 
 
 def solve_local_batch(
@@ -406,7 +511,10 @@ def solve_local_batch(
         sequence: initial-pose sequence (default: the hand's shipped sequence, else
             :func:`.sequence.default_sequence`).
         rng: seed or ``numpy.random.Generator`` for random initial poses (the
-            ``initial="random"`` option, and poses beyond the sequence's length).
+            ``initial="random"`` option, and poses beyond the sequence's length); or a
+            sequence of them, one per problem: each problem then draws from its own,
+            and its answer is the one it gets alone with that seed (a batch changes
+            nothing but speed).
 
     Returns:
         A :class:`LocalBatch` with one :class:`LocalRecord` per problem, in input order.
@@ -414,20 +522,20 @@ def solve_local_batch(
         the solver does not raise on them.
     """
     t_start = time.perf_counter()
-    rng = _as_rng(rng)
     if isinstance(problems, PointProblems):
+        rng = _as_rng(rng, len(problems))
         hand = problems.hand
         sequence = sequence if sequence is not None else default_sequence(hand)
         if len(problems) == 0:
             return LocalBatch([], 0.0, np.zeros(options.i_max), np.zeros(options.i_max, dtype=int), options, sequence)
         group = problems.group(options.joint_scale_mm)
-        records, waves, after, timings = _solve_group(
-            group, lambda idx, pose, T, prm: _contact_checks_points(problems, idx, pose, T, prm),
-            options, sequence, rng, t_start,
-        )  # fmt: skip
+        points = lambda idx, pose, T, prm: _contact_checks_points(problems, idx, pose, T, prm)  # noqa: E731
+        checker = lambda idx, x, R, t: (*_check(group, points, idx, x, R, t, options), [None] * len(idx))  # noqa: E731
+        records, waves, after, timings = _solve_group(group, checker, options, sequence, rng, t_start)
         return LocalBatch(records, time.perf_counter() - t_start, waves, after, options, sequence, timings)
 
     tasks = list(problems)
+    rng = _as_rng(rng, len(tasks))
     if not tasks:
         return LocalBatch([], 0.0, np.zeros(options.i_max), np.zeros(options.i_max, dtype=int), options, sequence)
     for t in tasks:
@@ -446,10 +554,8 @@ def solve_local_batch(
         seq = sequence if sequence is not None else default_sequence(sub[0].hand)
         seq_used = seq
         group = group_from_tasks(sub, options.joint_scale_mm)
-        recs, w, a, tm = _solve_group(
-            group, lambda idx, pose, T, prm, sub=sub: _contact_checks_tasks(sub, idx, pose, T, prm),
-            options, seq, rng, time.perf_counter(),
-        )  # fmt: skip
+        checker = lambda idx, x, R, t, g=group, sub=sub: _check_tasks(g, sub, idx, x, R, t, options)  # noqa: E731
+        recs, w, a, tm = _solve_group(group, checker, options, seq, _subset(rng, members), time.perf_counter(), sub)
         for k, r in zip(members, recs):
             r.index = k
             records[k] = r
@@ -496,13 +602,14 @@ def _unknowns_of(group: Group, starts: Sequence[Configuration]) -> np.ndarray:
     the initial poses of the sequence.
     """
     x0 = np.repeat(group.x_default[None], len(starts), axis=0)
+    sides = group.layout.sides
     for s, cfg in enumerate(starts):
-        x0[s, : group.nf] = np.asarray(cfg.joint_angles, dtype=float)[group.free]
+        x0[s, : group.nf] = np.asarray(cfg.joint_angles, dtype=float)[list(group.free)]
         for c, (hp, op) in enumerate(cfg.contact_params or ()):
-            xh, kh, xo, ko = (int(group.cint[c, k]) for k in (K.C_XH, K.C_KH, K.C_XO, K.C_KO))
+            (xh, kh), (xo, ko) = sides[c, 0, [S_X, S_K]], sides[c, 1, [S_X, S_K]]
             x0[s, xh : xh + kh] = hp
             x0[s, xo : xo + ko] = op
-    return np.clip(x0, group.lo, group.hi)
+    return np.clip(x0, group.layout.lo, group.layout.hi)
 
 
 @dataclass(frozen=True, eq=False)
@@ -545,23 +652,17 @@ def refine_local(task: Task, starts: Sequence[Configuration], options: LocalOpti
         return Refinement((), np.zeros(0), np.zeros(0))
     group = group_from_tasks([task], options.joint_scale_mm)
     S = len(starts)
-    x0 = _unknowns_of(group, starts)
-    status = np.zeros(S, dtype=np.int64)
-    it, pit = np.zeros(S, dtype=np.int64), np.zeros(S, dtype=np.int64)
-    xo, Ro, to, eo = np.zeros((S, group.nx)), np.zeros((S, 3, 3)), np.zeros((S, 3)), np.zeros((S, 2))
-    K.run_states(np.zeros(S, dtype=np.int64), x0, group.pdata, group.piv_off, *group.kernel_args(),
-                 options.kernel_array(), status, it, pit, xo, Ro, to, eo)  # fmt: skip
-    out: list[Configuration | None] = [None] * S
-    sel = np.flatnonzero((status == K.SOLVED_STRICT) | (status == K.SOLVED_DMIN))
+    out = run_kernel(group, np.zeros(S, dtype=np.int64), _unknowns_of(group, starts), options)
+    configs: list[Configuration | None] = [None] * S
+    sel = np.flatnonzero(np.isin(out.status, K.LOCAL_SOLUTIONS))
     if sel.size:
-        idx = np.zeros(sel.size, dtype=np.int64)
         level, q, T, params, _, _ = _check(
-            group, lambda i, pose, T_, prm: _contact_checks_tasks([task], i, pose, T_, prm), idx, xo[sel], Ro[sel],
-            to[sel], options,
+            group, lambda i, pose, T_, prm: _contact_checks_tasks([task], i, pose, T_, prm), np.zeros(sel.size, dtype=np.int64),
+            out.x[sel], out.R[sel], out.t[sel], options,
         )  # fmt: skip
         for k, s in enumerate(sel):
             if level[k] == 2:
-                out[s] = Configuration(q[k].copy(), T[k].copy(), tuple((h[k].copy(), o[k].copy()) for h, o in params))
-    # eo[:, 1] = w_n |n_hand + n_object| [mm], and |n_h + n_o| = 2 sin(angle / 2)
-    chord = np.clip(eo[:, 1] / (2.0 * options.normal_weight_mm), 0.0, 1.0)
-    return Refinement(tuple(out), eo[:, 0].copy(), np.degrees(2.0 * np.arcsin(chord)))
+                configs[s] = Configuration(q[k].copy(), T[k].copy(), tuple((h[k].copy(), o[k].copy()) for h, o in params))
+    # err[:, 1] = w_n |n_hand + n_object| [mm], and |n_h + n_o| = 2 sin(angle / 2)
+    chord = np.clip(out.err[:, 1] / (2.0 * options.normal_weight_mm), 0.0, 1.0)
+    return Refinement(tuple(configs), out.err[:, 0].copy(), np.degrees(2.0 * np.arcsin(chord)))

@@ -7,27 +7,27 @@ Every error names the source and the field path (see :mod:`.errors`); a model er
 from __future__ import annotations
 
 import math
+from dataclasses import replace
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 
 from ...geometry.bezier import BezierPatch
 from ...geometry.regions import BezierRegion, PointRegion, Region, SphereCap
-from ...hands.model import Capsule, Coupling, Finger, Hand, HandRegion, Joint, Link
+from ...hands.model import Capsule, Coupling, Finger, Hand, HandRegion, Joint, Link, NamedFrame
+from ...hands.provenance import HandSource, file_sha256
 from ...objects.model import GraspObject
 from ..model import Contact, Task
 from .errors import fail, join_path, kind_of, located, validate
 from .schema import (
     BUILTIN_HANDS,
     FORMAT_TAG,
-    PRIMITIVES,
-    DisplaySpec,
     HandRegionSpec,
     HandSpec,
     JointSpec,
     LinkSpec,
     ObjectSpec,
-    PrimitiveSpec,
     RegionSpec,
     TaskSpec,
 )
@@ -43,12 +43,13 @@ def _region(spec: RegionSpec) -> Region:
     return PointRegion(spec.point, spec.normal)
 
 
-def _hand_regions(specs: dict[str, HandRegionSpec], links, source: str, loc: str) -> dict[str, HandRegion]:
+def _hand_regions(specs: dict[str, HandRegionSpec], links, source: str, loc: str, hint=None) -> dict[str, HandRegion]:
+    """Regions on links; ``hint(name)`` says why a name is not a link (default: the links)."""
     out = {}
     for name, spec in specs.items():
         if spec.link not in links:
-            known = ", ".join(links)
-            raise fail(source, join_path(loc, name, "link"), f"link {spec.link!r} not found; links are: {known}")
+            message = hint(spec.link) if hint else f"link {spec.link!r} not found; links are: {', '.join(links)}"
+            raise fail(source, join_path(loc, name, "link"), message)
         with located(source, join_path(loc, name)):
             out[name] = HandRegion(spec.link, _region(spec))
     return out
@@ -85,8 +86,23 @@ def _build_hand(spec: HandSpec, source: str, loc: str) -> Hand:
     fingers = [Finger(f.name, tuple(f.links)) for f in spec.fingers]
     regions = _hand_regions(spec.regions, [link.name for link in links], source, join_path(loc, "regions"))
     exclusions = tuple(tuple(p) for p in spec.collision_exclusions)
+    frames = {}
+    for name, f in spec.frames.items():
+        with located(source, join_path(loc, "frames", name)):
+            frames[name] = NamedFrame(f.link, _transform(f.rotation, f.origin))
+    origin = None if spec.source is None else HandSource(**spec.source.model_dump())
     with located(source, loc):
-        return Hand(spec.name, tuple(links), tuple(joints), tuple(couplings), tuple(fingers), regions, exclusions)
+        return Hand(
+            spec.name, tuple(links), tuple(joints), tuple(couplings), tuple(fingers), regions, exclusions,
+            frames=frames, opposing_finger=spec.opposing_finger, source=origin,
+        )  # fmt: skip
+
+
+def _transform(rotation, origin) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, :3] = np.eye(3) if rotation is None else np.asarray(rotation, dtype=float)
+    T[:3, 3] = origin
+    return T
 
 
 def _hand_from_data(data, source: str, loc: str) -> Hand:
@@ -114,35 +130,52 @@ def _builtin_names() -> str:
     return ", ".join(BUILTIN_HANDS) or "(none)"
 
 
+def hand_file(path: Path, where: str) -> Hand:
+    """The hand of a YAML hand file (one inline hand mapping), its source recorded."""
+    text = read_text(path, where)
+    data = parse_yaml(text, where)
+    _check_mapping(data, where, "a hand file holds one inline hand mapping (name, links, joints, ...)")
+    hand = _hand_from_data(data, where, "")
+    if hand.source is not None:  # an inline hand that says where it came from
+        return hand
+    resolved = path.resolve()
+    return replace(hand, source=HandSource("yaml", str(resolved), file_sha256(resolved)))
+
+
 def _hand_file(value: dict, base: Path, source: str) -> Hand:
     if set(value) != {"file"} or not isinstance(value["file"], str) or not value["file"]:
         raise fail(source, "hand", "a hand file reference is {file: path/to/hand.yaml} with no other key")
     path = base / value["file"]
-    where = f"{source}: hand.file: {path}"
-    text = read_text(path, where)
-    data = parse_yaml(text, where)
-    _check_mapping(data, where, "a hand file holds one inline hand mapping (name, links, joints, ...)")
-    return _hand_from_data(data, where, "")
+    return hand_file(path, f"{source}: hand.file: {path}")
+
+
+_HAND_FORMS = "a built-in hand name ({}), an inline hand mapping, {{file: hand.yaml}}, {{urdf: hand.urdf}} or {{mjcf: hand.xml}}"
+
+
+@lru_cache(maxsize=None)
+def _builtin_hand(name: str) -> Hand:
+    """A built-in hand, built once per process (a hand is immutable: tasks share it, and so
+    do the tables solvers build for it)."""
+    return BUILTIN_HANDS[name]()
 
 
 def _base_hand(value, base: Path, source: str) -> Hand:
+    from .hand_files import HAND_ALIASES, hand_from_reference, is_hand_reference
+
     if isinstance(value, str):
-        if value not in BUILTIN_HANDS:
+        if HAND_ALIASES.get(value, value) not in BUILTIN_HANDS:
             raise fail(
-                source, "hand",
-                f"unknown built-in hand {value!r}; built-in hands are: {_builtin_names()} "
-                "(or give an inline hand mapping, or {file: path})",
+                source, "hand", f"unknown built-in hand {value!r}; built-in hands are: {_builtin_names()} "
+                "(or give an inline hand mapping, {file: hand.yaml}, {urdf: hand.urdf} or {mjcf: hand.xml})",
             )  # fmt: skip
-        return BUILTIN_HANDS[value]()
+        return _builtin_hand(HAND_ALIASES.get(value, value))
     if isinstance(value, dict) and "file" in value:
         return _hand_file(value, base, source)
+    if is_hand_reference(value):
+        return hand_from_reference(value, base, source)
     if isinstance(value, dict):
         return _hand_from_data(value, source, "hand")
-    raise fail(
-        source, "hand",
-        f"give a built-in hand name ({_builtin_names()}), an inline hand mapping or {{file: path}}; "
-        f"got {kind_of(value)}",
-    )  # fmt: skip
+    raise fail(source, "hand", f"give {_HAND_FORMS.format(_builtin_names())}; got {kind_of(value)}")
 
 
 def _with_limits(hand: Hand, limits: dict[str, list[float]], source: str) -> Hand:
@@ -166,43 +199,16 @@ def _task_hand(spec: TaskSpec, base: Path, source: str) -> Hand:
     if not spec.hand_couplings:
         hand = hand.without_couplings()
     if spec.hand_regions:
-        extra = _hand_regions(spec.hand_regions, hand.link_names, source, "hand_regions")
+        extra = _hand_regions(spec.hand_regions, hand.link_names, source, "hand_regions", hand.missing_link_message)
         with located(source, "hand_regions"):
             hand = hand.with_regions(extra)
     return hand
 
 
-def _primitive(spec: PrimitiveSpec, source: str, loc: str):
-    for key, (_, cls) in PRIMITIVES.items():
-        sub = getattr(spec, key)
-        if sub is not None:
-            fields = {k: (tuple(v) if isinstance(v, list) else v) for k, v in sub.model_dump(exclude_none=True).items()}
-            with located(source, join_path(loc, key)):
-                prim = cls(**fields)
-                prim.mesh()  # checks what the schema cannot (e.g. a cylinder of zero length)
-            return prim
-    raise AssertionError("unreachable: PrimitiveSpec holds exactly one primitive")
-
-
-def _mesh_file(name: str | None, base: Path, source: str) -> str | None:
-    if name is None:
-        return None
-    path = (base / name).resolve()
-    if not path.is_file():
-        raise fail(source, "object.display.mesh_file", f"mesh file not found: {path}")
-    return str(path)
-
-
 def _task_object(spec: ObjectSpec, base: Path, source: str) -> GraspObject:
-    regions = {}
-    for name, r in spec.regions.items():
-        with located(source, join_path("object.regions", name)):
-            regions[name] = _region(r)
-    display = spec.display or DisplaySpec()
-    prims = [_primitive(p, source, join_path("object.display.primitives", i)) for i, p in enumerate(display.primitives)]
-    mesh = _mesh_file(display.mesh_file, base, source)
-    with located(source, "object"):
-        return GraspObject(spec.name, regions, tuple(prims), mesh)
+    from .objects import object_from_spec
+
+    return object_from_spec(spec, base, source)
 
 
 def _check_names(spec: TaskSpec, hand: Hand, obj: GraspObject, source: str) -> None:

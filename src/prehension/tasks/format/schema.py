@@ -174,6 +174,19 @@ class FingerSpec(_Spec):
     links: Annotated[list[Name], Field(min_length=1)]
 
 
+class FrameSpec(_Spec):
+    link: Name
+    origin: Vec3
+    rotation: Mat3 | None = None
+
+
+class SourceSpec(_Spec):
+    format: Literal["urdf", "mjcf", "yaml"]
+    path: Name
+    sha256: Name
+    options: dict[str, Any] = {}
+
+
 class HandSpec(_Spec):
     name: Name
     links: Annotated[list[LinkSpec], Field(min_length=1)]
@@ -182,6 +195,9 @@ class HandSpec(_Spec):
     fingers: list[FingerSpec] = []
     regions: dict[Name, HandRegionSpec] = {}
     collision_exclusions: list[Annotated[list[Name], _list_of(2, "link names")]] = []
+    frames: dict[Name, FrameSpec] = {}
+    opposing_finger: Name | None = None
+    source: SourceSpec | None = None
 
 
 class BoxSpec(_Spec):
@@ -247,7 +263,28 @@ class DisplaySpec(_Spec):
 class ObjectSpec(_Spec):
     name: Name
     regions: Annotated[dict[Name, RegionSpec], Field(min_length=1)]
+    mesh: Name | None = None  # the solid from a mesh file (relative to the task file)
+    scale: PosNum | None = None  # mm per mesh-file unit ...
+    units: Literal["mm", "cm", "m", "in"] | None = None  # ... or the file's units
+    shape: Annotated[list[PrimitiveSpec], Field(min_length=1)] | None = None  # or a union of primitives
+    collisions: Annotated[bool, Field(strict=True)] = True
+    surface_tolerance_mm: PosNum | None = None
     display: DisplaySpec | None = None
+
+    @model_validator(mode="after")
+    def _one_solid(self):
+        if self.mesh is not None and self.shape is not None:
+            raise ValueError("give at most one of mesh (a mesh file) and shape (primitives) for the object's solid")
+        if self.mesh is not None and (self.scale is None) == (self.units is None):
+            raise ValueError(
+                "a mesh file carries no units: give exactly one of scale (mm per file unit, e.g. 1000 for metres) "
+                "or units (mm, cm, m, in)"
+            )
+        if self.mesh is None and (self.scale is not None or self.units is not None):
+            raise ValueError("scale and units belong to a mesh file: give mesh as well")
+        if self.mesh is None and self.shape is None and self.surface_tolerance_mm is not None:
+            raise ValueError("surface_tolerance_mm needs a solid: give mesh or shape")
+        return self
 
 
 class ContactSpec(_Spec):
@@ -260,7 +297,7 @@ class TaskSpec(_Spec):
     prehension: Literal["task/1"]
     name: Name
     description: Text = ""
-    hand: Any  # built-in name | inline hand | {file: path}: dispatched by read._base_hand
+    hand: Any  # built-in name | inline hand | {file: path} | {urdf: path} | {mjcf: path}: read._base_hand
     hand_limits_deg: dict[Name, Pair] = {}
     hand_couplings: Annotated[bool, Field(strict=True)] = True
     hand_regions: dict[Name, HandRegionSpec] = {}

@@ -8,21 +8,20 @@ gives the same numbers (see :func:`_settled`).
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 import math
-import os
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
+from ...atomic import to_plain
 from ...errors import InvalidTask
 from ...geometry.regions import BezierRegion, PointRegion, Region, SphereCap
 from ...hands.model import Capsule, Coupling, Hand, HandRegion, Joint, Link, _unit3
 from ...objects.model import GraspObject
 from ..model import Contact, Task
-from .schema import BUILTIN_HANDS, FORMAT_TAG, PRIMITIVES
+from .schema import BUILTIN_HANDS, FORMAT_TAG
 
 _DEG_DECIMALS = 12  # degrees are written rounded to this many decimals (1e-12 deg ~ 2e-14 rad)
 _BUILTIN_TOL = 1e-9  # a hand "is" the built-in one when its numbers agree to this [mm, unitless]
@@ -141,6 +140,20 @@ def hand_to_dict(hand: Hand) -> dict:
         out["regions"] = {name: _hand_region_to_dict(r) for name, r in hand.regions.items()}
     if hand.collision_exclusions:
         out["collision_exclusions"] = [list(p) for p in hand.collision_exclusions]
+    if hand.frames:
+        out["frames"] = {name: _frame_to_dict(f) for name, f in hand.frames.items()}
+    if hand.opposing_finger is not None and hand.opposing_finger != "thumb":
+        out["opposing_finger"] = hand.opposing_finger
+    if hand.source is not None:
+        s = hand.source
+        out["source"] = {"format": s.format, "path": s.path, "sha256": s.sha256, "options": to_plain(dict(s.options))}
+    return out
+
+
+def _frame_to_dict(frame) -> dict:
+    out: dict = {"link": frame.link, "origin": _floats(frame.T_link_frame[:3, 3])}
+    if not np.array_equal(frame.T_link_frame[:3, :3], np.eye(3)):
+        out["rotation"] = _floats(frame.T_link_frame[:3, :3])
     return out
 
 
@@ -168,8 +181,9 @@ def _limits(hand_dict: dict) -> dict[str, list[float]]:
     return {a["name"]: [a["lower_deg"], a["upper_deg"]] for j in hand_dict["joints"] for a in j["angles"]}
 
 
-def _builtin_entries(name: str, full: dict, builtin: dict) -> dict | None:
-    """``hand: <name>`` plus the differences from the built-in hand, or None if not expressible."""
+def _builtin_entries(name, full: dict, builtin: dict) -> dict | None:
+    """``hand: <name>`` (or a file reference) plus the differences from the built-in (or
+    the file's) hand, or None if not expressible."""
     if not _close(_core(full), _core(builtin)):
         return None
     out: dict = {"hand": name}
@@ -191,9 +205,19 @@ def _builtin_entries(name: str, full: dict, builtin: dict) -> dict | None:
     return out
 
 
-def _hand_entries(hand: Hand) -> dict:
+def _hand_entries(hand: Hand, base_dir=None, inline: bool = False) -> dict:
+    """The ``hand:`` entries of a task: a built-in name or a file reference with the
+    task's differences, else (or when ``inline``) the whole hand."""
+    from .hand_files import reference_entries
+
     full = hand_to_dict(hand)
-    if hand.name in BUILTIN_HANDS:
+    if inline:
+        return {"hand": full}
+    if hand.source is not None:
+        entries = reference_entries(hand, full, base_dir, _builtin_entries)
+        if entries is not None:
+            return entries
+    elif hand.name in BUILTIN_HANDS:
         entries = _builtin_entries(hand.name, full, _builtin_hand_dict(hand.name))
         if entries is not None:
             return entries
@@ -206,38 +230,10 @@ def _builtin_hand_dict(name: str) -> dict:
     return hand_to_dict(BUILTIN_HANDS[name]())
 
 
-def _primitive_to_dict(prim) -> dict:
-    for key, (_, cls) in PRIMITIVES.items():
-        if type(prim) is cls:
-            fields = {}
-            for f in dataclasses.fields(cls):
-                value = getattr(prim, f.name)
-                if f.default is not dataclasses.MISSING and value == f.default:
-                    continue
-                fields[f.name] = int(value) if f.name == "resolution" else _floats(value)
-            return {key: fields}
-    raise InvalidTask(f"cannot write a display primitive of type {type(prim).__name__}; use {', '.join(PRIMITIVES)}")
-
-
-def _mesh_path(mesh_file: str, base_dir) -> str:
-    if base_dir is None:
-        return str(mesh_file)
-    try:
-        return Path(os.path.relpath(Path(mesh_file).resolve(), Path(base_dir).resolve())).as_posix()
-    except ValueError:  # another drive (Windows): keep it absolute
-        return str(mesh_file)
-
-
 def _object_to_dict(obj: GraspObject, base_dir) -> dict:
-    out: dict = {"name": obj.name, "regions": {name: region_to_dict(r) for name, r in obj.regions.items()}}
-    display: dict = {}
-    if obj.primitives:
-        display["primitives"] = [_primitive_to_dict(p) for p in obj.primitives]
-    if obj.mesh_file:
-        display["mesh_file"] = _mesh_path(obj.mesh_file, base_dir)
-    if display:
-        out["display"] = display
-    return out
+    from .objects import object_to_dict
+
+    return object_to_dict(obj, base_dir)
 
 
 def _contact_to_dict(c: Contact) -> dict:
@@ -245,15 +241,17 @@ def _contact_to_dict(c: Contact) -> dict:
     return {**out, "hand": c.hand_region, "object": c.object_region}
 
 
-def task_to_dict(task: Task, *, base_dir: Path | str | None = None) -> dict:
+def task_to_dict(task: Task, *, base_dir: Path | str | None = None, hand_inline: bool = False) -> dict:
     """The task-file mapping of ``task``: plain lists, floats, ints, bools and strings.
 
-    ``base_dir``: write ``mesh_file`` relative to this folder (default: as stored, absolute).
+    ``base_dir``: write ``mesh_file`` and hand file references relative to this folder
+    (default: as stored, absolute).  ``hand_inline``: write the whole hand even when it
+    comes from a hand file (result files do, so that they can be re-checked alone).
     """
     out: dict = {"prehension": FORMAT_TAG, "name": task.name}
     if task.description:
         out["description"] = task.description
-    out.update(_hand_entries(task.hand))
+    out.update(_hand_entries(task.hand, base_dir, hand_inline))
     out["object"] = _object_to_dict(task.object, base_dir)
     out["contacts"] = [_contact_to_dict(c) for c in task.contacts]
     out["fingers"] = list(task.fingers)

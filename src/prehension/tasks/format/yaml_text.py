@@ -8,6 +8,7 @@ mappings) in flow style, e.g. ``[1.0, 2.0, 3.0]``.
 from __future__ import annotations
 
 import contextlib
+import re
 from pathlib import Path
 
 import yaml
@@ -41,6 +42,12 @@ if hasattr(yaml, "CSafeLoader"):  # libyaml's parser, 5x faster, for files that 
 
 else:  # pragma: no cover - PyYAML built without libyaml
     _FastLoader = _Loader
+
+# YAML 1.2 reads 4e1 and 1E-3 as numbers; PyYAML (YAML 1.1) needs a dot (4.0e1) and would
+# hand the task format the string "4e1".  Numbers with an exponent and no dot are floats here.
+_EXPONENT_FLOAT = re.compile(r"^[-+]?(?:[0-9][0-9_]*|\.[0-9]+)[eE][-+]?[0-9]+$")
+for _cls in {_Loader, _FastLoader}:
+    _cls.add_implicit_resolver("tag:yaml.org,2002:float", _EXPONENT_FLOAT, list("-+0123456789."))
 
 
 def parse_yaml(text: str, source: str):

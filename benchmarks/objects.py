@@ -1,0 +1,209 @@
+"""Real objects: solved, penetration-free and time, with collisions checked and ignored.
+
+Rows: the nine built-in tasks (their closed meshes; four of them ship with
+``collisions: false`` until phase 2 of issue 12, and are run here both ways all the
+same) and 30 tasks on the meshes of ../shared/objects (the bunny at 100 mm per unit,
+about 90 x 140 x 200 mm; the five random solids at 10 mm per unit, about 60-80 mm a
+side).  Each mesh task is made with the region tools: 2, 3 or 4 fingertip contacts
+(thumb against index, middle, ring) on large faces whose normals face each other across
+the object, each region a planar patch picked with ``region_from_mesh`` (degree 1,
+inside one face, so it lies on the mesh).
+
+For each method and each task, the same task is solved twice: with the object's
+collisions checked (``object_collision`` in the residual function, the local solver's
+driver rejecting penetrating answers, idle fingers settled clear) and with them ignored
+(``collisions: false``).  "clear" counts answers whose links are all within 0.5 mm of the
+surface, measured on both (an answer found with collisions ignored is measured
+afterwards).  Times are wall-clock medians per task; read ratios, not absolute values.
+
+    python benchmarks/objects.py                       # local solver, every task
+    python benchmarks/objects.py --methods local,complete --time-limit 10
+    python benchmarks/objects.py --quick               # built-in tasks and 9 mesh tasks
+    python benchmarks/objects.py --queries             # microseconds per distance query
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+from rich.console import Console
+from rich.table import Table
+
+from prehension.objects.distance import MeshDistance
+from prehension.objects.mesh_io import load_mesh
+from prehension.objects.model import GraspObject
+from prehension.objects.pick import region_from_mesh
+from prehension.objects.solid import MeshFileSolid
+from prehension.solve import solve
+from prehension.tasks.library import builtin_task_names, load_builtin_task
+from prehension.tasks.model import Contact, Task
+from prehension.tasks.residuals import evaluate
+
+SHARED = Path(__file__).resolve().parents[2] / "shared" / "objects"
+MESHES = [("bunny.obj", 100.0)] + [(f"random/{i:03d}.obj", 10.0) for i in range(5)]
+FINGERS = ("index", "middle", "ring")
+GRIP_MM = (25.0, 95.0)  # widths a pinch can span
+
+
+def _faces(mesh):
+    tri = mesh.vertices[mesh.faces]
+    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    area = 0.5 * np.linalg.norm(cross, axis=1)
+    normal = cross / (2 * area[:, None])
+    a, b, c = (np.linalg.norm(tri[:, (i + 1) % 3] - tri[:, (i + 2) % 3], axis=1) for i in range(3))
+    incentre = (a[:, None] * tri[:, 0] + b[:, None] * tri[:, 1] + c[:, None] * tri[:, 2]) / (a + b + c)[:, None]
+    return incentre, normal, 2 * area / (a + b + c)  # inradius
+
+
+def _opposed_pairs(mesh, distance, rng, n_pairs: int):
+    """Face pairs (thumb side, finger side) with opposed normals across a graspable width,
+    on the outer surface (a face whose both sides are inside is an internal wall)."""
+    centre, normal, inradius = _faces(mesh)
+    outer = (distance.signed_distance(centre + 1.5 * normal) > 0) & (distance.signed_distance(centre - 0.3 * normal) < 0)
+    big = np.flatnonzero((inradius >= 1.5) & outer)
+    big = big[np.argsort(-inradius[big])][:60]
+    pairs = []
+    for i in big:
+        for j in big:
+            d = centre[j] - centre[i]
+            width = np.linalg.norm(d)
+            if normal[i] @ normal[j] < -0.7 and GRIP_MM[0] <= width <= GRIP_MM[1] and (-normal[i]) @ d / width > 0.6:
+                pairs.append((i, j))
+    order = rng.permutation(len(pairs))
+    return [pairs[k] for k in order[:n_pairs]], centre, normal, inradius
+
+
+def _patch(mesh, distance, centre, inradius):
+    return region_from_mesh(mesh, at=centre, radius=min(0.8 * inradius, 6.0), degree=1, distance=distance).region
+
+
+def mesh_tasks(rng, per_mesh: int) -> list[tuple[str, Task]]:
+    """``per_mesh`` tasks on each shared mesh (2, 3 or 4 contacts in turn)."""
+    hand = load_builtin_task("guitar-tuning").hand
+    out = []
+    for file, scale in MESHES:
+        path = SHARED / file
+        mesh = load_mesh(path, scale)
+        distance = MeshDistance(mesh.vertices, mesh.faces)
+        pairs, centre, normal, inradius = _opposed_pairs(mesh, distance, rng, 200)
+        made, used = 0, set()
+        for i, j in pairs:
+            if made == per_mesh:
+                break
+            if i in used:
+                continue
+            used.add(i)
+            others = [q for p, q in pairs if p == i and q != j and np.linalg.norm(centre[q] - centre[j]) > 15.0]
+            partners = ([j] + others)[: 1 + made % 3]  # 2, 3, 4 contacts in turn (fewer when the faces run out)
+            n_fingers = len(partners)
+            regions = {"thumb_side": _patch(mesh, distance, centre[i], inradius[i])}
+            contacts = [Contact("thumb_tip", "thumb_side")]
+            for f, face in zip(FINGERS, partners):
+                regions[f"{f}_side"] = _patch(mesh, distance, centre[face], inradius[face])
+                contacts.append(Contact(f"{f}_tip", f"{f}_side"))
+            obj = GraspObject(Path(file).stem, regions, solid=MeshFileSolid(str(path), scale))
+            name = f"{Path(file).stem}-{len(contacts)}c-{made}"
+            out.append((name, Task(name, hand, obj, tuple(contacts), ("thumb",) + FINGERS[:n_fingers])))
+            made += 1
+    return out
+
+
+def _clear(task: Task, result) -> bool:
+    if not result.solutions:
+        return False
+    colliding = replace(task, object=replace(task.object, collisions=True))
+    return evaluate(colliding, result.solutions[0].configuration()).worst("object_collision") <= 0.5
+
+
+def _run(task: Task, method: str, collide: bool, time_limit: float):
+    from prehension.solvers.complete.search import BranchAndPruneOptions
+
+    variant = replace(task, object=replace(task.object, collisions=collide))
+    t0 = time.perf_counter()
+    result = solve(variant, method, complete_options=BranchAndPruneOptions(time_limit_s=time_limit))
+    return result, time.perf_counter() - t0
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--methods", default="local", help="comma-separated: local, complete, auto (default local)")
+    parser.add_argument("--per-mesh", type=int, default=5, help="tasks per shared mesh (default 5: 30 tasks)")
+    parser.add_argument("--time-limit", type=float, default=10.0, help="complete solver: seconds per task (default 10)")
+    parser.add_argument("--quick", action="store_true", help="built-in tasks and 9 mesh tasks")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--queries", action="store_true", help="only the distance-query speeds, per mesh")
+    args = parser.parse_args()
+    console = Console(width=150)
+    if args.queries:
+        _queries(console)
+        return
+    rows = [(n, load_builtin_task(n)) for n in builtin_task_names()]
+    if SHARED.is_dir():
+        rows += mesh_tasks(np.random.default_rng(args.seed), 2 if args.quick else args.per_mesh)[: 9 if args.quick else None]
+    for method in args.methods.split(","):
+        _table(console, rows, method.strip(), args.time_limit)
+
+
+def _table(console: Console, rows, method: str, time_limit: float) -> None:
+    table = Table(title=f"{method} solver: collisions checked vs ignored (clear = every link within 0.5 mm)")
+    for col in ("task", "contacts", "checked: solved", "clear", "time [s]", "ignored: solved", "clear", "time [s]"):
+        table.add_column(col, justify="left" if col == "task" else "right")
+    totals = {True: [0, 0, []], False: [0, 0, []]}
+    for name, task in rows:
+        cells = [name, str(len(task.contacts))]
+        for collide in (True, False):
+            result, seconds = _run(task, method, collide, time_limit)
+            clear = _clear(task, result)
+            cells += [result.status, "yes" if clear else "-", f"{seconds:.3f}"]
+            totals[collide][0] += result.success
+            totals[collide][1] += clear
+            totals[collide][2].append(seconds)
+        table.add_row(*cells)
+    n = len(rows)
+    summary = [f"all {n}", ""]
+    for collide in (True, False):
+        solved, clear, secs = totals[collide]
+        summary += [f"{solved}/{n}", f"{clear}/{n}", f"median {np.median(secs):.3f}"]
+    table.add_row(*summary, style="bold")
+    console.print(table)
+    ratio = np.median(totals[True][2]) / max(np.median(totals[False][2]), 1e-12)
+    console.print(f"{method}: median time with collisions / without: {ratio:.2f}x")
+
+
+def _queries(console: Console, n: int = 300) -> None:
+    """Microseconds per query on each mesh: signed distance of a point, distance of a
+    40 mm segment, and a capsule depth, at random places within 20 mm of the mesh's box."""
+    table = Table(title=f"distance queries (median of 3 runs of {n} queries each)")
+    for col in ("mesh", "faces", "sign", "point [us]", "segment [us]", "capsule depth [us]"):
+        table.add_column(col, justify="left" if col == "mesh" else "right")
+    meshes = [(f"built-in {k}", load_builtin_task(t).object.surface) for k, t in
+              (("teapot", "teapot-service"), ("scalpel", "scalpel-handling"), ("guitar", "guitar-tuning"))]
+    meshes += [(file, load_mesh(SHARED / file, scale)) for file, scale in MESHES if (SHARED / file).is_file()]
+    rng = np.random.default_rng(0)
+    for name, mesh in meshes:
+        md = MeshDistance(mesh.vertices, mesh.faces)
+        lo, hi = mesh.vertices.min(0) - 20, mesh.vertices.max(0) + 20
+        a = rng.uniform(lo, hi, (n, 3))
+        d = rng.normal(size=(n, 3))
+        b = a + 40 * d / np.linalg.norm(d, axis=1, keepdims=True)
+        r = np.full(n, 10.0)
+        md.capsule_depth(a[:10], b[:10], r[:10])  # compile / load the cache
+        cells = []
+        for fn in (lambda: md.signed_distance(a), lambda: md.segment_distance(a, b), lambda: md.capsule_depth(a, b, r)):
+            times = []
+            for _ in range(3):
+                t0 = time.perf_counter()
+                fn()
+                times.append(time.perf_counter() - t0)
+            cells.append(f"{1e6 * np.median(times) / n:.1f}")
+        sign = "winding" if md.arrays.robust_sign else "pseudonormal"
+        table.add_row(name, str(len(mesh.faces)), sign, *cells)
+    console.print(table)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,67 @@
+"""Argument types of the command line: every bad value is refused by argparse with a
+message that names the option and what would be valid (exit code 2), before any work."""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+__all__ = ["seed", "seconds", "finite", "positive_int", "time_limit", "DEFAULT_TIME_LIMIT_S"]
+
+DEFAULT_TIME_LIMIT_S = 300.0  # prehension solve: every run is bounded unless asked otherwise
+
+
+def _number(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return value
+
+
+def finite(text: str) -> float:
+    """Any finite number (``4e1`` and ``40`` alike; not nan or inf)."""
+    return _number(text)
+
+
+def seconds(text: str) -> float:
+    """A duration [s] >= 0; 0 means no limit."""
+    value = _number(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be a number of seconds >= 0 (0: no limit), got {text!r}")
+    return value
+
+
+def seed(text: str) -> int:
+    """A random seed: an integer >= 0."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 0, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 0, got {text!r}")
+    return value
+
+
+def positive_int(text: str) -> int:
+    """An integer >= 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}")
+    return value
+
+
+def time_limit(value: float | None, flag: str = "--time-limit") -> float | None:
+    """A parsed time limit as the solvers take it: ``None`` for 0 (no limit)."""
+    if value is None or value == 0:
+        return None
+    if not (value > 0 and math.isfinite(value)):
+        from ..errors import PrehensionError
+
+        raise PrehensionError(f"{flag} must be a number of seconds >= 0 (0: no limit), got {value!r}")
+    return float(value)

@@ -1,0 +1,122 @@
+"""``prehension solve --best N [--rank q1]`` and the friction model of the stored quality.
+
+The options are added to ``solve`` (and ``batch``) by :func:`add_quality_arguments` and
+:func:`add_best_arguments`; :func:`quality_options` and :func:`best_options` turn them into
+:class:`~prehension.quality.QualityOptions` and :class:`~prehension.best.BestOptions`.
+"""
+
+from __future__ import annotations
+
+from rich.table import Table
+
+from ..errors import PrehensionError
+from . import args as types
+
+__all__ = [
+    "add_quality_arguments", "add_best_arguments", "add_batch_arguments", "quality_options", "best_options", "batch_extras",
+    "quality_lines", "best_table",
+]  # fmt: skip
+
+
+def add_quality_arguments(p) -> None:
+    """The friction model of the quality stored with each solution (and of ``--rank``)."""
+    g = p.add_argument_group("grasp quality (stored with each solution; docs/quality.md)")
+    g.add_argument("--friction", type=types.finite, default=None, metavar="MU",
+                   help="Coulomb friction coefficient of the contacts (default 0.6)")  # fmt: skip
+    g.add_argument("--cone-edges", type=int, default=None, metavar="M", help="edges of each linearised friction cone (default 8)")
+    g.add_argument("--torsion", type=types.finite, default=None, metavar="MM",
+                   help="soft fingers: torsional friction [mm] (default 0: hard fingers; a two-finger pinch needs it)")  # fmt: skip
+
+
+def add_best_arguments(p) -> None:
+    """``--best N`` and how solutions are ranked and told apart."""
+    g = p.add_argument_group("the best of many (solve --best N)")
+    g.add_argument("--best", type=types.positive_int, default=None, metavar="N",
+                   help="collect up to N distinct verified solutions and rank them (local solver from many starts; "
+                        "the complete solver's solution set with --method complete)")  # fmt: skip
+    g.add_argument("--rank", choices=("q1", "volume", "found"), default="q1",
+                   help="order of --best: q1 (Ferrari-Canny epsilon, default), volume, or found (the order found)")  # fmt: skip
+    g.add_argument("--starts", type=int, default=100, metavar="S", help="--best: random starts of the local solver (default 100)")
+    g.add_argument("--distinct-deg", type=types.finite, default=5.0, metavar="DEG",
+                   help="--best: solutions are distinct when some joint angle, or the object's orientation, differs by this much (default 5)")  # fmt: skip
+    g.add_argument("--distinct-mm", type=types.finite, default=5.0, metavar="MM",
+                   help="--best: ... or the object's position by this much (default 5)")  # fmt: skip
+
+
+def add_batch_arguments(p) -> None:
+    """``batch``: the same quality and ``--best`` options, and ``--simulate``."""
+    add_quality_arguments(p)
+    add_best_arguments(p)
+    p.add_argument("--simulate", action="store_true",
+                   help='run the physics test (prehension simulate) on every solution, on the cluster; each record '
+                        'gets "physics" (needs: pip install "prehension[sim]")')  # fmt: skip
+
+
+def batch_extras(args) -> dict:
+    """``best``, ``quality`` and ``simulate`` of :class:`~prehension.batch.BatchOptions`;
+    checks that MuJoCo is installed before a cluster starts when ``--simulate`` asks for it."""
+    simulate = None
+    if args.simulate:
+        from ..sim import SimOptions, require_mujoco
+
+        require_mujoco()
+        simulate = SimOptions()
+    return {"best": best_options(args, None), "quality": quality_options(args), "simulate": simulate}
+
+
+def quality_options(args):
+    """The :class:`~prehension.quality.QualityOptions` the arguments ask for."""
+    from ..quality import QualityOptions
+
+    given = {"friction": args.friction, "cone_edges": args.cone_edges, "torsion_mm": args.torsion}
+    try:
+        return QualityOptions(**{k: v for k, v in given.items() if v is not None})
+    except PrehensionError as exc:
+        raise PrehensionError(str(exc).replace("quality options: ", "").replace("friction", "--friction")
+                              .replace("cone_edges", "--cone-edges").replace("torsion_mm", "--torsion")) from None  # fmt: skip
+
+
+def best_options(args, time_limit_s):
+    """The :class:`~prehension.best.BestOptions` of ``--best`` (``None`` without it)."""
+    from ..best import BestOptions
+
+    if args.best is None:
+        return None
+    for flag, given in (("--all", getattr(args, "all", False)), ("--checkpoint", getattr(args, "checkpoint", None)),
+                        ("--approximate", getattr(args, "approximate", False))):  # fmt: skip
+        if given:
+            raise PrehensionError(f"--best collects its own set of strictly verified solutions; it cannot be combined with {flag}")
+    if args.starts < 0:
+        raise PrehensionError(f"--starts must be an integer >= 0, got {args.starts}")
+    for flag, value in (("--distinct-deg", args.distinct_deg), ("--distinct-mm", args.distinct_mm)):
+        if not value > 0:
+            raise PrehensionError(f"{flag} must be a positive number, got {value}")
+    return BestOptions(
+        n=args.best, rank=args.rank, starts=args.starts, joint_deg=args.distinct_deg, position_mm=args.distinct_mm,
+        rotation_deg=args.distinct_deg, quality=quality_options(args), time_limit_s=time_limit_s,
+    )  # fmt: skip
+
+
+def quality_lines(result, options) -> list[str]:
+    """One line per solution (at most 10): its grasp quality."""
+    from ..quality import grasp_quality
+
+    lines = []
+    for i, solution in enumerate(result.solutions[:10]):
+        try:
+            lines.append(f"quality of solution {i}: {grasp_quality(result.task, solution, options).describe()}")
+        except PrehensionError as exc:
+            lines.append(f"quality of solution {i}: unavailable ({exc})")
+    return lines
+
+
+def best_table(result) -> Table:
+    """The ranked solutions of ``solve --best``: epsilon, closure, where each came from."""
+    best = result.stats["best"]
+    table = Table(title=f"Best {len(result.solutions)} of {best['candidates']} found ({best['distinct']} distinct), "
+                        f"ranked by {best['rank']}", title_justify="left")  # fmt: skip
+    for col in ("#", "force closure", "epsilon", "found by"):
+        table.add_column(col)
+    for i, (closed, eps, source) in enumerate(zip(best["force_closure"], best["epsilon"], best["sources"])):
+        table.add_row(str(i), "yes" if closed else "no", f"{eps:.4g}", source)
+    return table

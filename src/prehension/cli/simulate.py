@@ -1,0 +1,141 @@
+"""``prehension simulate RESULT``: does the grasp hold in a physics engine?
+
+Every solution of the result file (or the one ``--solution`` names) is first re-derived
+as ``prehension check`` would (:func:`prehension.verify.verify_result_file`): a file whose
+claims do not hold is refused, never simulated.  Then the DexGraspBench protocol runs
+(:mod:`prehension.sim`).  Exit code: 0 when every simulated grasp holds, 7 when one drops
+or is rejected (too much penetration at the start), 2 on bad input -- including a
+missing ``sim`` extra (the message says what to install).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+from rich.console import Console
+from rich.markup import escape
+from rich.table import Table
+
+from ..atomic import check_output_path, write_json_atomic
+from ..errors import InvalidTask, PrehensionError
+from . import args as types
+from .codes import EXIT_BAD_INPUT, EXIT_OK
+
+__all__ = ["add_parser", "cmd_simulate", "EXIT_DROPPED", "PHYSICS_TAG"]
+
+EXIT_DROPPED = 7  # simulate: a grasp dropped the object (or was rejected for penetration)
+PHYSICS_TAG = "physics/1"
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("simulate", help="push the grasped object in MuJoCo along six directions: does the grasp hold? "
+                                        '(needs: pip install "prehension[sim]")')  # fmt: skip
+    p.add_argument("result", type=Path, help="result file (.json) written by 'prehension solve'")
+    p.add_argument("--solution", type=int, default=None, metavar="K", help="simulate only solution K (from 0; default: every one)")
+    p.add_argument("-o", "--output", type=Path, help="write the outcome as JSON here")
+    p.add_argument("--seed", type=types.seed, default=0, help="seed of --jitter (default 0)")
+    p.add_argument("--jitter-mm", type=types.finite, default=0.0, metavar="MM",
+                   help="start the object this far from its solved pose, in a seeded random direction (default 0)")  # fmt: skip
+    p.add_argument("--jitter-deg", type=types.finite, default=0.0, metavar="DEG",
+                   help="and turned by this angle about a seeded random axis (default 0)")  # fmt: skip
+    p.add_argument("--squeeze", type=types.finite, default=None, metavar="MM", help="how far each contact is aimed into the object (default 10)")
+    p.add_argument("--mass", type=types.finite, default=None, metavar="KG", help="object mass (default 0.1)")
+    p.add_argument("--friction", type=types.finite, default=None, metavar="MU", help="sliding friction (default 0.6)")
+    p.add_argument("--json", action="store_true", help="print the outcome as JSON on stdout")
+
+
+class StoredGrasp(NamedTuple):
+    """A solution of a result file, as the physics test needs it (re-derived by check)."""
+
+    q: np.ndarray
+    T_palm_object: np.ndarray
+    contacts: tuple
+
+
+def stored_grasps(path: Path, index: int | None):
+    """``(task, [(k, StoredGrasp)])`` of a result file whose claims hold."""
+    from ..verify import verify_result_file
+
+    if not path.is_file():
+        raise InvalidTask(f"result file not found: {path}")
+    checked = verify_result_file(path, reprove=False)
+    if not checked.holds:
+        failures = "; ".join(f"{f.what}: {f.detail}" for f in checked.failures[:3])
+        raise PrehensionError(f"{path} does not hold (see 'prehension check {path}'): {failures}")
+    from ..atomic import read_json
+
+    solutions = read_json(path, "result file").get("solutions") or []
+    if not solutions:
+        raise PrehensionError(f"{path} holds no solution to simulate (status {checked.status})")
+    if index is not None and not 0 <= index < len(solutions):
+        raise PrehensionError(f"--solution {index} is out of range: the result holds {len(solutions)} solution(s), numbered 0 to {len(solutions) - 1}")
+    picked = range(len(solutions)) if index is None else [index]
+    grasps = []
+    for k in picked:
+        q = np.array([float(solutions[k]["joint_angles_rad"][d]) for d in checked.task.hand.dof_names])
+        grasps.append((k, StoredGrasp(q, np.array(solutions[k]["T_palm_object"], float), checked.reports[k].contacts)))
+    return checked.task, grasps
+
+
+_FLAGS = {"squeeze_mm": "--squeeze", "mass_kg": "--mass", "friction": "--friction", "jitter_mm": "--jitter-mm",
+          "jitter_deg": "--jitter-deg"}  # fmt: skip
+
+
+def sim_options(args):
+    """The :class:`~prehension.sim.SimOptions` the arguments ask for; errors name the flag."""
+    from ..sim import SimOptions
+
+    given = {"squeeze_mm": args.squeeze, "mass_kg": args.mass, "friction": args.friction,
+             "jitter_mm": args.jitter_mm, "jitter_deg": args.jitter_deg}  # fmt: skip
+    try:
+        return SimOptions(**{k: v for k, v in given.items() if v is not None})
+    except PrehensionError as exc:
+        text = str(exc).replace("simulation options: ", "")
+        for name, flag in _FLAGS.items():
+            text = text.replace(name, flag)
+        raise PrehensionError(text) from None
+
+
+def cmd_simulate(args, console: Console) -> int:
+    from ..sim import require_mujoco, simulate_grasp
+
+    try:
+        require_mujoco()  # before any work: say what to install
+    except PrehensionError as exc:  # printed here: main() would read "[sim]" as rich markup
+        Console(stderr=True, highlight=False).print(f"error: {exc}", markup=False, soft_wrap=True)
+        return EXIT_BAD_INPUT
+    options = sim_options(args)
+    out = check_output_path(args.output, "output", inputs=[args.result], suffixes=(".json",)) if args.output else None
+    task, grasps = stored_grasps(args.result, args.solution)
+    reports = [(k, simulate_grasp(task, g, options, args.seed)) for k, g in grasps]
+    data = {"prehension": PHYSICS_TAG, "result": str(args.result), "task": task.name,
+            "grasps": [dict(solution=k, **r.to_dict()) for k, r in reports]}  # fmt: skip
+    if out is not None:
+        write_json_atomic(out, data)
+    if args.json:
+        import json
+
+        print(json.dumps(data, indent=1, allow_nan=False))
+    else:
+        for k, report in reports:
+            console.print(_table(k, report))
+        if out is not None:
+            console.print(f"outcome written to {out}")
+    return EXIT_OK if all(r.success for _, r in reports) else EXIT_DROPPED
+
+
+def _table(k: int, report) -> Table:
+    style = "bold green" if report.success else "bold red"
+    table = Table(title=f"Solution {k}: [{style}]{escape(report.describe())}[/]", title_justify="left")
+    for col in ("push", "held", "moved [mm]", "turned [deg]", "initial penetration [mm]"):
+        table.add_column(col)
+    for p in report.pushes:
+        table.add_row(p.direction, "yes" if p.held else "[bold red]no[/]", f"{p.shift_mm:.1f}", f"{p.turn_deg:.1f}",
+                      f"{p.initial_penetration_mm:.2f}")  # fmt: skip
+    o = report.options
+    table.caption = (f"object {o.mass_kg:g} kg, friction {o.friction:g}, pushed with {o.push_accel * o.mass_kg:g} N for "
+                     f"{o.hold_s:g} s after a {o.squeeze_mm:g} mm squeeze; held: moved < {o.max_shift_mm:g} mm and "
+                     f"turned < {o.max_turn_deg:g} deg")  # fmt: skip
+    return table

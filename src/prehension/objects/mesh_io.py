@@ -1,0 +1,142 @@
+"""Object surfaces from mesh files (OBJ, STL, PLY, OFF, GLB/GLTF) through trimesh.
+
+Mesh files carry no units: :func:`load_mesh` takes ``scale`` (mm per file unit, e.g.
+1000 for a file in metres; :data:`UNITS` names the common ones).  What is checked, each
+with an :class:`~prehension.errors.InvalidObject` that names the file and the problem:
+
+* the file exists, is a format trimesh reads, and holds triangles (not a point cloud or
+  an empty scene);
+* every vertex is finite; faces of zero area (repeated corners, collinear corners) are
+  dropped, and a mesh left with none, or flat (zero extent along an axis), is refused;
+* ``closed=True`` (what collisions need): the surface is watertight (every edge shared by
+  exactly two faces) and its faces are consistently wound.  A closed mesh whose faces all
+  face inwards is turned outwards (its inside is unambiguous); a mesh that does not enclose
+  a positive volume is refused.
+
+A GLB/GLTF scene is flattened into one mesh (every node at its scene pose).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InvalidObject
+from .meshes import Mesh
+
+__all__ = ["UNITS", "MESH_SUFFIXES", "load_mesh", "load_display_mesh", "checked_mesh", "scale_of"]
+
+# mm per unit
+UNITS = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4}
+MESH_SUFFIXES = (".obj", ".stl", ".ply", ".off", ".glb", ".gltf")
+
+
+def scale_of(scale: float | None, units: str | None) -> float:
+    """mm per file unit from exactly one of ``scale`` and ``units``."""
+    if (scale is None) == (units is None):
+        raise InvalidObject(
+            "a mesh file carries no units: give exactly one of scale (mm per file unit, e.g. 1000 for metres) "
+            f"or units ({', '.join(UNITS)})"
+        )
+    if units is not None:
+        if units not in UNITS:
+            raise InvalidObject(f"unknown units {units!r}; units are: {', '.join(UNITS)} (or give scale in mm per unit)")
+        return UNITS[units]
+    scale = float(scale)
+    if not (np.isfinite(scale) and scale > 0):
+        raise InvalidObject(f"mesh scale must be a positive number of mm per file unit, got {scale}")
+    return scale
+
+
+def _trimesh():
+    try:
+        import trimesh
+    except ImportError:  # pragma: no cover - trimesh is a dependency
+        raise InvalidObject("reading mesh files needs trimesh: pip install trimesh") from None
+    return trimesh
+
+
+def _read(path: Path):
+    trimesh = _trimesh()
+    if not path.is_file():
+        raise InvalidObject(f"mesh file not found: {path}")
+    if path.suffix.lower() not in MESH_SUFFIXES:
+        raise InvalidObject(f"{path}: unsupported mesh format {path.suffix or '(no suffix)'}; use {', '.join(MESH_SUFFIXES)}")
+    try:
+        loaded = trimesh.load(str(path), force="mesh", process=False)
+    except Exception as exc:  # trimesh raises many kinds on a bad file
+        raise InvalidObject(f"{path}: not a readable mesh ({type(exc).__name__}: {exc})") from None
+    faces = getattr(loaded, "faces", None)
+    if faces is None or len(faces) == 0:
+        raise InvalidObject(f"{path}: holds no triangles (a point cloud, lines or an empty scene); a mesh file is needed")
+    return np.asarray(loaded.vertices, dtype=float), np.asarray(faces, dtype=np.int64)
+
+
+def load_mesh(path, scale: float, *, closed: bool = True) -> Mesh:
+    """The triangle mesh of ``path`` in mm (``scale`` mm per file unit), checked (see the module docstring)."""
+    path = Path(path)
+    vertices, faces = _read(path)
+    return checked_mesh(vertices * float(scale), faces, str(path), closed=closed)
+
+
+def load_display_mesh(path) -> Mesh:
+    """A mesh file that is only drawn (``display.mesh_file``, mm): any triangles of any
+    readable format, finite and indexing their vertices; open or flat is fine."""
+    path = Path(path)
+    vertices, faces = _read(path)
+    if not np.all(np.isfinite(vertices)):
+        raise InvalidObject(f"{path}: mesh has non-finite vertex coordinates (NaN or infinity)")
+    if faces.min() < 0 or faces.max() >= len(vertices):
+        raise InvalidObject(f"{path}: faces index vertices 0..{len(vertices) - 1}, got {faces.min()}..{faces.max()}")
+    return Mesh(vertices, faces)
+
+
+def checked_mesh(vertices, faces, source: str, *, closed: bool = True) -> Mesh:
+    """``vertices (V, 3)`` [mm] and ``faces (F, 3)`` checked and cleaned into a :class:`Mesh`.
+
+    Args:
+        source: what the mesh is called in error messages (file name, "primitives").
+        closed: require a watertight, consistently wound surface (turned outwards).
+    """
+    trimesh = _trimesh()
+    v = np.asarray(vertices, dtype=float).reshape(-1, 3)
+    f = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    if not np.all(np.isfinite(v)):
+        raise InvalidObject(f"{source}: mesh has non-finite vertex coordinates (NaN or infinity)")
+    if len(f) and (f.min() < 0 or f.max() >= len(v)):
+        raise InvalidObject(f"{source}: faces index vertices 0..{len(v) - 1}, got {f.min()}..{f.max()}")
+    mesh = trimesh.Trimesh(v, f, process=True, validate=True)  # merges duplicate vertices, drops zero-area faces
+    if len(mesh.faces) == 0:
+        raise InvalidObject(f"{source}: degenerate mesh: every face has zero area")
+    if np.min(mesh.extents) <= 1e-9 * max(1.0, float(np.max(mesh.extents))):
+        raise InvalidObject(f"{source}: degenerate mesh: flat (extents {np.round(mesh.extents, 6).tolist()} mm)")
+    if closed:
+        _check_closed(mesh, source, trimesh)
+    return Mesh(np.asarray(mesh.vertices, dtype=float), np.asarray(mesh.faces, dtype=np.int64))
+
+
+def _check_closed(mesh, source: str, trimesh) -> None:
+    open_edges = _boundary_edges(mesh.faces)
+    if open_edges:
+        raise InvalidObject(
+            f"{source}: mesh is not watertight ({open_edges} edges not shared by exactly two faces); "
+            "collisions need a closed surface: repair the mesh (fill its holes), or set collisions: false "
+            "to use it for display and contact regions only"
+        )
+    if not mesh.is_winding_consistent:
+        raise InvalidObject(
+            f"{source}: the faces of the mesh are not wound consistently (neighbouring faces list their shared edge "
+            "in the same direction); repair the mesh (e.g. trimesh.repair.fix_winding) and save it again"
+        )
+    if mesh.volume < 0:
+        mesh.invert()
+    if not mesh.volume > 0:
+        raise InvalidObject(f"{source}: degenerate mesh: it encloses no volume")
+
+
+def _boundary_edges(faces: np.ndarray) -> int:
+    """Number of distinct edges not shared by exactly two faces."""
+    e = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
+    _, counts = np.unique(e, axis=0, return_counts=True)
+    return int(np.sum(counts != 2))

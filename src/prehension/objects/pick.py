@@ -1,0 +1,215 @@
+"""Contact regions picked on a mesh: a Bézier patch fitted to a piece of surface, or a point.
+
+:func:`region_from_mesh` takes a piece of the surface, either the faces within ``radius``
+of a point (the faces connected to the closest one, facing the same side) or a given set
+of faces, and fits a Bézier patch of a chosen degree to it by least squares over a local
+parametrisation:
+
+* the frame: the surface point ``p0`` closest to ``at`` (or the faces' area-weighted
+  centroid) and the area-weighted outward normal ``n`` of the piece; ``e1``, ``e2``
+  complete a right-handed frame (``e1 x e2 = n``);
+* the domain: the square ``[-h, h]^2`` of the tangent plane around ``p0`` (``h`` = the
+  radius divided by sqrt(2), so that the square fits inside the picked disc; for a face set,
+  the half-width of the faces' footprint);
+* the patch: control points ``p0 + s_i e1 + t_j e2 + z_ij n`` over an even grid
+  ``(s_i, t_j)`` of the square (so ``(u, v)`` maps linearly onto the square), with the
+  heights ``z_ij`` the least-squares fit to points sampled on the faces over the square.
+  The normal ``p_u x p_v`` is then ``n`` to first order: outward.
+
+The piece must be a height field over the tangent plane (every face within 84 degrees of
+``n``); otherwise the radius is too large for that part of the surface.  The fit's quality is
+the largest distance from the patch to the surface, over a 25 x 25 grid of the patch [mm].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..errors import InvalidObject
+from ..geometry.bezier import BezierPatch
+from ..geometry.regions import BezierRegion, PointRegion, Region
+from .meshes import Mesh
+
+if TYPE_CHECKING:  # numba is imported only when a distance is needed
+    from .distance import MeshDistance
+
+__all__ = ["PickedRegion", "region_from_mesh", "MAX_DEGREE"]
+
+MAX_DEGREE = 6
+_SAMPLES_PER_EDGE = 5  # barycentric samples per triangle edge
+_CHECK_GRID = 25
+_MIN_COS = 0.1  # faces further than ~84 deg from the mean normal: not a height field
+
+
+@dataclass(frozen=True, eq=False)
+class PickedRegion:
+    """A region fitted to a mesh.
+
+    Attributes:
+        region: the Bézier patch (or point with normal), object frame [mm].
+        max_deviation_mm: largest distance from the region to the surface [mm].
+        point: (3,) the surface point the region is centred on [mm].
+        normal: (3,) the outward normal there.
+        n_faces: how many faces were fitted.
+    """
+
+    region: Region
+    max_deviation_mm: float
+    point: np.ndarray
+    normal: np.ndarray
+    n_faces: int
+
+
+def _face_data(mesh: Mesh):
+    tri = mesh.vertices[mesh.faces]
+    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    area2 = np.linalg.norm(cross, axis=1)
+    return tri, cross / np.maximum(area2, 1e-300)[:, None], 0.5 * area2
+
+
+def _connected(mesh: Mesh, candidates: np.ndarray, seed: int) -> np.ndarray:
+    """The candidate faces connected to ``seed`` through shared edges (bool mask)."""
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import connected_components
+
+    f = mesh.faces
+    edges = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
+    owner = np.tile(np.arange(len(f)), 3)
+    keep = candidates[owner]
+    edges, owner = edges[keep], owner[keep]
+    _, inv = np.unique(edges, axis=0, return_inverse=True)
+    order = np.argsort(inv, kind="stable")
+    a, b = owner[order][:-1], owner[order][1:]
+    same = inv.ravel()[order][:-1] == inv.ravel()[order][1:]
+    graph = sp.coo_matrix((np.ones(same.sum()), (a[same], b[same])), shape=(len(f), len(f)))
+    _, label = connected_components(graph, directed=False)
+    return candidates & (label == label[seed])
+
+
+def _samples(tri: np.ndarray) -> np.ndarray:
+    """Points on each triangle (F, 3, 3) on a barycentric grid -> (F * k, 3)."""
+    n = _SAMPLES_PER_EDGE
+    w = np.array([(i, j, n - i - j) for i in range(n + 1) for j in range(n + 1 - i)], float) / n
+    return np.einsum("kc,fcd->fkd", w, tri).reshape(-1, 3)
+
+
+def _lifted_grid(distance: MeshDistance, p0, e1, e2, half: float, k: int = 15) -> np.ndarray:
+    """The closest surface points of a k x k grid over the square (samples however large the faces)."""
+    g = np.linspace(-half, half, k)
+    S, T = np.meshgrid(g, g, indexing="ij")
+    grid = p0 + S.reshape(-1, 1) * e1 + T.reshape(-1, 1) * e2
+    return distance.signed_distance(grid, closest=True)[1]
+
+
+def _bernstein(n: int, t: np.ndarray) -> np.ndarray:
+    from math import comb
+
+    t = np.asarray(t, float)[:, None]
+    k = np.arange(n + 1)[None]
+    return np.array([comb(n, i) for i in range(n + 1)])[None] * t**k * (1 - t) ** (n - k)
+
+
+def _frame(normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    helper = np.eye(3)[np.argmin(np.abs(normal))]
+    e1 = np.cross(helper, normal)
+    e1 /= np.linalg.norm(e1)
+    return e1, np.cross(normal, e1)
+
+
+def _fit(points, p0, e1, e2, n, half: float, degree: int) -> BezierRegion:
+    rel = points - p0
+    s, t, z = rel @ e1, rel @ e2, rel @ n
+    inside = (np.abs(s) <= half) & (np.abs(t) <= half)
+    u, v = (s[inside] + half) / (2 * half), (t[inside] + half) / (2 * half)
+    if inside.sum() < (degree + 1) ** 2:
+        raise InvalidObject(f"too few surface samples ({inside.sum()}) for a degree-{degree} patch; pick a larger radius")
+    A = np.einsum("ki,kj->kij", _bernstein(degree, u), _bernstein(degree, v)).reshape(len(u), -1)
+    heights, *_ = np.linalg.lstsq(A, z[inside], rcond=None)
+    grid = np.linspace(-half, half, degree + 1)
+    S, T = np.meshgrid(grid, grid, indexing="ij")
+    ctrl = p0 + S[..., None] * e1 + T[..., None] * e2 + heights.reshape(degree + 1, degree + 1)[..., None] * n
+    return BezierRegion(BezierPatch(ctrl))
+
+
+def _deviation(region: Region, distance: MeshDistance) -> float:
+    t = np.linspace(0, 1, _CHECK_GRID)
+    uv = np.stack(np.meshgrid(t, t, indexing="ij"), -1).reshape(-1, 2) if region.n_params else np.zeros((1, 0))
+    points, _ = region.evaluate(uv)
+    return float(np.abs(distance.signed_distance(points)).max())
+
+
+def _piece_by_radius(mesh, distance, at, radius):
+    at = np.asarray(at, dtype=float).reshape(3)
+    sd, closest = distance.signed_distance(at[None], closest=True)
+    if abs(sd[0]) > radius:
+        raise InvalidObject(
+            f"the point {np.round(at, 3).tolist()} is {abs(sd[0]):.3g} mm from the surface, farther than the radius "
+            f"({radius:g} mm); give a point on (or near) the surface, in mm of the object frame"
+        )
+    p0 = closest[0]
+    seed = int(distance.closest_faces(p0[None])[0])
+    tri, normals, areas = _face_data(mesh)
+    near = np.linalg.norm(tri - p0, axis=2).min(axis=1) <= radius
+    near[seed] = True
+    return p0, _connected(mesh, near, seed), tri, normals, areas
+
+
+def region_from_mesh(
+    mesh: Mesh, *, at=None, radius: float | None = None, faces=None, degree: int = 2, point: bool = False,
+    distance: MeshDistance | None = None,
+) -> PickedRegion:  # fmt: skip
+    """Fit a contact region to a piece of ``mesh`` (see the module docstring).
+
+    Args:
+        mesh: a closed, outward-oriented surface, object frame [mm].
+        at: (3,) a point on or near the surface [mm]; with ``radius`` [mm].
+        faces: instead of ``at``/``radius``: indices of the faces to fit.
+        degree: the patch's degree in u and v (1..6).
+        point: a point-with-normal region at the surface point instead of a patch.
+        distance: the mesh's :class:`MeshDistance` when already built.
+
+    Raises:
+        InvalidObject: a bad request (no faces, a point far from the surface, a piece
+            that is not a height field), naming what would be valid.
+    """
+    if not (isinstance(degree, (int, np.integer)) and 1 <= degree <= MAX_DEGREE):
+        raise InvalidObject(f"degree must be an integer from 1 to {MAX_DEGREE}, got {degree!r}")
+    if distance is None:
+        from .distance import MeshDistance
+
+        distance = MeshDistance(mesh.vertices, mesh.faces)
+    if faces is None:
+        if at is None or radius is None or not (np.isfinite(radius) and radius > 0):
+            raise InvalidObject("give a surface point 'at' and a positive 'radius' [mm], or a set of faces")
+        p0, chosen, tri, normals, areas = _piece_by_radius(mesh, distance, at, float(radius))
+        half = float(radius) / np.sqrt(2.0)
+    else:
+        tri, normals, areas = _face_data(mesh)
+        chosen = np.zeros(len(mesh.faces), bool)
+        idx = np.asarray(faces, dtype=int).ravel()
+        if idx.size == 0 or idx.min() < 0 or idx.max() >= len(mesh.faces):
+            raise InvalidObject(f"faces must be indices 0..{len(mesh.faces) - 1}, got {idx.size} indices")
+        chosen[idx] = True
+        p0 = None
+        half = None
+    n = (normals[chosen] * areas[chosen, None]).sum(axis=0)
+    n /= np.linalg.norm(n)
+    facing = normals[chosen] @ n
+    chosen &= normals @ n > _MIN_COS if faces is None else chosen  # other side of a thin part: dropped
+    if faces is not None and facing.min() <= _MIN_COS:
+        raise InvalidObject("the faces do not form a height field over their mean tangent plane; give fewer faces")
+    if p0 is None:
+        p0 = (tri[chosen].mean(axis=1) * areas[chosen, None]).sum(axis=0) / areas[chosen].sum()
+        p0 = distance.signed_distance(p0[None], closest=True)[1][0]
+        e1, e2 = _frame(n)
+        rel = tri[chosen].reshape(-1, 3) - p0
+        half = float(np.max(np.abs(np.stack([rel @ e1, rel @ e2]))))
+    if point:
+        region = PointRegion(p0, n)
+        return PickedRegion(region, 0.0, p0, n, int(chosen.sum()))
+    e1, e2 = _frame(n)
+    region = _fit(np.concatenate([_samples(tri[chosen]), _lifted_grid(distance, p0, e1, e2, half)]), p0, e1, e2, n, half, degree)
+    return PickedRegion(region, _deviation(region, distance), p0, n, int(chosen.sum()))

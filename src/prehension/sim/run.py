@@ -1,0 +1,174 @@
+"""Run the physics test of a grasp (the protocol of :class:`~prehension.sim.options.SimOptions`).
+
+Each of the six pushes starts from the same state -- the hand at the solved angles, the
+object at the solved pose (jittered by the seed when asked) -- and runs the squeeze, then
+the push, stopping early once the object has left the tolerances.  MuJoCo is
+deterministic: the same grasp, options and seed give the same numbers.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from ..errors import PrehensionError
+from ..geometry.rotations import rotation_about
+from ..tasks.model import Task
+from .options import PUSH_DIRECTIONS, SimOptions
+from .pieces import convex_pieces
+from .scene import MM, SimScene, build_scene_xml
+from .squeeze import squeeze_targets
+
+__all__ = ["PushOutcome", "PhysicsReport", "simulate_grasp", "require_mujoco", "scene_for"]
+
+_INSTALL = 'pip install "prehension[sim]"'
+_BLOCKS = 10  # the push is checked this many times (early stop), as DexGraspBench does
+
+
+def require_mujoco():
+    """The ``mujoco`` module, or a :class:`PrehensionError` that says how to install it."""
+    try:
+        import mujoco
+    except ImportError:
+        raise PrehensionError(f"the physics test needs MuJoCo; install it with: {_INSTALL}") from None
+    return mujoco
+
+
+@dataclass(frozen=True)
+class PushOutcome:
+    """One push: ``direction`` (``"-x"``...), whether the grasp ``held``, how far the
+    object's centre of mass moved [mm] and how far it turned [deg], and the deepest
+    hand-object penetration at the start [mm]."""
+
+    direction: str
+    held: bool
+    shift_mm: float
+    turn_deg: float
+    initial_penetration_mm: float
+
+
+@dataclass(frozen=True)
+class PhysicsReport:
+    """The physics test of one grasp.
+
+    Attributes:
+        success: held in all six directions (and not rejected).
+        rejected: the grasp started with a penetration deeper than the limit (not simulated).
+        initial_penetration_mm: deepest hand-object penetration at the start [mm].
+        pushes: one outcome per direction (empty when rejected).
+        seed: the seed of the jitter.
+        options: the protocol's settings.
+    """
+
+    success: bool
+    rejected: bool
+    initial_penetration_mm: float
+    pushes: tuple[PushOutcome, ...]
+    seed: int
+    options: SimOptions = field(default_factory=SimOptions)
+
+    @property
+    def held(self) -> int:
+        return sum(p.held for p in self.pushes)
+
+    def to_dict(self) -> dict:
+        return {
+            "success": self.success, "rejected": self.rejected, "initial_penetration_mm": self.initial_penetration_mm,
+            "held": self.held, "pushes": [asdict(p) for p in self.pushes], "seed": self.seed,
+            "options": self.options.to_dict(),
+        }  # fmt: skip
+
+    def describe(self) -> str:
+        if self.rejected:
+            return (f"rejected: starts with {self.initial_penetration_mm:.1f} mm of hand-object penetration "
+                    f"(limit {self.options.max_penetration_mm:g} mm)")  # fmt: skip
+        verdict = "holds" if self.success else "DROPS"
+        return f"{verdict}: held against {self.held} of {len(self.pushes)} pushes"
+
+
+def _jittered(T: np.ndarray, centre_mm: np.ndarray, options: SimOptions, seed: int) -> np.ndarray:
+    """``T`` moved by a seeded random translation and rotation about the object's centre."""
+    if options.jitter_mm == 0 and options.jitter_deg == 0:
+        return T.copy()
+    rng = np.random.default_rng(seed)
+    d = rng.normal(size=3)
+    axis = rng.normal(size=3)
+    R = rotation_about(axis / np.linalg.norm(axis), np.radians(options.jitter_deg))
+    c = T[:3, :3] @ centre_mm + T[:3, 3]  # the centre, palm frame
+    out = np.eye(4)
+    out[:3, :3] = R @ T[:3, :3]
+    out[:3, 3] = R @ (T[:3, 3] - c) + c + options.jitter_mm * d / np.linalg.norm(d)
+    return out
+
+
+def scene_for(task: Task, solution, options: SimOptions = SimOptions(), seed: int = 0) -> SimScene:
+    """The MuJoCo scene of ``solution`` (see :mod:`.scene`)."""
+    from ..quality.solid import mass_properties, object_solid
+
+    centre = mass_properties(object_solid(task.object)).centroid_mm
+    T = _jittered(np.asarray(solution.T_palm_object, float), centre, options, seed)
+    return build_scene_xml(task, T, convex_pieces(task.object), options)
+
+
+def simulate_grasp(task: Task, solution, options: SimOptions = SimOptions(), seed: int = 0) -> PhysicsReport:
+    """The physics test of ``solution`` (a grasp of ``task``; see the module docstring)."""
+    mujoco = require_mujoco()
+    scene = scene_for(task, solution, options, seed)
+    model = mujoco.MjModel.from_xml_string(scene.xml)
+    data = mujoco.MjData(model)
+    q = np.asarray(solution.q, dtype=float)
+    q_squeeze = squeeze_targets(task, q, solution.contacts, options.squeeze_mm)
+    sim = _Sim(mujoco, model, data, scene, q, q_squeeze, options)
+    depth = sim.reset()
+    if depth > options.max_penetration_mm:
+        return PhysicsReport(False, True, depth, (), seed, options)
+    pushes = tuple(sim.push(name, np.asarray(d), depth) for name, d in PUSH_DIRECTIONS)
+    return PhysicsReport(all(p.held for p in pushes), False, depth, pushes, seed, options)
+
+
+class _Sim:
+    """One model and its data, reset before each push."""
+
+    def __init__(self, mujoco, model, data, scene: SimScene, q, q_squeeze, options: SimOptions):
+        self.mj, self.model, self.data, self.options = mujoco, model, data, options
+        self.qpos_adr = np.array([model.joint(f"dof:{d}").qposadr[0] for d in scene.dof_names])
+        self.act = np.array([model.actuator(f"act:{d}").id for d in scene.dof_names])
+        self.body = model.body("object").id
+        self.q, self.q_squeeze = q, q_squeeze
+
+    def reset(self) -> float:
+        """Back to the start; the deepest hand-object penetration there [mm]."""
+        mj, m, d = self.mj, self.model, self.data
+        mj.mj_resetData(m, d)
+        d.qpos[self.qpos_adr] = self.q
+        d.ctrl[self.act] = self.q
+        mj.mj_forward(m, d)
+        dists = [d.contact[i].dist for i in range(d.ncon)]
+        return max(0.0, -min(dists, default=0.0)) / MM
+
+    def _moved(self, com0, R0) -> tuple[float, float]:
+        com, R = self.data.xipos[self.body], self.data.xmat[self.body].reshape(3, 3)
+        turn = R @ R0.T
+        angle = np.degrees(np.arccos(np.clip(0.5 * (np.trace(turn) - 1.0), -1.0, 1.0)))
+        return float(np.linalg.norm(com - com0) / MM), float(angle)
+
+    def push(self, name: str, direction: np.ndarray, depth: float) -> PushOutcome:
+        mj, m, d, o = self.mj, self.model, self.data, self.options
+        self.reset()
+        com0, R0 = d.xipos[self.body].copy(), d.xmat[self.body].reshape(3, 3).copy()
+        steps = max(int(round(o.squeeze_s / o.timestep_s)), 1)
+        for k in range(1, steps + 1):  # the squeeze: targets ramp to the squeezed angles
+            d.ctrl[self.act] = self.q + (self.q_squeeze - self.q) * (k / steps)
+            mj.mj_step(m, d)
+        d.xfrc_applied[self.body, :3] = o.push_accel * o.mass_kg * direction
+        hold = max(int(round(o.hold_s / o.timestep_s)), 1)
+        shift, turn = self._moved(com0, R0)
+        for block in range(_BLOCKS):
+            mj.mj_step(m, d, nstep=hold * (block + 1) // _BLOCKS - hold * block // _BLOCKS)
+            shift, turn = self._moved(com0, R0)
+            if not (shift < o.max_shift_mm and turn < o.max_turn_deg):
+                break
+        d.xfrc_applied[self.body] = 0.0
+        held = bool(shift < o.max_shift_mm and turn < o.max_turn_deg)
+        return PushOutcome(name, held, shift, turn, depth)

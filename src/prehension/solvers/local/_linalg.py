@@ -1,0 +1,204 @@
+"""Small compiled linear algebra for the kernel: 3-vectors, 3x3 matrices, damped least squares.
+
+The step of :mod:`._kernel` is damped least squares on column-scaled unknowns,
+
+.. math::
+
+    \\Delta x = -D^{-1} \\tilde J^T (\\tilde J \\tilde J^T + \\mu^2 I)^{-1} f,
+    \\qquad \\tilde J = J D^{-1},
+
+with frozen unknowns (an active set) as zero columns.  :func:`dls_contacts` builds
+``J~ J~^T`` block by block from the columns two contacts share (the object twist and
+common joints), so its cost grows with the contacts, not with the square of the unknowns;
+:func:`dls_dense` is the plain version for stacks of contact and inequality rows.
+"""
+
+from __future__ import annotations
+
+import math
+
+from ._jit import njit
+
+__all__ = ["copy", "fill", "dot", "rot", "mat_mat", "mat_vec", "cross", "cholesky_solve", "dls_contacts", "dls_dense"]
+
+
+@njit(cache=True)
+def copy(src, dst):
+    """``dst[...] = src`` for C-contiguous arrays of one size (an explicit loop: slice
+    assignment compiles to much more code)."""
+    a = src.reshape(src.size)
+    b = dst.reshape(dst.size)
+    for i in range(a.size):
+        b[i] = a[i]
+
+
+@njit(cache=True)
+def fill(dst, value):
+    """``dst[...] = value`` for a C-contiguous array."""
+    b = dst.reshape(dst.size)
+    for i in range(b.size):
+        b[i] = value
+
+
+@njit(cache=True)
+def dot(a, b):
+    """``a . b`` of two 3-vectors."""
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+@njit(cache=True)
+def rot(u0, u1, u2, th, out):
+    """Rodrigues: ``out = Rot(u, th)`` for a unit axis ``u``."""
+    c, s = math.cos(th), math.sin(th)
+    v = 1.0 - c
+    out[0, 0] = c + u0 * u0 * v
+    out[0, 1] = u0 * u1 * v - u2 * s
+    out[0, 2] = u0 * u2 * v + u1 * s
+    out[1, 0] = u1 * u0 * v + u2 * s
+    out[1, 1] = c + u1 * u1 * v
+    out[1, 2] = u1 * u2 * v - u0 * s
+    out[2, 0] = u2 * u0 * v - u1 * s
+    out[2, 1] = u2 * u1 * v + u0 * s
+    out[2, 2] = c + u2 * u2 * v
+
+
+@njit(cache=True)
+def mat_mat(A, B, out):
+    """``out = A B`` (3x3; ``out`` distinct from ``A`` and ``B``)."""
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = A[i, 0] * B[0, j] + A[i, 1] * B[1, j] + A[i, 2] * B[2, j]
+
+
+@njit(cache=True)
+def mat_vec(A, x, out):
+    """``out = A x`` (3x3 times 3)."""
+    for i in range(3):
+        out[i] = A[i, 0] * x[0] + A[i, 1] * x[1] + A[i, 2] * x[2]
+
+
+@njit(cache=True)
+def cross(a, b, out):
+    out[0] = a[1] * b[2] - a[2] * b[1]
+    out[1] = a[2] * b[0] - a[0] * b[2]
+    out[2] = a[0] * b[1] - a[1] * b[0]
+
+
+@njit(cache=True)
+def cholesky_solve(A, b, n, L, y):
+    """Solve ``A y = b`` (symmetric positive definite, first ``n`` rows); False if it fails."""
+    for j in range(n):
+        s = A[j, j]
+        for k in range(j):
+            s -= L[j, k] * L[j, k]
+        if not (s > 0.0):
+            return False
+        d = math.sqrt(s)
+        L[j, j] = d
+        for i in range(j + 1, n):
+            s = A[i, j]
+            for k in range(j):
+                s -= L[i, k] * L[j, k]
+            L[i, j] = s / d
+    for i in range(n):  # forward
+        s = b[i]
+        for k in range(i):
+            s -= L[i, k] * y[k]
+        y[i] = s / L[i, i]
+    for i in range(n - 1, -1, -1):  # backward
+        s = y[i]
+        for k in range(i + 1, n):
+            s -= L[k, i] * y[k]
+        y[i] = s / L[i, i]
+    return True
+
+
+@njit(cache=True)
+def _scale_columns(J, n, col_scale, frozen, Js):
+    """``Js = J D^-1`` over the first ``n`` rows, frozen columns zero."""
+    for k in range(J.shape[1]):
+        d = 0.0 if frozen[k] else col_scale[k]
+        for r in range(n):
+            Js[r, k] = J[r, k] * d
+
+
+@njit(cache=True)
+def _back(Js, y, n, col_scale, frozen, dx):
+    """``dx = -D^-1 Js^T y`` over the first ``n`` rows (frozen unknowns stay put)."""
+    for k in range(dx.shape[0]):
+        s = 0.0
+        for r in range(n):
+            s += Js[r, k] * y[r]
+        dx[k] = -s * (0.0 if frozen[k] else col_scale[k])
+
+
+@njit(cache=True)
+def _add_damping(A, n, mu2, rel):
+    """``A += (mu2 + rel * mean diag) I``: damping plus a relative floor against round-off."""
+    scale = 0.0
+    for i in range(n):
+        scale += A[i, i]
+    scale = scale / n if n > 0 else 1.0
+    for i in range(n):
+        A[i, i] += mu2 + rel * scale
+
+
+@njit(cache=True)
+def dls_contacts(J, f, scaling, blocks, mu2, out):
+    """Damped step for the ``6 C`` contact rows, ``J~ J~^T`` assembled from shared columns.
+
+    Args:
+        J, f: (6C, nx) Jacobian and (6C,) rows.
+        scaling: ``(col_scale (nx,), frozen (nx,))``: ``D^-1`` and the frozen unknowns.
+        blocks: ``(shared (C, C, m), n_shared (C, C))``: unknowns two contacts share.
+        mu2: damping ``mu^2`` [mm^2].
+        out: ``(A, L, y, dx, Js)`` scratch, the step in ``dx`` (nx,).
+    """
+    col_scale, frozen = scaling
+    shared, n_shared = blocks
+    A, L, y, dx, Js = out
+    C = n_shared.shape[0]
+    n = 6 * C
+    _scale_columns(J, n, col_scale, frozen, Js)
+    for c1 in range(C):
+        for c2 in range(c1, C):
+            m = n_shared[c1, c2]
+            for i in range(6):
+                r1 = 6 * c1 + i
+                for j in range(i if c1 == c2 else 0, 6):
+                    r2 = 6 * c2 + j
+                    s = 0.0
+                    for kk in range(m):
+                        k = shared[c1, c2, kk]
+                        s += Js[r1, k] * Js[r2, k]
+                    A[r1, r2] = s
+                    A[r2, r1] = s
+    _add_damping(A, n, mu2, 1e-14)
+    if not cholesky_solve(A, f, n, L, y):
+        fill(dx, 0.0)
+        return False
+    _back(Js, y, n, col_scale, frozen, dx)
+    return True
+
+
+@njit(cache=True)
+def dls_dense(M, g, n, scaling, mu2, out):
+    """Damped step for the first ``n`` rows of any stack ``M`` (dense ``M~ M~^T``);
+    ``scaling`` and ``out`` as in :func:`dls_contacts`."""
+    col_scale, frozen = scaling
+    A, L, y, dx, Ms = out
+    _scale_columns(M, n, col_scale, frozen, Ms)
+    nx = M.shape[1]
+    for i in range(n):
+        for j in range(i, n):
+            s = 0.0
+            for k in range(nx):
+                s += Ms[i, k] * Ms[j, k]
+            A[i, j] = s
+            A[j, i] = s
+    _add_damping(A, n, mu2, 1e-12)
+    if not cholesky_solve(A, g, n, L, y):
+        fill(dx, 0.0)
+        return False
+    _back(Ms, y, n, col_scale, frozen, dx)
+    return True

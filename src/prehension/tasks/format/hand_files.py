@@ -1,0 +1,175 @@
+"""Hands named by file in a task file: ``hand: {urdf: PATH}``, ``hand: {mjcf: PATH}``.
+
+Reading::
+
+    hand:
+      urdf: hands/allegro_hand_right.urdf   # or mjcf: hands/shadow_hand.xml; relative to the task file
+      root: palm                            # optional: the palm link (default: where the fingers branch)
+      name: allegro                         # optional: the hand's name (default: the file's model name)
+      fingertips:                           # optional: per finger, values replacing the fitted cap's
+        index: {radius: 13, half_angle_deg: 45}
+        thumb: {link: link_15.0, center: [0, 0, 40], radius: 12, axis: [1, 0, 0], half_angle_deg: 60}
+
+Writing (:func:`reference_entries`): a hand read from a file is written as the same
+reference (path relative to the task file's folder) plus ``hand_limits_deg`` /
+``hand_couplings: false`` / ``hand_regions`` for what the task changed, as for a
+built-in hand; when the file no longer gives the same hand (edited, moved), the hand is
+written inline instead.  Result files always hold the hand inline, with a ``source``
+entry (the file's absolute path, SHA-256 and options), so that they can be re-checked
+alone: see ``docs/hands.md``.
+
+:func:`resolve_hand` turns what a user names on the command line (a built-in name, a
+URDF / MJCF / hand YAML / task file) into a hand.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Annotated
+
+from pydantic import Field, model_validator
+
+from ...errors import InvalidHand, InvalidTask
+from ...hands.files import HAND_SUFFIXES, load_hand_file
+from ...hands.fingertips import TipOverride
+from ...hands.model import Hand
+from ...hands.provenance import HandSource
+from .errors import fail, located, validate
+from .schema import BUILTIN_HANDS, Name, PosNum, Vec3, _Spec
+
+__all__ = ["HandFileSpec", "TipSpec", "is_hand_reference", "hand_from_reference", "reference_entries",
+           "resolve_hand", "HAND_ALIASES", "source_hand"]  # fmt: skip
+
+HAND_ALIASES = {"sa": "schunk-sa"}
+FILE_KEYS = ("urdf", "mjcf")
+
+
+class TipSpec(_Spec):
+    link: Name | None = None
+    center: Vec3 | None = None
+    radius: PosNum | None = None
+    axis: Vec3 | None = None
+    half_angle_deg: Annotated[float, Field(strict=True, ge=0, le=180)] | None = None
+
+
+class HandFileSpec(_Spec):
+    urdf: Name | None = None
+    mjcf: Name | None = None
+    root: Name | None = None
+    name: Name | None = None
+    fingertips: dict[Name, TipSpec] = {}
+    length_unit: PosNum | None = None
+
+    @model_validator(mode="after")
+    def _one_file(self):
+        if (self.urdf is None) == (self.mjcf is None):
+            raise ValueError("give exactly one of urdf, mjcf (the hand file, relative to the task file)")
+        return self
+
+
+def is_hand_reference(value) -> bool:
+    """Whether a ``hand:`` value names a URDF or MJCF file."""
+    return isinstance(value, dict) and any(k in value for k in FILE_KEYS)
+
+
+def _overrides(spec: HandFileSpec) -> dict[str, TipOverride]:
+    out = {}
+    for finger, t in spec.fingertips.items():
+        out[finger] = TipOverride(
+            t.link, None if t.center is None else tuple(t.center), t.radius,
+            None if t.axis is None else tuple(t.axis), t.half_angle_deg,
+        )  # fmt: skip
+    return out
+
+
+def hand_from_reference(value: dict, base: Path, source: str, loc: str = "hand") -> Hand:
+    """The hand of a ``{urdf: ...}`` / ``{mjcf: ...}`` mapping (paths relative to ``base``)."""
+    spec = validate(HandFileSpec, value, source, (loc,))
+    fmt = "urdf" if spec.urdf is not None else "mjcf"
+    path = base / (spec.urdf or spec.mjcf)
+    if not path.is_file():
+        raise fail(source, f"{loc}.{fmt}", f"hand file not found: {path.resolve()}")
+    with located(source, loc):
+        return load_hand_file(
+            path, format=fmt, root=spec.root, name=spec.name, fingertips=_overrides(spec),
+            length_unit=spec.length_unit or 1000.0,
+        )  # fmt: skip
+
+
+# -- writing -------------------------------------------------------------------------------
+def _relative(path: str, base_dir) -> str:
+    if base_dir is None:
+        return Path(path).as_posix()
+    try:
+        return Path(os.path.relpath(path, Path(base_dir).resolve())).as_posix()
+    except ValueError:  # another drive (Windows): keep it absolute
+        return path
+
+
+def reference_value(source: HandSource, base_dir) -> dict | str:
+    """The ``hand:`` value that names ``source`` (``{file: ...}`` for a hand YAML file)."""
+    key = "file" if source.format == "yaml" else source.format
+    return {key: _relative(source.path, base_dir), **dict(source.options)}
+
+
+def source_hand(source: HandSource) -> Hand | None:
+    """The hand ``source`` gives today (None when the file is gone or no longer a hand)."""
+    from .read import hand_file  # read imports this module
+
+    try:
+        if source.format == "yaml":
+            return hand_file(Path(source.path), f"hand file {source.path}")
+        value = {source.format: source.path, **dict(source.options)}
+        return hand_from_reference(value, Path("/"), f"hand file {source.path}")
+    except (InvalidHand, InvalidTask):
+        return None
+
+
+def reference_entries(hand: Hand, full: dict, base_dir, compare) -> dict | None:
+    """``hand: {urdf: ...}`` plus the task's differences from the file's hand, or None when
+    the file no longer gives that hand.  ``compare(value, full, base_full)`` is the writer's
+    difference function (the one built-in hands use)."""
+    from .write import hand_to_dict
+
+    base = source_hand(hand.source)
+    if base is None:
+        return None
+    return compare(reference_value(hand.source, base_dir), full, hand_to_dict(base))
+
+
+# -- the command line ------------------------------------------------------------------------
+def _yaml_hand(path: Path) -> Hand:
+    from .read import hand_file
+    from .yaml_text import parse_yaml, read_text
+
+    data = parse_yaml(read_text(path, str(path)), str(path))
+    if isinstance(data, dict) and "prehension" in data:  # a task file: its hand
+        from ..yaml_io import load_task
+
+        return load_task(path).hand
+    return hand_file(path, str(path))
+
+
+def resolve_hand(spec: str | os.PathLike) -> Hand:
+    """A hand from a built-in name (or alias), a URDF (``.urdf``), an MJCF (``.xml``,
+    ``.mjcf``), a hand YAML file or a task file (its hand).
+
+    Raises:
+        InvalidHand: naming what was given and what would be valid.
+    """
+    text = str(spec)
+    name = HAND_ALIASES.get(text, text)
+    if name in BUILTIN_HANDS:
+        return BUILTIN_HANDS[name]()
+    path = Path(text)
+    suffix = path.suffix.lower()
+    if suffix in HAND_SUFFIXES or suffix in (".yaml", ".yml"):
+        if not path.is_file():
+            raise InvalidHand(f"hand file not found: {path}")
+        return load_hand_file(path) if suffix in HAND_SUFFIXES else _yaml_hand(path)
+    aliases = ", ".join(f"{a} ({n})" for a, n in HAND_ALIASES.items())
+    raise InvalidHand(
+        f"{text!r} is neither a built-in hand ({', '.join(BUILTIN_HANDS)}; aliases: {aliases}) nor a hand file "
+        "(.urdf, .xml/.mjcf for MJCF, .yaml for a hand or task file)"
+    )
