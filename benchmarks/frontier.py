@@ -88,7 +88,7 @@ class Family:
             new = SphereCap(region.center + shift, region.radius, region.axis, region.half_angle)
         regions = dict(self.base.object.regions)
         regions[contact.object_region] = new
-        obj = replace(self.base.object, regions=regions)
+        obj = replace(self.base.object, regions=regions, solid=None)  # the moved region is off its surface
         return replace(self.base, name=f"{self.name} {t:+.3f} mm", object=obj)
 
 
@@ -338,6 +338,35 @@ def _maximise(unknowns: _Unknowns, z0: np.ndarray) -> np.ndarray:
     out = minimize(lambda z: -z[-1], z0, jac=lambda z: gradient, bounds=unknowns.bounds(), constraints=cons,
                    method="SLSQP", options={"maxiter": 300, "ftol": 1e-12})  # fmt: skip
     return out.x
+
+
+def solution_at(family: Family, config: Configuration, t_from: float, t: float) -> Configuration | None:
+    """A strict solution (self-collision aside) of ``family.task_at(t)``, by SLSQP with the
+    offset pinned to ``t`` from ``config``, a solution at ``t_from`` (None if none is found).
+    A witness that the task at ``t`` is feasible, independent of the solvers under test."""
+    unknowns = _Unknowns(family)
+    z0 = unknowns.pack(config, t_from)
+    z0[-1] = t
+    unknowns.set_references(z0)
+    eq, eq_jac = _with_jacobian(unknowns.equations_batch)
+    ineq, ineq_jac = _with_jacobian(unknowns.inequalities_batch)
+    cons = [{"type": "eq", "fun": eq, "jac": eq_jac}, {"type": "ineq", "fun": ineq, "jac": ineq_jac}]
+    bounds = unknowns.bounds()[:-1] + [(t, t)]
+    out = minimize(lambda z: 0.0, z0, jac=lambda z: np.zeros(len(z)), bounds=bounds, constraints=cons,
+                   method="SLSQP", options={"maxiter": 40, "ftol": 1e-14})  # fmt: skip
+    found = _polish_exact(family, unknowns, out.x)
+    return found
+
+
+def _polish_exact(family: Family, unknowns: _Unknowns, z: np.ndarray) -> Configuration | None:
+    """The SLSQP point with its angles clipped into the limits, if strict at its own ``t``."""
+    config, t = unknowns.unpack(z)
+    hand = family.base.hand
+    q = np.clip(config.joint_angles, hand.lower, hand.upper)
+    for c in hand.couplings:
+        q[hand.dof_index(c.dof)] = c.ratio * q[hand.dof_index(c.source)] + c.offset
+    config = Configuration(q, config.T_palm_object, config.contact_params)
+    return config if make_solution(family.task_at(t), config, NO_COLLISIONS) is not None else None
 
 
 def _polish(family: Family, unknowns: _Unknowns, z: np.ndarray) -> tuple[float, Configuration] | None:

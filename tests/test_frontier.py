@@ -3,9 +3,9 @@
 The family and its frontier ``t*`` come from ``benchmarks/frontier.py`` (scalpel-upholding
 with the thumb's region moved away from the index's): ``t*`` is found by maximising the
 offset with SLSQP and polished into a strict solution, so the task at ``t*`` has a known
-solution; local refinement from it gives a known solution at ``t* - eps`` (checked here:
-feasibility just inside is not assumed), and the complete solver must not prove
-otherwise.  The minutes-long runs of the benchmark stay out of the suite; one fast case
+solution; SLSQP with the offset pinned to ``t* - eps`` gives a known strict solution there
+(checked here: feasibility just inside is not assumed), and the complete solver must not
+prove otherwise.  The minutes-long runs of the benchmark stay out of the suite; one fast case
 of each outcome is kept here.
 """
 
@@ -19,10 +19,10 @@ import pytest
 
 from prehension.results import Status, make_solution
 from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
-from prehension.solvers.local import LocalOptions
-from prehension.solvers.local.solver import refine_local
+from prehension.tasks.residuals import Tolerances
 
 SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "frontier.py"
+NO_SELF_COLLISION = Tolerances(penetration_mm=float("inf"))  # as the complete solver's system
 
 
 def _frontier_module():
@@ -34,10 +34,14 @@ def _frontier_module():
 
 
 @pytest.fixture(scope="module")
-def scalpel():
-    frontier = _frontier_module()
-    family = frontier.families(["scalpel"])[0]
-    return family, frontier.find_frontier(family, seeds=1)
+def frontier_module():
+    return _frontier_module()
+
+
+@pytest.fixture(scope="module")
+def scalpel(frontier_module):
+    family = frontier_module.families(["scalpel"])[0]
+    return family, frontier_module.find_frontier(family, seeds=1)
 
 
 def test_the_frontier_configuration_is_a_strict_solution(scalpel):
@@ -46,12 +50,12 @@ def test_the_frontier_configuration_is_a_strict_solution(scalpel):
     assert make_solution(family.task_at(found.t_mm), found.configuration) is not None
 
 
-@pytest.mark.parametrize("eps_mm", [0.005, 0.05])
-def test_tasks_just_inside_the_frontier_are_never_called_infeasible(scalpel, eps_mm):
+@pytest.mark.parametrize("eps_mm", [0.001, 0.005, 0.05])
+def test_tasks_just_inside_the_frontier_are_never_called_infeasible(frontier_module, scalpel, eps_mm):
     family, found = scalpel
     task = family.task_at(found.t_mm - eps_mm)
-    refined = refine_local(task, [found.configuration], LocalOptions())
-    assert any(c is not None and make_solution(task, c) is not None for c in refined.configurations)  # feasible
+    witness = frontier_module.solution_at(family, found.configuration, found.t_mm, found.t_mm - eps_mm)
+    assert witness is not None and make_solution(task, witness, NO_SELF_COLLISION) is not None  # feasible
     result = solve_complete(task, BranchAndPruneOptions(max_boxes=4))
     assert result.status in (Status.SOLVED, Status.GAVE_UP)
     for solution in result.solutions:
