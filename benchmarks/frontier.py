@@ -354,32 +354,33 @@ def solution_at(family: Family, config: Configuration, t_from: float, t: float) 
     bounds = unknowns.bounds()[:-1] + [(t, t)]
     out = minimize(lambda z: 0.0, z0, jac=lambda z: np.zeros(len(z)), bounds=bounds, constraints=cons,
                    method="SLSQP", options={"maxiter": 40, "ftol": 1e-14})  # fmt: skip
-    found = _polish_exact(family, unknowns, out.x)
-    return found
+    return _polish_exact(family, unknowns, out.x)
 
 
 def _polish_exact(family: Family, unknowns: _Unknowns, z: np.ndarray) -> Configuration | None:
     """The SLSQP point with its angles clipped into the limits, if strict at its own ``t``."""
-    config, t = unknowns.unpack(z)
+    config, (_, t) = _clipped(family, unknowns, z), unknowns.unpack(z)
+    return config if make_solution(family.task_at(t), config, NO_COLLISIONS) is not None else None
+
+
+def _clipped(family: Family, unknowns: _Unknowns, z: np.ndarray) -> Configuration:
+    """The configuration of ``z`` with its angles clipped into the limits (couplings exact)."""
+    config, _ = unknowns.unpack(z)
     hand = family.base.hand
     q = np.clip(config.joint_angles, hand.lower, hand.upper)
     for c in hand.couplings:
         q[hand.dof_index(c.dof)] = c.ratio * q[hand.dof_index(c.source)] + c.offset
-    config = Configuration(q, config.T_palm_object, config.contact_params)
-    return config if make_solution(family.task_at(t), config, NO_COLLISIONS) is not None else None
+    return Configuration(q, config.T_palm_object, config.contact_params)
 
 
 def _polish(family: Family, unknowns: _Unknowns, z: np.ndarray) -> tuple[float, Configuration] | None:
     """A strict solution at (or just below) the ``t`` of ``z``: the SLSQP point itself, with
     its angles clipped into the limits, or local refinement from it a little further in."""
-    config, t = unknowns.unpack(z)
-    hand = family.base.hand
-    q = np.clip(config.joint_angles, hand.lower, hand.upper)
-    for c in hand.couplings:
-        q[hand.dof_index(c.dof)] = c.ratio * q[hand.dof_index(c.source)] + c.offset
-    config = Configuration(q, config.T_palm_object, config.contact_params)
-    if make_solution(family.task_at(t), config, NO_COLLISIONS) is not None:
-        return t, config
+    exact = _polish_exact(family, unknowns, z)
+    _, t = unknowns.unpack(z)
+    if exact is not None:
+        return t, exact
+    config = _clipped(family, unknowns, z)
     for back in (1e-4, 1e-3, 1e-2, 0.05, 0.1):
         task = family.task_at(t - back)
         refined = refine_local(task, [config], LocalOptions(check_collisions=False))
