@@ -12,7 +12,10 @@ kernels read (:class:`MeshArrays`).  Distances are exact up to rounding, not sam
   generalised winding number, exact for any closed pieces however they touch.
 * :meth:`MeshDistance.segment_distance`: the distance from each segment to the surface
   (0 when the segment crosses it), the minimum over triangles of the closed-form
-  segment-triangle distance (Ericson, *Real-Time Collision Detection*, 5.1.5 and 5.1.9).
+  segment-triangle distance (Ericson, *Real-Time Collision Detection*, 5.1.5 and 5.1.9);
+  :func:`segment_closest` (:meth:`MeshDistance.closest_pair`) also returns the closest
+  pair (a point of the segment, a point of the surface), for the local solver's
+  penetration rows.
 
 Both prune with a lower bound per box, so a query visits ``O(log F)`` triangles when the
 surface is far from most of them.  All lengths are in the mesh's units (mm in prehension).
@@ -34,7 +37,7 @@ except ImportError:  # pragma: no cover
         return lambda f: f
 
 
-__all__ = ["MeshArrays", "MeshDistance", "build_mesh_arrays"]
+__all__ = ["MeshArrays", "MeshDistance", "build_mesh_arrays", "empty_mesh_arrays", "segment_closest", "segment_min_sd"]
 
 LEAF_SIZE = 8
 _STACK = 128  # traversal stack depth: enough for trees of up to 2^60 leaves
@@ -153,6 +156,14 @@ def build_mesh_arrays(vertices, faces) -> MeshArrays:
         c(tri[order]), c(n_face[order]), c(n_edge[order]), c(n_vertex[order]),
         lo, hi, left, right, start, count, order.astype(np.int64), bool(robust),
     )  # fmt: skip
+
+
+def empty_mesh_arrays() -> MeshArrays:
+    """A :class:`MeshArrays` with no triangle (the same numba type as any other): what a
+    compiled caller receives when there is no solid; it must not be queried."""
+    z = lambda *shape: np.zeros(shape)  # noqa: E731
+    i = lambda: np.zeros(0, dtype=np.int64)  # noqa: E731
+    return MeshArrays(z(0, 3, 3), z(0, 3), z(0, 3, 3), z(0, 3, 3), z(0, 3), z(0, 3), i(), i(), i(), i(), i(), False)
 
 
 # -- kernels ----------------------------------------------------------------------------
@@ -312,8 +323,9 @@ def signed_distances(m, points, out_closest):
 
 
 @njit(cache=True)
-def _seg_seg_sq(p0, p1, q0, q1):
-    """Squared distance between segments p0p1 and q0q1 (Ericson 5.1.9, scalar code)."""
+def _seg_seg_st(p0, p1, q0, q1):
+    """Closest points of segments p0p1 and q0q1 (Ericson 5.1.9, scalar code):
+    ``(squared distance, s, t)`` with the points ``p0 + s (p1 - p0)`` and ``q0 + t (q1 - q0)``."""
     d1x, d1y, d1z = p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]
     d2x, d2y, d2z = q1[0] - q0[0], q1[1] - q0[1], q1[2] - q0[2]
     rx, ry, rz = p0[0] - q0[0], p0[1] - q0[1], p0[2] - q0[2]
@@ -322,7 +334,7 @@ def _seg_seg_sq(p0, p1, q0, q1):
     f = d2x * rx + d2y * ry + d2z * rz
     eps = 1e-18
     if a <= eps and e <= eps:
-        return rx * rx + ry * ry + rz * rz
+        return rx * rx + ry * ry + rz * rz, 0.0, 0.0
     if a <= eps:
         s, t = 0.0, min(max(f / e, 0.0), 1.0)
     else:
@@ -341,7 +353,13 @@ def _seg_seg_sq(p0, p1, q0, q1):
     wx = rx + d1x * s - d2x * t
     wy = ry + d1y * s - d2y * t
     wz = rz + d1z * s - d2z * t
-    return wx * wx + wy * wy + wz * wz
+    return wx * wx + wy * wy + wz * wz, s, t
+
+
+@njit(cache=True)
+def _seg_seg_sq(p0, p1, q0, q1):
+    """Squared distance between segments p0p1 and q0q1."""
+    return _seg_seg_st(p0, p1, q0, q1)[0]
 
 
 @njit(cache=True)
@@ -405,6 +423,70 @@ def _segment_query(m, p0, p1):
 
 
 @njit(cache=True)
+def _lerp(p0, p1, s, out):
+    for i in range(3):
+        out[i] = p0[i] + s * (p1[i] - p0[i])
+
+
+@njit(cache=True)
+def _segment_triangle_pair(p0, p1, a, b, c, q, ps, pm):
+    """Squared distance of segment p0p1 to triangle abc, 0 when they meet; otherwise a
+    closest pair, ``ps`` on the segment and ``pm`` on the triangle (left as they are when 0)."""
+    if _segment_crosses(p0, p1, a, b, c):
+        return 0.0
+    _closest_on_triangle(p0, a, b, c, pm)
+    best = _dist_sq(p0, pm)
+    ps[0], ps[1], ps[2] = p0[0], p0[1], p0[2]
+    _closest_on_triangle(p1, a, b, c, q)
+    d = _dist_sq(p1, q)
+    if d < best:
+        best = d
+        ps[0], ps[1], ps[2] = p1[0], p1[1], p1[2]
+        pm[0], pm[1], pm[2] = q[0], q[1], q[2]
+    for i in range(3):
+        A = a if i == 0 else (b if i == 1 else c)
+        B = b if i == 0 else (c if i == 1 else a)
+        d, s, t = _seg_seg_st(p0, p1, A, B)
+        if d < best:
+            best = d
+            _lerp(p0, p1, s, ps)
+            _lerp(A, B, t, pm)
+    return best
+
+
+@njit(cache=True)
+def segment_closest(m, p0, p1, ps, pm):
+    """Distance from segment ``p0``-``p1`` (3,) to the surface [mm], 0 when it crosses the
+    surface; otherwise the closest pair: ``ps`` (3,) on the segment, ``pm`` (3,) on the
+    surface (the same traversal as :func:`segment_distances`)."""
+    lo, hi = np.minimum(p0, p1), np.maximum(p0, p1)
+    best = np.inf
+    q, s_t, m_t = np.empty(3), np.empty(3), np.empty(3)
+    stack = np.empty(_STACK, np.int64)
+    stack[0], top = 0, 1
+    while top > 0 and best > 0.0:
+        top -= 1
+        k = stack[top]
+        if _box_box_sq(m.node_lo[k], m.node_hi[k], lo, hi) >= best:
+            continue
+        if m.node_left[k] < 0:
+            for f in range(m.node_start[k], m.node_start[k] + m.node_count[k]):
+                d = _segment_triangle_pair(p0, p1, m.tri[f, 0], m.tri[f, 1], m.tri[f, 2], q, s_t, m_t)
+                if d < best:
+                    best = d
+                    ps[:] = s_t
+                    pm[:] = m_t
+            continue
+        l, r = m.node_left[k], m.node_right[k]
+        if _box_box_sq(m.node_lo[l], m.node_hi[l], lo, hi) < _box_box_sq(m.node_lo[r], m.node_hi[r], lo, hi):
+            stack[top], stack[top + 1] = r, l
+        else:
+            stack[top], stack[top + 1] = l, r
+        top += 2
+    return np.sqrt(best)
+
+
+@njit(cache=True)
 def segment_distances(m, starts, ends):
     """Distance from each segment ``starts[i]``-``ends[i]`` (N, 3) to the surface (N,) [mm]."""
     out = np.empty(starts.shape[0])
@@ -414,26 +496,43 @@ def segment_distances(m, starts, ends):
 
 
 @njit(cache=True)
+def segment_min_sd(m, p0, p1, step, pair):
+    """The smallest signed distance over segment ``p0``-``p1`` (3,) to the surface [mm], and
+    where: ``pair[0]`` on the segment, ``pair[1]`` the closest surface point (2, 3).
+
+    Exact (the closed-form segment distance) for a segment wholly outside; for a segment
+    that reaches inside, the smallest over ``round(length / step) + 2`` evenly spaced
+    points (spacing below ``step``, so within ``step / 2`` of the true value, ``sd`` being
+    1-Lipschitz; the count rounded to the nearest, so that a capsule of a round length
+    does not flip between two counts as it moves)."""
+    d = segment_closest(m, p0, p1, pair[0], pair[1])
+    one, q = np.empty((1, 3)), np.empty((1, 3))
+    one[0] = p0
+    if d > 0.0 and signed_distances(m, one, q)[0] > 0.0:  # wholly outside: exact
+        return d
+    length = np.sqrt((p1[0] - p0[0]) ** 2 + (p1[1] - p0[1]) ** 2 + (p1[2] - p0[2]) ** 2)
+    k = int(length / step + 0.5) + 2
+    pts, qs = np.empty((k, 3)), np.empty((k, 3))
+    for j in range(k):
+        for i in range(3):
+            pts[j, i] = p0[i] + (j / (k - 1)) * (p1[i] - p0[i])
+    sd = signed_distances(m, pts, qs)
+    j = int(np.argmin(sd))
+    pair[0] = pts[j]
+    pair[1] = qs[j]
+    return sd[j]
+
+
+@njit(cache=True)
 def capsule_depths(m, starts, ends, radius, step):
     """Penetration depth of capsules (segments ``starts``-``ends`` (N, 3), ``radius`` (N,)),
-    (N,) [mm]: ``max(0, r - min sd)`` over the segment, exact for a segment outside the
-    surface; a segment reaching inside is sampled every ``step`` mm."""
+    (N,) [mm]: ``max(0, r - min sd)`` over the segment (:func:`segment_min_sd`: exact for
+    a segment outside the surface, sampled every ``step`` mm or less for one reaching inside)."""
     n = starts.shape[0]
     out = np.zeros(n)
-    one, q = np.empty((1, 3)), np.empty((1, 3))
+    pair = np.empty((2, 3))
     for i in range(n):
-        d = np.sqrt(_segment_query(m, starts[i], ends[i]))
-        one[0] = starts[i]
-        if d > 0.0 and signed_distances(m, one, q)[0] > 0.0:  # wholly outside: exact
-            out[i] = max(0.0, radius[i] - d)
-            continue
-        seg = ends[i] - starts[i]
-        k = int(np.sqrt(_dot(seg, seg)) / step) + 2
-        pts = np.empty((k, 3))
-        for j in range(k):
-            pts[j] = starts[i] + (j / (k - 1)) * seg
-        qs = np.empty((k, 3))
-        out[i] = radius[i] + max(0.0, -np.min(signed_distances(m, pts, qs)))
+        out[i] = max(0.0, radius[i] - segment_min_sd(m, starts[i], ends[i], step, pair))
     return out
 
 
@@ -475,6 +574,16 @@ class MeshDistance:
         a = np.ascontiguousarray(np.asarray(starts, dtype=float).reshape(-1, 3))
         b = np.ascontiguousarray(np.asarray(ends, dtype=float).reshape(-1, 3))
         return segment_distances(self.arrays, a, b)
+
+    def closest_pair(self, start, end):
+        """``(distance [mm], point on the segment (3,), point on the surface (3,))`` of one
+        segment ``start (3,)``-``end (3,)``; the points are ``None`` when the segment meets
+        the surface (distance 0)."""
+        a = np.ascontiguousarray(np.asarray(start, dtype=float).reshape(3))
+        b = np.ascontiguousarray(np.asarray(end, dtype=float).reshape(3))
+        ps, pm = np.empty(3), np.empty(3)
+        d = float(segment_closest(self.arrays, a, b, ps, pm))
+        return (d, ps, pm) if d > 0.0 else (0.0, None, None)
 
     def capsule_depth(self, starts, ends, radius, step: float = 0.25) -> np.ndarray:
         """Penetration depth of capsules ``starts (N, 3)``-``ends (N, 3)``, ``radius (N,)`` [mm], (N,) [mm]."""

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import weakref
 from collections import OrderedDict
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Mapping
 
 import numpy as np
@@ -32,6 +32,7 @@ from ...objects.model import GraspObject
 from ...tasks.model import Contact, Task
 from . import _regions as RG
 from ._layout import Group, build_group, hand_arrays
+from ._penetration import NO_OBJECT, ObjectArrays
 
 __all__ = ["PointProblems", "random_point_problems", "SA_FOUR_TIPS", "group_from_tasks", "structure_key"]
 
@@ -260,14 +261,17 @@ _TEMPLATES_KEPT = 32
 
 def structure_key(task: Task) -> tuple:
     """Tasks with equal keys share one group (same hand kinematics, moving angles and
-    region kinds and sizes); see :mod:`._layout`.  Computed once per task object."""
+    region kinds and sizes, and the same colliding solid, or none); see :mod:`._layout`.
+    Computed once per task object."""
     key = _KEYS.get(task)
     if key is None:
         per_contact = []
         for c in task.contacts:
             h = task.hand_region(c)
             per_contact.append((h.link, RG.code(h.region)[:3], RG.code(task.object_region(c))[:3]))
-        key = (hand_arrays(task.hand)[1], tuple(task.fingers), task.active_mask.tobytes(), task.idle_vector.tobytes(), tuple(per_contact))
+        solid = id(task.object.distance) if task.object.collides else None  # the task holds it: the id stays its own
+        key = (hand_arrays(task.hand)[1], tuple(task.fingers), task.active_mask.tobytes(), task.idle_vector.tobytes(),
+               tuple(per_contact), solid)  # fmt: skip
         _KEYS[task] = key
     return key
 
@@ -284,11 +288,27 @@ def _task_row(task: Task) -> np.ndarray:
     return np.concatenate(blocks + [piv, [np.max(np.linalg.norm(refs - piv, axis=1))]])
 
 
+def object_arrays(task: Task) -> ObjectArrays:
+    """The kernel's view of the task's solid (:class:`._penetration.ObjectArrays`): the
+    capsules of the links that move with the task are checked (idle fingers are cleared by
+    :func:`~prehension.tasks.idle.settle_idle_fingers`), each contact's pad excepted as
+    :mod:`prehension.tasks.object_collision` does; inactive when the object does not collide."""
+    from ...hands.collision import collision_pairs
+    from ...tasks.object_collision import SAMPLE_MM, moving_links, pad_radius
+
+    if not task.object.collides:
+        return NO_OBJECT
+    checked = np.isin(collision_pairs(task.hand).link, moving_links(task))
+    pads = np.array([pad_radius(task, task.hand_region(c)) for c in task.contacts], dtype=float)
+    return ObjectArrays(task.object.distance.arrays, True, checked.astype(np.bool_), pads, float(SAMPLE_MM))
+
+
 def group_from_tasks(tasks, joint_scale_mm: float = 40.0) -> Group:
     """The kernel's arrays for tasks that share one structure (see :func:`structure_key`).
 
     The layout of a structure is built once and kept (the last few structures, with the
-    hand object they were built for); only the tasks' data rows are new.
+    hand object they were built for); only the tasks' data rows and the object's solid
+    (:func:`object_arrays`) are new.
     """
     tasks = list(tasks)
     first = tasks[0]
@@ -302,7 +322,7 @@ def group_from_tasks(tasks, joint_scale_mm: float = 40.0) -> Group:
     template = _TEMPLATES.get(shape)
     if template is not None and template.hand is first.hand:
         _TEMPLATES.move_to_end(shape)
-        return template.with_data(rows)
+        return replace(template.with_data(rows), obj=object_arrays(first))
     group = build_group(
         first.hand, first.active_mask, first.idle_vector, [c.name for c in first.contacts],
         [(first.hand_region(c).link, first.hand_region(c).region) for c in first.contacts],
@@ -312,4 +332,4 @@ def group_from_tasks(tasks, joint_scale_mm: float = 40.0) -> Group:
     _TEMPLATES[shape] = group
     while len(_TEMPLATES) > _TEMPLATES_KEPT:
         _TEMPLATES.popitem(last=False)
-    return group
+    return replace(group, obj=object_arrays(first))
