@@ -206,3 +206,30 @@ def _hand_points_object(task, config):
         p_link, _ = hr.region.evaluate(np.reshape(hp, (1, -1)))
         out.append((pose.points(task.hand.link_index(hr.link), p_link)[0] - T[:3, 3]) @ T[:3, :3])
     return out
+
+
+@pytest.mark.parametrize("name", ["teapot-service", "guitar-tuning"])
+def test_segment_min_sd_equals_the_smallest_of_every_sample(name):
+    from prehension.objects.distance import segment_min_sd
+
+    distance = load_builtin_task(name).object.distance
+    lo, hi = distance.arrays.node_lo[0], distance.arrays.node_hi[0]
+    rng = np.random.default_rng(5)
+    inside = 0
+    for _ in range(60):
+        a = rng.uniform(lo, hi)
+        b = a + rng.uniform(-40, 40, 3)
+        pair = np.empty((2, 3))
+        got = segment_min_sd(distance.arrays, a, b, 0.25, pair)
+        k = int(np.linalg.norm(b - a) / 0.25 + 0.5) + 2
+        samples = a + np.linspace(0.0, 1.0, k)[:, None] * (b - a)
+        sd = distance.signed_distance(samples)
+        d = distance.segment_distance(a[None], b[None])[0]
+        if d > 0 and sd[0] > 0:
+            assert got == pytest.approx(d, abs=1e-12)  # outside: the exact distance
+            continue
+        inside += 1
+        assert got == pytest.approx(sd.min(), abs=1e-9)  # every sample's minimum, though most were not measured
+        assert np.linalg.norm(pair[0] - samples[np.argmin(sd)]) < 1e-9
+        assert distance.signed_distance(pair[0][None])[0] == pytest.approx(got, abs=1e-9)
+    assert inside >= 20

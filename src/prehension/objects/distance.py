@@ -302,6 +302,15 @@ def _winding_number(m, p):
 
 
 @njit(cache=True)
+def _signed_distance(m, p, q):
+    """Signed distance of one point ``p`` (3,) [mm], the closest surface point into ``q``."""
+    d2, f, feat = _point_query(m, p, q)
+    d = np.sqrt(d2)
+    inside = _winding_number(m, p) > 0.5 if m.robust_sign else _dot(p - q, _pseudonormal(m, f, feat)) < 0.0
+    return -d if inside else d
+
+
+@njit(cache=True)
 def signed_distances(m, points, out_closest):
     """Signed distance of each point (N, 3) to the surface (N,) [mm], negative inside;
     the closest surface points into ``out_closest (N, 3)``.
@@ -312,13 +321,8 @@ def signed_distances(m, points, out_closest):
     pseudonormal test is wrong)."""
     n = points.shape[0]
     out = np.empty(n)
-    q = np.empty(3)
     for i in range(n):
-        d2, f, feat = _point_query(m, points[i], q)
-        out_closest[i] = q
-        d = np.sqrt(d2)
-        inside = _winding_number(m, points[i]) > 0.5 if m.robust_sign else _dot(points[i] - q, _pseudonormal(m, f, feat)) < 0.0
-        out[i] = -d if inside else d
+        out[i] = _signed_distance(m, points[i], out_closest[i])
     return out
 
 
@@ -495,6 +499,49 @@ def segment_distances(m, starts, ends):
     return out
 
 
+_COARSE = 8  # every 8th sample first; the others only where they could be lower
+
+
+@njit(cache=True)
+def _sample(p0, p1, j, k, out):
+    for i in range(3):
+        out[i] = p0[i] + (j / (k - 1)) * (p1[i] - p0[i])
+
+
+@njit(cache=True)
+def _sampled_min_sd(m, p0, p1, k, pair):
+    """The smallest signed distance over the ``k`` evenly spaced points of ``p0``-``p1``,
+    exactly as if every point were measured, but measuring only those that could be lower
+    than the best so far: every ``_COARSE``-th point first, then a point between two
+    measured ones only where ``sd`` being 1-Lipschitz allows it to be lower."""
+    h = np.sqrt((p1[0] - p0[0]) ** 2 + (p1[1] - p0[1]) ** 2 + (p1[2] - p0[2]) ** 2) / (k - 1)
+    marks = np.arange(0, k + _COARSE - 1, _COARSE)
+    marks[-1] = k - 1
+    sd = np.empty(marks.shape[0])
+    p, q = np.empty(3), np.empty(3)
+    best = np.inf
+    for a in range(marks.shape[0]):
+        _sample(p0, p1, marks[a], k, p)
+        sd[a] = _signed_distance(m, p, q)
+        if sd[a] < best:
+            best = sd[a]
+            pair[0] = p
+            pair[1] = q
+    slack = 1e-9 * (1.0 + h * k)
+    for a in range(marks.shape[0] - 1):
+        j0, j1 = marks[a], marks[a + 1]
+        for j in range(j0 + 1, j1):
+            if max(sd[a] - (j - j0) * h, sd[a + 1] - (j1 - j) * h) - slack >= best:
+                continue  # cannot be lower than the best
+            _sample(p0, p1, j, k, p)
+            v = _signed_distance(m, p, q)
+            if v < best:
+                best = v
+                pair[0] = p
+                pair[1] = q
+    return best
+
+
 @njit(cache=True)
 def segment_min_sd(m, p0, p1, step, pair):
     """The smallest signed distance over segment ``p0``-``p1`` (3,) to the surface [mm], and
@@ -506,21 +553,11 @@ def segment_min_sd(m, p0, p1, step, pair):
     1-Lipschitz; the count rounded to the nearest, so that a capsule of a round length
     does not flip between two counts as it moves)."""
     d = segment_closest(m, p0, p1, pair[0], pair[1])
-    one, q = np.empty((1, 3)), np.empty((1, 3))
-    one[0] = p0
-    if d > 0.0 and signed_distances(m, one, q)[0] > 0.0:  # wholly outside: exact
+    q = np.empty(3)
+    if d > 0.0 and _signed_distance(m, p0, q) > 0.0:  # wholly outside: exact
         return d
     length = np.sqrt((p1[0] - p0[0]) ** 2 + (p1[1] - p0[1]) ** 2 + (p1[2] - p0[2]) ** 2)
-    k = int(length / step + 0.5) + 2
-    pts, qs = np.empty((k, 3)), np.empty((k, 3))
-    for j in range(k):
-        for i in range(3):
-            pts[j, i] = p0[i] + (j / (k - 1)) * (p1[i] - p0[i])
-    sd = signed_distances(m, pts, qs)
-    j = int(np.argmin(sd))
-    pair[0] = pts[j]
-    pair[1] = qs[j]
-    return sd[j]
+    return _sampled_min_sd(m, p0, p1, int(length / step + 0.5) + 2, pair)
 
 
 @njit(cache=True)
