@@ -1,8 +1,6 @@
 """Real objects: solved, penetration-free and time, with collisions checked and ignored.
 
-Rows: the nine built-in tasks (their closed meshes; four of them ship with
-``collisions: false`` until phase 2 of issue 12, and are run here both ways all the
-same) and 30 tasks on the meshes of ../shared/objects (the bunny at 100 mm per unit,
+Rows: the nine built-in tasks (their closed meshes) and 30 tasks on the meshes of ../shared/objects (the bunny at 100 mm per unit,
 about 90 x 140 x 200 mm; the five random solids at 10 mm per unit, about 60-80 mm a
 side).  Each mesh task is made with the region tools: 2, 3 or 4 fingertip contacts
 (thumb against index, middle, ring) on large faces whose normals face each other across
@@ -11,7 +9,8 @@ inside one face, so it lies on the mesh).
 
 For each method and each task, the same task is solved twice: with the object's
 collisions checked (``object_collision`` in the residual function, the local solver's
-driver rejecting penetrating answers, idle fingers settled clear) and with them ignored
+kernel repairing penetrating answers with its penetration rows and its driver
+re-checking them, idle fingers settled clear) and with them ignored
 (``collisions: false``).  "clear" counts answers whose links are all within 0.5 mm of the
 surface, measured on both (an answer found with collisions ignored is measured
 afterwards).  Times are wall-clock medians per task; read ratios, not absolute values.
