@@ -250,7 +250,14 @@ def _box_box_sq(lo, hi, lo2, hi2):
 @njit(cache=True)
 def _point_query(m, p, best_point):
     """Squared distance from p to the mesh, the closest stored face and its feature."""
-    best, best_f, best_feat = np.inf, -1, -1
+    return _point_query_within(m, p, best_point, np.inf)
+
+
+@njit(cache=True)
+def _point_query_within(m, p, best_point, bound):
+    """As :func:`_point_query`, pruning from the start every box farther than ``bound``
+    (squared, an upper bound of the answer: the face is -1 when nothing is closer)."""
+    best, best_f, best_feat = bound, -1, -1
     q = np.empty(3)
     stack = np.empty(_STACK, np.int64)
     stack[0], top = 0, 1
@@ -302,9 +309,12 @@ def _winding_number(m, p):
 
 
 @njit(cache=True)
-def _signed_distance(m, p, q):
-    """Signed distance of one point ``p`` (3,) [mm], the closest surface point into ``q``."""
-    d2, f, feat = _point_query(m, p, q)
+def _signed_distance(m, p, q, bound):
+    """Signed distance of one point ``p`` (3,) [mm], the closest surface point into ``q``;
+    ``bound``: an upper bound of the unsigned distance, which only makes the search faster."""
+    d2, f, feat = _point_query_within(m, p, q, bound * bound * (1.0 + 1e-9) + 1e-12)
+    if f < 0:  # the bound was not one after all (rounding): search everything
+        d2, f, feat = _point_query(m, p, q)
     d = np.sqrt(d2)
     inside = _winding_number(m, p) > 0.5 if m.robust_sign else _dot(p - q, _pseudonormal(m, f, feat)) < 0.0
     return -d if inside else d
@@ -322,7 +332,7 @@ def signed_distances(m, points, out_closest):
     n = points.shape[0]
     out = np.empty(n)
     for i in range(n):
-        out[i] = _signed_distance(m, points[i], out_closest[i])
+        out[i] = _signed_distance(m, points[i], out_closest[i], np.inf)
     return out
 
 
@@ -513,7 +523,8 @@ def _sampled_min_sd(m, p0, p1, k, pair):
     """The smallest signed distance over the ``k`` evenly spaced points of ``p0``-``p1``,
     exactly as if every point were measured, but measuring only those that could be lower
     than the best so far: every ``_COARSE``-th point first, then a point between two
-    measured ones only where ``sd`` being 1-Lipschitz allows it to be lower."""
+    measured ones only where ``sd`` being 1-Lipschitz allows it to be lower.  Each search
+    starts from the bound the nearest measured point gives (``|sd|`` is 1-Lipschitz too)."""
     h = np.sqrt((p1[0] - p0[0]) ** 2 + (p1[1] - p0[1]) ** 2 + (p1[2] - p0[2]) ** 2) / (k - 1)
     marks = np.arange(0, k + _COARSE - 1, _COARSE)
     marks[-1] = k - 1
@@ -522,7 +533,8 @@ def _sampled_min_sd(m, p0, p1, k, pair):
     best = np.inf
     for a in range(marks.shape[0]):
         _sample(p0, p1, marks[a], k, p)
-        sd[a] = _signed_distance(m, p, q)
+        near = abs(sd[a - 1]) + (marks[a] - marks[a - 1]) * h if a > 0 else np.inf  # 1-Lipschitz
+        sd[a] = _signed_distance(m, p, q, near)
         if sd[a] < best:
             best = sd[a]
             pair[0] = p
@@ -534,7 +546,7 @@ def _sampled_min_sd(m, p0, p1, k, pair):
             if max(sd[a] - (j - j0) * h, sd[a + 1] - (j1 - j) * h) - slack >= best:
                 continue  # cannot be lower than the best
             _sample(p0, p1, j, k, p)
-            v = _signed_distance(m, p, q)
+            v = _signed_distance(m, p, q, min(abs(sd[a]) + (j - j0) * h, abs(sd[a + 1]) + (j1 - j) * h))
             if v < best:
                 best = v
                 pair[0] = p
@@ -554,7 +566,7 @@ def segment_min_sd(m, p0, p1, step, pair):
     does not flip between two counts as it moves)."""
     d = segment_closest(m, p0, p1, pair[0], pair[1])
     q = np.empty(3)
-    if d > 0.0 and _signed_distance(m, p0, q) > 0.0:  # wholly outside: exact
+    if d > 0.0 and _signed_distance(m, p0, q, np.inf) > 0.0:  # wholly outside: exact
         return d
     length = np.sqrt((p1[0] - p0[0]) ** 2 + (p1[1] - p0[1]) ** 2 + (p1[2] - p0[2]) ** 2)
     return _sampled_min_sd(m, p0, p1, int(length / step + 0.5) + 2, pair)
