@@ -1,24 +1,32 @@
-"""Scaling out on Dask distributed: 1 and 2 workers of a local cluster on this machine.
+"""Scaling out on Dask distributed: `prehension batch` at the local solver's speed, and the
+other parallel searches, on local clusters of 1 and 2 worker processes.
 
-    python benchmarks/scaling.py              # the full run (several minutes on 2 cores)
-    python benchmarks/scaling.py --quick      # smaller sizes, one repeat
+    python benchmarks/scaling.py                  # everything (~10 min on 2 cores, a cold compile included)
+    python benchmarks/scaling.py --quick          # smaller sizes, one repeat, no cold compile
+    python benchmarks/scaling.py --batch-only     # the batch tables only
 
-Four workloads, each inline (no Dask) and on local clusters of 1 and 2 worker processes
-(one thread each; BLAS pinned to one thread), medians of ``--repeats`` runs, speed-ups
-against the 1-worker cluster:
+**Batch** (issue 16): the built-in tasks, ``--tasks`` of them (the nine, repeated, each with
+its own id), method ``local``:
 
-1. the local solver on 10,000 random SA-hand problems (four fingertip contacts, seeded):
-   ``solve_local_batch`` on chunks of ``--chunk`` problems, one Dask task per chunk;
-2. ``prehension batch`` (``run_batch``): built-in and small inline tasks, method
-   ``local``, records written to a journal -- the overhead of the whole path;
-3. the complete solver through ``DaskExecutor``: the slowest built-in task
-   (guitar-holding, depth first, time to the first solution), and a hard box search
-   (teapot-lid-lifting with the knob's back face moved ``--hard-mm``, near the edge of
-   feasibility) for ``--boxes`` boxes;
-4. the off-line sequence search on a reduced ``M``, ``N``, ``i_max`` (same lambdas checked);
+1. per task, in one process without Dask (``solve_chunk`` on chunks of 64: loading,
+   the batch solve, verification, the JSON record), wall and CPU time; and the same for
+   ``--distinct`` tasks that are all different (inline, each object moved by its own
+   offset): every task parsed, grouped and verified on its own;
+2. ``run_batch`` on clusters of 1 and 2 workers (records to a journal on disk): tasks/s,
+   worker-seconds per task, the workers' CPU per task, the client process's CPU per task
+   (the local cluster's scheduler runs in it too), speed-up against 1 worker;
+3. the client's own cost per task, alone: precomputed chunk outputs appended to a journal
+   (``_Run.accept``: one write and one fsync per chunk, progress per chunk);
+4. bytes per record (compact and self-contained), what travels per task, Dask's cost per
+   Dask task (no-op tasks), and what follows for a cluster of hundreds of workers;
+5. a fresh worker's first chunk with a cold numba cache (``NUMBA_CACHE_DIR`` an empty
+   folder: every kernel compiled) and with that cache warm.
 
-then the local solver on 2 workers with several chunk sizes.  Cluster start-up and a
-warm-up solve in every process are not in the times.
+**Solvers** (unless ``--batch-only``): the local solver on random SA-hand problems, the
+complete solver's box search and the off-line sequence search, each inline and on 1 and 2
+workers; then the local solver with several chunk sizes.
+
+Cluster start-up and a warm-up in every process are not in the times (but in table 5).
 """
 
 from __future__ import annotations
@@ -30,221 +38,336 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMB
 
 import argparse  # noqa: E402
 import json  # noqa: E402
+import pickle  # noqa: E402
 import statistics  # noqa: E402
 import tempfile  # noqa: E402
 import time  # noqa: E402
+from dataclasses import replace  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
+
 from rich.console import Console  # noqa: E402
 from rich.table import Table  # noqa: E402
 
-from prehension.parallel import DaskExecutor, cluster  # noqa: E402
+from prehension.parallel import cluster  # noqa: E402
 
-CONFIGS = ("inline", "1 worker", "2 workers")
-
-
-# -- workloads: each returns (seconds, what it found) -------------------------------------------
-def _solve_points(points, normals):
-    """On a worker: solve a chunk of point problems; (success (P,), q (P, n_dof))."""
-    from prehension.hands.sa_hand import schunk_sa_hand
-    from prehension.solvers.local import LocalOptions, PointProblems, solve_local_batch
-    from prehension.solvers.local.problems import SA_FOUR_TIPS
-
-    batch = solve_local_batch(PointProblems(schunk_sa_hand(), SA_FOUR_TIPS, points, normals), LocalOptions(), rng=0)
-    q = np.array([r.joint_angles if r.success else np.full(len(schunk_sa_hand().dof_names), np.nan) for r in batch])
-    return batch.success, q
+CHUNK = 64  # tasks per chunk where the benchmark chooses
 
 
-def local_points(problems, client, chunk: int):
-    from distributed import as_completed
+# -- inputs --------------------------------------------------------------------------------------
+def builtin_lines(n: int) -> list[dict]:
+    """``n`` tasks: the nine built-in tasks in turn, each line with its own id."""
+    from prehension.tasks.library import builtin_task_names
 
-    started = time.perf_counter()
-    if client is None:
-        success, _ = _solve_points(problems.points, problems.normals)
-        return time.perf_counter() - started, float(success.mean())
-    starts = range(0, len(problems), chunk)
-    futures = [
-        client.submit(_solve_points, problems.points[s : s + chunk], problems.normals[s : s + chunk], pure=False)
-        for s in starts
-    ]
-    solved = sum(int(f.result()[0].sum()) for f in as_completed(futures))
-    return time.perf_counter() - started, solved / len(problems)
+    names = builtin_task_names()
+    return [{"id": f"{names[i % len(names)]}-{i}", "task": names[i % len(names)]} for i in range(n)]
 
 
-def batch_tasks(lines, client, folder: Path):
-    from prehension.batch import BatchOptions, read_inputs, run_batch
-    from prehension.batch.solving import solve_chunk
-
-    tasks = folder / "tasks.jsonl"
-    tasks.write_text("".join(json.dumps(line) + "\n" for line in lines))
-    out = folder / f"out-{time.perf_counter_ns()}.jsonl"
-    started = time.perf_counter()
-    if client is None:
-        from prehension.batch.run import _wire
-
-        records = solve_chunk([_wire(e) for e in read_inputs(tasks)], BatchOptions(method="local"))
-        return time.perf_counter() - started, sum(r["status"] == "solved" for r in records) / len(records)
-    summary = run_batch(tasks, out, client, BatchOptions(method="local"))
-    return time.perf_counter() - started, summary.counts.get("solved", 0) / summary.written
-
-
-def complete(task, options, client):
-    from prehension.solvers.complete.search import solve_complete
-
-    executor = DaskExecutor(client) if client is not None else None
-    started = time.perf_counter()
-    result = solve_complete(task, options, executor=executor, workers=executor.max_workers if executor else 1)
-    return time.perf_counter() - started, (result.status, result.stats["boxes"])
-
-
-def offline(client, M: int, N: int, imax: int):
-    from prehension.solvers.local.offline import offline_sequence
-
-    executor = DaskExecutor(client) if client is not None else None
-    started = time.perf_counter()
-    seq = offline_sequence(None, M, N, imax, executor, seed=0)
-    return time.perf_counter() - started, tuple(map(tuple, np.round(seq.lambdas, 12).tolist()))
-
-
-# -- inputs ----------------------------------------------------------------------------------
-def task_lines(n: int) -> list[dict]:
-    """``n`` tasks: built-in ones and inline copies of teapot-lid-lifting, each with an id."""
+def distinct_lines(n: int) -> list[dict]:
+    """``n`` different tasks written inline: the nine built-in tasks in turn, each object
+    moved by its own offset (the object pose absorbs it: as solvable, but no two tasks
+    alike, so that every task is parsed, grouped and verified on its own)."""
+    from prehension.geometry.regions import BezierRegion, PointRegion, SphereCap
+    from prehension.objects.model import GraspObject
     from prehension.tasks.library import builtin_task_names, load_builtin_task
     from prehension.tasks.yaml_io import task_to_dict
 
-    names = builtin_task_names()
-    lid = task_to_dict(load_builtin_task("teapot-lid-lifting"))
-    return [{"id": f"t{i}", "task": names[i % len(names)] if i % 2 else lid} for i in range(n)]
+    def moved(region, t):
+        if isinstance(region, BezierRegion):
+            return BezierRegion(region.patch.transformed(np.eye(3), t))
+        if isinstance(region, SphereCap):
+            return SphereCap(region.center + t, region.radius, region.axis, region.half_angle)
+        return PointRegion(region.point + t, region.normal)
+
+    tasks = [load_builtin_task(name) for name in builtin_task_names()]
+    lines = []
+    for i in range(n):
+        task, t = tasks[i % len(tasks)], np.array([0.01 * (i + 1), 0.0, 0.0])
+        obj = GraspObject(task.object.name, {k: moved(r, t) for k, r in task.object.regions.items()}, task.object.primitives)
+        lines.append({"id": f"distinct-{i}", "task": task_to_dict(replace(task, object=obj))})
+    return lines
 
 
-def moved(task, region: str, offset_mm):
-    """``task`` with one object region translated (a harder, near-infeasible search)."""
-    from prehension.geometry.regions import BezierRegion
-    from prehension.objects.model import GraspObject
-    from prehension.tasks.model import Task
+def wired(lines: list[dict], folder: Path, name: str = "tasks.jsonl") -> tuple[Path, list[dict]]:
+    from prehension.batch import read_inputs
+    from prehension.batch.run import _wire
 
-    regions = dict(task.object.regions)
-    regions[region] = BezierRegion(regions[region].patch.transformed(np.eye(3), np.asarray(offset_mm, float)))
-    obj = GraspObject(task.object.name, regions, task.object.primitives)
-    return Task(f"{task.name} ({region} +{np.linalg.norm(offset_mm):g} mm)", task.hand, obj, task.contacts, task.fingers)
+    path = folder / name
+    path.write_text("".join(json.dumps(line) + "\n" for line in lines))
+    return path, [_wire(e) for e in read_inputs(path)]
 
 
-# -- running and printing ----------------------------------------------------------------------
-def measure(run, clients, repeats: int) -> dict:
-    """``{config: (run times [s], what the first run found)}``, configs interleaved per repeat."""
-    times: dict = {c: [] for c in CONFIGS}
-    found: dict = {}
+def _warm_worker() -> None:
+    """Load the compiled kernels and build the hand's tables in this process (not timed)."""
+    from prehension.batch.solving import BatchOptions, solve_chunk
+
+    solve_chunk([{"id": f"w{i}", "name": n, "source": "warm-up", "payload": {"kind": "builtin", "name": n}}
+                 for i, n in enumerate(["guitar-holding", "teapot-service", "scalpel-upholding"])],
+                BatchOptions(method="local"))  # fmt: skip
+
+
+def _cpu() -> float:
+    return time.process_time()
+
+
+# -- 1. one process ------------------------------------------------------------------------------
+def inline(entries: list[dict], self_contained: bool = False):
+    """Solve every entry in this process, chunks of CHUNK: (wall s, cpu s, chunk outputs)."""
+    from prehension.batch.solving import BatchOptions, solve_chunk
+
+    options = BatchOptions(method="local", self_contained=self_contained)
+    outputs = []
+    wall, cpu = time.perf_counter(), _cpu()
+    for s in range(0, len(entries), CHUNK):
+        outputs.append(solve_chunk(entries[s : s + CHUNK], options))
+    return time.perf_counter() - wall, _cpu() - cpu, outputs
+
+
+# -- 2. on a cluster -----------------------------------------------------------------------------
+def on_cluster(client, tasks: Path, folder: Path) -> dict:
+    """One ``run_batch``: wall, and the CPU seconds of the workers and of this process."""
+    from prehension.batch import BatchOptions, run_batch
+
+    out = folder / f"out-{time.perf_counter_ns()}.jsonl"
+    before = client.run(_cpu)
+    wall, cpu = time.perf_counter(), _cpu()
+    summary = run_batch(tasks, out, client, BatchOptions(method="local"))
+    wall, cpu = time.perf_counter() - wall, _cpu() - cpu
+    after = client.run(_cpu)
+    assert summary.remaining == 0 and summary.written == summary.tasks, summary
+    return {"wall": wall, "client_cpu": cpu, "worker_cpu": sum(after[w] - before[w] for w in after if w in before),
+            "solved": summary.counts.get("solved", 0), "bytes": out.stat().st_size}  # fmt: skip
+
+
+def _inline_row(table: Table, label: str, runs) -> None:
+    n = sum(len(o.records) for o in runs[0][2])
+    wall, cpu = statistics.median(r[0] for r in runs), statistics.median(r[1] for r in runs)
+    solved = sum(json.loads(r.line)["status"] == "solved" for o in runs[0][2] for r in o.records)
+    table.add_row(label, f"{wall:.2f}", f"{n / wall:.0f}", f"{1e3 * wall / n:.2f}", f"{1e3 * cpu / n:.2f}", "-", "",
+                  f"{solved}/{n}")  # fmt: skip
+
+
+def _on_clusters(tasks: Path, folder: Path, repeats: int) -> dict:
+    """``{workers: [runs]}`` on a local cluster of 1, then of 2 workers (one at a time, so
+    that no idle cluster shares the cores), each warmed up first."""
+    results = {}
+    for workers in (1, 2):
+        with cluster(workers=workers) as client:
+            client.run(_warm_worker)
+            results[workers] = [on_cluster(client, tasks, folder) for _ in range(repeats)]
+    return results
+
+
+def batch_table(args, tasks: Path, entries: list[dict], folder: Path) -> Table:
+    n = len(entries)
+    table = Table(title=f"prehension batch, {n} built-in tasks (the nine in turn), method local: medians of {args.repeats}")
+    for col in ("where", "time [s]", "tasks/s", "per task [ms]", "worker CPU / task [ms]", "client CPU / task [ms]",
+                "speed-up", "solved"):  # fmt: skip
+        table.add_column(col, justify="left" if col == "where" else "right")
+    runs = [inline(entries) for _ in range(args.repeats)]
+    _inline_row(table, "one process, no Dask", runs)
+    if args.distinct:
+        _, distinct = wired(distinct_lines(args.distinct), folder, "distinct.jsonl")
+        _inline_row(table, f"  {args.distinct} distinct inline tasks, no Dask", [inline(distinct) for _ in range(args.repeats)])
+    results = _on_clusters(tasks, folder, args.repeats)
+    base = statistics.median(r["wall"] for r in results[1])
+    for workers, rs in results.items():
+        med = {k: statistics.median(r[k] for r in rs) for k in ("wall", "client_cpu", "worker_cpu")}
+        table.add_row(
+            f"{workers} worker{'s' if workers > 1 else ''}", f"{med['wall']:.2f}", f"{n / med['wall']:.0f}",
+            f"{1e3 * med['wall'] * workers / n:.2f}", f"{1e3 * med['worker_cpu'] / n:.2f}", f"{1e3 * med['client_cpu'] / n:.2f}",
+            f"{base / med['wall']:.2f}x", f"{rs[0]['solved']}/{n}",
+        )  # fmt: skip
+    table.caption = ("per task = wall x workers / tasks (worker-seconds per task, Dask and the client included); "
+                     "the client process also runs the local cluster's scheduler and nannies")  # fmt: skip
+    return table, runs[0][2]
+
+
+# -- 3. the client alone -------------------------------------------------------------------------
+def client_table(outputs, folder: Path, repeats: int) -> tuple[Table, float]:
+    """Precomputed chunk outputs appended to a fresh journal, as the client does: the loop's
+    wall time, then the CPU (loop and writer thread) and wall time until all is fsynced."""
+    from prehension.batch.journal import open_journal
+    from prehension.batch.run import _Run
+
+    n = sum(len(o.records) for o in outputs)
+    loops, cpus, walls = [], [], []
     for _ in range(repeats):
-        for config in CONFIGS:
-            seconds, what = run(clients[config])
-            times[config].append(seconds)
-            found.setdefault(config, what)
-    return {c: (times[c], found[c]) for c in CONFIGS}
+        with open_journal(folder / f"client-{time.perf_counter_ns()}.jsonl") as (journal, _):
+            run = _Run(n, 0, lambda p: None, journal)
+            wall, cpu = time.perf_counter(), _cpu()
+            for output in outputs:
+                run.accept(output)
+            loops.append(time.perf_counter() - wall)
+            run.close()  # the writer thread: what is still queued, written and fsynced
+            walls.append(time.perf_counter() - wall)
+            cpus.append(_cpu() - cpu)
+    table = Table(title=f"The client alone: {n} precomputed records in {len(outputs)} chunks appended to a journal, "
+                        f"medians of {repeats}")  # fmt: skip
+    for col in ("client loop, wall / task [us]", "CPU / task, loop + writer [us]", "until all fsynced, wall / task [us]",
+                "records/s the client can take"):  # fmt: skip
+        table.add_column(col, justify="right")
+    loop, cpu, wall = (statistics.median(x) for x in (loops, cpus, walls))
+    worst = max(loop, cpu, wall)
+    table.add_row(f"{1e6 * loop / n:.1f}", f"{1e6 * cpu / n:.1f}", f"{1e6 * wall / n:.1f}", f"{n / worst:,.0f}")
+    table.caption = ("the loop queues each chunk for the writer thread (one write + one fsync for what is queued) and "
+                     "moves on; records/s from the largest of the three")  # fmt: skip
+    return table, worst / n
 
 
-def add_rows(table: Table, workload: str, size: float, unit: str, results: dict, describe) -> None:
-    base = statistics.median(results["1 worker"][0])
-    for config in CONFIGS:
-        times, what = results[config]
-        seconds = statistics.median(times)
-        spread = f"{min(times):.2f}-{max(times):.2f}" if len(times) > 1 else ""
-        table.add_row(workload, config, f"{seconds:.2f}", spread, f"{size / seconds:.1f} {unit}", f"{base / seconds:.2f}",
-                      describe(what))  # fmt: skip
-        workload = ""
+# -- 4. bytes, wire, Dask ------------------------------------------------------------------------
+def _noop(x):
+    return x
 
 
-def _warm_process() -> None:
-    """Load numba's compiled kernels and both solvers' caches in this process."""
-    from prehension.solvers.complete.search import solve_complete
-    from prehension.solvers.local import random_point_problems
-    from prehension.tasks.library import load_builtin_task
+def dask_cost(client, n: int = 400) -> float:
+    """Seconds per Dask task of no-op tasks, ``2 x workers`` in flight as the batch keeps them."""
+    from distributed import as_completed
 
-    p = random_point_problems(20, seed=1)
-    _solve_points(p.points, p.normals)
-    solve_complete(load_builtin_task("guitar-holding"))
+    from prehension.parallel import worker_count
+
+    window, k = 2 * worker_count(client), 0
+    started = time.perf_counter()
+    futures = as_completed([client.submit(_noop, i, pure=False) for i in range(window)])
+    k = window
+    for f in futures:
+        f.result()
+        if k < n:
+            futures.add(client.submit(_noop, k, pure=False))
+            k += 1
+    return (time.perf_counter() - started) / n
 
 
-def warm(clients) -> None:
-    """Warm this process and every worker (not timed): the first solve in a process pays
-    for loading compiled kernels and building caches."""
-    _warm_process()
-    for client in clients.values():
-        if client is not None:
-            client.run(_warm_process)
+def dask_throughput(client, n: int = 2000) -> float:
+    """Seconds per Dask task of ``n`` no-op tasks submitted at once (the scheduler's pace)."""
+    from distributed import wait
+
+    started = time.perf_counter()
+    wait(client.map(_noop, range(n), pure=False))
+    return (time.perf_counter() - started) / n
+
+
+def wire_table(entries, outputs, whole_outputs, client, per_task_s: float, client_s: float) -> Table:
+    from prehension.batch.solving import BatchOptions
+
+    n = len(entries)
+    compact = sum(len(r.line) for o in outputs for r in o.records) / n
+    task_lines = {ref: len(line) for o in outputs for ref, line in o.tasks.items()}
+    whole = sum(len(r.line) for o in whole_outputs for r in o.records) / n
+    out_bytes = len(pickle.dumps((entries[:CHUNK], BatchOptions(method="local")))) / CHUNK
+    back_bytes = statistics.mean(len(pickle.dumps(o)) / len(o.records) for o in outputs)
+    dask_s, pace_s = dask_cost(client), dask_throughput(client)
+    table = Table(title="What travels and what is stored, per task; and the ceilings of one client and one scheduler")
+    for col in ("quantity", "value"):
+        table.add_column(col, justify="left" if col == "quantity" else "right")
+    rows = [
+        ("record, compact (task by reference)", f"{compact:,.0f} bytes"),
+        (f"task lines ({len(task_lines)} distinct tasks, once each)", f"{sum(task_lines.values()):,} bytes in all"),
+        ("record, self-contained (--self-contained)", f"{whole:,.0f} bytes"),
+        ("sent to a worker (pickled chunk of built-in names)", f"{out_bytes:,.0f} bytes"),
+        ("back from a worker (pickled chunk output, task lines included)", f"{back_bytes:,.0f} bytes"),
+        ("Dask, round trip of one Dask task (no-op, 2 per worker in flight)", f"{1e3 * dask_s:.2f} ms"),
+        (f"  the same per task, in chunks of {CHUNK}", f"{1e6 * dask_s / CHUNK:.1f} us"),
+        ("Dask, 2000 no-op tasks at once (scheduler and workers on these cores)", f"{1e3 * pace_s:.3f} ms per Dask task"),
+        ("one worker, per task (one process, no Dask)", f"{1e3 * per_task_s:.2f} ms"),
+        ("ceiling of the client alone", f"{1 / client_s:,.0f} tasks/s = {per_task_s / client_s:,.0f} workers"),
+        (f"ceiling of one scheduler at ~1 ms per Dask task (Dask's docs), chunks of {CHUNK}",
+         f"{CHUNK / 1e-3:,.0f} tasks/s = {per_task_s * CHUNK / 1e-3:,.0f} workers"),
+        ("journal, written at the client's ceiling", f"{compact / client_s / 1e6:,.1f} MB/s"),
+    ]  # fmt: skip
+    for row in rows:
+        table.add_row(*row)
+    return table
+
+
+# -- 5. a fresh worker -----------------------------------------------------------------------------
+def first_chunk(entries: list[dict], cache_dir: str | None) -> tuple[float, float, float]:
+    """A new 1-worker cluster (``NUMBA_CACHE_DIR=cache_dir``, else numba's default: the
+    package's ``__pycache__``): (start-up s, first chunk s, second chunk s)."""
+    from prehension.batch.solving import BatchOptions, solve_chunk
+
+    saved = os.environ.get("NUMBA_CACHE_DIR")
+    if cache_dir is not None:
+        os.environ["NUMBA_CACHE_DIR"] = cache_dir  # the worker process inherits it
+    try:
+        started = time.perf_counter()
+        with cluster(workers=1) as client:
+            up = time.perf_counter() - started
+            times = []
+            for chunk in (entries[:CHUNK], entries[CHUNK : 2 * CHUNK]):
+                t = time.perf_counter()
+                client.submit(solve_chunk, chunk, BatchOptions(method="local"), pure=False).result()
+                times.append(time.perf_counter() - t)
+    finally:
+        if saved is None:
+            os.environ.pop("NUMBA_CACHE_DIR", None)
+        else:
+            os.environ["NUMBA_CACHE_DIR"] = saved
+    return up, times[0], times[1]
+
+
+def fresh_worker_table(entries: list[dict], cold: bool) -> Table:
+    table = Table(title=f"A fresh worker process: its first chunk of {CHUNK} tasks (and its second)")
+    for col in ("numba cache", "cluster up [s]", "first chunk [s]", "second chunk [s]"):
+        table.add_column(col, justify="left" if col == "numba cache" else "right")
+    with tempfile.TemporaryDirectory() as empty:
+        cases = ([("cold: NUMBA_CACHE_DIR empty (compiles)", empty)] if cold else []) + [
+            ("warm: NUMBA_CACHE_DIR filled by the run above" if cold else "warm: the package's __pycache__", empty if cold else None)
+        ]  # fmt: skip
+        for label, folder in cases:
+            up, first, second = first_chunk(entries, folder)
+            table.add_row(label, f"{up:.1f}", f"{first:.2f}", f"{second:.2f}")
+    return table
+
+
+# -- the solvers on the cluster (issue 6) ------------------------------------------------------------
+def solvers_tables(args, clients) -> list[Table]:
+    from _scaling_solvers import chunk_sweep, run_all
+
+    one, two = clients[1], clients[2]
+    return [run_all(args, {"inline": None, "1 worker": one, "2 workers": two}), chunk_sweep(args, two)]
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--problems", type=int, default=10_000, help="local solver: random problems")
-    parser.add_argument("--chunk", type=int, default=1000, help="local solver: problems per Dask task")
-    parser.add_argument("--tasks", type=int, default=200, help="prehension batch: tasks")
-    parser.add_argument("--boxes", type=int, default=16, help="complete solver: boxes of the hard search")
-    parser.add_argument("--hard-mm", type=float, default=165.0, help="complete solver: how far the knob's back face moves")
-    parser.add_argument("--chunks", type=int, nargs="+", default=(100, 250, 1000, 2500), help="chunk sizes to compare")
-    parser.add_argument("--offline", type=int, nargs=3, default=(300, 6, 2), metavar=("M", "N", "IMAX"))
+    parser.add_argument("--tasks", type=int, default=1800, help="batch: built-in tasks (the nine, repeated)")
     parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--quick", action="store_true", help="2000 problems, 60 tasks, 6 boxes, M N imax = 100 4 2, one repeat")
+    parser.add_argument("--distinct", type=int, default=360, help="batch: also that many distinct inline tasks, one process")
+    parser.add_argument("--no-cold", action="store_true", help="skip the cold-cache compile (a minute or two)")
+    parser.add_argument("--batch-only", action="store_true", help="only the batch tables")
+    parser.add_argument("--problems", type=int, default=10_000, help="solvers: random point problems")
+    parser.add_argument("--chunk", type=int, default=1000, help="solvers: problems per Dask task")
+    parser.add_argument("--boxes", type=int, default=16, help="solvers: boxes of the hard search")
+    parser.add_argument("--hard-mm", type=float, default=165.0, help="solvers: how far the knob's back face moves")
+    parser.add_argument("--chunks", type=int, nargs="+", default=(100, 250, 1000, 2500), help="solvers: chunk sizes")
+    parser.add_argument("--offline", type=int, nargs=3, default=(300, 6, 2), metavar=("M", "N", "IMAX"))
+    parser.add_argument("--quick", action="store_true", help="360 tasks, one repeat, no cold compile, smaller solver runs")
     args = parser.parse_args()
     if args.quick:
-        args.problems, args.tasks, args.boxes, args.offline, args.repeats = 2000, 60, 6, (100, 4, 2), 1
-    console = Console(width=160)
+        args.tasks, args.repeats, args.no_cold, args.distinct = 360, 1, True, 90
+        args.problems, args.boxes, args.offline = 2000, 6, (100, 4, 2)
+    console = Console(width=170)
     started = time.perf_counter()
-    with cluster(workers=1) as one, cluster(workers=2) as two:
-        console.print(f"two local clusters (1 + 2 workers) up in {time.perf_counter() - started:.1f} s")
-        clients = {"inline": None, "1 worker": one, "2 workers": two}
-        warm(clients)
-        console.print(run_all(args, clients))
-        console.print(chunk_sweep(args, two))
-    console.print(f"whole run: {time.perf_counter() - started:.0f} s; {os.cpu_count()} cores; "
-                  f"load average at the end {os.getloadavg()[0]:.1f}")  # fmt: skip
-
-
-def run_all(args, clients) -> Table:
-    from prehension.solvers.complete.search import BranchAndPruneOptions
-    from prehension.solvers.local import random_point_problems
-    from prehension.tasks.library import load_builtin_task
-
-    table = Table(title=f"Dask local clusters on this machine: medians of {args.repeats} run(s); speed-up against 1 worker")
-    for col in ("workload", "where", "time [s]", "min-max", "throughput", "speed-up", "found"):
-        table.add_column(col, justify="left" if col in ("workload", "where", "found") else "right")
-    problems = random_point_problems(args.problems, seed=0)
-    res = measure(lambda c: local_points(problems, c, args.chunk), clients, args.repeats)
-    add_rows(table, f"local solver, {args.problems} problems, chunks of {args.chunk}", args.problems, "problems/s", res,
-             lambda s: f"{100 * s:.2f}% solved")  # fmt: skip
+    console.print(f"load average at the start {os.getloadavg()[0]:.1f} ({os.cpu_count()} cores)")
+    _warm_worker()
     with tempfile.TemporaryDirectory() as folder:
-        lines = task_lines(args.tasks)
-        res = measure(lambda c: batch_tasks(lines, c, Path(folder)), clients, args.repeats)
-    add_rows(table, f"prehension batch, {args.tasks} tasks, local", args.tasks, "tasks/s", res, lambda s: f"{100 * s:.0f}% solved")
-    guitar = load_builtin_task("guitar-holding")
-    res = measure(lambda c: complete(guitar, BranchAndPruneOptions(), c), clients, args.repeats)
-    add_rows(table, "complete solver, guitar-holding", 1, "tasks/s", res, lambda s: f"{s[0]}, {s[1]} boxes")
-    hard = moved(load_builtin_task("teapot-lid-lifting"), "knob_back", (0, 0, args.hard_mm))
-    res = measure(lambda c: complete(hard, BranchAndPruneOptions(max_boxes=args.boxes), c), clients, args.repeats)
-    add_rows(table, f"complete solver, {hard.name}, {args.boxes} boxes", args.boxes, "boxes/s", res,
-             lambda s: f"{s[0]}, {s[1]} boxes")  # fmt: skip
-    M, N, imax = args.offline
-    res = measure(lambda c: offline(c, M, N, imax), clients, args.repeats)
-    same = len({what for _, what in res.values()}) == 1
-    add_rows(table, f"off-line search, M={M} N={N} imax={imax}", imax * N * N, "poses/s", res,
-             lambda s: f"lambdas {s}" + (" (same everywhere)" if same else " (DIFFER)"))  # fmt: skip
-    return table
-
-
-def chunk_sweep(args, client) -> Table:
-    """The local solver on 2 workers with several chunk sizes (Dask's overhead per task)."""
-    from prehension.solvers.local import random_point_problems
-
-    problems = random_point_problems(args.problems, seed=0)
-    table = Table(title=f"Chunk size: local solver, {args.problems} problems, 2 workers, medians of {args.repeats}")
-    for col in ("problems per Dask task", "Dask tasks", "time [s]", "min-max", "problems/s"):
-        table.add_column(col, justify="right")
-    for chunk in args.chunks:
-        times = [local_points(problems, client, chunk)[0] for _ in range(args.repeats)]
-        seconds = statistics.median(times)
-        table.add_row(str(chunk), str(-(-args.problems // chunk)), f"{seconds:.2f}", f"{min(times):.2f}-{max(times):.2f}",
-                      f"{args.problems / seconds:.0f}")  # fmt: skip
-    return table
+        folder = Path(folder)
+        tasks, entries = wired(builtin_lines(args.tasks), folder)
+        table, outputs = batch_table(args, tasks, entries, folder)
+        console.print(table)
+        wall, _, _ = inline(entries)
+        client, client_s = client_table(outputs, folder, args.repeats)
+        console.print(client)
+        whole = inline(entries, self_contained=True)[2]
+        with cluster(workers=2) as two:
+            console.print(wire_table(entries, outputs, whole, two, wall / len(entries), client_s))
+        if not args.batch_only:
+            with cluster(workers=1) as one, cluster(workers=2) as two:
+                for t in solvers_tables(args, {1: one, 2: two}):
+                    console.print(t)
+        console.print(fresh_worker_table(entries, cold=not args.no_cold))
+    console.print(f"whole run: {time.perf_counter() - started:.0f} s; load average at the end {os.getloadavg()[0]:.1f}")
 
 
 if __name__ == "__main__":

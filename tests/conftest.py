@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -38,3 +39,18 @@ def cuik_worlds():
 
 
 requires_cuik = pytest.mark.skipif(not CUIK_DIR.is_dir(), reason="shared/cuik-ijrr not present beside the checkout")
+
+
+@pytest.fixture(scope="module")
+def client():
+    """A local Dask cluster of two worker processes, shared by a test module's tests."""
+    from prehension.parallel import cluster
+
+    with cluster(workers=2) as c:
+        yield c
+
+
+def write_jsonl(path, lines) -> str:
+    """Write ``lines`` (JSON values) to ``path``, one per line; returns the path as text."""
+    path.write_text("".join(json.dumps(line) + "\n" for line in lines))
+    return str(path)

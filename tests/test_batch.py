@@ -20,22 +20,10 @@ from prehension.errors import PrehensionError
 from prehension.solve import solve
 from prehension.tasks.library import builtin_task_names
 from prehension.tasks.yaml_io import dumps_task, task_to_dict
+from conftest import write_jsonl
 from tiny_tasks import pincer_task
 
 PINCER_MM = (30.0, 35.0, 40.0, 44.0, 46.0, 60.0)  # 60 mm: beyond reach, the local solver gives up
-
-
-@pytest.fixture(scope="module")
-def client():
-    from prehension.parallel import cluster
-
-    with cluster(workers=2) as c:
-        yield c
-
-
-def write_jsonl(path, lines) -> str:
-    path.write_text("".join(json.dumps(line) + "\n" for line in lines))
-    return str(path)
 
 
 @pytest.fixture
@@ -177,9 +165,9 @@ def test_a_batch_gives_what_solving_one_by_one_gives(client, twenty_tasks, tmp_p
     assert summary.written == 20 and summary.remaining == 0 and summary.counts == {"solved": 19, "gave_up": 1}
     assert_same_as_alone(records, entries)
     assert {r["seed"] for r in records} == {task_seed(0, e.id) for e in entries}
-    # a record holds the whole result file: `prehension check` re-verifies it alone
+    # a record with its task line is a whole result file: `prehension check` re-verifies it alone
     one = tmp_path / "one.json"
-    one.write_text(json.dumps(next(r for r in records if r["task"] == "pincer-40")["result"]))
+    one.write_text(json.dumps(next(r for r in read_records(out, embed_tasks=True) if r["task"] == "pincer-40")["result"]))
     assert main(["check", str(one)]) == EXIT_OK
     # nothing left to do on a re-run
     again = run_batch(twenty_tasks, out, client, BatchOptions(method="local"))
@@ -191,7 +179,9 @@ def test_resume_after_a_crash_and_after_ctrl_c(client, twenty_tasks, tmp_path):
     options = BatchOptions(method="local", chunk_size=2)
     first = run_batch(twenty_tasks, out, client, BatchOptions(method="local", chunk_size=2, max_tasks=6))
     assert first.written == 6 and first.remaining == 14 and len(read_records(out)) == 6
-    kept = out.read_bytes().split(b"\n")[:5]
+    lines = out.read_bytes().split(b"\n")
+    fifth = [i for i, line in enumerate(lines) if line.startswith(b'{"prehension":"batch/1"')][4]
+    kept = lines[: fifth + 1]  # five records and the task lines before them
     with open(out, "r+b") as fh:  # a crash in the middle of writing the sixth record
         fh.truncate(sum(len(line) + 1 for line in kept) + 40)
 
@@ -205,7 +195,7 @@ def test_resume_after_a_crash_and_after_ctrl_c(client, twenty_tasks, tmp_path):
     third = run_batch(twenty_tasks, out, client, options)
     assert not third.interrupted and third.remaining == 0
     records = read_records(out)
-    assert out.read_bytes().split(b"\n")[:5] == kept  # what was solved before is not solved again
+    assert out.read_bytes().split(b"\n")[: len(kept)] == kept  # what was solved before is not solved again
     assert_same_as_alone(records, read_inputs(twenty_tasks))
 
 

@@ -20,14 +20,6 @@ from tiny_tasks import pincer_task
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "quality"
 
 
-@pytest.fixture(scope="module")
-def client():
-    from prehension.parallel import cluster
-
-    with cluster(workers=2) as c:
-        yield c
-
-
 @pytest.fixture
 def tasks(tmp_path):
     lines = [{"task": str(EXAMPLES / "box-four-fingers.yaml")}, task_to_dict(pincer_task(40.0)), task_to_dict(pincer_task(60.0))]

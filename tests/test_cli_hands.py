@@ -127,9 +127,9 @@ def test_batch_uses_the_sequence_of_each_tasks_hand(sa_hand):
 
     seq = offline_sequence(sa_hand, M=6, N=2, imax=1, seed=1)
     entry = {"id": "a", "name": "lid", "source": "x", "payload": {"kind": "builtin", "name": "teapot-lid-lifting"}}
-    (record,) = solve_chunk([entry], BatchOptions(method="local", sequences=(seq.to_dict(),)))
+    (record,) = [json.loads(r.line) for r in solve_chunk([entry], BatchOptions(method="local", sequences=(seq.to_dict(),))).records]
     assert record["result"]["stats"]["sequence"].startswith("offline_sequence(M=6, N=2, imax=1, seed=1)")
-    (record,) = solve_chunk([entry], BatchOptions(method="local"))
+    (record,) = [json.loads(r.line) for r in solve_chunk([entry], BatchOptions(method="local")).records]
     assert record["result"]["stats"]["sequence"] != seq.meta["origin"]  # no sequence for the hand: its default
     with pytest.raises(Exception, match="one initial-pose sequence per hand"):
         BatchOptions(sequences=(seq.to_dict(), seq.to_dict()))

@@ -38,6 +38,23 @@ def test_capsule_depth_is_radius_minus_the_least_signed_distance(rng):
             assert depth[i] == pytest.approx(max(0.0, r[i] - least), abs=step + 1e-9)
 
 
+
+@pytest.mark.parametrize("cap", [0.0, 0.25, 2.0, 6.0])
+def test_capped_capsule_depth_answers_the_same_yes_no_question(rng, cap):
+    """With a cap, every depth at most the cap is the depth; above it, some value above it."""
+    import trimesh
+
+    box = trimesh.creation.box(extents=(40.0, 30.0, 20.0))
+    md = MeshDistance(box.vertices, box.faces)
+    a = rng.uniform(-40, 40, size=(400, 3))
+    b = a + rng.normal(scale=12.0, size=(400, 3))
+    r = rng.uniform(0.1, 8.0, size=400)
+    exact, capped = md.capsule_depth(a, b, r), md.capsule_depth(a, b, r, cap=cap)
+    np.testing.assert_array_equal(exact <= cap, capped <= cap)
+    np.testing.assert_array_equal(capped[exact <= cap], exact[exact <= cap])
+    assert np.all(capped <= exact + 1e-12)  # never more than the depth: a lower bound
+    assert (exact > cap).sum() > 10 and (exact <= cap).sum() > 10  # both answers occur
+
 def test_pad_exception_cuts_the_segment_around_the_contact():
     a, b = np.zeros(3), np.array([10.0, 0, 0])
     pieces = _kept_pieces(a, b, 1.0, [(np.array([5.0, 0, 0]), 1.0)])

@@ -142,11 +142,12 @@ def make_solution(task: Task, config: Configuration, tolerances: Tolerances = To
     object are first moved clear of it (:func:`~prehension.tasks.idle.settle_idle_fingers`):
     they make no contact, so only collisions depend on them.
     """
+    config.check_against(task)
     config = settle_idle_fingers(task, config, tolerances.object_penetration_mm)
-    report = evaluate(task, config, tolerances)
+    pose = forward_kinematics(task.hand, config.joint_angles)
+    report = evaluate(task, config, tolerances, pose=pose)
     if not report.ok:
         return None
-    pose = forward_kinematics(task.hand, config.joint_angles)
     T = pose.T_palm_link[0]
     contacts = tuple(
         ContactResult(
@@ -200,16 +201,22 @@ def _solution_to_dict(sol: Solution, task: Task, quality=None) -> dict:
     }
 
 
-def result_to_dict(result: SolveResult, quality=None) -> dict:
-    """A JSON-ready dict: units in keys, the task embedded; each solution's grasp quality
-    measured with ``quality`` (:class:`prehension.quality.QualityOptions`, default ones if ``None``)."""
+def result_to_dict(result: SolveResult, quality=None, *, embed_task: bool = True) -> dict:
+    """A JSON-ready dict: units in keys, the task embedded (unless ``embed_task`` is false:
+    a batch stores each distinct task once and its records refer to it); each solution's
+    grasp quality measured with ``quality`` (:class:`prehension.quality.QualityOptions`,
+    default ones if ``None``)."""
     from .tasks.yaml_io import task_to_dict
 
-    return {
+    head = {
         "prehension": RESULT_TAG,
         "units": {"length": "mm", "angle": "rad unless the key ends in _deg"},
         "frames": "poses are T_palm_X (x_palm = T x_X); points and normals in the palm frame",
-        "task": task_to_dict(result.task, hand_inline=True),  # a result file is re-checkable alone
+    }
+    if embed_task:
+        head["task"] = task_to_dict(result.task, hand_inline=True)  # a result file is re-checkable alone
+    return {
+        **head,
         "method": result.method,
         "status": result.status,
         "success": result.success,

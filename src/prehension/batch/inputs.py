@@ -192,6 +192,7 @@ def _named_payload(spec: str, base: Path, source: str) -> tuple[dict, str, bytes
     return payload, file.stem, data
 
 
+@lru_cache(maxsize=None)
 def _builtin_bytes(name: str) -> bytes:
     from importlib import resources
 

@@ -3,23 +3,36 @@
 A record is one line (``prehension: batch/1``)::
 
     {"prehension": "batch/1", "id": ..., "task": NAME, "source": "tasks.jsonl:3",
-     "status": "solved" | "infeasible" | "gave_up" | "invalid" | "error",
-     "method": ..., "seed": ..., "seconds": ..., "message": ..., "result": {...} | null}
+     "method": ..., "seed": ..., "status": "solved" | "infeasible" | "gave_up" | "approximate"
+     | "invalid" | "error", "seconds": ..., "message": ..., "task_ref": "3f9c...",
+     "result": {...} | null}
 
-``result`` is the whole result file (:func:`prehension.results.result_to_dict`, the task
-embedded), so any record can be re-checked alone.  Only the client writes (never a
-worker): the records of each finished chunk are appended with one ``write`` per line,
-then flushed and fsynced, so a crash loses at most the chunks still in flight and leaves
-at worst a torn last line.
+``result`` is the result file of the task (:func:`prehension.results.result_to_dict`).
+**Compact records** (the default) hold the task by reference: ``task_ref`` names a *task
+line* of the same journal, written once per distinct task before the first record that
+refers to it::
+
+    {"prehension": "batch-task/1", "ref": "3f9c...", "task": {...the task-file dict...}}
+
+``ref`` is 16 hex digits of the SHA-256 of the task dict (keys sorted): two records refer
+to one line exactly when their tasks are the same.  :func:`with_task` puts the task back
+into a compact record's result (what ``prehension check`` does); *self-contained* records
+(``--self-contained``) embed the task in ``result`` and have no ``task_ref``.
+
+Only the client writes (never a worker): the lines of each finished chunk are appended
+with one ``write``, then flushed and fsynced, so a crash loses at most the chunks still
+in flight and leaves at worst a torn last line.  A task line always precedes the records
+that refer to it, in the same write: a record that survives a crash has its task.
 
 **Resume** (:func:`open_journal`) reads the journal and repairs it first:
 
-* a torn tail (a cut record after the last newline, and lines of NUL bytes or cut
-  records after the last good record: what a crash can leave) is cut off;
+* a torn tail (a cut line after the last newline, and lines of NUL bytes or cut lines
+  after the last good line: what a crash can leave) is cut off;
 * records that are not *done* are dropped, by an atomic rewrite, so that their tasks are
   solved again and the journal keeps **one record per task id**.  Done: ``solved`` and
-  ``infeasible`` (proven), and ``gave_up`` unless ``retry_gave_up``; never done:
-  ``invalid`` (the task file may have been fixed) and ``error`` (a crash or a bug);
+  ``infeasible`` (proven), and ``gave_up`` / ``approximate`` unless ``retry_gave_up``;
+  never done: ``invalid`` (the task file may have been fixed) and ``error`` (a crash or a
+  bug).  Task lines are always kept;
 * any other line is not a crash's doing (is ``-o`` the right file?): the error names the
   file and line, and nothing is changed.
 
@@ -32,6 +45,8 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import queue
+import threading
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterable, Iterator, Mapping
@@ -39,9 +54,13 @@ from typing import Iterable, Iterator, Mapping
 from ..atomic import open_atomic
 from ..errors import PrehensionError
 
-__all__ = ["RECORD_TAG", "DONE", "JournalState", "open_journal", "read_records", "is_done"]
+__all__ = [
+    "RECORD_TAG", "TASK_TAG", "DONE", "JournalState", "Journal", "Appender", "open_journal", "read_records", "read_tasks",
+    "with_task", "is_done",
+]  # fmt: skip
 
 RECORD_TAG = "batch/1"
+TASK_TAG = "batch-task/1"
 DONE = ("solved", "infeasible")  # plus "gave_up" unless retried
 
 
@@ -57,42 +76,56 @@ class JournalState:
     Attributes:
         done: status of every done task, by id.
         notes: what the repair did, one sentence each (empty when nothing).
+        task_refs: the refs of the task lines it holds.
     """
 
     done: Mapping[str, str] = field(default_factory=dict)
     notes: tuple[str, ...] = ()
+    task_refs: frozenset = frozenset()
+
+
+def _is_record(data) -> bool:
+    return isinstance(data, dict) and data.get("prehension") == RECORD_TAG and isinstance(data.get("id"), str)
+
+
+def _is_task_line(data) -> bool:
+    return (isinstance(data, dict) and data.get("prehension") == TASK_TAG and isinstance(data.get("ref"), str)
+            and isinstance(data.get("task"), dict))  # fmt: skip
 
 
 def _parse(line: bytes) -> dict | None:
+    """A record or a task line, else ``None``."""
     try:
-        record = json.loads(line)
+        data = json.loads(line)
     except (json.JSONDecodeError, UnicodeDecodeError):
         return None
-    ok = isinstance(record, dict) and record.get("prehension") == RECORD_TAG and isinstance(record.get("id"), str)
-    return record if ok else None
+    return data if _is_record(data) or _is_task_line(data) else None
 
 
-_RECORD_START = b'{"prehension":"' + RECORD_TAG.encode() + b'"'  # how every record line starts
+_STARTS = tuple(b'{"prehension":"' + tag.encode() + b'"' for tag in (RECORD_TAG, TASK_TAG))  # how our lines start
 
 
 def _is_debris(raw: bytes) -> bool:
-    """What a crash can leave: a cut record (a prefix of one) or bytes never written (NULs)."""
-    head = raw.rstrip(b"\n").replace(b" ", b"")[: len(_RECORD_START)]
-    return b"\0" in raw or head == _RECORD_START[: len(head)]
+    """What a crash can leave: a cut line (a prefix of one of ours) or bytes never written (NULs)."""
+    head = raw.rstrip(b"\n").replace(b" ", b"")
+    return b"\0" in raw or any(head[: len(start)] == start[: len(head)] for start in _STARTS)
 
 
 @dataclass(frozen=True)
 class _Line:
-    """One complete line of a journal: its id and status, or ``None`` when not a record."""
+    """One complete line of a journal: a record's id and status, a task line's ref."""
 
     key: tuple[str, str] | None
-    kind: str  # "record", "blank", "debris" (a crash's) or "foreign" (not ours)
+    kind: str  # "record", "task", "blank", "debris" (a crash's) or "foreign" (not ours)
+    ref: str | None = None
 
 
 def _line(raw: bytes) -> _Line:
-    record = _parse(raw)
-    if record is not None:
-        return _Line((record["id"], str(record.get("status"))), "record")
+    data = _parse(raw)
+    if data is not None and data["prehension"] == TASK_TAG:
+        return _Line(None, "task", data["ref"])
+    if data is not None:
+        return _Line((data["id"], str(data.get("status"))), "record")
     return _Line(None, "blank" if not raw.strip() else "debris" if _is_debris(raw) else "foreign")
 
 
@@ -122,7 +155,7 @@ def _good_part(path: Path, lines: list[_Line], torn: int) -> tuple[int, list[str
     Raises:
         PrehensionError: a line is not ours, or debris lies before a record.
     """
-    n_good = 1 + max((i for i, line in enumerate(lines) if line.kind == "record"), default=-1)
+    n_good = 1 + max((i for i, line in enumerate(lines) if line.kind in ("record", "task")), default=-1)
     for i, line in enumerate(lines):
         if line.kind == "foreign" or (i < n_good and line.kind == "debris"):
             raise _not_a_journal(path, i + 1)
@@ -138,6 +171,9 @@ def _selection(lines: list[_Line], retry_gave_up: bool) -> tuple[list[bool], dic
     keep, done = [], {}
     retried = duplicates = 0
     for line in lines:
+        if line.kind == "task":
+            keep.append(True)
+            continue
         ok = line.key is not None and line.key[0] not in done and is_done(line.key[1], retry_gave_up)
         if ok:
             done[line.key[0]] = line.key[1]
@@ -180,7 +216,8 @@ def _repair(path: Path, retry_gave_up: bool) -> JournalState:
         notes.append(f"{retried} task(s) whose record is not done ({what}) will be solved again")
     if duplicates:
         notes.append(f"dropped {duplicates} duplicated record(s) (did another run write this journal?)")
-    return JournalState(done, tuple(notes))
+    refs = frozenset(line.ref for line in lines[:n_good] if line.kind == "task")
+    return JournalState(done, tuple(notes), refs)
 
 
 @contextlib.contextmanager
@@ -200,17 +237,76 @@ def _locked(path: Path) -> Iterator[None]:
 
 
 class Journal:
-    """The open journal: :meth:`append` writes records, flushed and fsynced."""
+    """The open journal: :meth:`append_lines` writes a chunk's lines, flushed and fsynced once."""
 
-    def __init__(self, fh):
+    def __init__(self, fh, task_refs: frozenset = frozenset(), path: Path | None = None):
         self._fh = fh
+        self.path = path
+        self.task_refs: set[str] = set(task_refs)  # the task lines it holds (or has been given)
 
-    def append(self, records: Iterable[dict]) -> None:
-        """Append ``records`` (one line each), then flush and fsync once."""
-        for record in records:
-            self._fh.write((json.dumps(record, separators=(",", ":")) + "\n").encode("utf-8"))
+    def append_lines(self, lines: Iterable[bytes]) -> None:
+        """Append complete lines (each ends with a newline) in one write, then flush and fsync."""
+        self._fh.write(b"".join(lines))
         self._fh.flush()
         os.fsync(self._fh.fileno())
+
+    def append(self, records: Iterable[dict]) -> None:
+        """Append ``records`` (dicts, one line each), then flush and fsync once."""
+        self.append_lines([(json.dumps(r, separators=(",", ":")) + "\n").encode("utf-8") for r in records])
+
+
+class Appender:
+    """Appends to a :class:`Journal` from a thread, so that the client never waits for the disk.
+
+    :meth:`put` queues a chunk's lines and returns at once; the thread writes everything
+    queued so far with one write and one fsync (so at most one fsync per chunk, fewer when
+    chunks arrive faster than the disk syncs), in the order given.  :meth:`close` writes
+    what is left and stops the thread.  A crash loses at most the chunks still queued:
+    their tasks have no record, so the next run solves them again.
+    """
+
+    def __init__(self, journal: Journal):
+        self._journal = journal
+        self._queue: queue.SimpleQueue = queue.SimpleQueue()
+        self._error: BaseException | None = None
+        self._thread = threading.Thread(target=self._loop, name="prehension-journal", daemon=True)
+        self._thread.start()
+
+    def put(self, lines: list[bytes]) -> None:
+        """Queue complete lines (each ends with a newline) for the journal.
+
+        Raises:
+            PrehensionError: an earlier write failed (the disk is full, ...).
+        """
+        self._raise()
+        self._queue.put(lines)
+
+    def close(self) -> None:
+        """Write what is queued, then stop the thread."""
+        self._queue.put(None)
+        self._thread.join()
+        self._raise()
+
+    def _raise(self) -> None:
+        if self._error is not None:
+            raise PrehensionError(f"cannot write the batch output {self._journal.path}: {self._error}") from None
+
+    def _loop(self) -> None:
+        while True:
+            batch = [self._queue.get()]
+            while True:
+                try:
+                    batch.append(self._queue.get_nowait())
+                except queue.Empty:
+                    break
+            lines = [line for item in batch if item is not None for line in item]
+            if lines and self._error is None:
+                try:
+                    self._journal.append_lines(lines)
+                except Exception as exc:  # reported to the client by its next put() or close()
+                    self._error = exc
+            if any(item is None for item in batch):
+                return
 
 
 @contextlib.contextmanager
@@ -227,10 +323,55 @@ def open_journal(path, retry_gave_up: bool = False) -> Iterator[tuple[Journal, J
     with _locked(path):
         state = _repair(path, retry_gave_up) if path.exists() else JournalState()
         with open(path, "ab") as fh:
-            yield Journal(fh), state
+            yield Journal(fh, state.task_refs, path), state
 
 
-def read_records(path) -> list[dict]:
-    """Every complete record of a journal, in file order (a torn last line is skipped)."""
+def _complete_lines(path) -> Iterator[dict]:
     with open(path, "rb") as fh:
-        return [r for r in (_parse(raw) for raw in fh if raw.endswith(b"\n")) if r is not None]
+        for raw in fh:
+            data = _parse(raw) if raw.endswith(b"\n") else None  # a torn last line is skipped
+            if data is not None:
+                yield data
+
+
+def read_tasks(path) -> dict[str, dict]:
+    """The task lines of a journal: task dict (task-file format) by ref."""
+    return {d["ref"]: d["task"] for d in _complete_lines(path) if d["prehension"] == TASK_TAG}
+
+
+def read_records(path, *, embed_tasks: bool = False) -> list[dict]:
+    """Every complete record of a journal, in file order (a torn last line is skipped).
+
+    With ``embed_tasks``, each compact record's ``result`` gets its task back
+    (:func:`with_task`): every record is then self-contained, as a result file.
+    """
+    records, tasks = [], {}
+    for data in _complete_lines(path):
+        if data["prehension"] == TASK_TAG:
+            tasks[data["ref"]] = data["task"]
+        else:
+            records.append(with_task(data, tasks, str(path)) if embed_tasks else data)
+    return records
+
+
+def with_task(record: dict, tasks: Mapping[str, dict], source: str = "batch output") -> dict:
+    """``record`` with its task in ``result`` (a copy; the record itself when it has it already).
+
+    Args:
+        record: a batch record.
+        tasks: task dicts by ref (the task lines read so far, see :func:`read_tasks`).
+        source: where the record was read, for the message.
+
+    Raises:
+        PrehensionError: the record refers to a task line that is not in ``tasks``.
+    """
+    result, ref = record.get("result"), record.get("task_ref")
+    if not isinstance(result, dict) or "task" in result or ref is None:
+        return record
+    if ref not in tasks:
+        raise PrehensionError(
+            f"{source}: record {record.get('id')!r} refers to task {ref!r}, which is not in the file "
+            f"(a compact record's task is a \"{TASK_TAG}\" line before it; was the file cut or edited?)"
+        )
+    head = {k: result[k] for k in ("prehension", "units", "frames") if k in result}
+    return {**record, "result": {**head, "task": tasks[ref], **result}}

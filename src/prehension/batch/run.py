@@ -6,6 +6,11 @@ input, and a crash loses at most those chunks.  When a worker dies, Dask resched
 chunks on the others (a chunk that kills ``distributed.scheduler.allowed-failures``
 workers is given up with ``KilledWorker``: its tasks get ``error`` records); since only
 this client writes, and each future is consumed once, nothing is written twice.
+
+The client stays off the critical path: workers send records already serialised
+(:mod:`.records`); the client queues each finished chunk -- its new task lines, then its
+records -- for a writer thread (:class:`~.journal.Appender`: one write and one fsync for
+what is queued), updates the progress once per chunk, and never waits for the disk.
 """
 
 from __future__ import annotations
@@ -19,8 +24,9 @@ from typing import Callable, Iterator, Mapping, Sequence
 from ..errors import PrehensionError
 from ..parallel import worker_count
 from .inputs import TASK_SUFFIXES, BatchEntry, read_inputs
-from .journal import is_done, open_journal
-from .solving import BatchOptions, error_record, solve_chunk
+from .journal import Appender, is_done, open_journal
+from .records import ChunkOutput, error_line
+from .solving import BatchOptions, solve_chunk, task_seed
 
 __all__ = ["BatchProgress", "BatchSummary", "run_batch", "check_output"]
 
@@ -81,23 +87,40 @@ def _chunks(entries: Sequence[BatchEntry], size: int) -> Iterator[list[dict]]:
         yield [_wire(e) for e in entries[start : start + size]]
 
 
-def _records(future, chunk: list[dict], options: BatchOptions) -> list[dict]:
+def _output(future, chunk: list[dict], options: BatchOptions) -> ChunkOutput:
     try:
         return future.result()
     except Exception as exc:  # e.g. KilledWorker: the chunk killed several workers
         message = f"the Dask task failed: {type(exc).__name__}: {exc}"
-        return [error_record(entry, options, "error", message) for entry in chunk]
+        seed = options.seed
+        return ChunkOutput([error_line(e, options.method, task_seed(seed, e["id"]), "error", message, 0.0) for e in chunk], {})
 
 
-def _stream(client, chunks: Iterator[list[dict]], options: BatchOptions) -> Iterator[list[dict]]:
+class _WorkerCount:
+    """The cluster's worker threads, asked of the scheduler at most every ``every_s``
+    seconds (each question is a round trip; workers join and leave far less often)."""
+
+    def __init__(self, client, every_s: float = 1.0):
+        self.client, self.every_s = client, every_s
+        self._value, self._when = 0, -float("inf")
+
+    def now(self) -> int:
+        if time.monotonic() - self._when >= self.every_s:
+            self._value, self._when = worker_count(self.client), time.monotonic()
+        return self._value
+
+
+def _stream(client, chunks: Iterator[list[dict]], options: BatchOptions) -> Iterator[ChunkOutput]:
     """The records of every chunk, in the order chunks finish; a bounded number in flight."""
     from distributed import as_completed
 
     window = as_completed()
     owners: dict = {}  # future -> its chunk
+    threads = _WorkerCount(client)
 
     def refill() -> None:
-        while len(owners) < 2 * worker_count(client):
+        limit = 2 * threads.now()
+        while len(owners) < limit:
             chunk = next(chunks, None)
             if chunk is None:
                 return
@@ -108,7 +131,7 @@ def _stream(client, chunks: Iterator[list[dict]], options: BatchOptions) -> Iter
     refill()
     try:
         for future in window:
-            yield _records(future, owners.pop(future), options)
+            yield _output(future, owners.pop(future), options)
             refill()
     finally:
         if owners:
@@ -161,36 +184,56 @@ def run_batch(
     with open_journal(output, options.retry_gave_up) as (journal, state):
         todo = [e for e in entries if e.id not in state.done]
         chosen = todo if options.max_tasks is None else todo[: options.max_tasks]
-        run = _Run(len(chosen), len(entries) - len(todo), progress)
-        run.solve(client, journal, chosen, options)
+        run = _Run(len(chosen), len(entries) - len(todo), progress, journal)
+        try:
+            run.solve(client, chosen, options)
+        finally:
+            run.close()
     done_now = sum(n for status, n in run.counts.items() if is_done(status))  # a new gave_up is an answer too
     return BatchSummary(Path(output), len(entries), run.skipped, dict(run.counts), len(todo) - done_now,
                         time.perf_counter() - started, state.notes, run.interrupted)  # fmt: skip
 
 
 class _Run:
-    """The client loop of one run: records to the journal, each id once, progress reported."""
+    """The client loop of one run: records to the journal, each id once, progress reported.
 
-    def __init__(self, total: int, skipped: int, progress):
+    The journal is written by an :class:`~.journal.Appender` thread: the loop that takes
+    finished chunks and hands out new ones never waits for the disk.
+    """
+
+    def __init__(self, total: int, skipped: int, progress, journal):
         self.total, self.skipped, self.progress = total, skipped, progress
+        self.journal, self.appender = journal, Appender(journal)
         self.counts: Counter = Counter()
         self.written: set[str] = set()
         self.interrupted = False
+
+    def close(self) -> None:
+        """Write what is queued (also after Ctrl-C: those chunks are finished)."""
+        self.appender.close()
 
     def report(self) -> None:
         if self.progress:
             self.progress(BatchProgress(self.total, len(self.written), self.skipped, dict(self.counts)))
 
-    def solve(self, client, journal, chosen: Sequence[BatchEntry], options: BatchOptions) -> None:
+    def accept(self, output: ChunkOutput) -> None:
+        """Queue a finished chunk for the journal: the task lines its new records need, then
+        the records (written together: one write, one fsync); then report progress."""
+        fresh = [r for r in output.records if r.id not in self.written]  # never twice, whatever happens
+        needed = {r.task_ref for r in fresh if r.task_ref is not None} - self.journal.task_refs
+        self.appender.put([output.tasks[ref] for ref in sorted(needed)] + [r.line for r in fresh])
+        self.journal.task_refs |= needed
+        self.written.update(r.id for r in fresh)
+        self.counts.update(r.status for r in fresh)
         self.report()
-        stream = _stream(client, _chunks(chosen, options.tasks_per_chunk), options)
+
+    def solve(self, client, chosen: Sequence[BatchEntry], options: BatchOptions) -> None:
+        self.report()
+        size = options.chunk_size_for(len(chosen), worker_count(client))
+        stream = _stream(client, _chunks(chosen, size), options)
         try:
-            for records in stream:
-                fresh = [r for r in records if r["id"] not in self.written]  # never twice, whatever happens
-                journal.append(fresh)
-                self.written.update(r["id"] for r in fresh)
-                self.counts.update(r["status"] for r in fresh)
-                self.report()
+            for output in stream:
+                self.accept(output)
         except KeyboardInterrupt:
             self.interrupted = True
         finally:

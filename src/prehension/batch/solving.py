@@ -1,27 +1,44 @@
-"""What a worker does with a chunk of batch entries: solve each, return its record.
+"""What a worker does with a chunk of batch entries: solve them, return their records.
 
-Each task is solved alone, by :func:`prehension.solve.solve` with its own seed
-(:func:`task_seed`), so that its result depends neither on the worker, nor on the order,
-nor on the other tasks of its chunk.  (Solving a chunk as one
-:func:`~prehension.solvers.local.solve_local_batch` call would be faster, but that call
-scales its unknowns by the median size of the objects in the batch, so a task's answer
-would depend on its neighbours.)
+**The local solver, a chunk at a time.**  With ``method="local"`` (and the local stage of
+``"auto"``) the chunk's tasks go to the local solver's batch path in one call (one per
+initial-pose sequence given with ``--sequence``;
+:func:`~prehension.solvers.local.solve_local_batch`: tasks of one structure are solved
+together), each with its own seed (:func:`task_seed`).  Every scale of that call is per
+task and every task draws from its own generator, so a task's answer is, bit for bit,
+the one :func:`prehension.solve.solve` gives it alone with that seed: it depends neither
+on the worker, nor on the order, nor on the other tasks of its chunk.  Each answer is
+re-verified by :meth:`~prehension.solvers.local.LocalRecord.to_result` (the residual
+function, strict tolerances) before it becomes a record.  ``"auto"`` then solves the tasks
+the local solver did not solve with :func:`~prehension.solve.solve`, one at a time (the
+complete solver); ``"complete"`` solves every task that way.
+
+**Parsed once.**  Tasks are parsed once per worker process (:mod:`.loading`) and their
+records are serialised here (:mod:`.records`), the task stored once per distinct task.
+
+**Seconds.**  A record's ``seconds`` is the task's share of the chunk's work on the
+worker: its loading, an equal share of the batch call it took part in, and its own
+verification (and, with ``auto``, its complete solve).  Times are the only fields of a
+record that depend on the chunking.
 """
 
 from __future__ import annotations
 
 import hashlib
+import math
 import time
 import traceback
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from functools import lru_cache
 from typing import Any, Mapping, Sequence
 
 from ..errors import PrehensionError
-from .journal import RECORD_TAG
+from .records import ChunkOutput, RecordLine, error_line, result_line
 
-__all__ = ["BatchOptions", "task_seed", "solve_chunk", "error_record"]
+__all__ = ["BatchOptions", "task_seed", "solve_chunk"]
 
 METHODS = ("auto", "local", "complete")
+MAX_LOCAL_CHUNK = 64  # tasks per Dask task for the local solver, at most (default)
 
 
 @dataclass(frozen=True)
@@ -32,12 +49,15 @@ class BatchOptions:
         method: ``"auto"`` (local, then complete), ``"local"`` or ``"complete"``.
         seed: base seed; task ``id`` is solved with ``task_seed(seed, id)``.
         time_limit_s: complete solver: give up on a task after this long [s].
-        chunk_size: tasks per Dask task (default: 8 for ``local``, 1 otherwise).
+        chunk_size: tasks per Dask task (default: see :meth:`chunk_size_for`).
         retry_gave_up: solve again the tasks whose record says ``gave_up``.
         max_tasks: solve at most this many tasks in this run (then stop; re-run to go on).
+        self_contained: every record embeds its task (else the task is stored once per
+            distinct task, and records refer to it; see :mod:`.journal`).
         delay_s: testing only: sleep this long before each task [s], to make a run slow
             enough to kill a worker in the middle of it.
-        best: a :class:`~prehension.best.BestOptions`: solve each task as ``solve --best N``.
+        best: a :class:`~prehension.best.BestOptions`: solve each task as ``solve --best N``
+            (one task at a time).
         quality: the :class:`~prehension.quality.QualityOptions` of the stored quality.
         simulate: a :class:`~prehension.sim.SimOptions`: each record also gets ``"physics"``,
             the physics test of every solution (:func:`prehension.batch_extras.physics_records`).
@@ -52,6 +72,7 @@ class BatchOptions:
     chunk_size: int | None = None
     retry_gave_up: bool = False
     max_tasks: int | None = None
+    self_contained: bool = False
     delay_s: float = 0.0
     best: Any = None
     quality: Any = None
@@ -81,12 +102,17 @@ class BatchOptions:
                 return InitialPoseSequence.from_dict(data, f"sequence of hand {hand_name!r}")
         return None
 
-    @property
-    def tasks_per_chunk(self) -> int:
-        """Tasks per Dask task: many for the local solver (milliseconds each), one otherwise."""
+    def chunk_size_for(self, tasks: int, workers: int) -> int:
+        """Tasks per Dask task: ``chunk_size`` if given; else, for the local solver
+        (milliseconds a task), enough to make Dask's ~4 ms per Dask task negligible and to
+        solve tasks together -- up to :data:`MAX_LOCAL_CHUNK` -- while giving every worker
+        at least four chunks; one task per Dask task for ``auto`` and ``complete``, and
+        with ``best`` or ``simulate`` (seconds a task: balance first)."""
         if self.chunk_size is not None:
             return self.chunk_size
-        return 8 if self.method == "local" else 1
+        if self.method != "local" or self.best is not None or self.simulate is not None:
+            return 1
+        return max(1, min(MAX_LOCAL_CHUNK, math.ceil(tasks / (4 * max(workers, 1)))))
 
 
 def task_seed(base_seed: int, task_id: str) -> int:
@@ -95,51 +121,182 @@ def task_seed(base_seed: int, task_id: str) -> int:
     return int.from_bytes(digest[:8], "little") >> 1
 
 
-def _record(entry: Mapping[str, Any], options: BatchOptions, **fields) -> dict:
-    return {
-        "prehension": RECORD_TAG, "id": entry["id"], "task": entry["name"], "source": entry["source"],
-        "method": options.method, "seed": task_seed(options.seed, entry["id"]), **fields,
-    }  # fmt: skip
+def _failure(exc: Exception) -> tuple[str, str]:
+    """``(status, message)`` of an exception: ``invalid`` for ours, ``error`` (with where) for a bug."""
+    if isinstance(exc, PrehensionError):
+        return "invalid", str(exc)
+    last = traceback.extract_tb(exc.__traceback__)[-1]
+    return "error", f"{type(exc).__name__}: {exc} ({last.filename}:{last.lineno})"
 
 
-def error_record(entry: Mapping[str, Any], options: BatchOptions, status: str, message: str, seconds: float = 0.0) -> dict:
-    """The record of a task that could not be solved (``invalid`` or ``error``)."""
-    return _record(entry, options, status=status, seconds=seconds, message=message, result=None)
+class _Chunk:
+    """The records of one chunk as they are made, and the task lines they refer to."""
+
+    def __init__(self, options: BatchOptions):
+        self.options = options
+        self.records: list[RecordLine] = []
+        self.tasks: dict[str, bytes] = {}
+        self._sequences: dict = {}
+
+    def seed(self, entry) -> int:
+        return task_seed(self.options.seed, entry["id"])
+
+    def sequence(self, hand_name: str):
+        """The initial-pose sequence given for this hand (``--sequence``), else ``None``;
+        read once per chunk and hand."""
+        if hand_name not in self._sequences:
+            self._sequences[hand_name] = self.options.sequence_for(hand_name)
+        return self._sequences[hand_name]
+
+    def fail(self, entry, exc: Exception, seconds: float) -> None:
+        status, message = _failure(exc)
+        self.records.append(error_line(entry, self.options.method, self.seed(entry), status, message, seconds))
+
+    def add(self, entry, loaded, result, seconds: float) -> None:
+        """The record of ``result`` (its ``seconds`` set to the task's time so far)."""
+        started = time.perf_counter()
+        try:
+            extra = {}
+            if self.options.simulate is not None:
+                from ..batch_extras import physics_records
+
+                extra["physics"] = physics_records(loaded.task, result, self.options.simulate, self.seed(entry))
+            line = result_line(entry, self.options.method, self.seed(entry), result, loaded,
+                               seconds + time.perf_counter() - started, self.options.self_contained,
+                               self.options.quality, extra)  # fmt: skip
+            if line.task_ref is not None:
+                self.tasks.setdefault(line.task_ref, loaded.task_line)
+        except Exception as exc:  # a bug must not stop the other tasks; the record says what happened
+            self.fail(entry, exc, seconds + time.perf_counter() - started)
+            return
+        self.records.append(line)
+
+    def output(self) -> ChunkOutput:
+        return ChunkOutput(self.records, self.tasks)
 
 
-def _solve_one(entry: Mapping[str, Any], options: BatchOptions) -> dict:
-    from ..batch_extras import physics_records, solve_task
-    from ..results import result_to_dict
-    from .inputs import entry_task
+def _load(chunk: _Chunk, entries) -> list[tuple[Mapping, Any, float]]:
+    """``(entry, loaded task, seconds)`` of the entries whose task is valid; records for the others."""
+    from .loading import load_entry
+
+    out = []
+    for entry in entries:
+        if chunk.options.delay_s:
+            time.sleep(chunk.options.delay_s)
+        started = time.perf_counter()
+        try:
+            loaded = load_entry(entry["payload"])
+        except Exception as exc:
+            chunk.fail(entry, exc, time.perf_counter() - started)
+            continue
+        out.append((entry, loaded, time.perf_counter() - started))
+    return out
+
+
+def _solve_alone(chunk: _Chunk, entry, loaded, seconds: float) -> None:
+    """One task as ``prehension solve`` (or ``solve --best N``) solves it: the complete
+    solver, ``best``, or a fallback (:func:`prehension.batch_extras.solve_task`)."""
+    from ..batch_extras import solve_task
+
+    options = chunk.options
+    started = time.perf_counter()
+    try:
+        result = solve_task(loaded.task, options.method, chunk.seed(entry), options.time_limit_s, options.best,
+                            chunk.sequence(loaded.task.hand.name))  # fmt: skip
+    except Exception as exc:
+        chunk.fail(entry, exc, seconds + time.perf_counter() - started)
+        return
+    chunk.add(entry, loaded, result, seconds + time.perf_counter() - started)
+
+
+def _local_batch(chunk: _Chunk, todo, sequence) -> list | None:
+    """The local solver's records of every task of ``todo`` (tasks of hands that share
+    ``sequence``) in one call, and the share of its time per task [s]; ``None`` if the
+    call raised (each task is then solved alone)."""
+    from ..solvers.local import solve_local_batch
 
     started = time.perf_counter()
-    extra = {}
     try:
-        task = entry_task(entry["payload"])
-        seed = task_seed(options.seed, entry["id"])
-        result = solve_task(task, options.method, seed, options.time_limit_s, options.best,
-                            options.sequence_for(task.hand.name))  # fmt: skip
-        data = result_to_dict(result, options.quality)
-        if options.simulate is not None:
-            extra["physics"] = physics_records(task, result, options.simulate, seed)
-    except PrehensionError as exc:
-        return error_record(entry, options, "invalid", str(exc), time.perf_counter() - started)
-    except Exception as exc:  # a bug must not stop the other tasks; the record says what happened
-        last = traceback.extract_tb(exc.__traceback__)[-1]
-        message = f"{type(exc).__name__}: {exc} ({last.filename}:{last.lineno})"
-        return error_record(entry, options, "error", message, time.perf_counter() - started)
-    seconds = time.perf_counter() - started
-    return _record(entry, options, status=result.status, seconds=seconds, message=result.message, result=data, **extra)
+        batch = solve_local_batch([loaded.task for _, loaded, _ in todo], _local_options(), sequence,
+                                  [chunk.seed(entry) for entry, _, _ in todo])  # fmt: skip
+    except Exception:
+        return None
+    share = (time.perf_counter() - started) / len(todo)
+    return [(record, share) for record in batch]
 
 
-def solve_chunk(entries: Sequence[Mapping[str, Any]], options: BatchOptions) -> list[dict]:
+def _verified(record, task, sequence, share: float):
+    """The record as a verified result, as :func:`~prehension.solvers.local.solve_local` makes it."""
+    from ..solvers.local import default_sequence
+
+    started = time.perf_counter()
+    sequence = sequence if sequence is not None else default_sequence(task.hand)
+    result = record.to_result(task, _local_options(), 0.0, {"sequence": sequence.meta.get("origin", sequence.hand)})
+    return replace(result, seconds=share + time.perf_counter() - started)
+
+
+@lru_cache(maxsize=1)
+def _local_options():
+    """The local solver's options of a batch: the defaults, as ``prehension solve`` uses
+    (made once: they are immutable)."""
+    from ..solvers.local import LocalOptions
+
+    return LocalOptions()
+
+
+def _by_sequence(chunk: _Chunk, todo) -> dict:
+    """``todo`` split by the initial-pose sequence its tasks use (``None``: their hand's
+    default); a task whose given sequence does not fit its hand gets its record here."""
+    from ..solve import check_sequence
+
+    groups: dict = {}
+    for item in todo:
+        entry, loaded, seconds = item
+        sequence = chunk.sequence(loaded.task.hand.name)
+        if sequence is not None:
+            try:
+                check_sequence(sequence, loaded.task.hand)
+            except Exception as exc:
+                chunk.fail(entry, exc, seconds)
+                continue
+        groups.setdefault(id(sequence), (sequence, []))[1].append(item)
+    return groups
+
+
+def _solve_local_first(chunk: _Chunk, todo) -> None:
+    """``local`` and ``auto``: the local solver on the whole chunk (one call per initial-pose
+    sequence), then (``auto``) each task it did not solve alone, with the complete solver."""
+    for sequence, group in _by_sequence(chunk, todo).values():
+        solved = _local_batch(chunk, group, sequence)
+        if solved is None:
+            for entry, loaded, seconds in group:
+                _solve_alone(chunk, entry, loaded, seconds)
+            continue
+        for (entry, loaded, seconds), (record, share) in zip(group, solved):
+            started = time.perf_counter()
+            try:
+                result = _verified(record, loaded.task, sequence, share)
+            except Exception as exc:
+                chunk.fail(entry, exc, seconds + share + time.perf_counter() - started)
+                continue
+            spent = seconds + share + time.perf_counter() - started
+            if chunk.options.method == "auto" and not result.success:
+                _solve_alone(chunk, entry, loaded, spent)  # solve(auto) runs the local solver first: same answer
+            else:
+                chunk.add(entry, loaded, result, spent)
+
+
+def solve_chunk(entries: Sequence[Mapping[str, Any]], options: BatchOptions) -> ChunkOutput:
     """Solve every entry (``{"id", "name", "source", "payload"}``) of a chunk; one record each.
 
-    Runs on a Dask worker; takes and returns plain data only.
+    Runs on a Dask worker; takes plain data and returns a :class:`~.records.ChunkOutput`
+    (the records as JSON lines, in the order of ``entries`` but for invalid tasks, first).
     """
-    records = []
-    for entry in entries:
-        if options.delay_s:
-            time.sleep(options.delay_s)
-        records.append(_solve_one(entry, options))
-    return records
+    chunk = _Chunk(options)
+    todo = _load(chunk, entries)
+    if options.method == "complete" or options.best is not None:
+        for entry, loaded, seconds in todo:
+            _solve_alone(chunk, entry, loaded, seconds)
+    else:
+        _solve_local_first(chunk, todo)
+    return chunk.output()

@@ -40,7 +40,10 @@ def add_parser(sub) -> None:
     p.add_argument("--seed", type=types.seed, default=0, help="base seed; each task's seed is derived from it and its id")
     p.add_argument("--time-limit", type=types.seconds, default=types.DEFAULT_TIME_LIMIT_S, metavar="SECONDS",
                    help=f"complete solver: give up on a task after this long (default {types.DEFAULT_TIME_LIMIT_S:g} s; 0: no limit)")  # fmt: skip
-    p.add_argument("--chunk-size", type=types.positive_int, default=None, help="tasks per Dask task (default: 8 local, 1 otherwise)")
+    p.add_argument("--chunk-size", type=types.positive_int, default=None,
+                   help="tasks per Dask task (default: local up to 64, four chunks per worker at least; 1 otherwise)")
+    p.add_argument("--self-contained", action="store_true",
+                   help="every record embeds its task (default: each distinct task stored once, records refer to it)")
     p.add_argument("--retry-gave-up", action="store_true", help="solve again the tasks recorded as gave_up (or approximate)")
     p.add_argument("--max-tasks", type=types.positive_int, default=None, help="stop after this many tasks (re-run to go on)")
     p.add_argument("--sequence", type=Path, action="append", default=[], metavar="FILE",
@@ -71,8 +74,8 @@ def cmd_batch(args, console: Console) -> int:
 
     options = BatchOptions(
         method=args.method, seed=args.seed, time_limit_s=types.time_limit(args.time_limit), chunk_size=args.chunk_size,
-        retry_gave_up=args.retry_gave_up, max_tasks=args.max_tasks, sequences=_sequences(args.sequence),
-        **batch_extras(args),
+        retry_gave_up=args.retry_gave_up, max_tasks=args.max_tasks, self_contained=args.self_contained,
+        sequences=_sequences(args.sequence), **batch_extras(args),
     )  # fmt: skip
     check_where(args.scheduler, args.workers)
     check_output(args.input, args.output)

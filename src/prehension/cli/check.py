@@ -101,16 +101,26 @@ def _findings_table(checked) -> Table:
 
 
 def _check_batch(path, console: Console, reprove: bool, limit) -> int:
-    """Re-derive every result of a batch output; one row per record."""
+    """Re-derive every result of a batch output; one row per record (a compact record's
+    task is read from the task line it refers to)."""
+    from ..batch.journal import with_task
     from ..verify import verify_result
 
     table = Table(title=f"{path}: every task's result re-derived", title_justify="left")
     for col in ("id", "status", "solutions", "contact [mm]", "normal [deg]", "verdict"):
         table.add_column(col)
     ok = True
-    for line, record in _records(path):
+    tasks: dict = {}
+    for line, record in _records(path, tasks):
         if not record.get("result"):
             table.add_row(escape(str(record.get("id"))), str(record.get("status")), "-", "", "", "no result stored")
+            continue
+        try:
+            record = with_task(record, tasks, f"{path}:{line}")
+        except PrehensionError:
+            ok = False
+            missing = f"[bold red]DOES NOT HOLD[/]: its task line {escape(str(record.get('task_ref')))} is missing"
+            table.add_row(escape(str(record.get("id"))), str(record.get("status")), "-", "", "", missing)
             continue
         checked = verify_result(record["result"], source=f"{path}:{line}", base_dir=path.parent, reprove=reprove, time_limit_s=limit)
         if record.get("status") != checked.status:
@@ -133,8 +143,11 @@ def _with_finding(checked, what: str, detail: str):
     return replace(checked, findings=checked.findings + (Finding(what, False, detail),))
 
 
-def _records(path):
-    """``(line number, record)`` of a JSON-lines file; a bad line is an error naming it."""
+def _records(path, tasks: dict):
+    """``(line number, record)`` of a JSON-lines file; a bad line is an error naming it.
+    The task lines of a batch output go into ``tasks`` (by ref), not out."""
+    from ..batch.journal import TASK_TAG
+
     if not path.is_file():
         raise InvalidTask(f"batch output not found: {path}")
     with open(path, encoding="utf-8") as fh:
@@ -147,4 +160,7 @@ def _records(path):
                 raise InvalidTask(f"{path}:{n}: not valid JSON ({exc.msg}); a batch output holds one record per line") from None
             if not isinstance(record, dict):
                 raise PrehensionError(f"{path}:{n}: expected a JSON object (a batch record)")
+            if record.get("prehension") == TASK_TAG:
+                tasks[str(record.get("ref"))] = record.get("task")
+                continue
             yield n, record

@@ -52,6 +52,7 @@ recursive subdivision.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 from math import comb
 
 import numpy as np
@@ -83,9 +84,24 @@ def _check_degree(degree: int, name: str = "degree") -> int:
     return int(degree)
 
 
+@lru_cache(maxsize=None)
 def _binomials(n: int) -> np.ndarray:
-    """Binomial coefficients C(n, i), i = 0..n, shape (n+1,)."""
-    return np.array([comb(n, i) for i in range(n + 1)], dtype=np.float64)
+    """Binomial coefficients C(n, i), i = 0..n, shape (n+1,) (cached; read-only)."""
+    out = np.array([comb(n, i) for i in range(n + 1)], dtype=np.float64)
+    out.setflags(write=False)
+    return out
+
+
+@lru_cache(maxsize=None)
+def _difference(n: int, k: int) -> tuple[float, np.ndarray]:
+    """``(n!/(n-k)!, D)`` of the k-th derivative of degree-n Bernstein polynomials, with
+    ``D (n-k+1, n+1)`` the signed binomial difference matrix (cached; read-only)."""
+    diff = np.zeros((n - k + 1, n + 1))
+    rows = np.arange(n - k + 1)
+    for j in range(k + 1):
+        diff[rows, rows + j] = (-1.0) ** (k - j) * comb(k, j)
+    diff.setflags(write=False)
+    return comb(n, k) * np.prod(np.arange(1, k + 1), dtype=np.float64), diff
 
 
 def bernstein(degree: int, t: np.ndarray) -> np.ndarray:
@@ -102,8 +118,18 @@ def bernstein(degree: int, t: np.ndarray) -> np.ndarray:
     """
     n = _check_degree(degree)
     t = np.asarray(t, dtype=np.float64)[..., None]
+    i, rest = _exponents(n)
+    return _binomials(n) * t**i * (1.0 - t) ** rest
+
+
+@lru_cache(maxsize=None)
+def _exponents(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(i, n - i)`` for i = 0..n (cached; read-only)."""
     i = np.arange(n + 1)
-    return _binomials(n) * t**i * (1.0 - t) ** (n - i)
+    rest = n - i
+    i.setflags(write=False)
+    rest.setflags(write=False)
+    return i, rest
 
 
 def bernstein_derivative(degree: int, t: np.ndarray, order: int = 1) -> np.ndarray:
@@ -126,11 +152,8 @@ def bernstein_derivative(degree: int, t: np.ndarray, order: int = 1) -> np.ndarr
     if k > n:
         return np.zeros(t.shape + (n + 1,))
     lower = bernstein(n - k, t)
-    diff = np.zeros((n - k + 1, n + 1))
-    rows = np.arange(n - k + 1)
-    for j in range(k + 1):
-        diff[rows, rows + j] = (-1.0) ** (k - j) * comb(k, j)
-    return (comb(n, k) * np.prod(np.arange(1, k + 1), dtype=np.float64)) * (lower @ diff)
+    scale, diff = _difference(n, k)
+    return scale * (lower @ diff)
 
 
 def _sum_index_tensor(p: int, q: int) -> np.ndarray:
@@ -303,12 +326,18 @@ class BezierPatch:
         return hash((self.control_points.shape, self.control_points.tobytes()))
 
     # -- evaluation ---------------------------------------------------------------
-    def _eval(self, u: np.ndarray, v: np.ndarray, du: int, dv: int) -> np.ndarray:
-        """``d^(du+dv) p / du^du dv^dv`` at ``(B,)`` parameters, shape ``(B, D)``."""
+    def _eval(self, u: np.ndarray, v: np.ndarray, du: int, dv: int, bases: dict | None = None) -> np.ndarray:
+        """``d^(du+dv) p / du^du dv^dv`` at ``(B,)`` parameters, shape ``(B, D)``.
+
+        ``bases`` keeps the Bernstein bases already computed for these ``u, v`` (one
+        :meth:`derivatives` call needs each of them several times)."""
         m, n = self.degree
-        bu = bernstein_derivative(m, u, du)
-        bv = bernstein_derivative(n, v, dv)
-        return np.einsum("bi,bj,ijd->bd", bu, bv, self.control_points)
+        bases = {} if bases is None else bases
+        if ("u", du) not in bases:
+            bases["u", du] = bernstein_derivative(m, u, du)
+        if ("v", dv) not in bases:
+            bases["v", dv] = bernstein_derivative(n, v, dv)
+        return np.einsum("bi,bj,ijd->bd", bases["u", du], bases["v", dv], self.control_points)
 
     def evaluate(self, u, v) -> np.ndarray:
         """Points ``p(u, v)``.
@@ -348,14 +377,15 @@ class BezierPatch:
         if order not in (1, 2):
             raise InvalidGeometry(f"derivative order must be 1 or 2, got {order!r}")
         u, v = _as_params(u, v)
-        first = {"p": self._eval(u, v, 0, 0), "p_u": self._eval(u, v, 1, 0), "p_v": self._eval(u, v, 0, 1)}
+        b: dict = {}
+        first = {"p": self._eval(u, v, 0, 0, b), "p_u": self._eval(u, v, 1, 0, b), "p_v": self._eval(u, v, 0, 1, b)}
         if order == 1:
             return PatchDerivatives(**first)
         return PatchDerivatives(
             **first,
-            p_uu=self._eval(u, v, 2, 0),
-            p_uv=self._eval(u, v, 1, 1),
-            p_vv=self._eval(u, v, 0, 2),
+            p_uu=self._eval(u, v, 2, 0, b),
+            p_uv=self._eval(u, v, 1, 1, b),
+            p_vv=self._eval(u, v, 0, 2, b),
         )
 
     # -- derived patches ----------------------------------------------------------

@@ -29,13 +29,14 @@ some parameters, their points coincide and their normals are opposed.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
 from ..errors import InvalidGeometry
 from .bezier import BezierPatch
 from .rotations import angle_between, orthonormal_frame
-from .vectors import unit3, vec3
+from .vectors import cross3, unit3, vec3
 
 __all__ = ["Region", "BezierRegion", "SphereCap", "PointRegion"]
 
@@ -74,6 +75,12 @@ class Region:
         """
         raise NotImplementedError
 
+    def evaluate_checked(self, params) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(points, normals, domain violation)`` of :meth:`evaluate` and
+        :meth:`domain_violation` in one call (a region may share work between them)."""
+        points, normals = self.evaluate(params)
+        return points, normals, self.domain_violation(params)
+
     def seed_params(self, n: int = 3) -> np.ndarray:
         """A small grid of parameters inside the domain, shape (S, k), for local searches."""
         raise NotImplementedError
@@ -103,7 +110,7 @@ class BezierRegion(Region):
     def evaluate(self, params):
         uv = _params(params, 2)
         d = self.patch.derivatives(uv[:, 0], uv[:, 1], order=1)
-        normal = np.cross(d.p_u, d.p_v)
+        normal = cross3(d.p_u, d.p_v)
         return d.p, normal / np.linalg.norm(normal, axis=1, keepdims=True)
 
     def jacobian(self, params):
@@ -161,10 +168,13 @@ class SphereCap(Region):
         """The cap with its half-angle in degrees, as task files write it (``half_angle_deg``)."""
         return cls(center, radius, axis, np.radians(float(half_angle_deg)))
 
-    @property
+    @cached_property
     def frame(self) -> np.ndarray:
-        """Columns ``(e1, e2, m)``: an orthonormal frame whose third axis is the cap axis."""
-        return orthonormal_frame(self.axis)
+        """Columns ``(e1, e2, m)``: an orthonormal frame whose third axis is the cap axis
+        (computed once; read-only)."""
+        frame = orthonormal_frame(self.axis)
+        frame.setflags(write=False)
+        return frame
 
     def param_bounds(self):
         # Beyond 90 deg the cone holds normals with alpha = pi (n = -cos(g) m + sin(g) e1
@@ -195,7 +205,14 @@ class SphereCap(Region):
         return self.radius * dnormal, dnormal
 
     def domain_violation(self, params):
-        n = self.normals(params)
+        return self._cone_violation(self.normals(params))
+
+    def evaluate_checked(self, params):
+        n = self.normals(params)  # once for the point, the normal and the cone
+        return self.center + self.radius * n, n, self._cone_violation(n)
+
+    def _cone_violation(self, n: np.ndarray) -> np.ndarray:
+        """How far normals ``n (B, 3)`` lie outside the cone [deg], 0 inside."""
         angle = np.degrees(angle_between(n, self.axis))
         return np.maximum(angle - np.degrees(self.half_angle), 0.0)
 

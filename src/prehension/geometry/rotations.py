@@ -23,6 +23,8 @@ from scipy.spatial.transform import Rotation
 
 from prehension.errors import InvalidGeometry
 
+from .vectors import cross3
+
 __all__ = [
     "skew",
     "axis_angle_to_matrix",
@@ -224,7 +226,7 @@ def angle_between(a, b) -> np.ndarray:
     rounded cosine loses half the digits (an error of ~1e-8 rad at 0).
     """
     a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-    return np.arctan2(np.linalg.norm(np.cross(a, b), axis=-1), np.sum(a * b, axis=-1))
+    return np.arctan2(np.linalg.norm(cross3(a, b), axis=-1), np.sum(a * b, axis=-1))
 
 
 def signed_angle(a: np.ndarray, b: np.ndarray, axis: np.ndarray) -> np.ndarray:

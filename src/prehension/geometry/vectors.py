@@ -6,7 +6,7 @@ import numpy as np
 
 from ..errors import InvalidGeometry, PrehensionError
 
-__all__ = ["vec3", "unit3"]
+__all__ = ["vec3", "unit3", "cross3"]
 
 
 def vec3(value, what: str, error: type[PrehensionError] = InvalidGeometry) -> np.ndarray:
@@ -30,3 +30,12 @@ def unit3(value, what: str, error: type[PrehensionError] = InvalidGeometry) -> n
     arr = arr / norm
     arr.setflags(write=False)
     return arr
+
+
+def cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Cross products of ``(..., 3)`` vectors (broadcast), the same bits as ``np.cross``
+    (the same products and differences) without its generic axis handling: several
+    times faster on the small arrays of one configuration."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InvalidConfiguration
-from ..geometry.rotations import axis_angle_to_matrix
+from ..geometry.rotations import skew
 from .model import Hand, tree_tables
 
 __all__ = ["HandPose", "as_batch", "forward_kinematics", "point_jacobian", "direction_jacobian"]
@@ -79,6 +79,34 @@ class HandPose:
         return np.einsum("bij,bj->bi", R, np.broadcast_to(n_link, (R.shape[0], 3)))
 
 
+def _axis_terms(axis) -> tuple[np.ndarray, np.ndarray]:
+    """``([a]_x, [a]_x^2)`` (1, 3, 3) of a joint axis, computed as :func:`axis_angle_to_matrix` does."""
+    k = skew(np.atleast_2d(axis / np.linalg.norm(axis, axis=-1, keepdims=True)))
+    return k, k @ k
+
+
+def _rodrigues_terms(hand: Hand) -> list:
+    """Per joint, the Rodrigues terms of its axis (and of its second axis), once per hand."""
+    tables = tree_tables(hand)
+    terms = tables.get("rodrigues")
+    if terms is None:
+        terms = [(_axis_terms(j.axis_in_parent), _axis_terms(j.axis_in_child) if j.kind == "universal" else None)
+                 for j in hand.joints]  # fmt: skip
+        tables["rodrigues"] = terms
+    return terms
+
+
+def _rotation(terms, angle) -> np.ndarray:
+    """Rodrigues' rotation (B, 3, 3) for ``angle (B,)`` [rad] about a precomputed axis:
+    the same bits as ``axis_angle_to_matrix(axis, angle)``, without re-checking the axis."""
+    k, kk = terms
+    angle = angle[:, None, None]
+    return _EYE + np.sin(angle) * k + (1.0 - np.cos(angle)) * kk
+
+
+_EYE = np.eye(3)
+
+
 def forward_kinematics(hand: Hand, q) -> HandPose:
     """Poses of all links for joint angles ``q (B, n_dof)`` [rad] (the palm is the identity)."""
     q = as_batch(q, hand.n_dof)
@@ -89,18 +117,19 @@ def forward_kinematics(hand: Hand, q) -> HandPose:
     axis = np.zeros((B, hand.n_dof, 3))
     origin = np.zeros((B, hand.n_dof, 3))
     tables = tree_tables(hand)
+    rodrigues = _rodrigues_terms(hand)
     for k, (joint, off) in enumerate(zip(hand.joints, hand.dof_offsets)):
         p, c = tables["parent"][k], tables["child"][k]
         R_p, r_p = R[:, p], r[:, p]
         centre = np.einsum("bij,j->bi", R_p, joint.origin_in_parent) + r_p  # (B, 3)
-        R_a = np.einsum("bij,bjk->bik", R_p, axis_angle_to_matrix(joint.axis_in_parent, q[:, off]))
+        R_a = np.einsum("bij,bjk->bik", R_p, _rotation(rodrigues[k][0], q[:, off]))
         R_c = R_a @ joint.R_parent_child_zero  # (B, 3, 3)
         axis[:, off] = R_p @ joint.axis_in_parent
         origin[:, off] = centre
         if joint.kind == "universal":
             axis[:, off + 1] = R_c @ joint.axis_in_child
             origin[:, off + 1] = centre
-            R_c = np.einsum("bij,bjk->bik", R_c, axis_angle_to_matrix(joint.axis_in_child, q[:, off + 1]))
+            R_c = np.einsum("bij,bjk->bik", R_c, _rotation(rodrigues[k][1], q[:, off + 1]))
         R[:, c] = R_c
         r[:, c] = centre - np.einsum("bij,j->bi", R_c, joint.origin_in_child)
     return HandPose(R, r, axis, origin)

@@ -37,6 +37,7 @@ report of each fingertip found automatically (:attr:`Hand.tip_fits`).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from ..frozen import FrozenMap
 from typing import Literal, Mapping
 
@@ -298,15 +299,15 @@ class Hand:
     def palm(self) -> str:
         return self.links[0].name
 
-    @property
+    @cached_property  # the hand is immutable: computed once
     def link_names(self) -> tuple[str, ...]:
         return tuple(link.name for link in self.links)
 
-    @property
+    @cached_property  # the hand is immutable: computed once
     def dof_names(self) -> tuple[str, ...]:
         return tuple(d for j in self.joints for d in j.dof_names)
 
-    @property
+    @cached_property  # the hand is immutable: computed once
     def n_dof(self) -> int:
         return len(self.dof_names)
 
@@ -375,7 +376,7 @@ class Hand:
             joint = self.joint_of_link(joint.parent)
         return tuple(out)
 
-    @property
+    @cached_property  # the hand is immutable: computed once
     def dof_offsets(self) -> tuple[int, ...]:
         """Index of each joint's first dof in the dof vector."""
         offs, k = [], 0

@@ -560,28 +560,55 @@ def segment_min_sd(m, p0, p1, step, pair):
     where: ``pair[0]`` on the segment, ``pair[1]`` the closest surface point (2, 3).
 
     Exact (the closed-form segment distance) for a segment wholly outside; for a segment
-    that reaches inside, the smallest over ``round(length / step) + 2`` evenly spaced
-    points (spacing below ``step``, so within ``step / 2`` of the true value, ``sd`` being
-    1-Lipschitz; the count rounded to the nearest, so that a capsule of a round length
-    does not flip between two counts as it moves)."""
+    that meets the surface or lies inside, the smallest over ``round(length / step) + 2``
+    evenly spaced points (spacing below ``step``, so within ``step / 2`` of the true value,
+    ``sd`` being 1-Lipschitz; the count rounded to the nearest, so that a capsule of a round
+    length does not flip between two counts as it moves), and at most 0 (such a segment
+    has a point on or inside the surface, which the samples may miss)."""
     d = segment_closest(m, p0, p1, pair[0], pair[1])
-    q = np.empty(3)
-    if d > 0.0 and _signed_distance(m, p0, q, np.inf) > 0.0:  # wholly outside: exact
+    if _wholly_outside(m, p0, d):  # exact
         return d
-    length = np.sqrt((p1[0] - p0[0]) ** 2 + (p1[1] - p0[1]) ** 2 + (p1[2] - p0[2]) ** 2)
-    return _sampled_min_sd(m, p0, p1, int(length / step + 0.5) + 2, pair)
+    return min(_sampled_min_sd(m, p0, p1, _sample_count(p0, p1, step), pair), 0.0)
 
 
 @njit(cache=True)
-def capsule_depths(m, starts, ends, radius, step):
+def _wholly_outside(m, p0, d):
+    """Whether a segment from ``p0`` at distance ``d`` from the surface lies wholly outside."""
+    q = np.empty(3)
+    return d > 0.0 and _signed_distance(m, p0, q, np.inf) > 0.0
+
+
+@njit(cache=True)
+def _sample_count(p0, p1, step):
+    """``round(length / step) + 2``: points at most ``step`` apart, the count rounded to the
+    nearest so that a segment of a round length does not flip between two counts."""
+    length = np.sqrt((p1[0] - p0[0]) ** 2 + (p1[1] - p0[1]) ** 2 + (p1[2] - p0[2]) ** 2)
+    return int(length / step + 0.5) + 2
+
+
+@njit(cache=True)
+def capsule_depths(m, starts, ends, radius, step, cap):
     """Penetration depth of capsules (segments ``starts``-``ends`` (N, 3), ``radius`` (N,)),
     (N,) [mm]: ``max(0, r - min sd)`` over the segment (:func:`segment_min_sd`: exact for
-    a segment outside the surface, sampled every ``step`` mm or less for one reaching inside)."""
+    a segment outside the surface, sampled every ``step`` mm or less for one reaching in).
+
+    ``cap`` [mm] (``inf`` for every depth): where a depth is known to exceed ``cap`` without
+    sampling, a lower bound above ``cap`` is returned instead of the depth (a segment that
+    touches or enters the surface is at least ``r`` deep, one wholly inside ``r + d``).  So
+    every value at most ``cap`` is the depth, and a value above ``cap`` means a depth above it:
+    what a yes/no test against ``cap`` needs, without the samples."""
     n = starts.shape[0]
     out = np.zeros(n)
     pair = np.empty((2, 3))
     for i in range(n):
-        out[i] = max(0.0, radius[i] - segment_min_sd(m, starts[i], ends[i], step, pair))
+        d = np.sqrt(_segment_query(m, starts[i], ends[i]))
+        if _wholly_outside(m, starts[i], d):  # exact
+            out[i] = max(0.0, radius[i] - d)
+        elif radius[i] + d > cap:  # touching or inside: at least r (+ d when wholly inside)
+            out[i] = radius[i] + d
+        else:  # as segment_min_sd, without its closest pair
+            k = _sample_count(starts[i], ends[i], step)
+            out[i] = radius[i] - min(_sampled_min_sd(m, starts[i], ends[i], k, pair), 0.0)
     return out
 
 
@@ -634,12 +661,14 @@ class MeshDistance:
         d = float(segment_closest(self.arrays, a, b, ps, pm))
         return (d, ps, pm) if d > 0.0 else (0.0, None, None)
 
-    def capsule_depth(self, starts, ends, radius, step: float = 0.25) -> np.ndarray:
-        """Penetration depth of capsules ``starts (N, 3)``-``ends (N, 3)``, ``radius (N,)`` [mm], (N,) [mm]."""
+    def capsule_depth(self, starts, ends, radius, step: float = 0.25, cap: float = np.inf) -> np.ndarray:
+        """Penetration depth of capsules ``starts (N, 3)``-``ends (N, 3)``, ``radius (N,)`` [mm], (N,) [mm];
+        with ``cap`` [mm], depths above it may be returned as any value above it (see
+        :func:`capsule_depths`: much cheaper for a yes/no test)."""
         a = np.ascontiguousarray(np.asarray(starts, dtype=float).reshape(-1, 3))
         b = np.ascontiguousarray(np.asarray(ends, dtype=float).reshape(-1, 3))
         r = np.ascontiguousarray(np.asarray(radius, dtype=float).reshape(-1))
-        return capsule_depths(self.arrays, a, b, r, float(step))
+        return capsule_depths(self.arrays, a, b, r, float(step), float(cap))
 
     def closest_faces(self, points) -> np.ndarray:
         """Index (in the original mesh) of the face closest to each point, (N,)."""

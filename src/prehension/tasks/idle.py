@@ -14,6 +14,8 @@ within its limits to a place where it is clear:
    at most half the tolerance) and of every other link, the one nearest to the current
    angles (largest change over the finger's dofs, in radians) is taken; when none is
    clear, the finger is left where it was and verification reports the penetration.
+   (The candidates are tested nearest first, a few at a time, stopping at the first
+   clear one: the same choice as testing them all, at a fraction of the cost.)
 
 Deterministic (fixed seed): the same answer gives the same settled configuration.
 """
@@ -32,6 +34,7 @@ from .object_collision import batch_link_depths
 __all__ = ["settle_idle_fingers", "idle_fingers", "N_SAMPLES"]
 
 N_SAMPLES = 256
+CHUNK = 32  # candidates tested at a time, nearest first
 
 
 def idle_fingers(task: Task) -> list[tuple[str, np.ndarray, list[int]]]:
@@ -54,15 +57,16 @@ def _apply_couplings(hand, q: np.ndarray) -> np.ndarray:
     return q
 
 
-def _clear(task: Task, q: np.ndarray, T, links, limit_mm: float) -> tuple[np.ndarray, np.ndarray]:
-    """Per configuration (B,): whether ``links`` are clear, and their worst object depth [mm]."""
+def _clear(task: Task, q: np.ndarray, T, links, limit_mm: float) -> np.ndarray:
+    """Per configuration (B,): whether ``links`` are clear of the object (depth at most
+    ``limit_mm``) and of every other link."""
     pose = forward_kinematics(task.hand, q)
-    depth = batch_link_depths(task, pose, T, links).max(axis=1)
+    depth = batch_link_depths(task, pose, T, links, cap=limit_mm).max(axis=1)
     clearance, _ = capsule_clearances(task.hand, pose)
     pairs = collision_pairs(task.hand)
     mine = np.isin(pairs.link[pairs.first], links) | np.isin(pairs.link[pairs.second], links)
     self_ok = np.all(clearance[:, mine] >= 0.0, axis=1) if mine.any() else np.ones(len(q), bool)
-    return (depth <= limit_mm) & self_ok, depth
+    return (depth <= limit_mm) & self_ok
 
 
 def _candidates(hand, q0: np.ndarray, dofs: np.ndarray, rng) -> np.ndarray:
@@ -83,14 +87,24 @@ def settle_idle_fingers(task: Task, config: Configuration, tolerance_mm: float =
         return config
     T, q = config.T_palm_object, config.joint_angles.copy()
     all_links = [li for _, _, links in fingers for li in links]
-    if _clear(task, q[None], T, all_links, tolerance_mm)[0][0]:
+    if _clear(task, q[None], T, all_links, tolerance_mm)[0]:
         return config
     rng = np.random.default_rng(0)
     for _, dofs, links in fingers:
         cand = _candidates(task.hand, q, dofs, rng)
-        ok, _ = _clear(task, cand, T, links, 0.5 * tolerance_mm)
-        if ok[0] or not ok.any():
-            continue
         change = np.max(np.abs(cand[:, dofs] - q[dofs]), axis=1)
-        q = cand[np.flatnonzero(ok)[np.argmin(change[ok])]]
+        nearest = _nearest_clear(task, cand, np.argsort(change, kind="stable"), T, links, 0.5 * tolerance_mm)
+        if nearest is not None:
+            q = cand[nearest]
     return replace(config, joint_angles=q)
+
+
+def _nearest_clear(task: Task, cand: np.ndarray, order: np.ndarray, T, links, limit_mm: float) -> int | None:
+    """The first candidate in ``order`` (nearest first) that is clear, or None: tested
+    :data:`CHUNK` at a time, so that the usual case (a near candidate is clear) tests few."""
+    for start in range(0, len(order), CHUNK):
+        idx = order[start : start + CHUNK]
+        ok = _clear(task, cand[idx], T, links, limit_mm)
+        if ok.any():
+            return int(idx[np.argmax(ok)])
+    return None

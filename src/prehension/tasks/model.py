@@ -15,6 +15,7 @@ solution.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from ..frozen import FrozenMap
 from typing import Mapping
 
@@ -110,19 +111,24 @@ class Task:
     def dof_is_active(self, dof: str) -> bool:
         return bool(self.active_mask[self.hand.dof_index(dof)])
 
-    @property
+    @cached_property
     def active_mask(self) -> np.ndarray:
         """(n_dof,) bool: the dofs that move the links of the participating fingers, with
-        the dofs coupled to them (:meth:`Hand.active_dofs`)."""
-        return self.hand.active_dofs(self.fingers)
+        the dofs coupled to them (:meth:`Hand.active_dofs`; computed once; read-only)."""
+        mask = self.hand.active_dofs(self.fingers)
+        mask.setflags(write=False)
+        return mask
 
-    @property
+    @cached_property
     def idle_vector(self) -> np.ndarray:
-        """(n_dof,) [rad]: the value of every dof that does not take part (others: 0)."""
+        """(n_dof,) [rad]: the value of every dof that does not take part (others: 0)
+        (computed once; read-only)."""
         q = np.clip(0.0, self.hand.lower, self.hand.upper)
         for dof, value in self.idle_angles.items():
             q[self.hand.dof_index(dof)] = value
-        return np.where(self.active_mask, 0.0, q)
+        idle = np.where(self.active_mask, 0.0, q)
+        idle.setflags(write=False)
+        return idle
 
     def hand_region(self, contact: Contact):
         return self.hand.region(contact.hand_region)
@@ -161,6 +167,16 @@ class Task:
         }
 
 
+_EYE3 = np.eye(3)
+_LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
+
+
+def _close(a: np.ndarray, b: np.ndarray, atol: float, rtol: float = 1e-5) -> bool:
+    """``np.allclose(a, b, rtol, atol)`` for finite arrays, without its generic handling
+    (one configuration is checked per solution: this runs thousands of times a second)."""
+    return bool(np.all(np.abs(a - b) <= atol + rtol * np.abs(b)))
+
+
 @dataclass(frozen=True, eq=False)
 class Configuration:
     """A candidate grasp.
@@ -185,7 +201,7 @@ class Configuration:
         if T.shape != (4, 4) or not np.all(np.isfinite(T)):
             raise InvalidConfiguration(f"T_palm_object must be a finite 4x4 transform, got shape {T.shape}")
         R = T[:3, :3]
-        if not np.allclose(R.T @ R, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0 or not np.allclose(T[3], [0, 0, 0, 1]):
+        if not _close(R.T @ R, _EYE3, 1e-6) or np.linalg.det(R) < 0 or not _close(T[3], _LAST_ROW, 1e-8):
             raise InvalidConfiguration("T_palm_object must be a rigid transform (rotation block orthonormal, det +1, last row 0 0 0 1)")
         object.__setattr__(self, "joint_angles", q)
         object.__setattr__(self, "T_palm_object", T)

@@ -130,15 +130,17 @@ def link_penetrations(
     return depth
 
 
-def segment_depths(distance, starts, ends, radius) -> np.ndarray:
+def segment_depths(distance, starts, ends, radius, cap: float = np.inf) -> np.ndarray:
     """Penetration depth of capsules ``starts (N, 3)``-``ends (N, 3)``, ``radius (N,)`` into a
-    closed surface given by a :class:`~prehension.objects.distance.MeshDistance`, (N,) [mm]."""
-    return distance.capsule_depth(starts, ends, radius, SAMPLE_MM)
+    closed surface given by a :class:`~prehension.objects.distance.MeshDistance`, (N,) [mm]
+    (depths above ``cap`` may come back as any value above it)."""
+    return distance.capsule_depth(starts, ends, radius, SAMPLE_MM, cap)
 
 
-def batch_link_depths(task: Task, pose: HandPose, T_palm_object, links) -> np.ndarray:
+def batch_link_depths(task: Task, pose: HandPose, T_palm_object, links, cap: float = np.inf) -> np.ndarray:
     """Penetration depth into the object of the links ``links`` (indices) for ``B``
-    configurations, no pad excepted: (B, len(links)) [mm]."""
+    configurations, no pad excepted: (B, len(links)) [mm]; a depth above ``cap`` may come
+    back as any value above it (a yes/no test against ``cap`` is then much cheaper)."""
     shapes = collision_pairs(task.hand)
     links = list(links)
     sel = np.flatnonzero(np.isin(shapes.link, links))
@@ -152,7 +154,7 @@ def batch_link_depths(task: Task, pose: HandPose, T_palm_object, links) -> np.nd
     T = np.asarray(T_palm_object, dtype=float)
     a, b = (a - T[:3, 3]) @ T[:3, :3], (b - T[:3, 3]) @ T[:3, :3]  # palm -> object frame
     radius = np.broadcast_to(shapes.radius[sel], (B, sel.size))
-    d = segment_depths(task.object.distance, a.reshape(-1, 3), b.reshape(-1, 3), radius.reshape(-1)).reshape(B, -1)
+    d = segment_depths(task.object.distance, a.reshape(-1, 3), b.reshape(-1, 3), radius.reshape(-1), cap).reshape(B, -1)
     for k, li in enumerate(links):
         mine = shapes.link[sel] == li
         if mine.any():

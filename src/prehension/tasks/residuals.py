@@ -22,6 +22,7 @@ when every check passes.  The batch cores (:func:`contact_residuals`,
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -147,14 +148,14 @@ def contact_residuals(task: Task, pose: HandPose, T_palm_object, params) -> dict
     for contact, (hp, op) in zip(task.contacts, params):
         hreg, oreg = task.hand_region(contact), task.object_region(contact)
         li = task.hand.link_index(hreg.link)
-        h_pt, h_n = hreg.region.evaluate(hp)
-        o_pt, o_n = oreg.evaluate(op)
+        h_pt, h_n, h_out = hreg.region.evaluate_checked(hp)
+        o_pt, o_n, o_out = oreg.evaluate_checked(op)
         out["hand_point"].append(pose.points(li, h_pt))
         out["hand_normal"].append(pose.directions(li, h_n))
         out["object_point"].append(_transform_points(T, o_pt))
         out["object_normal"].append(np.einsum("bij,bj->bi", T[:, :3, :3], o_n))
-        out["hand_region"].append(hreg.region.domain_violation(hp))
-        out["object_region"].append(oreg.domain_violation(op))
+        out["hand_region"].append(h_out)
+        out["object_region"].append(o_out)
     res = {k: np.stack(v, axis=1) for k, v in out.items()}
     res["distance_mm"] = np.linalg.norm(res["hand_point"] - res["object_point"], axis=-1)
     res["normal_angle_deg"] = np.degrees(angle_between(res["hand_normal"], -res["object_normal"]))
@@ -180,14 +181,18 @@ def coupling_violations(hand, q) -> np.ndarray:
 
 
 # -- one configuration, with names ------------------------------------------------------
-def evaluate(task: Task, config: Configuration, tolerances: Tolerances = Tolerances()) -> ResidualReport:
+def evaluate(task: Task, config: Configuration, tolerances: Tolerances = Tolerances(), *,
+             pose: HandPose | None = None) -> ResidualReport:  # fmt: skip
     """Check ``config`` against every constraint of ``task`` (see the module docstring).
 
     When ``config.contact_params`` is ``None``, the parameters of each contact are those
     that bring its two regions closest (:func:`~prehension.tasks.locate.locate_contact_params`).
+    ``pose``: ``forward_kinematics(task.hand, config.joint_angles)`` when the caller has
+    computed it already (it is not computed twice).
     """
     config.check_against(task)
-    pose = forward_kinematics(task.hand, config.joint_angles)
+    if pose is None:
+        pose = forward_kinematics(task.hand, config.joint_angles)
     T = config.T_palm_object[None]
     params = config.contact_params
     if params is None:
@@ -235,11 +240,21 @@ def _joint_checks(task, q, tol) -> list[Check]:
 
 
 def _collision_checks(task, pose, tol) -> list[Check]:
+    """One check per pair of links: the deepest penetration of their capsule pairs [mm]."""
     clearance, names = capsule_clearances(task.hand, pose)
-    depth: dict[tuple[str, str], float] = {}
-    for (a, b), c in zip(names, clearance[0]):
-        depth[(a, b)] = max(depth.get((a, b), 0.0), float(max(-c, 0.0)))
-    return [Check("collision", f"{a}/{b}", v, "mm", tol.penetration_mm) for (a, b), v in depth.items()]
+    labels, group = _link_pairs(names)
+    depth = np.zeros(len(labels))
+    np.maximum.at(depth, group, np.maximum(-clearance[0], 0.0))
+    return [Check("collision", label, float(v), "mm", tol.penetration_mm) for label, v in zip(labels, depth)]
+
+
+@lru_cache(maxsize=64)
+def _link_pairs(names: tuple[tuple[str, str], ...]) -> tuple[tuple[str, ...], np.ndarray]:
+    """``("a/b" per link pair in order of first appearance, the link pair of each capsule
+    pair)`` for the capsule pairs' link ``names`` (the same tuple for every call on a hand)."""
+    order: dict = {}
+    group = np.array([order.setdefault(pair, len(order)) for pair in names], dtype=np.intp)
+    return tuple(f"{a}/{b}" for a, b in order), group
 
 
 def _object_collision_checks(task, pose, T_palm_object, hand_points_palm, tol) -> list[Check]:

@@ -117,19 +117,22 @@ def _piece_end(ws, s, u, out):
 @njit(cache=True)
 def _capsule_value(ws, s, best):
     """Capsule ``s``'s value ``min (sd - r)`` over its kept pieces [mm] (``1e300`` when
-    the pads cover it), with the worst piece's pair (object frame) in ``best (2, 3)``; the
-    signed distance of that pair is returned second."""
+    the pads cover it), with the worst piece's pair (object frame) in ``best (2, 3)`` and
+    that pair's distance [mm] (0: no direction) second."""
     obj, oseg = ws.obj, ws.oseg
-    value, sd_best = 1e300, 0.0
+    value = 1e300
     for k in range(_cut(ws, s, ws.cut)):
         _piece_end(ws, s, ws.cut[0, k, 0], oseg[0])
         _piece_end(ws, s, ws.cut[0, k, 1], oseg[1])
         sd = segment_min_sd(obj.mesh, oseg[0], oseg[1], obj.step, oseg[2:4])
         if sd - ws.hand.cap_radius[s] < value:
-            value, sd_best = sd - ws.hand.cap_radius[s], sd
+            value = sd - ws.hand.cap_radius[s]
             best[0] = oseg[2]
             best[1] = oseg[3]
-    return value, sd_best
+    gap = 0.0
+    if value < 1e299:
+        gap = math.sqrt((best[0, 0] - best[1, 0]) ** 2 + (best[0, 1] - best[1, 1]) ** 2 + (best[0, 2] - best[1, 2]) ** 2)
+    return value, gap
 
 
 @njit(cache=True)
@@ -147,13 +150,15 @@ def _far_from_object(ws, s, margin):
 
 # -- the row ---------------------------------------------------------------------------------
 @njit(cache=True)
-def _penetration_row(ws, data, s, sd, row):
+def _penetration_row(ws, data, s, outward, row):
     """Row ``row`` of ``ws.M``: the gradient of capsule ``s``'s value in ``x`` at the pair
-    ``ws.oseg[5:7]`` (object frame) whose signed distance is ``sd``."""
+    ``ws.oseg[5:7]`` (object frame): ``outward`` is +1 when the segment's point is outside
+    (the outward normal points from the surface point to it), -1 inside."""
     hand, lay, M, nf = ws.hand, ws.lay, ws.M, ws.lay.nf
     n, p, q, cp = ws.pa, ws.pb, ws.tmp[0, 0], ws.tmp[0, 1]
+    gap = math.sqrt((ws.oseg[5, 0] - ws.oseg[6, 0]) ** 2 + (ws.oseg[5, 1] - ws.oseg[6, 1]) ** 2 + (ws.oseg[5, 2] - ws.oseg[6, 2]) ** 2)
     for i in range(3):
-        ws.vec[i] = (ws.oseg[5, i] - ws.oseg[6, i]) / sd  # outward normal, object frame
+        ws.vec[i] = outward * (ws.oseg[5, i] - ws.oseg[6, i]) / gap  # outward normal, object frame
     mat_vec(ws.R, ws.vec, n)
     mat_vec(ws.R, ws.oseg[5], p)
     mat_vec(ws.R, ws.oseg[6], q)
@@ -194,10 +199,10 @@ def object_rows(ws, data, margin, row0, max_rows):
     for s in range(ws.hand.cap_link.shape[0]):
         if not obj.checked[s] or _far_from_object(ws, s, margin):
             continue
-        value, sd = _capsule_value(ws, s, ws.oseg[5:7])
+        value, gap = _capsule_value(ws, s, ws.oseg[5:7])
         vmin = min(vmin, value)
-        if value < margin and nrows < max_rows and abs(sd) > 1e-9:
-            _penetration_row(ws, data, s, sd, row0 + nrows)
+        if value < margin and nrows < max_rows and gap > 1e-9:
+            _penetration_row(ws, data, s, 1.0 if value + ws.hand.cap_radius[s] >= 0.0 else -1.0, row0 + nrows)
             ws.g[row0 + nrows] = value - margin
             nrows += 1
     return nrows, vmin

@@ -260,18 +260,22 @@ _TEMPLATES_KEPT = 32
 
 
 def structure_key(task: Task) -> tuple:
-    """Tasks with equal keys share one group (same hand kinematics, moving angles and
-    region kinds and sizes, and the same colliding solid, or none); see :mod:`._layout`.
-    Computed once per task object."""
+    """Tasks with equal keys share one group: same hand (kinematics, capsules, and name: its
+    shipped sequence), moving angles, per contact the region kinds and everything the
+    layout takes from a group's first task -- the regions' sizes (the scales of their
+    parameters) and their parameters' boxes --, and the same colliding solid (or none), so
+    that a task's answer does not depend on the other tasks of its batch; see
+    :mod:`._layout`.  Computed once per task object."""
     key = _KEYS.get(task)
     if key is None:
         per_contact = []
         for c in task.contacts:
-            h = task.hand_region(c)
-            per_contact.append((h.link, RG.code(h.region)[:3], RG.code(task.object_region(c))[:3]))
+            h, o = task.hand_region(c), task.object_region(c)
+            boxes = tuple(np.concatenate(RG.unknown_box(r)[:2]).tobytes() for r in (h.region, o))
+            per_contact.append((h.link, RG.code(h.region)[:3], RG.code(o)[:3], RG.size(h.region), RG.size(o), boxes))
         solid = id(task.object.distance) if task.object.collides else None  # the task holds it: the id stays its own
-        key = (hand_arrays(task.hand)[1], tuple(task.fingers), task.active_mask.tobytes(), task.idle_vector.tobytes(),
-               tuple(per_contact), solid)  # fmt: skip
+        key = (hand_arrays(task.hand)[1], task.hand.name, tuple(task.fingers), task.active_mask.tobytes(),
+               task.idle_vector.tobytes(), tuple(per_contact), solid)  # fmt: skip
         _KEYS[task] = key
     return key
 

@@ -390,6 +390,8 @@ def _starts(group: Group, sequence: InitialPoseSequence, wave: int, todo: np.nda
         return _place_poses(group, extra.names, np.array([extra.pose(group, p, wave - len(sequence)) for p in todo]))
     if options.initial == "sequence":
         lam = np.repeat(sequence.lambdas[wave : wave + 1], S, axis=0)
+    elif isinstance(rng, list):  # one generator per problem: its draws do not depend on the batch
+        lam = np.array([rng[p].uniform(0.0, 1.0, 2) for p in todo]).reshape(S, 2)
     else:
         lam = rng.uniform(0.0, 1.0, (S, 2))
     return _place_poses(group, sequence.names, sequence.poses(lam))
@@ -400,15 +402,16 @@ class _RandomPoses:
     from a generator seeded by ``(seed, the problem's data)``: a problem gets the same
     poses in any batch, so a batch gives what one call per problem gives."""
 
-    def __init__(self, hand, seed: int, count: int):
-        self.hand, self.seed, self.count = hand, seed, count
+    def __init__(self, hand, seed, count: int):
+        self.hand, self.seed, self.count = hand, seed, count  # seed: one int, or one per problem
         self.names: tuple = ()
         self._poses: dict[int, np.ndarray] = {}
 
     def pose(self, group: Group, p: int, k: int) -> np.ndarray:
         if p not in self._poses:
             key = zlib.crc32(np.ascontiguousarray(group.pdata[p]).tobytes())
-            self.names, self._poses[p] = sample_poses(self.hand, self.count, np.random.default_rng([self.seed, key]))
+            seed = self.seed[p] if isinstance(self.seed, list) else self.seed
+            self.names, self._poses[p] = sample_poses(self.hand, self.count, np.random.default_rng([seed, key]))
         return self._poses[p][k]
 
 
@@ -457,7 +460,8 @@ def _wave(group, checker, options, tally: _Tally, todo, wave, x0) -> tuple[np.nd
 def _solve_group(group: Group, checker, options: LocalOptions, sequence: InitialPoseSequence, rng, t_start, tasks=None):
     P, imax = group.n_problems, options.i_max
     tally = _Tally(P, imax, group.nx, group.hand.n_dof)
-    extra = _RandomPoses(group.hand, int(rng.integers(2**62)), max(imax - len(sequence), 0))
+    seeds = [int(r.integers(2**62)) for r in rng] if isinstance(rng, list) else int(rng.integers(2**62))
+    extra = _RandomPoses(group.hand, seeds, max(imax - len(sequence), 0))
     wave_seconds = np.zeros(imax)
     todo = np.arange(P)
     kernel_s = check_s = 0.0
@@ -476,10 +480,19 @@ def _solve_group(group: Group, checker, options: LocalOptions, sequence: Initial
     return records, wave_seconds, solved_after, {"kernel": kernel_s, "checks": check_s}
 
 
-def _as_rng(rng):
+def _as_rng(rng, n: int):
+    """One generator for the batch, or a list of ``n`` (one per problem) from a sequence."""
     if isinstance(rng, np.random.Generator):
         return rng
+    if isinstance(rng, (list, tuple, np.ndarray)):
+        if len(rng) != n:
+            raise InvalidTask(f"solve_local_batch: rng holds {len(rng)} seeds for {n} problems; give one per problem")
+        return [r if isinstance(r, np.random.Generator) else np.random.default_rng(r) for r in rng]
     return np.random.default_rng(0 if rng is None else rng)
+
+
+def _subset(rng, members):
+    return [rng[k] for k in members] if isinstance(rng, list) else rng
 
 
 def solve_local_batch(
@@ -498,7 +511,10 @@ def solve_local_batch(
         sequence: initial-pose sequence (default: the hand's shipped sequence, else
             :func:`.sequence.default_sequence`).
         rng: seed or ``numpy.random.Generator`` for random initial poses (the
-            ``initial="random"`` option, and poses beyond the sequence's length).
+            ``initial="random"`` option, and poses beyond the sequence's length); or a
+            sequence of them, one per problem: each problem then draws from its own,
+            and its answer is the one it gets alone with that seed (a batch changes
+            nothing but speed).
 
     Returns:
         A :class:`LocalBatch` with one :class:`LocalRecord` per problem, in input order.
@@ -506,8 +522,8 @@ def solve_local_batch(
         the solver does not raise on them.
     """
     t_start = time.perf_counter()
-    rng = _as_rng(rng)
     if isinstance(problems, PointProblems):
+        rng = _as_rng(rng, len(problems))
         hand = problems.hand
         sequence = sequence if sequence is not None else default_sequence(hand)
         if len(problems) == 0:
@@ -519,6 +535,7 @@ def solve_local_batch(
         return LocalBatch(records, time.perf_counter() - t_start, waves, after, options, sequence, timings)
 
     tasks = list(problems)
+    rng = _as_rng(rng, len(tasks))
     if not tasks:
         return LocalBatch([], 0.0, np.zeros(options.i_max), np.zeros(options.i_max, dtype=int), options, sequence)
     for t in tasks:
@@ -538,7 +555,7 @@ def solve_local_batch(
         seq_used = seq
         group = group_from_tasks(sub, options.joint_scale_mm)
         checker = lambda idx, x, R, t, g=group, sub=sub: _check_tasks(g, sub, idx, x, R, t, options)  # noqa: E731
-        recs, w, a, tm = _solve_group(group, checker, options, seq, rng, time.perf_counter(), sub)
+        recs, w, a, tm = _solve_group(group, checker, options, seq, _subset(rng, members), time.perf_counter(), sub)
         for k, r in zip(members, recs):
             r.index = k
             records[k] = r

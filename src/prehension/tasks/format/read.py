@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -151,6 +152,13 @@ def _hand_file(value: dict, base: Path, source: str) -> Hand:
 _HAND_FORMS = "a built-in hand name ({}), an inline hand mapping, {{file: hand.yaml}}, {{urdf: hand.urdf}} or {{mjcf: hand.xml}}"
 
 
+@lru_cache(maxsize=None)
+def _builtin_hand(name: str) -> Hand:
+    """A built-in hand, built once per process (a hand is immutable: tasks share it, and so
+    do the tables solvers build for it)."""
+    return BUILTIN_HANDS[name]()
+
+
 def _base_hand(value, base: Path, source: str) -> Hand:
     from .hand_files import HAND_ALIASES, hand_from_reference, is_hand_reference
 
@@ -160,7 +168,7 @@ def _base_hand(value, base: Path, source: str) -> Hand:
                 source, "hand", f"unknown built-in hand {value!r}; built-in hands are: {_builtin_names()} "
                 "(or give an inline hand mapping, {file: hand.yaml}, {urdf: hand.urdf} or {mjcf: hand.xml})",
             )  # fmt: skip
-        return BUILTIN_HANDS[HAND_ALIASES.get(value, value)]()
+        return _builtin_hand(HAND_ALIASES.get(value, value))
     if isinstance(value, dict) and "file" in value:
         return _hand_file(value, base, source)
     if is_hand_reference(value):
