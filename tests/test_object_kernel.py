@@ -220,7 +220,7 @@ def test_segment_min_sd_equals_the_smallest_of_every_sample(name):
         a = rng.uniform(lo, hi)
         b = a + rng.uniform(-40, 40, 3)
         pair = np.empty((2, 3))
-        got = segment_min_sd(distance.arrays, a, b, 0.25, pair)
+        got = segment_min_sd(distance.arrays, a, b, 0.25, pair, np.inf)
         k = int(np.linalg.norm(b - a) / 0.25 + 0.5) + 2
         samples = a + np.linspace(0.0, 1.0, k)[:, None] * (b - a)
         sd = distance.signed_distance(samples)

@@ -37,7 +37,7 @@ except ImportError:  # pragma: no cover
         return lambda f: f
 
 
-__all__ = ["MeshArrays", "MeshDistance", "build_mesh_arrays", "empty_mesh_arrays", "segment_closest", "segment_min_sd"]
+__all__ = ["MeshArrays", "MeshDistance", "build_mesh_arrays", "empty_mesh_arrays", "segment_closest", "segment_closest_within", "segment_min_sd"]
 
 LEAF_SIZE = 8
 _STACK = 128  # traversal stack depth: enough for trees of up to 2^60 leaves
@@ -473,8 +473,15 @@ def segment_closest(m, p0, p1, ps, pm):
     """Distance from segment ``p0``-``p1`` (3,) to the surface [mm], 0 when it crosses the
     surface; otherwise the closest pair: ``ps`` (3,) on the segment, ``pm`` (3,) on the
     surface (the same traversal as :func:`segment_distances`)."""
+    return segment_closest_within(m, p0, p1, ps, pm, np.inf)
+
+
+@njit(cache=True)
+def segment_closest_within(m, p0, p1, ps, pm, bound):
+    """As :func:`segment_closest` for a segment closer than ``bound`` [mm]; a farther one
+    gives ``bound`` (and no pair) after visiting only the boxes within ``bound``."""
     lo, hi = np.minimum(p0, p1), np.maximum(p0, p1)
-    best = np.inf
+    best = bound * bound
     q, s_t, m_t = np.empty(3), np.empty(3), np.empty(3)
     stack = np.empty(_STACK, np.int64)
     stack[0], top = 0, 1
@@ -555,9 +562,11 @@ def _sampled_min_sd(m, p0, p1, k, pair):
 
 
 @njit(cache=True)
-def segment_min_sd(m, p0, p1, step, pair):
+def segment_min_sd(m, p0, p1, step, pair, bound):
     """The smallest signed distance over segment ``p0``-``p1`` (3,) to the surface [mm], and
-    where: ``pair[0]`` on the segment, ``pair[1]`` the closest surface point (2, 3).
+    where: ``pair[0]`` on the segment, ``pair[1]`` the closest surface point (2, 3); for a
+    segment outside the surface and farther than ``bound`` [mm], ``bound`` (and no pair):
+    the search then visits only the boxes within ``bound``.
 
     Exact (the closed-form segment distance) for a segment wholly outside; for a segment
     that meets the surface or lies inside, the smallest over ``round(length / step) + 2``
@@ -565,8 +574,8 @@ def segment_min_sd(m, p0, p1, step, pair):
     ``sd`` being 1-Lipschitz; the count rounded to the nearest, so that a capsule of a round
     length does not flip between two counts as it moves), and at most 0 (such a segment
     has a point on or inside the surface, which the samples may miss)."""
-    d = segment_closest(m, p0, p1, pair[0], pair[1])
-    if _wholly_outside(m, p0, d):  # exact
+    d = segment_closest_within(m, p0, p1, pair[0], pair[1], bound)
+    if _wholly_outside(m, p0, d):  # exact (or the bound)
         return d
     return min(_sampled_min_sd(m, p0, p1, _sample_count(p0, p1, step), pair), 0.0)
 

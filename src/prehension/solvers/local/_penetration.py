@@ -115,16 +115,20 @@ def _piece_end(ws, s, u, out):
 
 
 @njit(cache=True)
-def _capsule_value(ws, s, best):
+def _capsule_value(ws, s, best, reach):
     """Capsule ``s``'s value ``min (sd - r)`` over its kept pieces [mm] (``1e300`` when
-    the pads cover it), with the worst piece's pair (object frame) in ``best (2, 3)`` and
+    the pads cover it; at least ``reach`` is all that is known of a capsule whose value is
+    at least ``reach``), with the worst piece's pair (object frame) in ``best (2, 3)`` and
     that pair's distance [mm] (0: no direction) second."""
     obj, oseg = ws.obj, ws.oseg
     value = 1e300
     for k in range(_cut(ws, s, ws.cut)):
         _piece_end(ws, s, ws.cut[0, k, 0], oseg[0])
         _piece_end(ws, s, ws.cut[0, k, 1], oseg[1])
-        sd = segment_min_sd(obj.mesh, oseg[0], oseg[1], obj.step, oseg[2:4])
+        sd = segment_min_sd(obj.mesh, oseg[0], oseg[1], obj.step, oseg[2:4], ws.hand.cap_radius[s] + reach)
+        if sd - ws.hand.cap_radius[s] >= reach:
+            value = min(value, reach)  # no row: farther than the reach
+            continue
         if sd - ws.hand.cap_radius[s] < value:
             value = sd - ws.hand.cap_radius[s]
             best[0] = oseg[2]
@@ -190,7 +194,8 @@ def _penetration_row(ws, data, s, outward, row):
 def object_rows(ws, data, margin, row0, max_rows):
     """Rows ``value - margin`` of the checked capsules whose value (see the module
     docstring) is below ``margin`` [mm], into ``ws.M``, ``ws.g`` from ``row0``, at most
-    ``max_rows``; ``(rows written, smallest value seen)``.  The capsules must be placed
+    ``max_rows``; ``(rows written, smallest value seen)``, a capsule farther than the margin
+    counted as ``margin`` (its distance is searched only up to there).  The capsules must be placed
     (:func:`._model.place_capsules`) and the contact points ``ws.ph`` current."""
     obj = ws.obj
     nrows, vmin = 0, 1e300
@@ -199,7 +204,7 @@ def object_rows(ws, data, margin, row0, max_rows):
     for s in range(ws.hand.cap_link.shape[0]):
         if not obj.checked[s] or _far_from_object(ws, s, margin):
             continue
-        value, gap = _capsule_value(ws, s, ws.oseg[5:7])
+        value, gap = _capsule_value(ws, s, ws.oseg[5:7], margin)
         vmin = min(vmin, value)
         if value < margin and nrows < max_rows and gap > 1e-9:
             _penetration_row(ws, data, s, 1.0 if value + ws.hand.cap_radius[s] >= 0.0 else -1.0, row0 + nrows)
