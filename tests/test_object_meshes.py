@@ -154,9 +154,8 @@ def test_sphere_primitive_is_within_the_tessellation_tolerance():
     assert np.min(np.linalg.norm(face_centres, axis=1)) > 25.0 - 0.05
 
 
-# Built-in tasks whose answers are checked for collisions today (the others until phase 2 of
-# issue 12, when the solvers respect collisions; their files say why).
-COLLIDING = {"guitar-tuning", "scalpel-handling", "scalpel-incision", "scalpel-upholding", "teapot-service"}
+# Built-in tasks whose answers are checked for collisions: all of them since phase 2 of issue 12.
+COLLIDING = set(builtin_task_names())
 
 
 def test_every_builtin_task_has_a_closed_solid_that_its_regions_lie_on():
