@@ -1,8 +1,6 @@
 """Real objects: solved, penetration-free and time, with collisions checked and ignored.
 
-Rows: the nine built-in tasks (their closed meshes; four of them ship with
-``collisions: false`` until phase 2 of issue 12, and are run here both ways all the
-same) and 30 tasks on the meshes of ../shared/objects (the bunny at 100 mm per unit,
+Rows: the nine built-in tasks (their closed meshes) and 30 tasks on the meshes of ../shared/objects (the bunny at 100 mm per unit,
 about 90 x 140 x 200 mm; the five random solids at 10 mm per unit, about 60-80 mm a
 side).  Each mesh task is made with the region tools: 2, 3 or 4 fingertip contacts
 (thumb against index, middle, ring) on large faces whose normals face each other across
@@ -11,7 +9,8 @@ inside one face, so it lies on the mesh).
 
 For each method and each task, the same task is solved twice: with the object's
 collisions checked (``object_collision`` in the residual function, the local solver's
-driver rejecting penetrating answers, idle fingers settled clear) and with them ignored
+kernel repairing penetrating answers with its penetration rows and its driver
+re-checking them, idle fingers settled clear) and with them ignored
 (``collisions: false``).  "clear" counts answers whose links are all within 0.5 mm of the
 surface, measured on both (an answer found with collisions ignored is measured
 afterwards).  Times are wall-clock medians per task; read ratios, not absolute values.
@@ -20,6 +19,7 @@ afterwards).  Times are wall-clock medians per task; read ratios, not absolute v
     python benchmarks/objects.py --methods local,complete --time-limit 10
     python benchmarks/objects.py --quick               # built-in tasks and 9 mesh tasks
     python benchmarks/objects.py --queries             # microseconds per distance query
+    python benchmarks/objects.py --verify              # make_solution of each local answer, both ways
 """
 
 from __future__ import annotations
@@ -136,6 +136,7 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="built-in tasks and 9 mesh tasks")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--queries", action="store_true", help="only the distance-query speeds, per mesh")
+    parser.add_argument("--verify", action="store_true", help="only the cost of verifying each local answer, both ways")
     args = parser.parse_args()
     console = Console(width=150)
     if args.queries:
@@ -144,6 +145,9 @@ def main() -> None:
     rows = [(n, load_builtin_task(n)) for n in builtin_task_names()]
     if SHARED.is_dir():
         rows += mesh_tasks(np.random.default_rng(args.seed), 2 if args.quick else args.per_mesh)[: 9 if args.quick else None]
+    if args.verify:
+        _verify_cost(console, rows)
+        return
     for method in args.methods.split(","):
         _table(console, rows, method.strip(), args.time_limit)
 
@@ -172,6 +176,29 @@ def _table(console: Console, rows, method: str, time_limit: float) -> None:
     console.print(table)
     ratio = np.median(totals[True][2]) / max(np.median(totals[False][2]), 1e-12)
     console.print(f"{method}: median time with collisions / without: {ratio:.2f}x")
+
+
+def _verify_cost(console: Console, rows, repeats: int = 5) -> None:
+    """Milliseconds of ``make_solution`` (the one residual function, idle fingers settled)
+    on each local answer, with the object's collisions checked and ignored (same answer)."""
+    from prehension.results import make_solution
+
+    times = {True: [], False: []}
+    for _, task in rows:
+        result = solve(task, "local")
+        if not result.solutions:
+            continue
+        config = result.solutions[0].configuration()
+        for collide in (True, False):
+            variant = replace(task, object=replace(task.object, collisions=collide))
+            make_solution(variant, config)
+            t0 = time.perf_counter()
+            for _ in range(repeats):
+                make_solution(variant, config)
+            times[collide].append((time.perf_counter() - t0) / repeats)
+    n = len(times[True])
+    console.print(f"make_solution of {n} local answers (mean of {repeats} calls each, median over the answers): collisions checked "
+                  f"{1e3 * np.median(times[True]):.2f} ms, ignored {1e3 * np.median(times[False]):.2f} ms")
 
 
 def _queries(console: Console, n: int = 300) -> None:

@@ -53,7 +53,7 @@ class _State:
     def residual(self, x, R, t, jac=True):
         C, nx = len(self.g.contacts), self.g.nx
         f, J = np.zeros(6 * C), np.zeros((6 * C, nx))
-        K.residual_at(x, R, t, self.data, self.g.arrays, self.g.layout, self.opt, f, J)
+        K.residual_at(x, R, t, self.data, (self.g.arrays, self.g.layout, self.opt, self.g.obj), f, J)
         return f, J
 
     def moved(self, x, R, t, dx):

@@ -12,7 +12,10 @@ kernels read (:class:`MeshArrays`).  Distances are exact up to rounding, not sam
   generalised winding number, exact for any closed pieces however they touch.
 * :meth:`MeshDistance.segment_distance`: the distance from each segment to the surface
   (0 when the segment crosses it), the minimum over triangles of the closed-form
-  segment-triangle distance (Ericson, *Real-Time Collision Detection*, 5.1.5 and 5.1.9).
+  segment-triangle distance (Ericson, *Real-Time Collision Detection*, 5.1.5 and 5.1.9);
+  :func:`segment_closest` (:meth:`MeshDistance.closest_pair`) also returns the closest
+  pair (a point of the segment, a point of the surface), for the local solver's
+  penetration rows.
 
 Both prune with a lower bound per box, so a query visits ``O(log F)`` triangles when the
 surface is far from most of them.  All lengths are in the mesh's units (mm in prehension).
@@ -34,7 +37,7 @@ except ImportError:  # pragma: no cover
         return lambda f: f
 
 
-__all__ = ["MeshArrays", "MeshDistance", "build_mesh_arrays"]
+__all__ = ["MeshArrays", "MeshDistance", "build_mesh_arrays", "empty_mesh_arrays", "segment_closest", "segment_closest_within", "segment_min_sd"]
 
 LEAF_SIZE = 8
 _STACK = 128  # traversal stack depth: enough for trees of up to 2^60 leaves
@@ -155,6 +158,14 @@ def build_mesh_arrays(vertices, faces) -> MeshArrays:
     )  # fmt: skip
 
 
+def empty_mesh_arrays() -> MeshArrays:
+    """A :class:`MeshArrays` with no triangle (the same numba type as any other): what a
+    compiled caller receives when there is no solid; it must not be queried."""
+    z = lambda *shape: np.zeros(shape)  # noqa: E731
+    i = lambda: np.zeros(0, dtype=np.int64)  # noqa: E731
+    return MeshArrays(z(0, 3, 3), z(0, 3), z(0, 3, 3), z(0, 3, 3), z(0, 3), z(0, 3), i(), i(), i(), i(), i(), False)
+
+
 # -- kernels ----------------------------------------------------------------------------
 @njit(cache=True)
 def _dot(a, b):
@@ -239,7 +250,14 @@ def _box_box_sq(lo, hi, lo2, hi2):
 @njit(cache=True)
 def _point_query(m, p, best_point):
     """Squared distance from p to the mesh, the closest stored face and its feature."""
-    best, best_f, best_feat = np.inf, -1, -1
+    return _point_query_within(m, p, best_point, np.inf)
+
+
+@njit(cache=True)
+def _point_query_within(m, p, best_point, bound):
+    """As :func:`_point_query`, pruning from the start every box farther than ``bound``
+    (squared, an upper bound of the answer: the face is -1 when nothing is closer)."""
+    best, best_f, best_feat = bound, -1, -1
     q = np.empty(3)
     stack = np.empty(_STACK, np.int64)
     stack[0], top = 0, 1
@@ -291,6 +309,18 @@ def _winding_number(m, p):
 
 
 @njit(cache=True)
+def _signed_distance(m, p, q, bound):
+    """Signed distance of one point ``p`` (3,) [mm], the closest surface point into ``q``;
+    ``bound``: an upper bound of the unsigned distance, which only makes the search faster."""
+    d2, f, feat = _point_query_within(m, p, q, bound * bound * (1.0 + 1e-9) + 1e-12)
+    if f < 0:  # the bound was not one after all (rounding): search everything
+        d2, f, feat = _point_query(m, p, q)
+    d = np.sqrt(d2)
+    inside = _winding_number(m, p) > 0.5 if m.robust_sign else _dot(p - q, _pseudonormal(m, f, feat)) < 0.0
+    return -d if inside else d
+
+
+@njit(cache=True)
 def signed_distances(m, points, out_closest):
     """Signed distance of each point (N, 3) to the surface (N,) [mm], negative inside;
     the closest surface points into ``out_closest (N, 3)``.
@@ -301,19 +331,15 @@ def signed_distances(m, points, out_closest):
     pseudonormal test is wrong)."""
     n = points.shape[0]
     out = np.empty(n)
-    q = np.empty(3)
     for i in range(n):
-        d2, f, feat = _point_query(m, points[i], q)
-        out_closest[i] = q
-        d = np.sqrt(d2)
-        inside = _winding_number(m, points[i]) > 0.5 if m.robust_sign else _dot(points[i] - q, _pseudonormal(m, f, feat)) < 0.0
-        out[i] = -d if inside else d
+        out[i] = _signed_distance(m, points[i], out_closest[i], np.inf)
     return out
 
 
 @njit(cache=True)
-def _seg_seg_sq(p0, p1, q0, q1):
-    """Squared distance between segments p0p1 and q0q1 (Ericson 5.1.9, scalar code)."""
+def _seg_seg_st(p0, p1, q0, q1):
+    """Closest points of segments p0p1 and q0q1 (Ericson 5.1.9, scalar code):
+    ``(squared distance, s, t)`` with the points ``p0 + s (p1 - p0)`` and ``q0 + t (q1 - q0)``."""
     d1x, d1y, d1z = p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]
     d2x, d2y, d2z = q1[0] - q0[0], q1[1] - q0[1], q1[2] - q0[2]
     rx, ry, rz = p0[0] - q0[0], p0[1] - q0[1], p0[2] - q0[2]
@@ -322,7 +348,7 @@ def _seg_seg_sq(p0, p1, q0, q1):
     f = d2x * rx + d2y * ry + d2z * rz
     eps = 1e-18
     if a <= eps and e <= eps:
-        return rx * rx + ry * ry + rz * rz
+        return rx * rx + ry * ry + rz * rz, 0.0, 0.0
     if a <= eps:
         s, t = 0.0, min(max(f / e, 0.0), 1.0)
     else:
@@ -341,7 +367,13 @@ def _seg_seg_sq(p0, p1, q0, q1):
     wx = rx + d1x * s - d2x * t
     wy = ry + d1y * s - d2y * t
     wz = rz + d1z * s - d2z * t
-    return wx * wx + wy * wy + wz * wz
+    return wx * wx + wy * wy + wz * wz, s, t
+
+
+@njit(cache=True)
+def _seg_seg_sq(p0, p1, q0, q1):
+    """Squared distance between segments p0p1 and q0q1."""
+    return _seg_seg_st(p0, p1, q0, q1)[0]
 
 
 @njit(cache=True)
@@ -405,6 +437,77 @@ def _segment_query(m, p0, p1):
 
 
 @njit(cache=True)
+def _lerp(p0, p1, s, out):
+    for i in range(3):
+        out[i] = p0[i] + s * (p1[i] - p0[i])
+
+
+@njit(cache=True)
+def _segment_triangle_pair(p0, p1, a, b, c, q, ps, pm):
+    """Squared distance of segment p0p1 to triangle abc, 0 when they meet; otherwise a
+    closest pair, ``ps`` on the segment and ``pm`` on the triangle (left as they are when 0)."""
+    if _segment_crosses(p0, p1, a, b, c):
+        return 0.0
+    _closest_on_triangle(p0, a, b, c, pm)
+    best = _dist_sq(p0, pm)
+    ps[0], ps[1], ps[2] = p0[0], p0[1], p0[2]
+    _closest_on_triangle(p1, a, b, c, q)
+    d = _dist_sq(p1, q)
+    if d < best:
+        best = d
+        ps[0], ps[1], ps[2] = p1[0], p1[1], p1[2]
+        pm[0], pm[1], pm[2] = q[0], q[1], q[2]
+    for i in range(3):
+        A = a if i == 0 else (b if i == 1 else c)
+        B = b if i == 0 else (c if i == 1 else a)
+        d, s, t = _seg_seg_st(p0, p1, A, B)
+        if d < best:
+            best = d
+            _lerp(p0, p1, s, ps)
+            _lerp(A, B, t, pm)
+    return best
+
+
+@njit(cache=True)
+def segment_closest(m, p0, p1, ps, pm):
+    """Distance from segment ``p0``-``p1`` (3,) to the surface [mm], 0 when it crosses the
+    surface; otherwise the closest pair: ``ps`` (3,) on the segment, ``pm`` (3,) on the
+    surface (the same traversal as :func:`segment_distances`)."""
+    return segment_closest_within(m, p0, p1, ps, pm, np.inf)
+
+
+@njit(cache=True)
+def segment_closest_within(m, p0, p1, ps, pm, bound):
+    """As :func:`segment_closest` for a segment closer than ``bound`` [mm]; a farther one
+    gives ``bound`` (and no pair) after visiting only the boxes within ``bound``."""
+    lo, hi = np.minimum(p0, p1), np.maximum(p0, p1)
+    best = bound * bound
+    q, s_t, m_t = np.empty(3), np.empty(3), np.empty(3)
+    stack = np.empty(_STACK, np.int64)
+    stack[0], top = 0, 1
+    while top > 0 and best > 0.0:
+        top -= 1
+        k = stack[top]
+        if _box_box_sq(m.node_lo[k], m.node_hi[k], lo, hi) >= best:
+            continue
+        if m.node_left[k] < 0:
+            for f in range(m.node_start[k], m.node_start[k] + m.node_count[k]):
+                d = _segment_triangle_pair(p0, p1, m.tri[f, 0], m.tri[f, 1], m.tri[f, 2], q, s_t, m_t)
+                if d < best:
+                    best = d
+                    ps[:] = s_t
+                    pm[:] = m_t
+            continue
+        l, r = m.node_left[k], m.node_right[k]
+        if _box_box_sq(m.node_lo[l], m.node_hi[l], lo, hi) < _box_box_sq(m.node_lo[r], m.node_hi[r], lo, hi):
+            stack[top], stack[top + 1] = r, l
+        else:
+            stack[top], stack[top + 1] = l, r
+        top += 2
+    return np.sqrt(best)
+
+
+@njit(cache=True)
 def segment_distances(m, starts, ends):
     """Distance from each segment ``starts[i]``-``ends[i]`` (N, 3) to the surface (N,) [mm]."""
     out = np.empty(starts.shape[0])
@@ -413,11 +516,90 @@ def segment_distances(m, starts, ends):
     return out
 
 
+_COARSE = 8  # every 8th sample first; the others only where they could be lower
+
+
+@njit(cache=True)
+def _sample(p0, p1, j, k, out):
+    for i in range(3):
+        out[i] = p0[i] + (j / (k - 1)) * (p1[i] - p0[i])
+
+
+@njit(cache=True)
+def _sampled_min_sd(m, p0, p1, k, pair):
+    """The smallest signed distance over the ``k`` evenly spaced points of ``p0``-``p1``,
+    exactly as if every point were measured, but measuring only those that could be lower
+    than the best so far: every ``_COARSE``-th point first, then a point between two
+    measured ones only where ``sd`` being 1-Lipschitz allows it to be lower.  Each search
+    starts from the bound the nearest measured point gives (``|sd|`` is 1-Lipschitz too)."""
+    h = np.sqrt((p1[0] - p0[0]) ** 2 + (p1[1] - p0[1]) ** 2 + (p1[2] - p0[2]) ** 2) / (k - 1)
+    marks = np.arange(0, k + _COARSE - 1, _COARSE)
+    marks[-1] = k - 1
+    sd = np.empty(marks.shape[0])
+    p, q = np.empty(3), np.empty(3)
+    best = np.inf
+    for a in range(marks.shape[0]):
+        _sample(p0, p1, marks[a], k, p)
+        near = abs(sd[a - 1]) + (marks[a] - marks[a - 1]) * h if a > 0 else np.inf  # 1-Lipschitz
+        sd[a] = _signed_distance(m, p, q, near)
+        if sd[a] < best:
+            best = sd[a]
+            pair[0] = p
+            pair[1] = q
+    slack = 1e-9 * (1.0 + h * k)
+    for a in range(marks.shape[0] - 1):
+        j0, j1 = marks[a], marks[a + 1]
+        for j in range(j0 + 1, j1):
+            if max(sd[a] - (j - j0) * h, sd[a + 1] - (j1 - j) * h) - slack >= best:
+                continue  # cannot be lower than the best
+            _sample(p0, p1, j, k, p)
+            v = _signed_distance(m, p, q, min(abs(sd[a]) + (j - j0) * h, abs(sd[a + 1]) + (j1 - j) * h))
+            if v < best:
+                best = v
+                pair[0] = p
+                pair[1] = q
+    return best
+
+
+@njit(cache=True)
+def segment_min_sd(m, p0, p1, step, pair, bound):
+    """The smallest signed distance over segment ``p0``-``p1`` (3,) to the surface [mm], and
+    where: ``pair[0]`` on the segment, ``pair[1]`` the closest surface point (2, 3); for a
+    segment outside the surface and farther than ``bound`` [mm], ``bound`` (and no pair):
+    the search then visits only the boxes within ``bound``.
+
+    Exact (the closed-form segment distance) for a segment wholly outside; for a segment
+    that meets the surface or lies inside, the smallest over ``round(length / step) + 2``
+    evenly spaced points (spacing below ``step``, so within ``step / 2`` of the true value,
+    ``sd`` being 1-Lipschitz; the count rounded to the nearest, so that a capsule of a round
+    length does not flip between two counts as it moves), and at most 0 (such a segment
+    has a point on or inside the surface, which the samples may miss)."""
+    d = segment_closest_within(m, p0, p1, pair[0], pair[1], bound)
+    if _wholly_outside(m, p0, d):  # exact (or the bound)
+        return d
+    return min(_sampled_min_sd(m, p0, p1, _sample_count(p0, p1, step), pair), 0.0)
+
+
+@njit(cache=True)
+def _wholly_outside(m, p0, d):
+    """Whether a segment from ``p0`` at distance ``d`` from the surface lies wholly outside."""
+    q = np.empty(3)
+    return d > 0.0 and _signed_distance(m, p0, q, np.inf) > 0.0
+
+
+@njit(cache=True)
+def _sample_count(p0, p1, step):
+    """``round(length / step) + 2``: points at most ``step`` apart, the count rounded to the
+    nearest so that a segment of a round length does not flip between two counts."""
+    length = np.sqrt((p1[0] - p0[0]) ** 2 + (p1[1] - p0[1]) ** 2 + (p1[2] - p0[2]) ** 2)
+    return int(length / step + 0.5) + 2
+
+
 @njit(cache=True)
 def capsule_depths(m, starts, ends, radius, step, cap):
     """Penetration depth of capsules (segments ``starts``-``ends`` (N, 3), ``radius`` (N,)),
-    (N,) [mm]: ``max(0, r - min sd)`` over the segment, exact for a segment outside the
-    surface; a segment reaching inside is sampled every ``step`` mm.
+    (N,) [mm]: ``max(0, r - min sd)`` over the segment (:func:`segment_min_sd`: exact for
+    a segment outside the surface, sampled every ``step`` mm or less for one reaching in).
 
     ``cap`` [mm] (``inf`` for every depth): where a depth is known to exceed ``cap`` without
     sampling, a lower bound above ``cap`` is returned instead of the depth (a segment that
@@ -426,24 +608,16 @@ def capsule_depths(m, starts, ends, radius, step, cap):
     what a yes/no test against ``cap`` needs, without the samples."""
     n = starts.shape[0]
     out = np.zeros(n)
-    one, q = np.empty((1, 3)), np.empty((1, 3))
+    pair = np.empty((2, 3))
     for i in range(n):
         d = np.sqrt(_segment_query(m, starts[i], ends[i]))
-        one[0] = starts[i]
-        outside = d > 0.0 and signed_distances(m, one, q)[0] > 0.0
-        if outside:  # wholly outside: exact
+        if _wholly_outside(m, starts[i], d):  # exact
             out[i] = max(0.0, radius[i] - d)
-            continue
-        if radius[i] + d > cap:  # touching or inside: at least r (+ d when wholly inside)
+        elif radius[i] + d > cap:  # touching or inside: at least r (+ d when wholly inside)
             out[i] = radius[i] + d
-            continue
-        seg = ends[i] - starts[i]
-        k = int(np.sqrt(_dot(seg, seg)) / step) + 2
-        pts = np.empty((k, 3))
-        for j in range(k):
-            pts[j] = starts[i] + (j / (k - 1)) * seg
-        qs = np.empty((k, 3))
-        out[i] = radius[i] + max(0.0, -np.min(signed_distances(m, pts, qs)))
+        else:  # as segment_min_sd, without its closest pair
+            k = _sample_count(starts[i], ends[i], step)
+            out[i] = radius[i] - min(_sampled_min_sd(m, starts[i], ends[i], k, pair), 0.0)
     return out
 
 
@@ -485,6 +659,16 @@ class MeshDistance:
         a = np.ascontiguousarray(np.asarray(starts, dtype=float).reshape(-1, 3))
         b = np.ascontiguousarray(np.asarray(ends, dtype=float).reshape(-1, 3))
         return segment_distances(self.arrays, a, b)
+
+    def closest_pair(self, start, end):
+        """``(distance [mm], point on the segment (3,), point on the surface (3,))`` of one
+        segment ``start (3,)``-``end (3,)``; the points are ``None`` when the segment meets
+        the surface (distance 0)."""
+        a = np.ascontiguousarray(np.asarray(start, dtype=float).reshape(3))
+        b = np.ascontiguousarray(np.asarray(end, dtype=float).reshape(3))
+        ps, pm = np.empty(3), np.empty(3)
+        d = float(segment_closest(self.arrays, a, b, ps, pm))
+        return (d, ps, pm) if d > 0.0 else (0.0, None, None)
 
     def capsule_depth(self, starts, ends, radius, step: float = 0.25, cap: float = np.inf) -> np.ndarray:
         """Penetration depth of capsules ``starts (N, 3)``-``ends (N, 3)``, ``radius (N,)`` [mm], (N,) [mm];

@@ -13,7 +13,7 @@ where it matters: a segment that stays outside has ``min sd`` = its exact distan
 surface (:meth:`~prehension.objects.distance.MeshDistance.segment_distance`), so the
 0.5 mm tolerance is judged without sampling.  A segment that reaches inside is already
 deeper than ``r``; its depth below the surface is then the largest ``-sd`` over points
-0.25 mm apart (within 0.125 mm of the true value, ``sd`` being 1-Lipschitz).
+at most 0.25 mm apart (within 0.125 mm of the true value, ``sd`` being 1-Lipschitz).
 
 **The touching pads are excepted.**  A link that makes a contact touches the object there
 by design, and its capsules (coarser than its pad) may reach the surface near the

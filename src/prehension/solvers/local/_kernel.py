@@ -13,14 +13,15 @@ function that returns a status code (``MESSAGES`` says what each means, as
 3. :func:`polish` -- Gauss-Newton steps from a ``d_min`` answer until the contacts are
    within ``polish_tol`` (``STRICT``);
 4. :func:`repair` -- Check_Collisions, and beyond the paper: a local solution in
-   self-collision is moved out of it by Gauss-Newton on the contact rows plus one
-   inequality row per pair closer than the margin (:mod:`._model`), then polished again;
+   self-collision, or with a link in the object's solid, is moved out of it by
+   Gauss-Newton on the contact rows plus one inequality row per capsule pair or capsule
+   closer than the margin (:mod:`._model`, :mod:`._penetration`), then polished again;
    ``COLLIDING`` when that fails.
 
 The caller (:mod:`.solver`) re-checks every answer with the foundation's functions.
 The state, its scratch arrays and its options travel as NamedTuples
 (:class:`Workspace`, :class:`Options`, :class:`~._layout.HandArrays`,
-:class:`~._layout.Layout`).
+:class:`~._layout.Layout`, :class:`~._penetration.ObjectArrays`).
 """
 
 from __future__ import annotations
@@ -34,23 +35,24 @@ from . import _regions as RG
 from ._jit import HAVE_NUMBA, njit
 from ._layout import S_KIND, S_OFF, S_X
 from ._linalg import copy, dls_contacts, dls_dense, fill
-from ._model import contact_rows, inequality_rows, initial_pose, move, pose_hand, project_all
+from ._model import contact_rows, inequality_rows, initial_pose, move, place_capsules, pose_hand, project_all
+from ._penetration import object_rows
 
-__all__ = ["Options", "Workspace", "Outputs", "MESSAGES", "run_states", "residual_at", "LOCAL_SOLUTIONS"]
+__all__ = ["Options", "Workspace", "Outputs", "MESSAGES", "run_states", "residual_at", "penetration_at", "LOCAL_SOLUTIONS"]
 
 # status codes of a state, and what they mean
 NOT_RUN, STRICT, WITHIN_DMIN, STALLED, K_MAX, SINGULAR, COLLIDING = 0, 1, 2, 3, 4, 5, 6
 MESSAGES = {
     NOT_RUN: "not run",
-    STRICT: "contacts within the polishing tolerance, clear of self-collision",
+    STRICT: "contacts within the polishing tolerance, clear of self-collision and of the object",
     WITHIN_DMIN: "contacts within d_min only (polishing did not reach its tolerance)",
     STALLED: "no progress: the contacts moved less than s_min for n_stall iterations",
     K_MAX: "k_max iterations without reaching d_min",
     SINGULAR: "the damped least-squares step could not be computed",
-    COLLIDING: "a local solution in self-collision that the repair could not clear",
+    COLLIDING: "a local solution in self-collision or in the object that the repair could not clear",
 }
 LOCAL_SOLUTIONS = (STRICT, WITHIN_DMIN)
-MAX_INEQUALITY_ROWS = 12
+MAX_INEQUALITY_ROWS = 32  # self-collision pairs first, then the object's capsules
 BEST, REPAIRED = 0, 1  # slots of the workspace's saved states
 
 
@@ -83,22 +85,23 @@ class Options(NamedTuple):
 
 
 WORKSPACE_FIELDS = (
-    "hand", "lay", "opt",
+    "hand", "lay", "opt", "obj",
     "x", "col_scale", "dx", "frozen", "R", "t", "q", "Rl", "rl", "ax", "org", "f", "f_prev", "J", "Js", "ph", "nh", "po", "no",
     "A", "L", "y", "rims", "M", "Ms", "g", "err", "keep_x", "keep_R", "keep_t", "keep_err",
-    "pt", "nr", "dpt", "dnr", "work", "tmp", "vec", "cp", "pa", "pb", "ends", "half",
+    "pt", "nr", "dpt", "dnr", "work", "tmp", "vec", "cp", "pa", "pb", "ends", "half", "cut", "oseg",
 )  # fmt: skip
 _WORKSPACE_DOC = """One state, its scratch arrays, and what it is solved with.
 
     ``hand`` (:class:`~._layout.HandArrays`), ``lay`` (:class:`~._layout.Layout`), ``opt``
-    (:class:`Options`).  The state: ``x`` (nx) unknowns, ``R`` (3, 3) and ``t`` (3) object
+    (:class:`Options`), ``obj`` (:class:`~._penetration.ObjectArrays`).  The state: ``x`` (nx) unknowns, ``R`` (3, 3) and ``t`` (3) object
     pose [mm]; ``col_scale`` (nx) the problem's column scales ``D^-1``; derived: ``q`` angles, ``Rl``/``rl`` link poses, ``ax``/``org`` joint axes and
     centres, ``f`` (6C) contact rows, ``J`` (6C, nx), ``ph``/``nh``/``po``/``no`` (C, 3)
     contact points and normals, ``err`` (2) largest contact distance and weighted normal
     error [mm].  Saved states: ``keep_*`` (slots ``BEST``, ``REPAIRED``).  The rest is
     scratch: the step (``dx``, ``frozen``, ``A``, ``L``, ``y``, ``Js``, ``rims``), stacked rows
     (``M``, ``Ms``, ``g``), regions (``pt``, ``nr``, ``dpt``, ``dnr``, ``work``), capsules
-    (``ends``, ``half``, ``pa``, ``pb``) and 3-vectors.
+    (``ends``, ``half``, ``pa``, ``pb``), the object's rows (``cut`` pieces of a segment,
+    ``oseg`` points in the object frame) and 3-vectors.
 
     A numba StructRef: every phase takes it as one reference, which keeps the compiled
     functions' signatures -- and so the compilation time -- small."""
@@ -127,18 +130,19 @@ else:  # pragma: no cover - plain Python without numba
 
 
 @njit(cache=True)
-def new_workspace(hand, lay, opt, C, nx):
+def new_workspace(hand, lay, opt, obj, C, nx):
     """A workspace for states of ``C`` contacts and ``nx`` unknowns."""
     n, m = 6 * C, 6 * C + MAX_INEQUALITY_ROWS
     n_dof, n_links, n_caps = lay.dof_free.shape[0], hand.n_links, max(hand.cap_link.shape[0], 1)
     z = np.zeros
     return Workspace(
-        hand, lay, opt,
+        hand, lay, opt, obj,
         z(nx), z(nx), z(nx), z(nx, dtype=np.bool_), z((3, 3)), z(3), z(n_dof), z((n_links, 3, 3)), z((n_links, 3)),
         z((n_dof, 3)), z((n_dof, 3)), z(n), z(n), z((n, nx)), z((m, nx)), z((C, 3)), z((C, 3)), z((C, 3)),
         z((C, 3)), z((m, m)), z((m, m)), z(m), z((2 * C, 3)), z((m, nx)), z((m, nx)), z(m), z(2),
         z((2, nx)), z((2, 3, 3)), z((2, 3)), z((2, 2)), z(3), z(3), z((3, 2)), z((3, 2)),
         z((7, RG.WORK_COLS)), z((2, 3, 3)), z(3), z(3), z(3), z(3), z((n_caps, 2, 3)), z(n_caps),
+        z((2, C + 2, 2)), z((7, 3)),
     )  # fmt: skip
 
 
@@ -359,8 +363,8 @@ def _repair_step(ws, n_rows):
 
 @njit(cache=True)
 def repair(ws, data):
-    """Out of self-collision: Gauss-Newton on the contact rows and the inequality rows of
-    pairs closer than the margin.  ``(STRICT, WITHIN_DMIN or COLLIDING, iterations)``."""
+    """Out of collision: Gauss-Newton on the contact rows and the inequality rows of
+    capsule pairs and capsules (against the object) closer than the margin.  ``(STRICT, WITHIN_DMIN or COLLIDING, iterations)``."""
     opt = ws.opt
     n = 6 * ws.lay.sides.shape[0]
     prev, slow, cmin, rk = 1e300, 0, -1.0, 0
@@ -419,10 +423,11 @@ def solve_state(x0, ws, data):
 
 
 @njit(cache=True)
-def run_states(problem, x0, pdata, hand, lay, opt, out):
+def run_states(problem, x0, pdata, hand, lay, opt, obj, out):
     """Solve state ``s`` from unknowns ``x0[s]`` on problem ``problem[s]`` (its row of
-    ``pdata``), for every ``s``; results in ``out`` (:class:`Outputs`)."""
-    ws = new_workspace(hand, lay, opt, lay.sides.shape[0], x0.shape[1])
+    ``pdata``), for every ``s``; results in ``out`` (:class:`Outputs`).  ``obj``: the
+    object's solid (:class:`~._penetration.ObjectArrays`, inactive without one)."""
+    ws = new_workspace(hand, lay, opt, obj, lay.sides.shape[0], x0.shape[1])
     for s in range(problem.shape[0]):
         data = pdata[problem[s]]
         code, k, n_pol, n_rep = solve_state(x0[s], ws, data)
@@ -434,15 +439,38 @@ def run_states(problem, x0, pdata, hand, lay, opt, out):
 
 
 @njit(cache=True)
-def residual_at(x, R, t, data, hand, lay, opt, f, J):
-    """Contact rows ``f`` (6C) and their Jacobian ``J`` (6C, nx) at unknowns ``x`` and object
-    pose ``(R, t)`` of one problem (its ``data`` row): for tests and the baseline."""
-    ws = new_workspace(hand, lay, opt, lay.sides.shape[0], x.shape[0])
+def _state_at(x, R, t, data, model):
+    """A workspace posed at unknowns ``x`` and object pose ``(R, t)`` of one problem, its
+    contact rows computed; ``model = (hand, lay, opt, obj)``."""
+    hand, lay, opt, obj = model
+    ws = new_workspace(hand, lay, opt, obj, lay.sides.shape[0], x.shape[0])
     copy(lay.col_scale, ws.col_scale)
     copy(x, ws.x)
     copy(R, ws.R)
     copy(t, ws.t)
     pose_hand(ws)
     contact_rows(ws, data, True)
+    return ws
+
+
+@njit(cache=True)
+def residual_at(x, R, t, data, model, f, J):
+    """Contact rows ``f`` (6C) and their Jacobian ``J`` (6C, nx) at unknowns ``x`` and object
+    pose ``(R, t)`` of one problem (its ``data`` row), ``model = (hand, lay, opt, obj)``:
+    for tests and the baseline."""
+    ws = _state_at(x, R, t, data, model)
     copy(ws.f, f)
     copy(ws.J, J)
+
+
+@njit(cache=True)
+def penetration_at(x, R, t, data, model, margin, g, M):
+    """The object's penetration rows (:func:`._penetration.object_rows`) at a state, as
+    :func:`residual_at`: values ``g`` and Jacobian ``M`` of at most ``len(g)`` rows; returns
+    ``(rows written, smallest value seen)``.  For tests."""
+    ws = _state_at(x, R, t, data, model)
+    place_capsules(ws)
+    n, vmin = object_rows(ws, data, margin, 0, min(g.shape[0], ws.g.shape[0]))
+    copy(ws.g[:n], g[:n])
+    copy(ws.M[:n], M[:n])
+    return n, vmin

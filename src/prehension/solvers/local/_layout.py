@@ -32,6 +32,7 @@ from ...geometry.regions import Region, SphereCap
 from ...hands.collision import collision_pairs
 from ...hands.model import Hand
 from . import _regions as RG
+from ._penetration import NO_OBJECT, ObjectArrays
 
 __all__ = ["HandArrays", "hand_arrays", "Layout", "Group", "build_group", "SIDE_COLUMNS"]
 
@@ -187,6 +188,9 @@ class Group:
         contacts: per contact its :class:`ContactSpec`.
         pose_names: per unknown, its name in an initial-pose sequence, or ``None``.
         x_default: (nx,) initial unknowns where the sequence says nothing.
+        obj: the object's solid as the kernel reads it (:class:`._penetration.ObjectArrays`;
+            inactive for point problems and objects that do not collide).  The problems
+            of a group share it (:func:`.problems.structure_key`).
     """
 
     hand: Hand
@@ -197,6 +201,7 @@ class Group:
     contacts: tuple[ContactSpec, ...]
     pose_names: tuple
     x_default: np.ndarray
+    obj: ObjectArrays = NO_OBJECT
 
     @property
     def n_problems(self) -> int:
@@ -213,7 +218,7 @@ class Group:
     def with_data(self, pdata: np.ndarray) -> "Group":
         """The same group for other problems of the same structure."""
         return Group(self.hand, self.arrays, self.layout, np.ascontiguousarray(pdata, dtype=float), self.free,
-                     self.contacts, self.pose_names, self.x_default)  # fmt: skip
+                     self.contacts, self.pose_names, self.x_default, self.obj)  # fmt: skip
 
     def q_of(self, x: np.ndarray) -> np.ndarray:
         """Every joint angle (S, n_dof) [rad] from unknowns ``x (S, nx)``."""

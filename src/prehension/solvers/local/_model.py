@@ -13,11 +13,14 @@ Rows (all in mm):
 * **contact rows** (:func:`contact_rows`), six per contact: ``p_h - p_o`` (hand point
   minus object point) and ``w_n (n_h + n_o)`` (the outward normals opposed), the paper's
   fingertip-centre rows ``r = p - rho n`` recombined, with their Jacobian;
-* **inequality rows** (:func:`inequality_rows`): ``clearance - margin`` of every pair
-  closer than ``margin``, with its Jacobian, for the repair phase.  Today one kind,
-  self-collision of capsule pairs (:func:`self_collision_rows`); a new kind (e.g.
-  hand-object penetration) is one more function with the same signature, called from
-  :func:`inequality_rows`, its data in a NamedTuple beside :class:`._layout.HandArrays`.
+* **inequality rows** (:func:`inequality_rows`): ``value - margin`` of every pair
+  closer than ``margin``, with its Jacobian, for the repair phase.  Two kinds:
+  self-collision of capsule pairs (:func:`self_collision_rows`, value the clearance) and
+  hand-object penetration (:func:`._penetration.object_rows`, value ``sd - r`` of a
+  capsule against the object's solid, its data ``ws.obj`` an
+  :class:`._penetration.ObjectArrays`); a new kind is one more function with the same
+  signature, called from :func:`inequality_rows`, its data in a NamedTuple beside
+  :class:`._layout.HandArrays`.
 """
 
 from __future__ import annotations
@@ -31,6 +34,7 @@ from . import _regions as RG
 from ._jit import njit
 from ._layout import S_K, S_KIND, S_OFF, S_X
 from ._linalg import cross, dot, fill, mat_mat, mat_vec, rot
+from ._penetration import object_rows
 
 __all__ = ["pose_hand", "contact_rows", "contact_errors", "inequality_rows", "move", "project_all", "initial_pose"]
 
@@ -175,7 +179,7 @@ def contact_errors(f, C, err):
 
 # -- inequality rows -------------------------------------------------------------------------
 @njit(cache=True)
-def _place_capsules(ws):
+def place_capsules(ws):
     """Capsule ends (palm frame) and bounding-sphere radii of the state's hand."""
     hand = ws.hand
     for s in range(hand.cap_link.shape[0]):
@@ -228,9 +232,8 @@ def self_collision_rows(ws, margin, row0, max_rows):
     """Rows ``clearance - margin`` of capsule pairs closer than ``margin`` [mm] into
     ``ws.M``, ``ws.g``, at most ``max_rows`` from ``row0`` (none when ``max_rows`` is 0);
     ``(rows written, smallest clearance seen)`` -- pairs skipped by the broad phase are
-    farther than ``margin``."""
+    farther than ``margin``.  The capsules must be placed (:func:`place_capsules`)."""
     hand = ws.hand
-    _place_capsules(ws)
     nrows, cmin = 0, 1e300
     fs, ss = hand.pair_first, hand.pair_second
     for grp in range(hand.group_start.shape[0] - 1):
@@ -258,8 +261,12 @@ def self_collision_rows(ws, margin, row0, max_rows):
 def inequality_rows(ws, data, margin, row0, max_rows):
     """Every inequality row ``value - margin`` (wanted >= 0) closer than ``margin``, into
     ``ws.M``/``ws.g`` from ``row0``; see the module docstring.  Returns ``(rows written,
-    smallest value seen)``."""
-    return self_collision_rows(ws, margin, row0, max_rows)
+    smallest value seen)``.  The contact rows must be current (the pads of the contacts
+    are excepted from the object's rows)."""
+    place_capsules(ws)
+    n_self, v_self = self_collision_rows(ws, margin, row0, max_rows)
+    n_obj, v_obj = object_rows(ws, data, margin, row0 + n_self, max_rows - n_self)
+    return n_self + n_obj, min(v_self, v_obj)
 
 
 # -- moving a state --------------------------------------------------------------------------

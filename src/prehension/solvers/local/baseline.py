@@ -32,11 +32,12 @@ __all__ = ["least_squares_batch"]
 
 
 @njit(cache=True)
-def _fun_jac(z, R0, cp0, data, hand, lay, opt, out):
+def _fun_jac(z, R0, cp0, data, model, out):
     """Residual and exact Jacobian at ``z`` where the twist entries are a rotation vector
     ``w`` and a shift ``v`` of the pivot from the initial pose ``(R0, pivot cp0)``.
-    ``out = (f, J, R, t)``."""
+    ``model = (hand, lay, opt, obj)``, ``out = (f, J, R, t)``."""
     f, J, R, t = out
+    lay = model[1]
     nf = lay.nf
     piv = data[lay.pivot_offset : lay.pivot_offset + 3]
     w0, w1, w2 = z[nf], z[nf + 1], z[nf + 2]
@@ -49,7 +50,7 @@ def _fun_jac(z, R0, cp0, data, hand, lay, opt, out):
     mat_vec(R, piv, pv)
     for i in range(3):
         t[i] = cp0[i] + z[nf + 3 + i] - pv[i]
-    K.residual_at(z, R, t, data, hand, lay, opt, f, J)
+    K.residual_at(z, R, t, data, model, f, J)
     # the kernel's twist columns are derivatives along a left increment; d Rot(w) = [J_l(w) dw]x Rot(w)
     Jl = np.eye(3)
     if th > 1e-12:
@@ -115,7 +116,7 @@ def least_squares_batch(
                 key = z.tobytes()
                 if key not in cache:
                     cache.clear()
-                    _fun_jac(z, R0, cp0, data, group.arrays, group.layout, kopt, buffers)
+                    _fun_jac(z, R0, cp0, data, (group.arrays, group.layout, kopt, group.obj), buffers)
                     cache[key] = tuple(b.copy() for b in buffers)
                 return cache[key]
 

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import weakref
 from collections import OrderedDict
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Mapping
 
 import numpy as np
@@ -32,6 +32,7 @@ from ...objects.model import GraspObject
 from ...tasks.model import Contact, Task
 from . import _regions as RG
 from ._layout import Group, build_group, hand_arrays
+from ._penetration import NO_OBJECT, ObjectArrays
 
 __all__ = ["PointProblems", "random_point_problems", "SA_FOUR_TIPS", "group_from_tasks", "structure_key"]
 
@@ -260,10 +261,11 @@ _TEMPLATES_KEPT = 32
 
 def structure_key(task: Task) -> tuple:
     """Tasks with equal keys share one group: same hand (kinematics, capsules, and name: its
-    shipped sequence), moving angles, and per contact the region kinds and everything the
+    shipped sequence), moving angles, per contact the region kinds and everything the
     layout takes from a group's first task -- the regions' sizes (the scales of their
-    parameters) and their parameters' boxes -- so that a task's answer does not depend on
-    the other tasks of its batch; see :mod:`._layout`.  Computed once per task object."""
+    parameters) and their parameters' boxes --, and the same colliding solid (or none), so
+    that a task's answer does not depend on the other tasks of its batch; see
+    :mod:`._layout`.  Computed once per task object."""
     key = _KEYS.get(task)
     if key is None:
         per_contact = []
@@ -271,8 +273,9 @@ def structure_key(task: Task) -> tuple:
             h, o = task.hand_region(c), task.object_region(c)
             boxes = tuple(np.concatenate(RG.unknown_box(r)[:2]).tobytes() for r in (h.region, o))
             per_contact.append((h.link, RG.code(h.region)[:3], RG.code(o)[:3], RG.size(h.region), RG.size(o), boxes))
+        solid = id(task.object.distance) if task.object.collides else None  # the task holds it: the id stays its own
         key = (hand_arrays(task.hand)[1], task.hand.name, tuple(task.fingers), task.active_mask.tobytes(),
-               task.idle_vector.tobytes(), tuple(per_contact))  # fmt: skip
+               task.idle_vector.tobytes(), tuple(per_contact), solid)  # fmt: skip
         _KEYS[task] = key
     return key
 
@@ -289,11 +292,27 @@ def _task_row(task: Task) -> np.ndarray:
     return np.concatenate(blocks + [piv, [np.max(np.linalg.norm(refs - piv, axis=1))]])
 
 
+def object_arrays(task: Task) -> ObjectArrays:
+    """The kernel's view of the task's solid (:class:`._penetration.ObjectArrays`): the
+    capsules of the links that move with the task are checked (idle fingers are cleared by
+    :func:`~prehension.tasks.idle.settle_idle_fingers`), each contact's pad excepted as
+    :mod:`prehension.tasks.object_collision` does; inactive when the object does not collide."""
+    from ...hands.collision import collision_pairs
+    from ...tasks.object_collision import SAMPLE_MM, moving_links, pad_radius
+
+    if not task.object.collides:
+        return NO_OBJECT
+    checked = np.isin(collision_pairs(task.hand).link, moving_links(task))
+    pads = np.array([pad_radius(task, task.hand_region(c)) for c in task.contacts], dtype=float)
+    return ObjectArrays(task.object.distance.arrays, True, checked.astype(np.bool_), pads, float(SAMPLE_MM))
+
+
 def group_from_tasks(tasks, joint_scale_mm: float = 40.0) -> Group:
     """The kernel's arrays for tasks that share one structure (see :func:`structure_key`).
 
     The layout of a structure is built once and kept (the last few structures, with the
-    hand object they were built for); only the tasks' data rows are new.
+    hand object they were built for); only the tasks' data rows and the object's solid
+    (:func:`object_arrays`) are new.
     """
     tasks = list(tasks)
     first = tasks[0]
@@ -307,7 +326,7 @@ def group_from_tasks(tasks, joint_scale_mm: float = 40.0) -> Group:
     template = _TEMPLATES.get(shape)
     if template is not None and template.hand is first.hand:
         _TEMPLATES.move_to_end(shape)
-        return template.with_data(rows)
+        return replace(template.with_data(rows), obj=object_arrays(first))
     group = build_group(
         first.hand, first.active_mask, first.idle_vector, [c.name for c in first.contacts],
         [(first.hand_region(c).link, first.hand_region(c).region) for c in first.contacts],
@@ -317,4 +336,4 @@ def group_from_tasks(tasks, joint_scale_mm: float = 40.0) -> Group:
     _TEMPLATES[shape] = group
     while len(_TEMPLATES) > _TEMPLATES_KEPT:
         _TEMPLATES.popitem(last=False)
-    return group
+    return replace(group, obj=object_arrays(first))

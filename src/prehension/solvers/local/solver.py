@@ -331,7 +331,7 @@ def run_kernel(group: Group, problem: np.ndarray, x0: np.ndarray, options: Local
     out = K.Outputs.allocate(len(problem), group.nx)
     if len(problem):
         K.run_states(np.asarray(problem, dtype=np.int64), np.ascontiguousarray(x0, dtype=float), group.pdata,
-                     group.arrays, group.layout, options.kernel_options(), out)  # fmt: skip
+                     group.arrays, group.layout, options.kernel_options(), group.obj, out)  # fmt: skip
     return out
 
 

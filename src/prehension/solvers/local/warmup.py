@@ -13,9 +13,9 @@ import time
 
 __all__ = ["compile_pending", "warm_up", "COMPILING_MESSAGE"]
 
-#: What a front end prints before a first, compiling run (measured: about a minute of CPU on
-#: the 2-core development machine, see docs/local-solver.md).
-COMPILING_MESSAGE = "compiling the local solver once (about a minute); later runs start at once"
+#: What a front end prints before a first, compiling run (measured: 74-80 s of CPU, 100-106 s
+#: of wall time on the loaded 2-core development machine, see docs/local-solver.md).
+COMPILING_MESSAGE = "compiling the local solver once (one to two minutes); later runs start at once"
 
 
 def _entry_points():

@@ -1,0 +1,213 @@
+"""Hand-object penetration rows of the kernel: each checked capsule against the object's solid.
+
+The kernel's second kind of inequality row (the first is self-collision, in
+:mod:`._model`).  For each capsule (segment ``a``-``b``, radius ``r``) of the links that
+move with the task (the palm and the fingers taking part; idle fingers are cleared
+afterwards by :func:`~prehension.tasks.idle.settle_idle_fingers`), its **value** is
+
+    ``min over the kept pieces of the segment of (sd - r)``  [mm], wanted ``>= 0``,
+
+where ``sd`` is the signed distance to the surface (negative inside), and the kept pieces
+are those of :func:`prehension.tasks.object_collision._kept_pieces`: the parts of the
+segment outside the ball of radius ``r + rho`` around each contact point of the capsule's
+link (``rho`` the contact's pad radius).  So ``max(0, -value)`` is exactly the depth the
+one residual function reports for that capsule (:func:`~prehension.objects.distance.capsule_depths`:
+the exact segment distance when the piece is outside the solid, else the deepest of
+samples ``step`` mm apart), and the kernel and the residual function agree on what counts.
+
+**Its gradient.**  With the closest pair ``(p, s)`` -- ``p`` on the segment (fixed on the
+link), ``s`` on the surface (fixed on the object) -- and ``n`` the outward unit normal
+``(p - s) / sd``, a motion changes the value by ``n . (dp - ds)``: joint columns
+``n . (w_d x (p - o_d))`` for the angles that move the link, twist columns ``-(s - c) x n``
+(rotation about the pivot ``c``) and ``-n`` (translation).  The pad cut's ends are held
+fixed on the link (their sliding along the segment as the contact point moves is
+neglected, a second-order effect near a contact).  ``tests/test_object_kernel.py`` checks
+the rows against finite differences.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from ...objects.distance import MeshArrays, empty_mesh_arrays, segment_min_sd
+from ._jit import njit
+from ._linalg import cross, mat_vec
+
+__all__ = ["ObjectArrays", "NO_OBJECT", "object_rows"]
+
+
+class ObjectArrays(NamedTuple):
+    """The object's solid as the kernel reads it (one per group).
+
+    ``mesh`` (:class:`~prehension.objects.distance.MeshArrays`, object frame, mm);
+    ``active``: whether rows are made (a task whose object collides); ``checked``
+    (n_caps,) bool: the capsules checked (links that move with the task); ``pad`` (C,)
+    each contact's pad radius [mm]; ``step``: spacing of the depth samples of a piece
+    that reaches inside [mm] (the residual function's
+    :data:`~prehension.tasks.object_collision.SAMPLE_MM`).
+    """
+
+    mesh: MeshArrays
+    active: bool
+    checked: np.ndarray
+    pad: np.ndarray
+    step: float
+
+
+def no_object(n_contacts: int = 0) -> ObjectArrays:
+    """An inactive :class:`ObjectArrays` (same numba type): no rows are made."""
+    return ObjectArrays(empty_mesh_arrays(), False, np.zeros(0, dtype=np.bool_), np.zeros(n_contacts), 0.25)
+
+
+NO_OBJECT = no_object()
+
+
+# -- one capsule -----------------------------------------------------------------------------
+@njit(cache=True)
+def _cut(ws, s, cut):
+    """The pieces of capsule ``s``'s segment outside its link's pad balls, as parameter
+    intervals ``cut[0, :n]`` of ``[0, 1]`` (``_kept_pieces``); returns ``n``."""
+    lay, obj = ws.lay, ws.obj
+    a, b = ws.ends[s, 0], ws.ends[s, 1]
+    dd = (b[0] - a[0]) ** 2 + (b[1] - a[1]) ** 2 + (b[2] - a[2]) ** 2
+    cut[0, 0, 0], cut[0, 0, 1] = 0.0, 1.0
+    n = 1
+    for c in range(lay.link.shape[0]):
+        if lay.link[c] != ws.hand.cap_link[s]:
+            continue
+        R = ws.hand.cap_radius[s] + obj.pad[c]
+        ff = fd = 0.0
+        for i in range(3):
+            f = a[i] - ws.ph[c, i]
+            ff += f * f
+            fd += f * (b[i] - a[i])
+        if dd <= 1e-18:
+            lo, hi = (0.0, 1.0) if ff < R * R else (1.0, 0.0)
+        else:
+            bq, cq = fd / dd, (ff - R * R) / dd
+            disc = bq * bq - cq
+            if disc <= 0.0:
+                continue
+            lo, hi = -bq - math.sqrt(disc), -bq + math.sqrt(disc)
+        m = 0
+        for k in range(n):
+            s0, e0 = cut[0, k, 0], cut[0, k, 1]
+            if min(e0, lo) > s0:
+                cut[1, m, 0], cut[1, m, 1], m = s0, min(e0, lo), m + 1
+            if e0 > max(s0, hi):
+                cut[1, m, 0], cut[1, m, 1], m = max(s0, hi), e0, m + 1
+        for k in range(m):
+            cut[0, k, 0], cut[0, k, 1] = cut[1, k, 0], cut[1, k, 1]
+        n = m
+    return n
+
+
+@njit(cache=True)
+def _piece_end(ws, s, u, out):
+    """Point ``u`` in [0, 1] of capsule ``s``'s segment, in the object frame: ``R^T (p - t)``."""
+    for i in range(3):
+        ws.vec[i] = ws.ends[s, 0, i] + u * (ws.ends[s, 1, i] - ws.ends[s, 0, i]) - ws.t[i]
+    for i in range(3):
+        out[i] = ws.R[0, i] * ws.vec[0] + ws.R[1, i] * ws.vec[1] + ws.R[2, i] * ws.vec[2]
+
+
+@njit(cache=True)
+def _capsule_value(ws, s, best, reach):
+    """Capsule ``s``'s value ``min (sd - r)`` over its kept pieces [mm] (``1e300`` when
+    the pads cover it; at least ``reach`` is all that is known of a capsule whose value is
+    at least ``reach``), with the worst piece's pair (object frame) in ``best (2, 3)`` and
+    that pair's distance [mm] (0: no direction) second."""
+    obj, oseg = ws.obj, ws.oseg
+    value = 1e300
+    for k in range(_cut(ws, s, ws.cut)):
+        _piece_end(ws, s, ws.cut[0, k, 0], oseg[0])
+        _piece_end(ws, s, ws.cut[0, k, 1], oseg[1])
+        sd = segment_min_sd(obj.mesh, oseg[0], oseg[1], obj.step, oseg[2:4], ws.hand.cap_radius[s] + reach)
+        if sd - ws.hand.cap_radius[s] >= reach:
+            value = min(value, reach)  # no row: farther than the reach
+            continue
+        if sd - ws.hand.cap_radius[s] < value:
+            value = sd - ws.hand.cap_radius[s]
+            best[0] = oseg[2]
+            best[1] = oseg[3]
+    gap = 0.0
+    if value < 1e299:
+        gap = math.sqrt((best[0, 0] - best[1, 0]) ** 2 + (best[0, 1] - best[1, 1]) ** 2 + (best[0, 2] - best[1, 2]) ** 2)
+    return value, gap
+
+
+@njit(cache=True)
+def _far_from_object(ws, s, margin):
+    """Broad phase: capsule ``s``'s bounding sphere is farther than ``margin`` from the
+    mesh's bounding box."""
+    m = ws.obj.mesh
+    _piece_end(ws, s, 0.5, ws.oseg[4])
+    d2 = 0.0
+    for i in range(3):
+        p = ws.oseg[4, i]
+        d2 += max(m.node_lo[0, i] - p, 0.0, p - m.node_hi[0, i]) ** 2
+    return math.sqrt(d2) >= ws.half[s] + margin
+
+
+# -- the row ---------------------------------------------------------------------------------
+@njit(cache=True)
+def _penetration_row(ws, data, s, outward, row):
+    """Row ``row`` of ``ws.M``: the gradient of capsule ``s``'s value in ``x`` at the pair
+    ``ws.oseg[5:7]`` (object frame): ``outward`` is +1 when the segment's point is outside
+    (the outward normal points from the surface point to it), -1 inside."""
+    hand, lay, M, nf = ws.hand, ws.lay, ws.M, ws.lay.nf
+    n, p, q, cp = ws.pa, ws.pb, ws.tmp[0, 0], ws.tmp[0, 1]
+    gap = math.sqrt((ws.oseg[5, 0] - ws.oseg[6, 0]) ** 2 + (ws.oseg[5, 1] - ws.oseg[6, 1]) ** 2 + (ws.oseg[5, 2] - ws.oseg[6, 2]) ** 2)
+    for i in range(3):
+        ws.vec[i] = outward * (ws.oseg[5, i] - ws.oseg[6, i]) / gap  # outward normal, object frame
+    mat_vec(ws.R, ws.vec, n)
+    mat_vec(ws.R, ws.oseg[5], p)
+    mat_vec(ws.R, ws.oseg[6], q)
+    mat_vec(ws.R, data[lay.pivot_offset : lay.pivot_offset + 3], cp)
+    for i in range(3):
+        p[i] += ws.t[i]
+        q[i] += ws.t[i]
+        cp[i] += ws.t[i]
+    for j in range(M.shape[1]):
+        M[row, j] = 0.0
+    li = hand.cap_link[s]
+    for d in range(lay.dof_free.shape[0]):
+        col = lay.dof_free[d]
+        if col < 0 or not hand.moves[li, d]:
+            continue
+        for i in range(3):
+            ws.vec[i] = p[i] - ws.org[d, i]
+        cross(ws.ax[d], ws.vec, ws.tmp[0, 2])
+        M[row, col] += lay.dof_ratio[d] * (n[0] * ws.tmp[0, 2, 0] + n[1] * ws.tmp[0, 2, 1] + n[2] * ws.tmp[0, 2, 2])
+    for i in range(3):
+        ws.vec[i] = q[i] - cp[i]
+    cross(ws.vec, n, ws.tmp[0, 2])
+    for i in range(3):
+        M[row, nf + i] = -ws.tmp[0, 2, i]
+        M[row, nf + 3 + i] = -n[i]
+
+
+@njit(cache=True)
+def object_rows(ws, data, margin, row0, max_rows):
+    """Rows ``value - margin`` of the checked capsules whose value (see the module
+    docstring) is below ``margin`` [mm], into ``ws.M``, ``ws.g`` from ``row0``, at most
+    ``max_rows``; ``(rows written, smallest value seen)``, a capsule farther than the margin
+    counted as ``margin`` (its distance is searched only up to there).  The capsules must be placed
+    (:func:`._model.place_capsules`) and the contact points ``ws.ph`` current."""
+    obj = ws.obj
+    nrows, vmin = 0, 1e300
+    if not obj.active:
+        return 0, vmin
+    for s in range(ws.hand.cap_link.shape[0]):
+        if not obj.checked[s] or _far_from_object(ws, s, margin):
+            continue
+        value, gap = _capsule_value(ws, s, ws.oseg[5:7], margin)
+        vmin = min(vmin, value)
+        if value < margin and nrows < max_rows and gap > 1e-9:
+            _penetration_row(ws, data, s, 1.0 if value + ws.hand.cap_radius[s] >= 0.0 else -1.0, row0 + nrows)
+            ws.g[row0 + nrows] = value - margin
+            nrows += 1
+    return nrows, vmin

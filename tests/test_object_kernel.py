@@ -1,0 +1,235 @@
+"""The local kernel's hand-object penetration rows (issue 12, phase 2): the closest pair of a
+segment and a mesh, the rows' Jacobian against finite differences, the kernel and the one
+residual function agreeing on each link's depth, and built-in answers free of penetration."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from prehension.hands.collision import collision_pairs
+from prehension.hands.kinematics import forward_kinematics
+from prehension.results import make_solution
+from prehension.solvers.local import LocalOptions, solve_local
+from prehension.solvers.local import _kernel as K
+from prehension.solvers.local._layout import S_K, S_X
+from prehension.solvers.local.problems import group_from_tasks
+from prehension.tasks.library import builtin_task_names, load_builtin_task
+from prehension.tasks.object_collision import link_penetrations, moving_links, pad_exclusions
+
+MARGIN_ALL = 1e4  # a margin that makes a row of every checked capsule [mm]
+
+
+def _blind(task):
+    """The task with its object's collisions switched off."""
+    return dataclasses.replace(task, object=dataclasses.replace(task.object, collisions=False))
+
+
+def _rodrigues(w):
+    th = np.linalg.norm(w)
+    if th == 0.0:
+        return np.eye(3)
+    k = np.array([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]]) / th
+    return np.eye(3) + np.sin(th) * k + (1 - np.cos(th)) * k @ k
+
+
+class _Rows:
+    """The kernel's penetration rows of one task's group, called from Python."""
+
+    def __init__(self, task):
+        self.task = task
+        self.g = group_from_tasks([task])
+        self.data = self.g.pdata[0]
+        self.piv = self.data[self.g.layout.pivot_offset : self.g.layout.pivot_offset + 3]
+        self.model = (self.g.arrays, self.g.layout, LocalOptions().kernel_options(), self.g.obj)
+
+    def rows(self, x, R, t, margin=MARGIN_ALL):
+        n_caps = len(self.g.arrays.cap_link)
+        g, M = np.zeros(n_caps), np.zeros((n_caps, self.g.nx))
+        n, vmin = K.penetration_at(x, R, t, self.data, self.model, margin, g, M)
+        return g[:n].copy(), M[:n].copy(), vmin
+
+    def moved(self, x, R, t, dx):
+        nf = self.g.nf
+        cp = R @ self.piv + t
+        Rn = _rodrigues(dx[nf : nf + 3]) @ R
+        tn = cp + dx[nf + 3 : nf + 6] - Rn @ self.piv
+        keep = (np.arange(self.g.nx) < nf) | (np.arange(self.g.nx) >= nf + 6)
+        return x + np.where(keep, dx, 0.0), Rn, tn
+
+    def state_of(self, config):
+        """Unknowns and object pose of a configuration."""
+        x = self.g.x_default.copy()
+        x[: self.g.nf] = config.joint_angles[list(self.g.free)]
+        for c, (h, o) in enumerate(config.contact_params):
+            (xh, kh), (xo, ko) = self.g.layout.sides[c, 0, [S_X, S_K]], self.g.layout.sides[c, 1, [S_X, S_K]]
+            x[xh : xh + kh], x[xo : xo + ko] = h, o
+        T = config.T_palm_object
+        return x, T[:3, :3].copy(), T[:3, 3].copy()
+
+    def hand_param_columns(self):
+        """Columns of the hand regions' parameters (they move the pad balls, whose cut the
+        rows' Jacobian holds fixed: see ``_penetration``)."""
+        cols = []
+        for side in self.g.layout.sides:
+            cols += list(range(side[0, S_X], side[0, S_X] + side[0, S_K]))
+        return cols
+
+
+def _penetrating_state(name, seed):
+    """A state of the task near a grasp found without the object (these built-ins'
+    collision-blind answers reach into the object), joint angles jittered."""
+    task = load_builtin_task(name)
+    blind = solve_local(_blind(task))
+    assert blind.success, blind.message
+    rows = _Rows(task)
+    x, R, t = rows.state_of(blind.solutions[0].configuration())
+    rng = np.random.default_rng(seed)
+    x[: rows.g.nf] += rng.uniform(-0.05, 0.05, rows.g.nf)
+    return rows, np.clip(x, rows.g.layout.lo, rows.g.layout.hi), R, t
+
+
+def test_segment_closest_pair_is_exact_and_matches_the_segment_distance():
+    distance = load_builtin_task("teapot-service").object.distance
+    rng = np.random.default_rng(3)
+    apart = 0
+    for _ in range(200):
+        a = rng.uniform(-120, 120, 3)
+        b = a + rng.uniform(-30, 30, 3)
+        d, ps, pm = distance.closest_pair(a, b)
+        assert d == pytest.approx(distance.segment_distance(a[None], b[None])[0], abs=1e-9)
+        if d == 0.0:
+            assert ps is None and pm is None
+            continue
+        apart += 1
+        assert np.linalg.norm(ps - pm) == pytest.approx(d, abs=1e-9)
+        assert abs(distance.signed_distance(pm[None])[0]) < 1e-9  # on the surface
+        u = (ps - a) @ (b - a) / ((b - a) @ (b - a))
+        assert -1e-12 <= u <= 1 + 1e-12 and np.linalg.norm(a + u * (b - a) - ps) < 1e-9  # on the segment
+    assert apart > 100
+
+
+@pytest.mark.parametrize("name, seed", [("teapot-lid-lifting", 0), ("teapot-transportation", 1), ("guitar-holding", 2)])
+def test_penetration_rows_jacobian_matches_finite_differences(name, seed):
+    rows, x, R, t = _penetrating_state(name, seed)
+    g, M, _ = rows.rows(x, R, t)
+    assert len(g) >= 3
+    h = 1e-6
+    Mn = np.zeros_like(M)
+    for k in range(rows.g.nx):
+        e = np.zeros(rows.g.nx)
+        e[k] = h
+        gp, gm = rows.rows(*rows.moved(x, R, t, e))[0], rows.rows(*rows.moved(x, R, t, -e))[0]
+        assert len(gp) == len(gm) == len(g)
+        Mn[:, k] = (gp - gm) / (2 * h)
+    hand_cols = rows.hand_param_columns()
+    assert np.all(M[:, hand_cols] == 0.0)
+    Mn[:, hand_cols] = 0.0  # the pad cut follows the hand point: held fixed by the rows
+    np.testing.assert_allclose(M, Mn, atol=1e-5 * max(1.0, np.abs(M).max()))
+
+
+def test_penetration_rows_cover_inside_and_outside_capsules():
+    values = []
+    for name, seed in [("teapot-lid-lifting", 0), ("teapot-transportation", 1), ("guitar-holding", 2)]:
+        rows, x, R, t = _penetrating_state(name, seed)
+        values += list(rows.rows(x, R, t)[0] + MARGIN_ALL)
+    assert min(values) < -1.0 and max(values) > 1.0  # reaching in, and clear
+
+
+@pytest.mark.parametrize("name, seed", [("teapot-lid-lifting", 3), ("guitar-holding", 4), ("guitar-playing", 5)])
+def test_kernel_and_residual_function_agree_on_the_depth(name, seed):
+    rows, x, R, t = _penetrating_state(name, seed)
+    task = rows.task
+    _, _, vmin = rows.rows(x, R, t)
+    q = rows.g.q_of(x)[0]
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = R, t
+    pose = forward_kinematics(task.hand, q[None])
+    # the hand points of the contacts (object frame), as make_solution passes them
+    params = [(h[0], o[0]) for h, o in rows.g.params_of(x)]
+    points = []
+    for c, (hp, _) in enumerate(params):
+        hr = task.hand_region(task.contacts[c])
+        p_link, _ = hr.region.evaluate(np.reshape(hp, (1, -1)))
+        p_palm = pose.points(task.hand.link_index(hr.link), p_link)[0]
+        points.append((p_palm - t) @ R)
+    assert len(pad_exclusions(task, points)) == len(task.contacts)
+    depths = link_penetrations(task, pose, T, points, moving_links(task))
+    assert max(0.0, -vmin) == pytest.approx(max(depths.values()), abs=1e-9)
+
+
+def _capsule_samples_depth(task, config, contact_points_object, n=41):
+    """Largest penetration [mm] of points sampled along each capsule of the hand (idle
+    fingers too) against the mesh's signed distance (``r - sd``), the pads excepted as the
+    residual function does; independent of the kernel's and the residual's segment code."""
+    shapes = collision_pairs(task.hand)
+    pose = forward_kinematics(task.hand, np.asarray(config.joint_angles)[None])
+    T = config.T_palm_object
+    pads = pad_exclusions(task, contact_points_object)
+    worst = 0.0
+    u = np.linspace(0.0, 1.0, n)[:, None]
+    for s, li in enumerate(shapes.link):
+        a = pose.points(li, shapes.a[s][None])[0]
+        b = pose.points(li, shapes.b[s][None])[0]
+        pts = ((a + u * (b - a)) - T[:3, 3]) @ T[:3, :3]
+        keep = np.ones(n, dtype=bool)
+        for link, centre, rho in pads:
+            if link == li:
+                keep &= np.linalg.norm(pts - centre, axis=1) >= shapes.radius[s] + rho
+        if keep.any():
+            sd = task.object.distance.signed_distance(pts[keep])
+            worst = max(worst, float(np.max(shapes.radius[s] - sd)))
+    return worst
+
+
+@pytest.mark.parametrize("name", builtin_task_names())
+def test_every_builtin_answer_is_free_of_penetration(name):
+    task = load_builtin_task(name)
+    assert task.object.collides  # collisions are on for every built-in task
+    result = solve_local(task)
+    assert result.success, result.message
+    sol = result.solutions[0]
+    report = make_solution(task, sol.configuration()).report
+    assert report.worst("object_collision") <= 0.5
+    points = [np.asarray(p) for p in _hand_points_object(task, sol.configuration())]
+    assert _capsule_samples_depth(task, sol.configuration(), points) <= 0.5
+
+
+def _hand_points_object(task, config):
+    pose = forward_kinematics(task.hand, np.asarray(config.joint_angles)[None])
+    T = config.T_palm_object
+    out = []
+    for c, (hp, _) in zip(task.contacts, config.contact_params):
+        hr = task.hand_region(c)
+        p_link, _ = hr.region.evaluate(np.reshape(hp, (1, -1)))
+        out.append((pose.points(task.hand.link_index(hr.link), p_link)[0] - T[:3, 3]) @ T[:3, :3])
+    return out
+
+
+@pytest.mark.parametrize("name", ["teapot-service", "guitar-tuning"])
+def test_segment_min_sd_equals_the_smallest_of_every_sample(name):
+    from prehension.objects.distance import segment_min_sd
+
+    distance = load_builtin_task(name).object.distance
+    lo, hi = distance.arrays.node_lo[0], distance.arrays.node_hi[0]
+    rng = np.random.default_rng(5)
+    inside = 0
+    for _ in range(60):
+        a = rng.uniform(lo, hi)
+        b = a + rng.uniform(-40, 40, 3)
+        pair = np.empty((2, 3))
+        got = segment_min_sd(distance.arrays, a, b, 0.25, pair, np.inf)
+        k = int(np.linalg.norm(b - a) / 0.25 + 0.5) + 2
+        samples = a + np.linspace(0.0, 1.0, k)[:, None] * (b - a)
+        sd = distance.signed_distance(samples)
+        d = distance.segment_distance(a[None], b[None])[0]
+        if d > 0 and sd[0] > 0:
+            assert got == pytest.approx(d, abs=1e-12)  # outside: the exact distance
+            continue
+        inside += 1
+        assert got == pytest.approx(sd.min(), abs=1e-9)  # every sample's minimum, though most were not measured
+        assert np.linalg.norm(pair[0] - samples[np.argmin(sd)]) < 1e-9
+        assert distance.signed_distance(pair[0][None])[0] == pytest.approx(got, abs=1e-9)
+    assert inside >= 20
