@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 from fk_tasks import build_fk_case
 from prehension.errors import PrehensionError
@@ -34,11 +35,8 @@ DEG = np.pi / 180.0
 
 # -- helpers: the kernel's residual at a state ----------------------------------------------
 def _rodrigues(w):
-    th = np.linalg.norm(w)
-    if th == 0.0:
-        return np.eye(3)
-    k = np.array([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]]) / th
-    return np.eye(3) + np.sin(th) * k + (1 - np.cos(th)) * k @ k
+    """The rotation of the rotation vector ``w`` (scipy's, independent of the kernel's)."""
+    return Rotation.from_rotvec(w).as_matrix()
 
 
 class _State:

@@ -8,6 +8,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 from prehension.hands.collision import collision_pairs
 from prehension.hands.kinematics import forward_kinematics
@@ -28,11 +29,8 @@ def _blind(task):
 
 
 def _rodrigues(w):
-    th = np.linalg.norm(w)
-    if th == 0.0:
-        return np.eye(3)
-    k = np.array([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]]) / th
-    return np.eye(3) + np.sin(th) * k + (1 - np.cos(th)) * k @ k
+    """The rotation of the rotation vector ``w`` (scipy's, independent of the kernel's)."""
+    return Rotation.from_rotvec(w).as_matrix()
 
 
 class _Rows:
