@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -75,14 +76,14 @@ def test_shrinking_a_box_around_a_known_solution_keeps_it(sa_hand, seed):
 
 
 def test_time_limit_gives_up_and_checkpoint_resumes(tmp_path):
-    task = pincer_task(50.0)  # infeasible, needs tens of boxes
+    task = pincer_task(50.0)  # infeasible, needs tens of boxes (without the pair test, which proves it at once)
     ckpt = tmp_path / "search.json"
-    first = solve_complete(task, BranchAndPruneOptions(max_boxes=3), checkpoint=ckpt)
+    first = solve_complete(task, BranchAndPruneOptions(max_boxes=3, pair_test_boxes=0), checkpoint=ckpt)
     assert first.status == Status.GAVE_UP and "box limit" in first.message and str(ckpt) in first.message
     saved = json.loads(ckpt.read_text())
     assert saved["open"] and saved["boxes"] == 3
     assert saved["search"]["task"] and saved["search"]["options"]  # bound to its task and options
-    resumed = solve_complete(task, FAST, checkpoint=ckpt, resume=True)
+    resumed = solve_complete(task, replace(FAST, pair_test_boxes=0), checkpoint=ckpt, resume=True)
     assert resumed.status == Status.INFEASIBLE
     assert resumed.stats["boxes"] > 3  # counted from where the first run stopped
 
@@ -112,6 +113,21 @@ def test_all_solutions_mode_reports_each_solution_in_its_own_box():
         assert make_solution(result.task, solution.configuration()) is not None
 
 
+def test_all_solutions_mode_stops_at_its_default_box_budget_with_a_cover(monkeypatch):
+    from prehension.solvers.complete import search
+
+    monkeypatch.setattr(search, "ALL_SOLUTIONS_MAX_BOXES", 12)
+    options = BranchAndPruneOptions(sigma=0.3, order="breadth", all_solutions=True)
+    result = solve_complete(pincer_task(30.0), options)
+    assert result.stats["boxes"] == 12 and result.stats["open_boxes"] > 0
+    assert "partial description" in result.message and "default of the solution-set mode" in result.message
+    assert result.stats["open_box_solutions"] <= result.stats["open_boxes"]
+    for solution in result.solutions:
+        assert make_solution(result.task, solution.configuration()) is not None
+    explicit = solve_complete(pincer_task(30.0), replace(options, max_boxes=20))  # an explicit limit wins
+    assert explicit.stats["boxes"] == 20
+
+
 def test_workers_visit_the_same_boxes_as_one_process():
     """Outcomes are taken in one-process order: any executor gives the same search."""
     task = pincer_task(50.0)
@@ -138,7 +154,7 @@ def test_solutions_found_before_a_stop_survive_the_resume(tmp_path):
     ckpt = tmp_path / "all.json"
     first = solve_complete(pincer_task(30.0), BranchAndPruneOptions(max_boxes=26, **options), checkpoint=ckpt)
     assert first.solutions and first.stats["open_boxes"] > 0  # stopped with a solution in hand
-    assert len(first.solutions) < len(whole.solutions)
+    assert len(first.solutions) - first.stats["open_box_solutions"] < len(whole.solutions)
     resumed = solve_complete(pincer_task(30.0), BranchAndPruneOptions(**options), checkpoint=ckpt, resume=True)
     assert resumed.stats["boxes"] == whole.stats["boxes"]
     assert len(resumed.solutions) == len(whole.solutions) >= 1
@@ -178,18 +194,18 @@ def test_a_checkpoint_of_another_task_is_refused(tmp_path):
 def test_a_checkpoint_resumed_with_other_options_is_refused_and_same_options_resume(tmp_path):
     from prehension.errors import PrehensionError
 
-    task = pincer_task(50.0)
+    task = pincer_task(50.0)  # searched box by box: without the pair test
     ckpt = tmp_path / "search.json"
-    solve_complete(task, BranchAndPruneOptions(max_boxes=2), checkpoint=ckpt)
+    solve_complete(task, BranchAndPruneOptions(max_boxes=2, pair_test_boxes=0), checkpoint=ckpt)
     with pytest.raises(PrehensionError, match=r"other search options \(sigma 0.1 -> 0.05\)"):
-        solve_complete(task, BranchAndPruneOptions(sigma=0.05), checkpoint=ckpt, resume=True)
+        solve_complete(task, BranchAndPruneOptions(sigma=0.05, pair_test_boxes=0), checkpoint=ckpt, resume=True)
     with pytest.raises(PrehensionError, match=r"shrink.rho 0.9 -> 0.5; verify_starts 8 -> 2"):
-        solve_complete(task, BranchAndPruneOptions(shrink=ShrinkOptions(rho=0.5), verify_starts=2),
+        solve_complete(task, BranchAndPruneOptions(shrink=ShrinkOptions(rho=0.5), verify_starts=2, pair_test_boxes=0),
                        checkpoint=ckpt, resume=True)  # fmt: skip
     with pytest.raises(PrehensionError, match=r"tolerances.contact_mm 1e-06 -> 0.001"):
-        solve_complete(task, BranchAndPruneOptions(tolerances=Tolerances(contact_mm=1e-3)), checkpoint=ckpt, resume=True)
+        solve_complete(task, BranchAndPruneOptions(tolerances=Tolerances(contact_mm=1e-3), pair_test_boxes=0), checkpoint=ckpt, resume=True)
     # stop-only options may change; the same task and options resume where they stopped
-    resumed = solve_complete(task, BranchAndPruneOptions(time_limit_s=100), checkpoint=ckpt, resume=True)
+    resumed = solve_complete(task, BranchAndPruneOptions(time_limit_s=100, pair_test_boxes=0), checkpoint=ckpt, resume=True)
     assert resumed.status == Status.INFEASIBLE and resumed.stats["boxes"] > 2
 
 

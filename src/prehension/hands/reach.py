@@ -40,7 +40,7 @@ import numpy as np
 from ..geometry.rotations import axis_angle_to_matrix
 from .model import Hand, Joint
 
-__all__ = ["SpanBound", "chain_joints", "lever_arms_mm", "max_point_distance", "span_bound_mm"]
+__all__ = ["PairKinematics", "SpanBound", "chain_joints", "lever_arms_mm", "max_point_distance", "pair_kinematics", "span_bound_mm"]
 
 _ROUNDING = 1e-9  # relative outward margin for floating-point rounding
 
@@ -148,6 +148,57 @@ def max_point_distance(
     palm origin when ``link_b`` is None.  The bound is within ``tol_mm`` of the maximum
     unless ``max_boxes`` runs out first (then it is looser, never invalid).
     """
+    pair = pair_kinematics(hand, link_a, point_a_mm, link_b, point_b_mm)
+    return _branch_and_bound(pair.problem, pair.difference, tol_mm, max_boxes)
+
+
+@dataclass(frozen=True, eq=False)
+class PairKinematics:
+    """Two points fixed in two links as functions of the angles that move them relative to
+    each other (the chains below their deepest common link), in that common link's frame.
+
+    Attributes:
+        problem: the searched angles (:attr:`sources`, their limits, couplings folded in)
+            and the bounds on the second derivatives of ``p_a - p_b`` (``curvature_mm``).
+        rotation_curvature: ``(2, n, n)``: for a unit vector fixed in link a (index 0) or
+            b (1), a bound on ``|d2 v / d s_k d s_l|`` (each pair of joint angles of the
+            chain contributes at most 1, times the coupling ratios).
+    """
+
+    problem: _Problem
+    rotation_curvature: np.ndarray
+    chains: tuple  # ((joints, dof offsets, point) of a, of b)
+    base: np.ndarray  # (n_dof,) angles of the dofs outside the chains (unused by them)
+    gather: np.ndarray  # (n_dof, n): d q / d angles
+
+    def angles_to_q(self, angles: np.ndarray) -> np.ndarray:
+        """``angles (B, n) -> q (B, n_dof)`` [rad] (dofs outside the chains at ``base``)."""
+        q = np.repeat(self.base[None], len(angles), axis=0)
+        for dof, pos, ratio, offset in self.problem.driven:
+            q[:, dof] = ratio * angles[:, pos] + offset
+        return q
+
+    def evaluate(self, angles: np.ndarray) -> tuple[np.ndarray, ...]:
+        """``angles (B, n) -> (d, J, R_a, W_a, R_b, W_b)``: ``d = p_a - p_b`` (B, 3) [mm], its
+        Jacobian (B, 3, n) [mm/rad], the links' rotations (B, 3, 3) and the angular
+        velocities of the links per angle (B, 3, n), all in the common link's frame."""
+        q = self.angles_to_q(angles)
+        (ja, oa, pa_link), (jb, ob, pb_link) = self.chains
+        n_dof = len(self.base)
+        pa, Ja, Ra, Wa = _chain_point(ja, oa, pa_link, q, n_dof)
+        pb, Jb, Rb, Wb = _chain_point(jb, ob, pb_link, q, n_dof)
+        g = self.gather
+        return pa - pb, (Ja - Jb) @ g, Ra, Wa @ g, Rb, Wb @ g
+
+    def difference(self, angles: np.ndarray):
+        """``angles (B, n) -> (d (B, 3), J (B, 3, n))``."""
+        d, J, *_ = self.evaluate(angles)
+        return d, J
+
+
+def pair_kinematics(hand: Hand, link_a: str, point_a_mm, link_b: str | None = None, point_b_mm=None) -> PairKinematics:
+    """:class:`PairKinematics` of the point ``point_a_mm`` of ``link_a`` and ``point_b_mm`` of
+    ``link_b`` (default: the palm origin)."""
     point_a = np.asarray(point_a_mm, dtype=float)
     link_b = hand.palm if link_b is None else link_b
     point_b = np.zeros(3) if point_b_mm is None else np.asarray(point_b_mm, dtype=float)
@@ -161,13 +212,25 @@ def max_point_distance(
             own.update({dof: arm for dof in range(first, first + joint.n_dof)})
         chains.append(own)
     problem = _problem(hand, chains)
-    difference = _difference_function(hand, problem, chain_a[k:], point_a, chain_b[k:], point_b)
-    return _branch_and_bound(problem, difference, tol_mm, max_boxes)
+    gather = np.zeros((hand.n_dof, len(problem.sources)))  # d q / d angles
+    for dof, pos, ratio, _ in problem.driven:
+        gather[dof, pos] = ratio
+    rot = np.zeros((2, len(problem.sources), len(problem.sources)))
+    for side, chain in enumerate(chains):
+        for d, pd, rd, _ in problem.driven:
+            for e, pe, re, _ in problem.driven:
+                if d in chain and e in chain:
+                    rot[side, pd, pe] += abs(rd * re)
+    offsets = {id(j): off for j, off in zip(hand.joints, hand.dof_offsets)}
+    rest = [(tuple(c[k:]), tuple(offsets[id(j)] for j in c[k:]), p) for c, p in ((chain_a, point_a), (chain_b, point_b))]
+    base = np.clip(np.zeros(hand.n_dof), hand.lower, hand.upper)
+    return PairKinematics(problem, rot, tuple(rest), base, gather)
 
 
-def _chain_point(joints: list[Joint], offsets: list[int], point: np.ndarray, q: np.ndarray, n: int):
-    """Point fixed in the last link of ``joints`` and d point / d q (B, 3, n_dof), in the
-    frame of the first joint's parent (only the chain's own joints are computed)."""
+def _chain_point(joints, offsets, point: np.ndarray, q: np.ndarray, n: int):
+    """Point fixed in the last link of ``joints`` (B, 3), d point / d q (B, 3, n_dof), the
+    link's rotation (B, 3, 3) and its angular velocity per dof (B, 3, n_dof), in the frame
+    of the first joint's parent (only the chain's own joints are computed)."""
     B = len(q)
     R = np.repeat(np.eye(3)[None], B, axis=0)
     r = np.zeros((B, 3))
@@ -186,30 +249,11 @@ def _chain_point(joints: list[Joint], offsets: list[int], point: np.ndarray, q: 
         r = centre - R @ joint.origin_in_child
     p = R @ point + r
     J = np.zeros((B, 3, n))
+    W = np.zeros((B, 3, n))
     for axis, centre, dof in zip(axes, centres, dofs):
         J[:, :, dof] = np.cross(axis, p - centre)
-    return p, J
-
-
-def _difference_function(hand: Hand, problem: _Problem, rest_a: list[Joint], point_a, rest_b: list[Joint], point_b):
-    """``angles (B, n) -> (d (B, 3), J (B, 3, n))``: ``p_a - p_b`` and its Jacobian, in the
-    frame of the deepest link common to both chains."""
-    base = np.clip(np.zeros(hand.n_dof), hand.lower, hand.upper)
-    gather = np.zeros((hand.n_dof, len(problem.sources)))  # d q / d angles
-    for dof, pos, ratio, _ in problem.driven:
-        gather[dof, pos] = ratio
-    offsets = {id(j): off for j, off in zip(hand.joints, hand.dof_offsets)}
-    off_a, off_b = [offsets[id(j)] for j in rest_a], [offsets[id(j)] for j in rest_b]
-
-    def difference(angles: np.ndarray):
-        q = np.repeat(base[None], len(angles), axis=0)
-        for dof, pos, ratio, offset in problem.driven:
-            q[:, dof] = ratio * angles[:, pos] + offset
-        pa, Ja = _chain_point(rest_a, off_a, point_a, q, hand.n_dof)
-        pb, Jb = _chain_point(rest_b, off_b, point_b, q, hand.n_dof)
-        return pa - pb, (Ja - Jb) @ gather
-
-    return difference
+        W[:, :, dof] = axis
+    return p, J, R, W
 
 
 def _branch_and_bound(problem: _Problem, difference, tol_mm: float, max_boxes: int, batch: int = 256) -> SpanBound:

@@ -54,6 +54,7 @@ class SearchState:
     solutions: list = field(default_factory=list)
     small: list = field(default_factory=list)
     best: tuple = (float("inf"), float("inf"))  # closest miss (contact_mm, normal_deg) so far
+    pair_test: object = None  # the pair test's result once run (.congruence.CongruenceResult)
 
     def to_json(self) -> dict:
         return {

@@ -38,10 +38,23 @@ from ..local.solver import refine_local
 from ...system.embedding import configuration_from_point, embed
 from ...system.formulation import Formulation, build_system
 from .checkpoint import SearchState, load_state, save_state, search_fingerprint
+from .congruence import congruence_test
 from .contract import contract
 from .shrink import ShrinkOptions, shrink_box
 
-__all__ = ["BranchAndPruneOptions", "solve_complete", "process_box", "BoxOutcome"]
+__all__ = ["ALL_SOLUTIONS_MAX_BOXES", "PAIR_TEST_LATE", "BranchAndPruneOptions", "solve_complete", "process_box", "BoxOutcome"]
+
+#: Default box budget of the solution-set mode (``all_solutions`` with neither ``max_boxes``
+#: nor ``time_limit_s``).  A cover of a ``d``-dimensional solution set by boxes narrower
+#: than ``sigma`` takes at least ``(1/sigma)^d`` boxes, and grasp problems have large ``d``
+#: (scalpel-upholding: 87 base variables, ``d = 11``, ~1.5 s per box on one core: no
+#: ``sigma < 1`` ends in minutes), so the description stops after this many boxes and
+#: reports the boxes still open as the rest of the cover (each verified for a solution
+#: inside it).  scalpel-upholding: 100 boxes in 157 s on one core (200 took 9.5 min on a loaded machine).
+ALL_SOLUTIONS_MAX_BOXES = 100
+
+#: Boxes without a verified solution after which the pair test runs with its full budget.
+PAIR_TEST_LATE = 16
 
 
 @dataclass(frozen=True)
@@ -53,7 +66,9 @@ class BranchAndPruneOptions:
             the initial box) is a solution box and is not split further.
         order: ``"depth"`` (stop at the first verified solution) or ``"breadth"``.
         all_solutions: keep searching after a verified solution (solution-set mode).
-        max_boxes: stop (``gave_up``) after this many boxes.
+        max_boxes: stop (``gave_up``) after this many boxes.  In the solution-set mode
+            (``all_solutions``) with neither this nor ``time_limit_s`` given, the search
+            stops after :data:`ALL_SOLUTIONS_MAX_BOXES` boxes.
         time_limit_s: stop (``gave_up``) after this many seconds.
         shrink: box-shrinking options.
         verify_starts: points of each box the verification starts from: its centre and
@@ -61,6 +76,15 @@ class BranchAndPruneOptions:
             box is verified the same way in every process).
         refine: options of the local iterations that verify a box.
         tolerances: what counts as a verified solution (strict by default).
+        pair_test_boxes: box budget of the pose-free pair test
+            (:func:`.congruence.congruence_test`): a proof that two contacts cannot be
+            made together whatever the object's pose ends the search as infeasible.  It
+            runs with a tenth of this budget when the first box holds no verified
+            solution, and again with all of it after :data:`PAIR_TEST_LATE` boxes
+            without one (unless the first run met a witness: a box of the pair's
+            variables narrower than 1e-7 that satisfies its conditions).  0 turns it
+            off.  A budget in boxes, not seconds, so that the search is the same on
+            every machine.
     """
 
     sigma: float = 0.1
@@ -72,12 +96,15 @@ class BranchAndPruneOptions:
     verify_starts: int = 8
     refine: LocalOptions = field(default_factory=LocalOptions)
     tolerances: Tolerances = field(default_factory=Tolerances)
+    pair_test_boxes: int = 200_000
 
     def __post_init__(self):
         if not 0.0 < self.sigma < 1.0:
             raise PrehensionError(f"sigma must lie in (0, 1) (a fraction of the initial box), got {self.sigma}")
         if not (isinstance(self.verify_starts, int) and self.verify_starts >= 1):
             raise PrehensionError(f"verify_starts must be an integer >= 1, got {self.verify_starts!r}")
+        if not (isinstance(self.pair_test_boxes, int) and self.pair_test_boxes >= 0):
+            raise PrehensionError(f"pair_test_boxes must be an integer >= 0, got {self.pair_test_boxes!r}")
         if self.order not in ("depth", "breadth"):
             raise PrehensionError(f"order must be 'depth' or 'breadth', got {self.order!r}")
 
@@ -199,9 +226,18 @@ def _done(state: SearchState, options: BranchAndPruneOptions) -> bool:
     return bool(state.solutions) and not options.all_solutions
 
 
+def _box_budget(options: BranchAndPruneOptions) -> int | None:
+    """``max_boxes``, or the solution-set mode's default budget when no limit is given."""
+    if options.max_boxes is None and options.time_limit_s is None and options.all_solutions:
+        return ALL_SOLUTIONS_MAX_BOXES
+    return options.max_boxes
+
+
 def _limits_hit(state: SearchState, options: BranchAndPruneOptions, started: float) -> str:
-    if options.max_boxes is not None and state.boxes >= options.max_boxes:
-        return f"box limit ({options.max_boxes}) reached"
+    budget = _box_budget(options)
+    if budget is not None and state.boxes >= budget:
+        default = " (the default of the solution-set mode)" if options.max_boxes is None else ""
+        return f"box limit ({budget}){default} reached"
     if options.time_limit_s is not None and time.perf_counter() - started > options.time_limit_s:
         return f"time limit ({options.time_limit_s:g} s) reached"
     return ""
@@ -243,7 +279,21 @@ def solve_complete(
     if stop:
         save_state(checkpoint, state, fingerprint)
         stop += _saved_note(checkpoint)
-    return _result(task, form, state, options, started, stop)
+    in_open = _verify_open_boxes(form, state, options) if stop and options.all_solutions else ()
+    return _result(task, form, state, options, started, stop, in_open)
+
+
+def _verify_open_boxes(form: Formulation, state: SearchState, options: BranchAndPruneOptions) -> tuple[Solution, ...]:
+    """A stopped description of the solution set: the boxes still open complete the cover
+    (the pruned boxes hold no solution); each is verified for a solution inside it, so a
+    stopped run still answers with the verified solutions it can.  They are not added to
+    the search state (a resumed search finds them again in the leaves)."""
+    found = []
+    for lower, upper, _ in state.open:
+        solution, _ = _verify(form, lower, upper, options, in_box=True)
+        if solution is not None:
+            found.append(solution)
+    return tuple(found)
 
 
 def _saved_note(checkpoint) -> str:
@@ -277,11 +327,37 @@ def _run(form, state, options, executor, workers, started, progress) -> str:
                 outcome = ahead.pop(id(entry)).result()
             state.open.pop()
             _record(state, outcome, options)
+            if not state.solutions and state.open and options.pair_test_boxes:
+                _pair_test(form, state, options, started)
             _report(progress, state, len(ahead))
         return ""
     finally:
         for future in ahead.values():
             future.cancel()
+
+
+def _pair_test(form: Formulation, state: SearchState, options: BranchAndPruneOptions, started: float) -> None:
+    """The pose-free pair test at its two moments (see ``pair_test_boxes``); when it proves
+    two contacts incompatible no box can hold a solution: the open (and small) boxes are
+    discarded and the proof kept in the state.  It stops with the search's time limit."""
+    if state.boxes == 1:
+        budget = options.pair_test_boxes // 10
+    elif state.boxes == PAIR_TEST_LATE and state.pair_test is not None:
+        if not any(outcome.stopped == "budget" for _, outcome in state.pair_test.outcomes):
+            return  # every pair met a witness (or had no test): more boxes would not prove it
+        budget = options.pair_test_boxes
+    else:
+        return
+    seconds = None
+    if options.time_limit_s is not None:
+        seconds = options.time_limit_s - (time.perf_counter() - started)
+        if seconds <= 0.0:
+            return
+    proof = congruence_test(form.task, max_boxes=budget, time_limit_s=seconds)
+    state.pair_test = proof
+    if proof.proved:
+        state.open.clear()
+        state.small.clear()
 
 
 def _submit_ahead(form, state: SearchState, options, executor: Executor, workers: int, ahead: dict) -> None:
@@ -299,16 +375,21 @@ def _report(progress, state: SearchState, in_flight: int) -> None:
                   "best residual": best})  # fmt: skip
 
 
-def _result(task, form, state: SearchState, options, started: float, stop: str) -> SolveResult:
+def _result(task, form, state: SearchState, options, started: float, stop: str, in_open: tuple = ()) -> SolveResult:
     seconds = time.perf_counter() - started
     stats = {"boxes": state.boxes, "lps": state.lps, "max_depth": state.max_depth, "open_boxes": len(state.open),
              "n_variables": form.system.n, "n_equations": form.system.n_equations, "options": _options_dict(options),
              "best_residual": {"contact_mm": state.best[0], "normal_deg": state.best[1]} if np.isfinite(max(state.best)) else None}  # fmt: skip
     small = tuple(state.small)
-    if state.solutions and options.all_solutions:
+    if options.all_solutions and stop and (state.solutions or in_open):
+        status = Status.SOLVED
+        msg = (f"partial description of the solution set (stopped: {stop}): {len(state.solutions)} solution box(es) "
+               f"with a verified solution and {len(small)} without, and {len(state.open)} open box(es) wider than sigma, "
+               f"{len(in_open)} of them with a verified solution inside, after {state.boxes} boxes and {state.lps} LPs")  # fmt: skip
+    elif state.solutions and options.all_solutions:
         status = Status.SOLVED
         msg = (f"{len(state.solutions)} solution box(es) with a verified solution and {len(small)} without, "
-               f"after {state.boxes} boxes and {state.lps} LPs" + (f" (stopped: {stop})" if stop else ""))  # fmt: skip
+               f"after {state.boxes} boxes and {state.lps} LPs")  # fmt: skip
     elif state.solutions:
         status, msg = Status.SOLVED, f"verified solution found after {state.boxes} boxes and {state.lps} LPs"
     elif stop:
@@ -316,10 +397,20 @@ def _result(task, form, state: SearchState, options, started: float, stop: str) 
     elif small:
         status = Status.GAVE_UP
         msg = f"{len(small)} box(es) narrower than sigma hold no verified solution; try a smaller sigma"
+    elif state.pair_test is not None and state.pair_test.proved:
+        a, b = state.pair_test.pair
+        status = Status.INFEASIBLE
+        msg = (f"infeasible: contacts {task.contacts[a].name} and {task.contacts[b].name} cannot be made together "
+               f"whatever the object's pose (pair test: {state.pair_test.boxes} boxes pruned, after {state.boxes} "
+               f"box(es) and {state.lps} LPs of the search)")  # fmt: skip
     else:
         status = Status.INFEASIBLE
         msg = f"infeasible: all {state.boxes} boxes pruned ({state.lps} linear programs)"
-    return SolveResult(task, "complete", status, msg, tuple(state.solutions), seconds, stats, small)
+    stats["open_box_solutions"] = len(in_open)
+    if state.pair_test is not None:
+        stats["pair_test"] = {"proved": state.pair_test.proved, "boxes": state.pair_test.boxes,
+                              "pair": list(state.pair_test.pair) if state.pair_test.pair else None}  # fmt: skip
+    return SolveResult(task, "complete", status, msg, tuple(state.solutions) + in_open, seconds, stats, small)
 
 
 def _options_dict(options: BranchAndPruneOptions) -> dict:

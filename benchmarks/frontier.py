@@ -1,0 +1,468 @@
+"""The complete solver at the reach frontier (issue 15): how close to t* it decides a task.
+
+A *family* is a task with one object region moved by ``t`` mm along a fixed direction:
+the built-in two-contact tasks with the thumb's region moved away from the other region
+(along the line joining their centres), and two-fingertip pinches of two points (thumb
+and index of the SA hand, and of the Allegro hand's URDF from ../shared/hands).  For each family the
+script
+
+1. finds the frontier ``t*`` independently of the complete solver: local solutions of the
+   task at ``t = 0`` (local solver, several seeds) are the starts of SLSQP runs that
+   *maximise t* subject to the contact equations, the joint limits, the couplings and the
+   regions' domains; the largest ``t`` is then polished into a strict solution of the
+   task at ``t*`` (so ``t*`` is feasible, verified by the residual function);
+2. runs the complete solver (depth first, sigma 0.1, one process) on the tasks at
+   ``t* + delta`` for ``delta`` in -1, -0.5, +0.5, +1, +2, +4 mm and prints status, boxes,
+   LPs, time and closest miss.
+
+``t*`` is a local maximum: a task at ``t* + delta`` may still be feasible if the true
+frontier lies further (the solver would then find a solution, never a certificate).
+Self-collision is not part of the maximisation (as it is not part of the complete
+solver's system); the table says whether the configuration at ``t*`` collides.
+
+    python benchmarks/frontier.py                       # every family, 300 s per run (hours)
+    python benchmarks/frontier.py --quick               # lid, scalpel, sa-pinch at -0.5, +2, +4 mm, 30 s caps
+    python benchmarks/frontier.py --families lid sa-pinch --time-limit 60
+    python benchmarks/frontier.py --frontier-only       # only t* of every family
+
+One process, BLAS and numba pinned to one thread (the targets of issue 15 are on one core).
+At the end a Markdown table of every run is printed (for benchmarks/README.md).
+"""
+
+from __future__ import annotations
+
+import os
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import argparse  # noqa: E402
+import json  # noqa: E402
+import time  # noqa: E402
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+from rich.console import Console
+from rich.table import Table
+from scipy.optimize import minimize
+from scipy.spatial.transform import Rotation
+
+from prehension.errors import PrehensionError
+from prehension.geometry.regions import BezierRegion, PointRegion, SphereCap
+from prehension.hands.kinematics import forward_kinematics
+from prehension.hands.model import Hand, HandRegion
+from prehension.objects.model import GraspObject
+from prehension.results import Status, make_solution
+from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
+from prehension.solvers.local import LocalOptions, solve_local
+from prehension.solvers.local.solver import refine_local
+from prehension.tasks.library import load_builtin_task
+from prehension.tasks.model import Configuration, Contact, Task
+from prehension.tasks.residuals import Tolerances, contact_residuals, evaluate
+
+HANDS = Path(__file__).resolve().parents[2] / "shared" / "hands"
+OFFSETS_MM = (-1.0, -0.5, 0.5, 1.0, 2.0, 4.0)
+QUICK = {"families": ["lid", "scalpel", "sa-pinch"], "offsets": [-0.5, 2.0, 4.0], "time_limit": 30.0}
+NO_COLLISIONS = Tolerances(penetration_mm=float("inf"))
+
+
+@dataclass(frozen=True)
+class Family:
+    """``base`` with the object region of contact ``moved`` translated by ``t u`` (object frame)."""
+
+    name: str
+    base: Task
+    moved: int
+    u: np.ndarray  # (3,) unit direction in the object frame
+
+    def task_at(self, t: float) -> Task:
+        contact = self.base.contacts[self.moved]
+        region = self.base.object_region(contact)
+        shift = float(t) * self.u
+        if isinstance(region, BezierRegion):
+            new = BezierRegion(region.patch.transformed(np.eye(3), shift))
+        elif isinstance(region, PointRegion):
+            new = PointRegion(region.point + shift, region.normal)
+        else:
+            new = SphereCap(region.center + shift, region.radius, region.axis, region.half_angle)
+        regions = dict(self.base.object.regions)
+        regions[contact.object_region] = new
+        obj = replace(self.base.object, regions=regions, solid=None)  # the moved region is off its surface
+        return replace(self.base, name=f"{self.name} {t:+.3f} mm", object=obj)
+
+
+# -- families -------------------------------------------------------------------------------
+def _region_centre(region) -> np.ndarray:
+    if isinstance(region, BezierRegion):
+        return region.patch.control_points.reshape(-1, 3).mean(axis=0)
+    return np.asarray(region.point if isinstance(region, PointRegion) else region.center, dtype=float)
+
+
+def builtin_family(name: str, task_name: str) -> Family:
+    """A two-contact built-in task with the thumb's object region moved away from the other."""
+    task = load_builtin_task(task_name)
+    moved = next(i for i, c in enumerate(task.contacts) if c.hand_region.startswith("thumb"))
+    other = 1 - moved
+    a = _region_centre(task.object_region(task.contacts[moved]))
+    b = _region_centre(task.object_region(task.contacts[other]))
+    return Family(name, task, moved, (a - b) / np.linalg.norm(a - b))
+
+
+def pinch_family(name: str, hand: Hand, thumb: str, finger: str, fingers: tuple[str, ...], width_mm: float) -> Family:
+    """Two points ``width_mm`` apart along x, normals pointing out (-x, +x), pinched by the
+    regions ``thumb`` and ``finger``; the second point moves along +x."""
+    obj = GraspObject("two-points", {"a": PointRegion((0, 0, 0), (-1, 0, 0)), "b": PointRegion((width_mm, 0, 0), (1, 0, 0))})
+    task = Task(name, hand, obj, (Contact(thumb, "a"), Contact(finger, "b")), _coupled_closure(hand, fingers))
+    return Family(name, task, 1, np.array([1.0, 0.0, 0.0]))
+
+
+def fingertip_caps(hand: Hand, half_angle_deg: float = 80.0) -> dict[str, HandRegion]:
+    """A sphere cap on every finger's last link, a benchmark stand-in for fitted fingertips:
+    the collision capsule end farthest from the link's joint is the centre, that capsule's
+    radius the radius, and the cap faces the flexion side (the direction the tip moves when
+    the last joint turns towards the larger of its limits)."""
+    regions = {}
+    for finger in hand.fingers:
+        link = finger.links[-1]
+        joint = hand.joint_of_link(link)
+        ends = [(p, c.radius) for c in hand.links[hand.link_index(link)].collision for p in (c.a, c.b)]
+        centre, radius = max(ends, key=lambda e: np.linalg.norm(e[0] - joint.origin_in_child))
+        axis = joint.R_parent_child_zero.T @ joint.axis_in_parent
+        pad = np.cross(axis, centre - joint.origin_in_child)
+        dof = hand.dof_index(joint.dof_names[-1])
+        if abs(hand.lower[dof]) > abs(hand.upper[dof]):
+            pad = -pad
+        cap = SphereCap(np.asarray(centre, dtype=float), float(radius), pad / np.linalg.norm(pad), np.radians(half_angle_deg))
+        regions[f"{finger.name}_cap"] = HandRegion(link, cap)
+    return regions
+
+
+def _coupled_closure(hand: Hand, fingers: tuple[str, ...]) -> tuple[str, ...]:
+    """``fingers`` and every finger whose dofs are coupled to theirs (a task needs both sides)."""
+    owner = {d: f.name for f in hand.fingers for link in f.links for d in hand.chain_dofs(link)}
+    out = list(fingers)
+    changed = True
+    while changed:
+        changed = False
+        for c in hand.couplings:
+            ends = {owner.get(hand.dof_index(c.dof)), owner.get(hand.dof_index(c.source))} - {None}
+            if ends & set(out) and not ends <= set(out):
+                out += sorted(ends - set(out))
+                changed = True
+    return tuple(out)
+
+
+def urdf_pinch_family() -> Family:
+    """Thumb and index fingertip caps of the Allegro hand (URDF) pinching two points.  (The
+    SVH hand of ../shared/hands is left out: finding its t* did not end in 15 minutes.)"""
+    from prehension.hands.urdf import hand_from_urdf
+
+    hand = hand_from_urdf(HANDS / "allegro_hand" / "allegro_hand_right.urdf")
+    thumb, index = "link_15.0_tip", "link_3.0_tip"
+    hand = hand.with_regions(fingertip_caps(hand))
+    return pinch_family("allegro-pinch", hand, f"{thumb}_cap", f"{index}_cap", (thumb, index), 40.0)
+
+
+def families(names: list[str] | None = None) -> list[Family]:
+    from prehension.hands.sa_hand import schunk_sa_hand
+
+    makers = {
+        "lid": lambda: builtin_family("lid", "teapot-lid-lifting"),
+        "scalpel": lambda: builtin_family("scalpel", "scalpel-upholding"),
+        "tuning": lambda: builtin_family("tuning", "guitar-tuning"),
+        "sa-pinch": lambda: pinch_family("sa-pinch", schunk_sa_hand(), "thumb_tip", "index_tip", ("thumb", "index"), 40.0),
+        "allegro-pinch": urdf_pinch_family,
+    }
+    return [makers[n]() for n in (names or list(makers))]
+
+
+# -- the frontier by local maximisation of the offset ---------------------------------------
+@dataclass(frozen=True)
+class Frontier:
+    t_mm: float  # the largest offset with a strict solution found
+    configuration: Configuration  # that solution (of family.task_at(t_mm))
+    starts: int
+    collides: bool
+    seconds: float
+
+
+class _Unknowns:
+    """The vector SLSQP works on: free joint angles, object pose, contact parameters, t."""
+
+    def __init__(self, family: Family):
+        task, hand = family.base, family.base.hand
+        self.family, self.task, self.hand = family, task, hand
+        chain = sorted({d for c in task.contacts for d in hand.chain_dofs(task.hand_region(c).link)})
+        self.dependent = {hand.dof_index(c.dof): c for c in hand.couplings if hand.dof_index(c.dof) in chain}
+        self.free = [d for d in chain if d not in self.dependent or hand.dof_index(self.dependent[d].source) not in chain]
+        for d in list(self.dependent):
+            if d in self.free:
+                del self.dependent[d]
+        self.sizes = [(task.hand_region(c).region.param_bounds()[0].size, task.object_region(c).param_bounds()[0].size)
+                      for c in task.contacts]  # fmt: skip
+        self.n = len(self.free) + 6 + sum(a + b for a, b in self.sizes) + 1
+
+    def pack(self, config: Configuration, t: float) -> np.ndarray:
+        T = config.T_palm_object
+        parts = [config.joint_angles[self.free], Rotation.from_matrix(T[:3, :3]).as_rotvec(), T[:3, 3]]
+        for h, o in config.contact_params:
+            parts += [np.asarray(h, dtype=float), np.asarray(o, dtype=float)]
+        return np.concatenate(parts + [[t]])
+
+    def unpack(self, z: np.ndarray) -> tuple[Configuration, float]:
+        q, T, params, t = self._unpack_batch(np.asarray(z, dtype=float)[None])
+        return Configuration(q[0], T[0], tuple((h[0], o[0]) for h, o in params)), float(t[0])
+
+    def _unpack_batch(self, Z: np.ndarray):
+        """``Z (B, n) -> q (B, n_dof), T_palm_object (B, 4, 4), params [(B, k_h), (B, k_o)], t (B,)``."""
+        B, k = len(Z), len(self.free)
+        q = np.repeat(self.task.idle_vector[None], B, axis=0)
+        q[:, self.free] = Z[:, :k]
+        for d, c in self.dependent.items():
+            q[:, d] = c.ratio * q[:, self.hand.dof_index(c.source)] + c.offset
+        T = np.repeat(np.eye(4)[None], B, axis=0)
+        T[:, :3, :3], T[:, :3, 3] = Rotation.from_rotvec(Z[:, k:k + 3]).as_matrix(), Z[:, k + 3:k + 6]
+        k += 6
+        params = []
+        for nh, no in self.sizes:
+            params.append((Z[:, k:k + nh], Z[:, k + nh:k + nh + no]))
+            k += nh + no
+        return q, T, params, Z[:, -1]
+
+    def bounds(self) -> list[tuple[float, float]]:
+        hand = self.hand
+        out = [(hand.lower[d], hand.upper[d]) for d in self.free] + [(None, None)] * 6
+        for c in self.task.contacts:
+            for region in (self.task.hand_region(c).region, self.task.object_region(c)):
+                lo, hi = region.param_bounds()
+                out += list(zip(lo, hi))
+        return out + [(None, None)]
+
+    def equations_batch(self, Z: np.ndarray) -> np.ndarray:
+        """Contact equations ``(B, 6 C)``: hand point - object point, hand normal + object normal."""
+        q, T, params, t = self._unpack_batch(Z)
+        res = contact_residuals(self.task, forward_kinematics(self.hand, q), T, params)
+        obj = res["object_point"].copy()
+        obj[:, self.family.moved] += t[:, None] * (T[:, :3, :3] @ self.family.u)
+        # the hand normal must be -n_object: its two components across n_object vanish (two
+        # equations per contact, not three: SLSQP needs independent equality constraints)
+        n_obj = res["object_normal"]
+        e1 = np.cross(n_obj, self.references)
+        e1 /= np.linalg.norm(e1, axis=-1, keepdims=True)
+        e2 = np.cross(n_obj, e1)
+        h = res["hand_normal"]
+        across = np.stack([np.sum(h * e1, axis=-1), np.sum(h * e2, axis=-1)], axis=-1)
+        return np.concatenate([(res["hand_point"] - obj).reshape(len(Z), -1), across.reshape(len(Z), -1)], axis=1)
+
+    def set_references(self, z: np.ndarray) -> None:
+        """Per contact, the frame axis least aligned with its object normal at ``z`` (palm
+        frame): the reference of the two normal equations near ``z``."""
+        q, T, params, _ = self._unpack_batch(z[None])
+        res = contact_residuals(self.task, forward_kinematics(self.hand, q), T, params)
+        n = res["object_normal"][0]
+        self.references = np.eye(3)[np.argmin(np.abs(n), axis=1)]
+
+    def inequalities_batch(self, Z: np.ndarray) -> np.ndarray:
+        """``(B, m) >= 0``: coupled angles within their limits, cap normals inside their cones."""
+        q, _, params, _ = self._unpack_batch(Z)
+        out = []
+        for d in self.dependent:
+            out += [q[:, d] - self.hand.lower[d], self.hand.upper[d] - q[:, d]]
+        for c, (h, o) in zip(self.task.contacts, params):
+            for region, p in ((self.task.hand_region(c).region, h), (self.task.object_region(c), o)):
+                if isinstance(region, SphereCap):
+                    out.append(region.normals(p) @ region.axis - np.cos(region.half_angle))
+        return np.stack(out, axis=1) if out else np.zeros((len(Z), 1))
+
+
+def _with_jacobian(fun, step: float = 1e-7):
+    """``(f(z), J(z))`` of a batch function, by forward differences in one batch call."""
+
+    def value(z):
+        return fun(z[None])[0]
+
+    def jacobian(z):
+        Z = np.vstack([z, z + step * np.eye(len(z))])
+        F = fun(Z)
+        return ((F[1:] - F[0]) / step).T
+
+    return value, jacobian
+
+
+def find_frontier(family: Family, seeds: int = 3) -> Frontier:
+    """``t*`` by SLSQP from local solutions near the frontier (see the module docstring)."""
+    started = time.perf_counter()
+    unknowns = _Unknowns(family)
+    t0, starts = _scan(family, seeds)
+    best: tuple[float, Configuration] = (t0, starts[0])
+    for config in starts:
+        z = _maximise(unknowns, unknowns.pack(config, t0))
+        found = _polish(family, unknowns, z)
+        if found is not None and found[0] > best[0]:
+            best = found
+    t, config = best
+    collides = not evaluate(family.task_at(t), config).ok
+    return Frontier(t, config, len(starts), collides, time.perf_counter() - started)
+
+
+def _local_solutions(family: Family, t: float, seeds: int) -> list[Configuration]:
+    task = family.task_at(t)
+    results = (solve_local(task, LocalOptions(initial="random"), seed=seed) for seed in range(seeds))
+    return [r.solutions[0].configuration() for r in results if r.solutions]
+
+
+def _scan(family: Family, seeds: int, step_mm: float = 16.0, resolution_mm: float = 0.5):
+    """The largest offset (to ``resolution_mm``) at which the local solver solves the task,
+    and its solutions there: steps of ``step_mm`` outwards, then bisection."""
+    lo, starts = 0.0, _local_solutions(family, 0.0, seeds)
+    if not starts:
+        raise RuntimeError(f"{family.name}: the local solver does not solve the task at t = 0")
+    hi = step_mm
+    while (found := _local_solutions(family, hi, seeds)):
+        lo, starts, hi = hi, found, hi + step_mm
+    while hi - lo > resolution_mm:
+        mid = 0.5 * (lo + hi)
+        found = _local_solutions(family, mid, seeds)
+        lo, hi, starts = (mid, hi, found) if found else (lo, mid, starts)
+    return lo, starts
+
+
+def _maximise(unknowns: _Unknowns, z0: np.ndarray) -> np.ndarray:
+    unknowns.set_references(z0)
+    eq, eq_jac = _with_jacobian(unknowns.equations_batch)
+    ineq, ineq_jac = _with_jacobian(unknowns.inequalities_batch)
+    cons = [{"type": "eq", "fun": eq, "jac": eq_jac}, {"type": "ineq", "fun": ineq, "jac": ineq_jac}]
+    gradient = np.zeros(len(z0))
+    gradient[-1] = -1.0
+    out = minimize(lambda z: -z[-1], z0, jac=lambda z: gradient, bounds=unknowns.bounds(), constraints=cons,
+                   method="SLSQP", options={"maxiter": 300, "ftol": 1e-12})  # fmt: skip
+    return out.x
+
+
+def solution_at(family: Family, config: Configuration, t_from: float, t: float) -> Configuration | None:
+    """A strict solution (self-collision aside) of ``family.task_at(t)``, by SLSQP with the
+    offset pinned to ``t`` from ``config``, a solution at ``t_from`` (None if none is found).
+    A witness that the task at ``t`` is feasible, independent of the solvers under test."""
+    unknowns = _Unknowns(family)
+    z0 = unknowns.pack(config, t_from)
+    z0[-1] = t
+    unknowns.set_references(z0)
+    eq, eq_jac = _with_jacobian(unknowns.equations_batch)
+    ineq, ineq_jac = _with_jacobian(unknowns.inequalities_batch)
+    cons = [{"type": "eq", "fun": eq, "jac": eq_jac}, {"type": "ineq", "fun": ineq, "jac": ineq_jac}]
+    bounds = unknowns.bounds()[:-1] + [(t, t)]
+    out = minimize(lambda z: 0.0, z0, jac=lambda z: np.zeros(len(z)), bounds=bounds, constraints=cons,
+                   method="SLSQP", options={"maxiter": 40, "ftol": 1e-14})  # fmt: skip
+    return _polish_exact(family, unknowns, out.x)
+
+
+def _polish_exact(family: Family, unknowns: _Unknowns, z: np.ndarray) -> Configuration | None:
+    """The SLSQP point with its angles clipped into the limits, if strict at its own ``t``."""
+    config, (_, t) = _clipped(family, unknowns, z), unknowns.unpack(z)
+    return config if make_solution(family.task_at(t), config, NO_COLLISIONS) is not None else None
+
+
+def _clipped(family: Family, unknowns: _Unknowns, z: np.ndarray) -> Configuration:
+    """The configuration of ``z`` with its angles clipped into the limits (couplings exact)."""
+    config, _ = unknowns.unpack(z)
+    hand = family.base.hand
+    q = np.clip(config.joint_angles, hand.lower, hand.upper)
+    for c in hand.couplings:
+        q[hand.dof_index(c.dof)] = c.ratio * q[hand.dof_index(c.source)] + c.offset
+    return Configuration(q, config.T_palm_object, config.contact_params)
+
+
+def _polish(family: Family, unknowns: _Unknowns, z: np.ndarray) -> tuple[float, Configuration] | None:
+    """A strict solution at (or just below) the ``t`` of ``z``: the SLSQP point itself, with
+    its angles clipped into the limits, or local refinement from it a little further in."""
+    exact = _polish_exact(family, unknowns, z)
+    _, t = unknowns.unpack(z)
+    if exact is not None:
+        return t, exact
+    config = _clipped(family, unknowns, z)
+    for back in (1e-4, 1e-3, 1e-2, 0.05, 0.1):
+        task = family.task_at(t - back)
+        refined = refine_local(task, [config], LocalOptions(check_collisions=False))
+        for c in refined.configurations:
+            if c is not None and make_solution(task, c, NO_COLLISIONS) is not None:
+                return t - back, c
+    return None
+
+
+# -- the runs --------------------------------------------------------------------------------
+def run_family(console: Console, family: Family, frontier: Frontier, limit: float, offsets) -> list[dict]:
+    table = Table(title=f"{family.name}: t* = {frontier.t_mm:.3f} mm ({frontier.starts} starts, "
+                        f"{frontier.seconds:.1f} s; configuration at t* {'collides' if frontier.collides else 'collision-free'})")  # fmt: skip
+    for col in ("t - t* [mm]", "status", "boxes", "LPs", "time [s]", "closest miss"):
+        table.add_column(col, justify="right" if col != "status" else "left")
+    rows = []
+    for delta in offsets:
+        task = family.task_at(frontier.t_mm + delta)
+        try:
+            result = solve_complete(task, BranchAndPruneOptions(time_limit_s=limit))
+        except PrehensionError as exc:  # e.g. a version of the solver that refuses the task
+            table.add_row(f"{delta:+g}", f"error: {exc}", "", "", "", "")
+            continue
+        s = result.stats
+        best = s.get("best_residual")
+        miss = "-" if best is None else f"{best['contact_mm']:.2g} mm, {best['normal_deg']:.2g} deg"
+        table.add_row(f"{delta:+g}", result.status, str(s["boxes"]), str(s["lps"]), f"{result.seconds:.1f}", miss)
+        rows.append({"family": family.name, "t_star": frontier.t_mm, "delta": delta, "status": result.status,
+                     "boxes": s["boxes"], "lps": s["lps"], "seconds": result.seconds, "miss": miss})  # fmt: skip
+        if delta < 0 and result.status == Status.INFEASIBLE:
+            console.print(f"[red]FALSE INFEASIBLE: {task.name} is feasible (t < t*)[/red]")
+    console.print(table)
+    return rows
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--families", nargs="*", help="lid scalpel tuning sa-pinch allegro-pinch (default: all)")
+    parser.add_argument("--time-limit", type=float, help="seconds per complete run (default 300; --quick: 30)")
+    parser.add_argument("--offsets", type=float, nargs="*", help="t - t* [mm] to run (default -1 -0.5 0.5 1 2 4)")
+    parser.add_argument("--quick", action="store_true", help="lid, scalpel, sa-pinch at -0.5, +2, +4 mm, 30 s per run")
+    parser.add_argument("--frontier-only", action="store_true", help="only find t* of each family")
+    parser.add_argument("--frontiers", type=Path, help="JSON file of t* per family: read when present, else written")
+    args = parser.parse_args()
+    defaults = QUICK if args.quick else {"families": None, "offsets": list(OFFSETS_MM), "time_limit": 300.0}
+    for key, value in defaults.items():
+        if getattr(args, key) is None:
+            setattr(args, key, value)
+    console = Console(width=140)
+    summary = Table(title="Frontiers found by maximising the offset (SLSQP from local solutions at t = 0)")
+    for col in ("family", "t* [mm]", "starts", "time [s]", "collides at t*"):
+        summary.add_column(col)
+    all_rows = []
+    known = json.loads(args.frontiers.read_text()) if args.frontiers and args.frontiers.is_file() else {}
+    for family in families(args.families):
+        if family.name in known:
+            frontier = Frontier(known[family.name]["t_mm"], None, 0, known[family.name]["collides"], 0.0)
+        else:
+            frontier = find_frontier(family)
+            known[family.name] = {"t_mm": frontier.t_mm, "collides": frontier.collides}
+            if args.frontiers:
+                args.frontiers.write_text(json.dumps(known, indent=1))
+        console.print(f"{family.name}: t* = {frontier.t_mm:.3f} mm ({frontier.seconds:.1f} s)")
+        summary.add_row(family.name, f"{frontier.t_mm:.3f}", str(frontier.starts), f"{frontier.seconds:.1f}",
+                        "yes" if frontier.collides else "no")  # fmt: skip
+        if not args.frontier_only:
+            all_rows += run_family(console, family, frontier, args.time_limit, args.offsets)
+    console.print(summary)
+    false = [r for r in all_rows if r["delta"] < 0 and r["status"] == Status.INFEASIBLE]
+    console.print(f"false 'infeasible' below t*: {len(false)}")
+    if all_rows:
+        print(_markdown(all_rows))
+
+
+def _markdown(rows: list[dict]) -> str:
+    lines = ["| family | t* [mm] | t - t* [mm] | status | boxes | LPs | time [s] | closest miss |",
+             "| --- | ---: | ---: | --- | ---: | ---: | ---: | --- |"]  # fmt: skip
+    for r in rows:
+        lines.append(f"| {r['family']} | {r['t_star']:.3f} | {r['delta']:+g} | {r['status']} | {r['boxes']} | "
+                     f"{r['lps']} | {r['seconds']:.1f} | {r['miss']} |")  # fmt: skip
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    main()

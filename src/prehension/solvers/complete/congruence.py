@@ -1,0 +1,411 @@
+r"""The frame-free pair test: can two contacts be made at all, whatever the object's pose?
+
+For two contacts ``a, b`` whose hand regions are fingertip sphere caps (or points), a
+grasp makes the *hand side* -- the fingertip centres ``c_a, c_b`` and the contact normals
+``h_a, h_b`` (outward from the hand), in the frame of the links' common ancestor --
+congruent to the *object side* -- ``c = o + r nu`` and ``h = -nu`` of the object regions,
+in the object frame.  Quantities that rotations preserve must agree; those that do not
+involve the pose of the palm in the object frame, which the complete solver's system
+must search (and which makes its relaxations loose near the reach frontier, where a
+continuum of poses nearly works).  With ``d = c_b - c_a`` (``D = |d|``), each cap's
+normal lying within ``beta`` of its axis ``m`` and ``phi_a`` the angle between ``d`` and
+``h_a``:
+
+.. math::
+
+    |d^{hand}|^2 = |d^{obj}|^2, \qquad
+    d^{hand} \cdot m_a \ge D \cos(\phi_a + \beta_a)
+      = \cos\beta_a\, (d \cdot h_a)^{obj} - \sin\beta_a\, |d \times h_a|^{obj},
+
+likewise for ``b`` (with ``-d``), ``m_a . m_b >= cos(gamma + beta_a + beta_b)`` for the
+angle ``gamma`` between the normals, and, for a hand *point* region (a fixed normal), the
+equations ``d . h`` (and, for two points, ``h_a . h_b`` and ``d . (h_a x h_b)``, which then
+make the test exact).  For two fingertip caps touching points (a pinch) these conditions
+are also exact: they say the line between the fingertip centres lies in both cones.
+
+The test searches the few variables these depend on -- the joint angles below the links'
+common ancestor (couplings folded in, :func:`prehension.hands.reach.pair_kinematics`) and
+the object regions' parameters -- by branch and prune:
+
+* on each box, every quantity is an affine form (:mod:`.affine`): a first-order Taylor
+  expansion at the centre with a remainder from bounds on the second derivatives (lever
+  arms for the hand's points, 1 for unit vectors turned by joints, Bézier control nets
+  for the object's patches: ``|d2 nu| <= 2|N''|/n + 5|N'|^2/n^2`` with ``n`` a lower bound
+  of ``|N|`` over the patch, the sphere's radius and 1 for an object cap);
+* a box is discarded when a condition cannot hold on it; otherwise the conditions narrow
+  the box (interval propagation on the affine forms) and it is split through the
+  dimension that contributes most to the condition closest to excluding it.
+
+If every box is discarded the pair, hence the task, is infeasible: a proof that does not
+depend on the pose, sound for any number of contacts (the pair's conditions are necessary
+for the whole grasp).  Floating-point rounding is covered by a relative margin of 1e-9
+on every comparison (as in :mod:`prehension.hands.reach`).  A box narrower than
+``witness_width`` that survives means the conditions can (numerically) be met: the test
+then stops without a proof.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...geometry.regions import BezierRegion, PointRegion, SphereCap
+from ...hands.reach import PairKinematics, pair_kinematics
+from ...tasks.model import Task
+from . import affine as af
+
+__all__ = ["CongruenceResult", "PairProblem", "PairOutcome", "pair_problem", "prove_pair_infeasible", "congruence_test"]
+
+_REL_PAD = 1e-9
+
+
+# -- region kinds: second-derivative bounds -------------------------------------------------------
+def _net_max(net: np.ndarray) -> float:
+    return float(np.linalg.norm(net.reshape(-1, 3), axis=1).max(initial=0.0))
+
+
+def _hodograph(net: np.ndarray, axis: int) -> np.ndarray:
+    """Control net of the derivative of a Bézier patch along ``axis`` (zeros for degree 0)."""
+    deg = net.shape[axis] - 1
+    if deg == 0:
+        return np.zeros_like(net)
+    return deg * np.diff(net, axis=axis)
+
+
+def _patch_bounds(patch) -> tuple[float, float] | None:
+    """``(M_point, M_normal)`` bounds on the second partials of a patch's point and unit normal
+    over the whole patch, or None when ``|N|`` cannot be bounded away from 0."""
+    P = patch.control_points
+    second = [_hodograph(_hodograph(P, 0), 0), _hodograph(_hodograph(P, 0), 1), _hodograph(_hodograph(P, 1), 1)]
+    Q = patch.normal_patch().control_points
+    mean = Q.reshape(-1, 3).mean(axis=0)
+    if np.linalg.norm(mean) == 0.0:
+        return None
+    n_min = float((Q.reshape(-1, 3) @ (mean / np.linalg.norm(mean))).min())  # |N| >= N . u >= this
+    if n_min <= 0.0:
+        return None
+    g1 = max(_net_max(_hodograph(Q, 0)), _net_max(_hodograph(Q, 1)))
+    g2 = max(_net_max(_hodograph(_hodograph(Q, i), j)) for i, j in ((0, 0), (0, 1), (1, 1)))
+    return max(_net_max(n) for n in second), 2.0 * g2 / n_min + 5.0 * g1 * g1 / n_min**2
+
+
+def region_curvature(region) -> tuple[float, float] | None:
+    """Bounds on every second partial of a region's point [mm] and unit normal over its
+    parameter domain, or None when the region is not supported."""
+    if isinstance(region, PointRegion):
+        return 0.0, 0.0
+    if isinstance(region, SphereCap):
+        return float(region.radius), 1.0
+    if isinstance(region, BezierRegion):
+        return _patch_bounds(region.patch)
+    return None
+
+
+# -- one pair -----------------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class PairProblem:
+    """The variables and constants of the pair test of contacts ``a`` and ``b``.
+
+    The box dimensions are, in order: the pair's joint angles (sources), the parameters
+    of object region ``a`` and of object region ``b``.
+    """
+
+    contacts: tuple[int, int]
+    kin: PairKinematics
+    hand: tuple  # per side: (region, radius [mm]) of the hand region
+    objects: tuple  # per side: (region, (M_point, M_normal))
+    slices: tuple  # angles, object a, object b
+    lower: np.ndarray
+    upper: np.ndarray
+
+    @property
+    def n_dims(self) -> int:
+        return len(self.lower)
+
+
+def pair_problem(task: Task, a: int, b: int) -> PairProblem | None:
+    """The pair test's problem, or None when a region kind is not supported (hand patches)."""
+    hands, objects, centres = [], [], []
+    for i in (a, b):
+        hreg, oreg = task.hand_region(task.contacts[i]), task.object_region(task.contacts[i])
+        curvature = region_curvature(oreg)
+        if not isinstance(hreg.region, (SphereCap, PointRegion)) or curvature is None:
+            return None
+        radius = float(hreg.region.radius) if isinstance(hreg.region, SphereCap) else 0.0
+        centres.append((hreg.link, hreg.region.center if isinstance(hreg.region, SphereCap) else hreg.region.point))
+        hands.append((hreg, radius))
+        objects.append((oreg, curvature))
+    kin = pair_kinematics(task.hand, centres[0][0], centres[0][1], centres[1][0], centres[1][1])
+    lo, hi = _angle_bounds(task, kin)
+    bounds = [(lo, hi)] + [o[0].param_bounds() for o in objects]
+    edges = np.cumsum([0] + [len(np.atleast_1d(x[0])) for x in bounds])
+    slices = tuple(slice(int(s), int(e)) for s, e in zip(edges[:-1], edges[1:]))
+    lower = np.concatenate([np.asarray(x[0], dtype=float) for x in bounds])
+    upper = np.concatenate([np.asarray(x[1], dtype=float) for x in bounds])
+    return PairProblem((a, b), kin, tuple(hands), tuple(objects), slices, lower, upper)
+
+
+def _angle_bounds(task: Task, kin: PairKinematics) -> tuple[np.ndarray, np.ndarray]:
+    """The sources' limits, narrowed by the limits of the dofs they drive."""
+    hand, problem = task.hand, kin.problem
+    lo, hi = problem.lower.astype(float).copy(), problem.upper.astype(float).copy()
+    for dof, pos, ratio, offset in problem.driven:
+        if ratio != 0.0:
+            ends = sorted(((hand.lower[dof] - offset) / ratio, (hand.upper[dof] - offset) / ratio))
+            lo[pos], hi[pos] = max(lo[pos], ends[0] - 1e-12), min(hi[pos], ends[1] + 1e-12)
+    return lo, hi
+
+
+# -- affine forms of the two sides --------------------------------------------------------------------
+def _zero_form(B: int, K: int) -> af.Form:
+    return af.Form(np.zeros((B, 3)), np.zeros((B, 3, K)), np.zeros(B))
+
+
+def _hand_forms(pp: PairProblem, zc: np.ndarray, half: np.ndarray) -> tuple[af.Form, list[af.Form]]:
+    """``d = c_b - c_a`` and, per side, the cap's axis or the point's normal (common link frame)."""
+    B, K = zc.shape
+    sa = pp.slices[0]
+    d, J, Ra, Wa, Rb, Wb = pp.kin.evaluate(zc[:, sa])
+    curv = np.zeros((K, K))
+    curv[sa, sa] = pp.kin.problem.curvature_mm
+    Jfull = np.zeros((B, 3, K))
+    Jfull[:, :, sa] = -J
+    directions = []
+    for side, (R, W) in enumerate(((Ra, Wa), (Rb, Wb))):
+        region = pp.hand[side][0].region
+        v = np.einsum("bij,j->bi", R, region.axis if isinstance(region, SphereCap) else region.normal)
+        Jv = np.zeros((B, 3, K))
+        Jv[:, :, sa] = np.cross(W, v[:, :, None], axis=1)
+        M = np.zeros((K, K))
+        M[sa, sa] = pp.kin.rotation_curvature[side]
+        directions.append(af.taylor_vector(v, Jv, half, M))
+    return af.taylor_vector(-d, Jfull, half, curv), directions
+
+
+def _object_forms(pp: PairProblem, zc: np.ndarray, half: np.ndarray) -> tuple[af.Form, af.Form, af.Form]:
+    """``d = c_b - c_a`` with ``c = o + r nu``, ``h_a = -nu_a``, ``h_b = -nu_b`` (object frame)."""
+    B, K = zc.shape
+    centres, normals = [], []
+    for side in (0, 1):
+        (region, (m_point, m_normal)), radius = pp.objects[side], pp.hand[side][1]
+        sl = pp.slices[1 + side]
+        o, nu = region.evaluate(zc[:, sl])
+        do, dnu = region.jacobian(zc[:, sl])
+        reach = half[:, sl].sum(axis=1)
+        Jc, Jn = np.zeros((B, 3, K)), np.zeros((B, 3, K))
+        Jc[:, :, sl], Jn[:, :, sl] = (do + radius * dnu) * half[:, None, sl], -dnu * half[:, None, sl]
+        centres.append(af.Form(o + radius * nu, Jc, 0.5 * (m_point + radius * m_normal) * reach**2))
+        normals.append(af.Form(-nu, Jn, 0.5 * m_normal * reach**2))
+    return af.sub(centres[1], centres[0]), normals[0], normals[1]
+
+
+def _norm_upper(v: af.Form) -> np.ndarray:
+    """An upper bound of ``|v|`` over the box (B,)."""
+    return np.linalg.norm(v.c, axis=1) + np.linalg.norm(v.A, axis=1).sum(axis=1) + v.rho
+
+
+def _cone_condition(axis: af.Form, d: tuple[af.Form, af.Form], h: af.Form, cos_b: float, sin_b: float) -> af.Form:
+    """``axis . d_hand - cos(beta) (d . h) + sin(beta) |d x h| >= 0`` (object ``d`` and ``h``),
+    i.e. ``angle(d, axis) <= angle(d, h) + beta``; ``|d x h|`` enters through its upper bound
+    on the box.  The cosine bound needs ``angle(d, h) + beta <= pi``: on boxes where that is
+    not certain (``d . h >= -|d| cos(beta)`` not proven) the condition is dropped."""
+    kappa = af.dot(d[1], h)
+    f = af.sub(af.dot(axis, d[0]), _scaled(kappa, cos_b))
+    # d . h >= -|d| cos(beta) on the whole box: with cos(beta) >= 0 the lower bound of |d|
+    # makes it certain, with cos(beta) < 0 (beta > 90 deg) its upper bound
+    d_lower = np.maximum(np.linalg.norm(d[1].c, axis=1) - np.linalg.norm(d[1].A, axis=1).sum(axis=1) - d[1].rho, 0.0)
+    d_size = d_lower if cos_b >= 0.0 else _norm_upper(d[1])
+    valid = kappa.c - af.spread(kappa) + d_size * cos_b >= 0.0
+    return af.Form(np.where(valid, f.c + sin_b * _norm_upper(af.cross(d[1], h)), np.inf), f.A, f.rho)
+
+
+def _scaled(f: af.Form, s: float) -> af.Form:
+    return af.Form(f.c * s, f.A * s, f.rho * abs(s))
+
+
+def _conditions(pp: PairProblem, lo: np.ndarray, hi: np.ndarray):
+    """Equations ``(form, pad)`` (``= 0``) and inequalities (``>= 0``) on the boxes."""
+    zc, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
+    d_hand, dirs = _hand_forms(pp, zc, half)
+    d_obj, h_a, h_b = _object_forms(pp, zc, half)
+    equations = [_difference(af.dot(d_hand, d_hand), af.dot(d_obj, d_obj))]
+    inequalities = []
+    caps = [isinstance(h[0].region, SphereCap) for h in pp.hand]
+    for side, (h, sign) in enumerate(((h_a, 1.0), (h_b, -1.0))):
+        d_h, d_o = (d_hand, d_obj) if sign > 0 else (af.neg(d_hand), af.neg(d_obj))
+        if caps[side]:
+            beta = pp.hand[side][0].region.half_angle
+            inequalities.append(_pad(_cone_condition(dirs[side], (d_h, d_o), h, np.cos(beta), np.sin(beta))))
+        else:
+            equations.append(_difference(af.dot(d_h, dirs[side]), af.dot(d_o, h)))
+    if not any(caps):
+        equations.append(_difference(af.dot(dirs[0], dirs[1]), af.dot(h_a, h_b)))
+        equations.append(_difference(af.dot(d_hand, af.cross(dirs[0], dirs[1])), af.dot(d_obj, af.cross(h_a, h_b))))
+    else:
+        total = sum(pp.hand[s][0].region.half_angle for s in (0, 1) if caps[s])
+        if total < np.pi:  # angle(m_a, m_b) <= angle(h_a, h_b) + beta_a + beta_b
+            gamma = af.dot(h_a, h_b)
+            f = af.sub(af.dot(dirs[0], dirs[1]), _scaled(gamma, np.cos(total)))
+            valid = gamma.c - af.spread(gamma) + np.cos(total) >= 0.0  # angle(h_a, h_b) + total <= pi
+            c = np.where(valid, f.c + np.sin(total) * _norm_upper(af.cross(h_a, h_b)), np.inf)
+            inequalities.append(_pad(af.Form(c, f.A, f.rho)))
+    return equations, inequalities
+
+
+def _difference(P: af.Form, O: af.Form):
+    scale = np.abs(P.c) + np.abs(O.c) + af.spread(P) + af.spread(O)
+    return af.sub(P, O), _REL_PAD * scale + _REL_PAD
+
+
+def _pad(f: af.Form):
+    return f, _REL_PAD * (np.abs(f.c) + af.spread(f)) + _REL_PAD
+
+
+# -- branch and prune ----------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class PairOutcome:
+    """Result of :func:`prove_pair_infeasible`.
+
+    Attributes:
+        proved: every box was discarded: the two contacts cannot be made together.
+        boxes: boxes evaluated.
+        seconds: time spent.
+        stopped: why the search stopped without a proof ("" when proved): a witness box
+            (the pair can be made), or a budget.
+        witness: the centre of the surviving narrow box (box dimensions), or None.
+    """
+
+    proved: bool
+    boxes: int
+    seconds: float
+    stopped: str = ""
+    witness: np.ndarray | None = None
+
+
+def prove_pair_infeasible(pp: PairProblem, *, max_boxes: int = 200_000, time_limit_s: float | None = None,
+                          witness_width: float = 1e-7, batch: int = 256) -> PairOutcome:  # fmt: skip
+    """Branch and prune over the pair's box (see the module docstring); stops without a
+    proof after ``max_boxes`` boxes or ``time_limit_s`` seconds (None: no time limit)."""
+    started = time.perf_counter()
+    scale = np.maximum(pp.upper - pp.lower, 1e-12)
+    stack_lo, stack_hi = [pp.lower[None].copy()], [pp.upper[None].copy()]
+    boxes = 0
+    while stack_lo:
+        lo, hi = _take(stack_lo, stack_hi, batch)
+        boxes += len(lo)
+        lo, hi, split, score = _prune_and_contract(pp, lo, hi)
+        if len(lo) and np.any(((hi - lo) / scale).max(axis=1) < witness_width):
+            k = int(np.argmin(((hi - lo) / scale).max(axis=1)))
+            return PairOutcome(False, boxes, time.perf_counter() - started, "witness", 0.5 * (lo[k] + hi[k]))
+        _push(stack_lo, stack_hi, lo[~split], hi[~split])
+        _push(stack_lo, stack_hi, *_halves(lo[split], hi[split], score[split], scale))
+        if boxes >= max_boxes or (time_limit_s is not None and time.perf_counter() - started > time_limit_s):
+            return PairOutcome(False, boxes, time.perf_counter() - started, "budget")
+    return PairOutcome(True, boxes, time.perf_counter() - started)
+
+
+def _take(stack_lo: list, stack_hi: list, batch: int) -> tuple[np.ndarray, np.ndarray]:
+    lo, hi = stack_lo.pop(), stack_hi.pop()
+    if len(lo) > batch:
+        stack_lo.append(lo[:-batch])
+        stack_hi.append(hi[:-batch])
+        lo, hi = lo[-batch:], hi[-batch:]
+    return lo, hi
+
+
+def _push(stack_lo: list, stack_hi: list, lo: np.ndarray, hi: np.ndarray) -> None:
+    if len(lo):
+        stack_lo.append(lo)
+        stack_hi.append(hi)
+
+
+def _prune_and_contract(pp: PairProblem, lo: np.ndarray, hi: np.ndarray):
+    """Drop the boxes that cannot hold a solution, narrow the others; returns the kept boxes,
+    which of them to split (the others narrowed enough to be evaluated again) and the
+    split scores ``(B, K)``."""
+    equations, cones = _conditions(pp, lo, hi)
+    alive = np.ones(len(lo), dtype=bool)
+    for g, pad in equations:
+        alive &= np.abs(g.c) <= af.spread(g) + pad
+    for f, pad in cones:
+        alive &= f.c + af.spread(f) + pad >= 0.0
+    eps_lo, eps_hi = -np.ones_like(lo), np.ones_like(lo)
+    for _ in range(2):
+        for g, pad in equations:
+            af.contract_equal(g, pad, eps_lo, eps_hi)
+        for f, pad in cones:
+            af.contract_at_least(f, pad, eps_lo, eps_hi)
+    alive &= np.all(eps_lo <= eps_hi, axis=1)
+    zc, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
+    new_lo = np.maximum(lo, zc + half * eps_lo - 1e-12 * np.abs(zc))
+    new_hi = np.minimum(hi, zc + half * eps_hi + 1e-12 * np.abs(zc))
+    shrunk = ((new_hi - new_lo) < 0.7 * (hi - lo)) & (hi - lo > 0)
+    score = _split_scores(equations, cones, (hi - lo) / np.maximum(pp.upper - pp.lower, 1e-12))
+    keep = alive & (new_lo <= new_hi).all(axis=1)
+    split = ~shrunk[keep].any(axis=1)
+    return new_lo[keep], new_hi[keep], split, score[keep]
+
+
+def _split_scores(equations, inequalities, rel: np.ndarray) -> np.ndarray:
+    """``(B, K)``: each dimension's share of the condition closest to excluding the box
+    (largest ``|c| / spread`` for an equation, ``-c / spread`` for an inequality): its
+    linear coefficient, plus the remainder shared in proportion to the squared relative
+    widths ``rel (B, K)`` (the remainder is quadratic in the half widths)."""
+    conditions = [(g, pad, np.abs(g.c)) for g, pad in equations] + [(f, pad, -f.c) for f, pad in inequalities]
+    spreads = [af.spread(f) + pad for f, pad, _ in conditions]
+    with np.errstate(invalid="ignore"):
+        closeness = np.stack([np.nan_to_num(v / s, nan=-np.inf) for (_, _, v), s in zip(conditions, spreads)], axis=1)
+    best = np.argmax(closeness, axis=1)
+    rows = np.arange(len(best))
+    A = np.stack([np.abs(f.A) / s[:, None] for (f, _, _), s in zip(conditions, spreads)], axis=1)[rows, best]
+    rho = np.stack([f.rho / s for (f, _, _), s in zip(conditions, spreads)], axis=1)[rows, best]
+    share = rel**2 / np.maximum((rel**2).sum(axis=1, keepdims=True), 1e-300)
+    return A + rho[:, None] * share
+
+
+def _halves(lo: np.ndarray, hi: np.ndarray, score: np.ndarray, scale: np.ndarray):
+    """Both halves of every box, through the dimension with the largest score (widest, when
+    every score is 0)."""
+    if not len(lo):
+        return lo, hi
+    rel = (hi - lo) / scale
+    k = np.argmax(np.where(rel > 1e-12, score + 1e-9 * rel, -1.0), axis=1)
+    rows = np.arange(len(lo))
+    mid = 0.5 * (lo[rows, k] + hi[rows, k])
+    left_hi, right_lo = hi.copy(), lo.copy()
+    left_hi[rows, k], right_lo[rows, k] = mid, mid
+    return np.concatenate([right_lo, lo]), np.concatenate([hi, left_hi])
+
+
+# -- every pair of a task ---------------------------------------------------------------------------
+@dataclass(frozen=True)
+class CongruenceResult:
+    """The pair test of a task: ``proved`` with the pair, or not, with the outcomes."""
+
+    proved: bool
+    pair: tuple[int, int] | None
+    outcomes: tuple[tuple[tuple[int, int], PairOutcome], ...]
+
+    @property
+    def boxes(self) -> int:
+        return sum(o.boxes for _, o in self.outcomes)
+
+
+def congruence_test(task: Task, *, max_boxes: int = 200_000, time_limit_s: float | None = None) -> CongruenceResult:
+    """The pair test on every pair of contacts (until one is proved infeasible); the box
+    budget ``max_boxes`` and the time limit are shared evenly by the pairs."""
+    pairs = [(a, b) for a in range(len(task.contacts)) for b in range(a + 1, len(task.contacts))]
+    share = max(1, max_boxes // max(1, len(pairs)))
+    seconds = None if time_limit_s is None else time_limit_s / max(1, len(pairs))
+    outcomes = []
+    for a, b in pairs:
+        pp = pair_problem(task, a, b)
+        if pp is None:
+            continue
+        outcome = prove_pair_infeasible(pp, max_boxes=share, time_limit_s=seconds)
+        outcomes.append(((a, b), outcome))
+        if outcome.proved:
+            return CongruenceResult(True, (a, b), tuple(outcomes))
+    return CongruenceResult(False, None, tuple(outcomes))

@@ -1,0 +1,182 @@
+"""The pose-free pair test (solvers/complete/congruence.py) and its affine forms: the
+enclosures contain what they bound, a known solution is never pruned, and proofs end the
+complete search as infeasible."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fk_tasks import build_fk_case
+from prehension.geometry.regions import PointRegion
+from prehension.hands.sa_hand import schunk_sa_hand
+from prehension.objects.model import GraspObject
+from prehension.results import Status
+from prehension.solvers.complete import affine as af
+from prehension.solvers.complete import congruence as cg
+from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
+from prehension.tasks.library import load_builtin_task
+from prehension.tasks.model import Contact, Task
+
+
+# -- affine forms --------------------------------------------------------------------------------
+def _random_form(rng, B, K, vector=True):
+    shape = (B, 3) if vector else (B,)
+    return af.Form(rng.normal(size=shape) * 10, rng.normal(size=shape + (K,)), rng.uniform(0, 2, B))
+
+
+def _sample(rng, f: af.Form, eps):
+    """A value the form allows: ``c + A eps + r`` with ``|r| <= rho``."""
+    if f.c.ndim == 2:
+        r = rng.normal(size=f.c.shape)
+        r *= (f.rho * rng.uniform(0, 1, len(r)) / np.linalg.norm(r, axis=1))[:, None]
+        return f.c + np.einsum("bik,bk->bi", f.A, eps) + r
+    return f.c + np.einsum("bk,bk->b", f.A, eps) + f.rho * rng.uniform(-1, 1, len(f.c))
+
+
+def _contains(f: af.Form, value, eps):
+    linear = f.c + (np.einsum("bik,bk->bi", f.A, eps) if f.c.ndim == 2 else np.einsum("bk,bk->b", f.A, eps))
+    gap = np.linalg.norm(value - linear, axis=1) if f.c.ndim == 2 else np.abs(value - linear)
+    return np.all(gap <= f.rho * (1 + 1e-9) + 1e-9 * (1 + np.abs(value).max()))
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_products_of_affine_forms_contain_the_products(seed):
+    rng = np.random.default_rng(seed)
+    B, K = 64, 5
+    u, w = _random_form(rng, B, K), _random_form(rng, B, K)
+    eps = rng.uniform(-1, 1, (B, K))
+    uu, ww = _sample(rng, u, eps), _sample(rng, w, eps)
+    assert _contains(af.dot(u, w), np.einsum("bi,bi->b", uu, ww), eps)
+    assert _contains(af.cross(u, w), np.cross(uu, ww), eps)
+    assert _contains(af.sub(u, w), uu - ww, eps)
+    s = af.dot(u, w)
+    value = np.einsum("bi,bi->b", uu, ww)
+    assert np.all(np.abs(value - s.c) <= af.spread(s) * (1 + 1e-9) + 1e-9)
+
+
+def test_contraction_keeps_every_zero_of_the_form():
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        K = 4
+        A = rng.normal(size=(1, K))
+        eps = rng.uniform(-1, 1, (1, K))
+        rho = rng.uniform(0, 0.5, 1)
+        r = rho * rng.uniform(-1, 1)
+        c = -(A @ eps[0]) - r  # c + A eps + r = 0 at eps
+        lo, hi = -np.ones((1, K)), np.ones((1, K))
+        af.contract_equal(af.Form(c, A, rho), np.zeros(1), lo, hi)
+        assert np.all(lo <= eps) and np.all(eps <= hi)
+
+
+# -- the pair problems ----------------------------------------------------------------------------
+def _pinch_task(width_mm: float) -> Task:
+    obj = GraspObject("two-points", {"a": PointRegion((0, 0, 0), (-1, 0, 0)), "b": PointRegion((width_mm, 0, 0), (1, 0, 0))})
+    return Task("pinch", schunk_sa_hand(), obj, (Contact("thumb_tip", "a"), Contact("index_tip", "b")), ("thumb", "index"))
+
+
+def _pair_problems():
+    rng = np.random.default_rng(3)
+    hand = schunk_sa_hand()
+    cases = [(_pinch_task(60.0), None), (load_builtin_task("teapot-lid-lifting"), None)]
+    for kinds in (("cap", "bezier"), ("point", "cap"), ("bezier", "bezier")):
+        case = build_fk_case(hand, rng, fingers=("thumb", "index"), palm=False, kinds=kinds)
+        cases.append((case.task, case.config))
+    return cases
+
+
+def _true_values(pp: cg.PairProblem, z: np.ndarray):
+    """``(d_hand, m_a, m_b, d_obj, h_a, h_b)`` at points ``z (B, K)`` of the pair's box."""
+    d, _, Ra, _, Rb, _ = pp.kin.evaluate(z[:, pp.slices[0]])
+    dirs = []
+    for side, R in ((0, Ra), (1, Rb)):
+        region = pp.hand[side][0].region
+        v = region.axis if hasattr(region, "axis") else region.normal
+        dirs.append(np.einsum("bij,j->bi", R, v))
+    centres, normals = [], []
+    for side in (0, 1):
+        region, radius = pp.objects[side][0], pp.hand[side][1]
+        o, nu = region.evaluate(z[:, pp.slices[1 + side]])
+        centres.append(o + radius * nu)
+        normals.append(-nu)
+    return -d, dirs[0], dirs[1], centres[1] - centres[0], normals[0], normals[1]
+
+
+@pytest.mark.parametrize("case", range(5))
+def test_the_forms_of_both_sides_contain_their_values_on_random_boxes(case):
+    task, _ = _pair_problems()[case]
+    pp = cg.pair_problem(task, 0, 1)
+    assert pp is not None
+    rng = np.random.default_rng(case)
+    B = 200
+    width = (pp.upper - pp.lower) * 10.0 ** rng.uniform(-3, 0, (B, 1))
+    lo = pp.lower + rng.uniform(0, 1, (B, pp.n_dims)) * (pp.upper - pp.lower - width)
+    hi = lo + width
+    zc, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
+    d_hand, dirs = cg._hand_forms(pp, zc, half)
+    d_obj, h_a, h_b = cg._object_forms(pp, zc, half)
+    forms = (d_hand, dirs[0], dirs[1], d_obj, h_a, h_b)
+    for _ in range(10):
+        eps = rng.uniform(-1, 1, (B, pp.n_dims))
+        for form, value in zip(forms, _true_values(pp, zc + half * eps)):
+            assert _contains(form, value, eps)
+
+
+@pytest.mark.parametrize("case", [2, 3, 4])
+def test_boxes_around_a_known_solution_are_never_pruned(case):
+    """Forward-built tasks: every box holding the known solution survives pruning and its
+    contraction, whatever its size (the pair test never loses a solution)."""
+    task, config = _pair_problems()[case]
+    pp = cg.pair_problem(task, 0, 1)
+    z = np.concatenate([config.joint_angles[pp.kin.problem.sources]] + [np.atleast_1d(config.contact_params[i][1]) for i in (0, 1)])
+    assert np.all(z >= pp.lower - 1e-12) and np.all(z <= pp.upper + 1e-12)
+    rng = np.random.default_rng(case)
+    B = 300
+    width = (pp.upper - pp.lower) * 10.0 ** rng.uniform(-6, 0, (B, 1))
+    lo = np.maximum(pp.lower, z - rng.uniform(0, 1, (B, pp.n_dims)) * width)
+    hi = np.minimum(pp.upper, lo + width)
+    hi = np.maximum(hi, z)
+    kept_lo, kept_hi, _, _ = cg._prune_and_contract(pp, lo, hi)
+    assert len(kept_lo) == B
+    assert np.all(kept_lo <= z) and np.all(z <= kept_hi)
+
+
+def test_every_pair_of_a_forward_built_task_with_the_palm_keeps_its_solution():
+    rng = np.random.default_rng(7)
+    case = build_fk_case(schunk_sa_hand(), rng, fingers=("thumb", "index", "middle"), palm=True)
+    task, config = case.task, case.config
+    for a in range(len(task.contacts)):
+        for b in range(a + 1, len(task.contacts)):
+            pp = cg.pair_problem(task, a, b)
+            z = np.concatenate([config.joint_angles[pp.kin.problem.sources]]
+                               + [np.atleast_1d(config.contact_params[i][1]) for i in (a, b)])  # fmt: skip
+            width = (pp.upper - pp.lower) * 10.0 ** rng.uniform(-6, 0, (100, 1))
+            lo = np.maximum(pp.lower, z - rng.uniform(0, 1, (100, pp.n_dims)) * width)
+            hi = np.maximum(np.minimum(pp.upper, lo + width), z)
+            kept_lo, kept_hi, _, _ = cg._prune_and_contract(pp, lo, hi)
+            assert len(kept_lo) == 100 and np.all(kept_lo <= z) and np.all(z <= kept_hi)
+
+
+def test_forward_built_pairs_are_never_proved_infeasible():
+    for task, config in _pair_problems()[2:]:
+        outcome = cg.prove_pair_infeasible(cg.pair_problem(task, 0, 1), max_boxes=3000)
+        assert not outcome.proved
+
+
+def test_a_pinch_past_reach_is_proved_and_ends_the_search_as_infeasible():
+    proof = cg.prove_pair_infeasible(cg.pair_problem(_pinch_task(180.0), 0, 1), max_boxes=50_000)
+    assert proof.proved
+    result = solve_complete(_pinch_task(180.0), BranchAndPruneOptions(max_boxes=50))
+    assert result.status == Status.INFEASIBLE
+    assert "cannot be made together whatever the object's pose" in result.message
+    assert result.stats["pair_test"]["proved"]
+
+
+def test_the_pair_test_stops_at_its_time_limit():
+    import time
+
+    pp = cg.pair_problem(load_builtin_task("teapot-lid-lifting"), 0, 1)
+    started = time.perf_counter()
+    outcome = cg.prove_pair_infeasible(pp, max_boxes=10**9, time_limit_s=0.5)
+    assert not outcome.proved and outcome.stopped == "budget"
+    assert time.perf_counter() - started < 5.0

@@ -1,0 +1,71 @@
+"""The complete solver at the reach frontier (issue 15): never a false "infeasible".
+
+The family and its frontier ``t*`` come from ``benchmarks/frontier.py`` (scalpel-upholding
+with the thumb's region moved away from the index's): ``t*`` is found by maximising the
+offset with SLSQP and polished into a strict solution, so the task at ``t*`` has a known
+solution; SLSQP with the offset pinned to ``t* - eps`` gives a known strict solution there
+(checked here: feasibility just inside is not assumed), and the complete solver must not
+prove otherwise.  The minutes-long runs of the benchmark stay out of the suite; one fast case
+of each outcome is kept here.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import pytest
+
+from prehension.results import Status, make_solution
+from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
+from prehension.tasks.residuals import Tolerances
+
+SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "frontier.py"
+NO_SELF_COLLISION = Tolerances(penetration_mm=float("inf"))  # as the complete solver's system
+
+
+def _frontier_module():
+    spec = importlib.util.spec_from_file_location("prehension_benchmark_frontier", SCRIPT)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # dataclasses look their module up
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.fixture(scope="module")
+def frontier_module():
+    return _frontier_module()
+
+
+@pytest.fixture(scope="module")
+def scalpel(frontier_module):
+    family = frontier_module.families(["scalpel"])[0]
+    return family, frontier_module.find_frontier(family, seeds=1)
+
+
+def test_the_frontier_configuration_is_a_strict_solution(scalpel):
+    family, found = scalpel
+    assert found.t_mm > 150.0  # the thumb's region moved well past where the task puts it
+    assert make_solution(family.task_at(found.t_mm), found.configuration) is not None
+
+
+@pytest.mark.parametrize("eps_mm", [0.001, 0.005, 0.05])
+def test_tasks_just_inside_the_frontier_are_never_called_infeasible(frontier_module, scalpel, eps_mm):
+    family, found = scalpel
+    task = family.task_at(found.t_mm - eps_mm)
+    witness = frontier_module.solution_at(family, found.configuration, found.t_mm, found.t_mm - eps_mm)
+    assert witness is not None and make_solution(task, witness, NO_SELF_COLLISION) is not None  # feasible
+    result = solve_complete(task, BranchAndPruneOptions(max_boxes=4))
+    assert result.status in (Status.SOLVED, Status.GAVE_UP)
+    for solution in result.solutions:
+        assert make_solution(result.task, solution.configuration()) is not None
+
+
+def test_half_a_millimetre_inside_is_solved_and_two_outside_certified(scalpel):
+    family, found = scalpel
+    inside = solve_complete(family.task_at(found.t_mm - 0.5), BranchAndPruneOptions(max_boxes=20))
+    assert inside.status == Status.SOLVED
+    outside = solve_complete(family.task_at(found.t_mm + 2.0), BranchAndPruneOptions(max_boxes=20))
+    assert outside.status == Status.INFEASIBLE
+    assert "boxes pruned" in outside.message
