@@ -126,6 +126,8 @@ def test_all_solutions_mode_stops_at_its_default_box_budget_with_a_cover(monkeyp
         assert make_solution(result.task, solution.configuration()) is not None
     explicit = solve_complete(pincer_task(30.0), replace(options, max_boxes=20))  # an explicit limit wins
     assert explicit.stats["boxes"] == 20
+    timed = solve_complete(pincer_task(30.0), replace(options, time_limit_s=600.0))  # as the CLI's default limit
+    assert timed.stats["boxes"] == 12  # a time limit does not lift the box budget
 
 
 def test_workers_visit_the_same_boxes_as_one_process():

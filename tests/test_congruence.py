@@ -166,10 +166,12 @@ def test_forward_built_pairs_are_never_proved_infeasible():
 def test_a_pinch_past_reach_is_proved_and_ends_the_search_as_infeasible():
     proof = cg.prove_pair_infeasible(cg.pair_problem(_pinch_task(180.0), 0, 1), max_boxes=50_000)
     assert proof.proved
-    result = solve_complete(_pinch_task(180.0), BranchAndPruneOptions(max_boxes=50))
+    seen = []
+    result = solve_complete(_pinch_task(180.0), BranchAndPruneOptions(max_boxes=50), progress=seen.append)
     assert result.status == Status.INFEASIBLE
     assert "cannot be made together whatever the object's pose" in result.message
     assert result.stats["pair_test"]["proved"]
+    assert any("pair test" in info for info in seen)  # the progress line says the pair test runs
 
 
 def test_the_pair_test_stops_at_its_time_limit():

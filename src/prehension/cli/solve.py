@@ -44,8 +44,9 @@ def add_parser(sub) -> None:
                    help="auto (default): the local solver, then the complete one if it finds no strict solution")  # fmt: skip
     p.add_argument("-o", "--output", type=Path, help="result file (default: TASK.result.json; an older one is kept as a backup)")
     p.add_argument("--all", action="store_true",
-                   help="complete solver: describe the whole solution set down to --sigma (breadth first; "
-                        "every box is split to sigma, so this takes far longer than one solution)")  # fmt: skip
+                   help="complete solver: describe the solution set down to --sigma (breadth first); stops "
+                        "after 100 boxes unless --max-boxes is given (or at --time-limit), returning a cover: "
+                        "solution boxes, verified solutions and the boxes still open")  # fmt: skip
     p.add_argument("--sigma", type=types.finite, default=0.1, help="complete solver: solution-box size (fraction of the initial box)")
     p.add_argument("--workers", type=types.positive_int, default=1,
                    help="complete solver: boxes processed in parallel on a local Dask cluster of N processes")  # fmt: skip

@@ -67,8 +67,8 @@ class BranchAndPruneOptions:
         order: ``"depth"`` (stop at the first verified solution) or ``"breadth"``.
         all_solutions: keep searching after a verified solution (solution-set mode).
         max_boxes: stop (``gave_up``) after this many boxes.  In the solution-set mode
-            (``all_solutions``) with neither this nor ``time_limit_s`` given, the search
-            stops after :data:`ALL_SOLUTIONS_MAX_BOXES` boxes.
+            (``all_solutions``) without it, the search stops after
+            :data:`ALL_SOLUTIONS_MAX_BOXES` boxes (or at ``time_limit_s``, if sooner).
         time_limit_s: stop (``gave_up``) after this many seconds.
         shrink: box-shrinking options.
         verify_starts: points of each box the verification starts from: its centre and
@@ -227,8 +227,9 @@ def _done(state: SearchState, options: BranchAndPruneOptions) -> bool:
 
 
 def _box_budget(options: BranchAndPruneOptions) -> int | None:
-    """``max_boxes``, or the solution-set mode's default budget when no limit is given."""
-    if options.max_boxes is None and options.time_limit_s is None and options.all_solutions:
+    """``max_boxes``, or the solution-set mode's default budget when no box limit is given
+    (a time limit still applies beside it: whichever comes first)."""
+    if options.max_boxes is None and options.all_solutions:
         return ALL_SOLUTIONS_MAX_BOXES
     return options.max_boxes
 
@@ -328,7 +329,7 @@ def _run(form, state, options, executor, workers, started, progress) -> str:
             state.open.pop()
             _record(state, outcome, options)
             if not state.solutions and state.open and options.pair_test_boxes:
-                _pair_test(form, state, options, started)
+                _pair_test(form, state, options, started, progress)
             _report(progress, state, len(ahead))
         return ""
     finally:
@@ -336,10 +337,12 @@ def _run(form, state, options, executor, workers, started, progress) -> str:
             future.cancel()
 
 
-def _pair_test(form: Formulation, state: SearchState, options: BranchAndPruneOptions, started: float) -> None:
+def _pair_test(form: Formulation, state: SearchState, options: BranchAndPruneOptions, started: float,
+               progress: Callable[[dict], None] | None = None) -> None:  # fmt: skip
     """The pose-free pair test at its two moments (see ``pair_test_boxes``); when it proves
     two contacts incompatible no box can hold a solution: the open (and small) boxes are
-    discarded and the proof kept in the state.  It stops with the search's time limit."""
+    discarded and the proof kept in the state.  It stops with the search's time limit and
+    says on ``progress`` that it runs (it can take a minute)."""
     if state.boxes == 1:
         budget = options.pair_test_boxes // 10
     elif state.boxes == PAIR_TEST_LATE and state.pair_test is not None:
@@ -353,6 +356,8 @@ def _pair_test(form: Formulation, state: SearchState, options: BranchAndPruneOpt
         seconds = options.time_limit_s - (time.perf_counter() - started)
         if seconds <= 0.0:
             return
+    if progress is not None:
+        progress({"boxes": state.boxes, "open": len(state.open), "pair test": f"running (up to {budget} boxes)"})
     proof = congruence_test(form.task, max_boxes=budget, time_limit_s=seconds)
     state.pair_test = proof
     if proof.proved:
