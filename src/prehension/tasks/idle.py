@@ -94,7 +94,7 @@ def settle_idle_fingers(task: Task, config: Configuration, tolerance_mm: float =
         cand = _candidates(task.hand, q, dofs, rng)
         change = np.max(np.abs(cand[:, dofs] - q[dofs]), axis=1)
         nearest = _nearest_clear(task, cand, np.argsort(change, kind="stable"), T, links, 0.5 * tolerance_mm)
-        if nearest is not None:
+        if nearest:  # None: nothing clear, leave it; 0: the finger is clear where it is
             q = cand[nearest]
     return replace(config, joint_angles=q)
 

@@ -263,7 +263,8 @@ def solve_complete(
             boxes are kept in flight on it.
         checkpoint: file where the open boxes are saved when the search stops early or
             is interrupted (Ctrl-C); with ``resume=True`` the search starts from it.
-        progress: called after each box with counters (boxes, open, depth, lps).
+        progress: called after each box with counters (boxes, open, depth, lps), and with
+            ``"pair test"`` when the pair test starts (it can take a minute).
     """
     started = time.perf_counter()
     form = build_system(task)
