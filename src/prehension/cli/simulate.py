@@ -21,7 +21,7 @@ from rich.table import Table
 from ..atomic import check_output_path, write_json_atomic
 from ..errors import InvalidTask, PrehensionError
 from . import args as types
-from .codes import EXIT_BAD_INPUT, EXIT_OK
+from .codes import EXIT_OK
 
 __all__ = ["add_parser", "cmd_simulate", "EXIT_DROPPED", "PHYSICS_TAG"]
 
@@ -101,11 +101,7 @@ def sim_options(args):
 def cmd_simulate(args, console: Console) -> int:
     from ..sim import require_mujoco, simulate_grasp
 
-    try:
-        require_mujoco()  # before any work: say what to install
-    except PrehensionError as exc:  # printed here: main() would read "[sim]" as rich markup
-        Console(stderr=True, highlight=False).print(f"error: {exc}", markup=False, soft_wrap=True)
-        return EXIT_BAD_INPUT
+    require_mujoco()  # before any work: say what to install (main() prints the message as text)
     options = sim_options(args)
     out = check_output_path(args.output, "output", inputs=[args.result], suffixes=(".json",)) if args.output else None
     task, grasps = stored_grasps(args.result, args.solution)

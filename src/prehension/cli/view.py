@@ -10,7 +10,7 @@ from rich.console import Console
 from ..errors import PrehensionError
 from ..atomic import check_output_path
 from .args import finite
-from .codes import EXIT_BAD_INPUT, EXIT_OK
+from .codes import EXIT_OK
 from .solve import task_inputs
 
 INPUT_HELP = ("result file (.json) written by 'prehension solve', a task (built-in name, .yaml or .world file), "
@@ -73,11 +73,7 @@ def cmd_view(args, console: Console) -> int:
 def cmd_render(args, console: Console) -> int:
     from ..viewer.render import IMAGE_FORMATS, render_image, require_matplotlib
 
-    try:
-        require_matplotlib()  # before any work: say what to install
-    except PrehensionError as exc:  # printed here: main() would read "[plot]" as rich markup
-        Console(stderr=True, highlight=False).print(f"error: {exc}", markup=False, soft_wrap=True)
-        return EXIT_BAD_INPUT
+    require_matplotlib()  # before any work: say what to install (main() prints the message as text)
     size = _size(args.size)
     layers = tuple(k.strip() for k in args.layers.split(",") if k.strip()) if args.layers else None
     out = _output(args, tuple(IMAGE_FORMATS))
