@@ -10,11 +10,11 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from fk_tasks import build_fk_case
+from tiny_tasks import pit_task
 from prehension.errors import InvalidObject
-from prehension.geometry.regions import PointRegion, SphereCap
+from prehension.geometry.regions import SphereCap
 from prehension.hands.kinematics import forward_kinematics
-from prehension.hands.model import Capsule, Finger, Hand, HandRegion, Joint, Link
-from prehension.objects.meshes import Box, Sphere
+from prehension.objects.meshes import Sphere
 from prehension.objects.model import GraspObject
 from prehension.objects.solid import PrimitiveSolid
 from prehension.results import Status, write_result
@@ -23,7 +23,7 @@ from prehension.solvers.complete.search import BranchAndPruneOptions, process_bo
 from prehension.system.embedding import embed
 from prehension.system.formulation import build_system
 from prehension.tasks.idle import settle_idle_fingers
-from prehension.tasks.model import Configuration, Contact, Task
+from prehension.tasks.model import Configuration, Task
 from prehension.tasks.residuals import evaluate
 
 TOL = 0.5  # the default object_penetration_mm
@@ -186,34 +186,13 @@ def test_search_path_to_a_known_solution_is_never_cut_by_collision(sphere_cases)
 
 
 # -- a task whose only contact configurations pass through the object -------------------
-def _paddle_hand() -> Hand:
-    """A palm capsule 100 mm long with a pad at its tip facing +x, and one idle finger."""
-    half_pi = np.pi / 2
-    palm = Link("palm", (Capsule((0, 0, 0), (0, 0, 90), 10.0),))
-    finger = Link("f1", (Capsule((0, 0, 0), (0, 0, 30), 6.0),))
-    joint = Joint("j1", "revolute", "palm", "f1", (0, 0, 0), (0, 0, 0), (0, 1, 0), np.eye(3), ("j1",), (0.0,), (half_pi,))
-    regions = {"pad": HandRegion("palm", PointRegion((10, 0, 100), (1, 0, 0)))}
-    return Hand("paddle", (palm, finger), (joint,), (), (Finger("f", ("f1",)),), regions)
-
-
-def _pit_task(half_width: float) -> Task:
-    """The pad must touch the floor of a square pit (``2 half_width`` wide, 30 mm deep,
-    opening towards -x): the palm then lies 10 mm above the floor, in the walls."""
-    h, long = half_width, 2 * half_width + 160.0
-    walls = (Box((-15.0, 0.0, h + 40.0), (30.0, long, 80.0)), Box((-15.0, 0.0, -h - 40.0), (30.0, long, 80.0)),
-             Box((-15.0, h + 40.0, 0.0), (30.0, 80.0, 2 * h)), Box((-15.0, -h - 40.0, 0.0), (30.0, 80.0, 2 * h)))  # fmt: skip
-    solid = PrimitiveSolid((Box((30.0, 0.0, 0.0), (60.0, long + 40.0, long + 40.0)),) + walls)
-    obj = GraspObject("pit", {"floor": PointRegion((0, 0, 0), (-1, 0, 0))}, solid=solid)
-    return Task(f"pit-{2 * h:g}", _paddle_hand(), obj, (Contact("pad", "floor"),), ())
-
-
 def test_a_task_infeasible_only_through_the_object_is_certified_and_re_proved(tmp_path, capsys):
     """(c) Every way of touching the pit's floor puts the palm into its walls: certified
     infeasible with the collision prune named, ``prehension check`` proves it again, and
     without the prune the same search cannot end."""
     from prehension.cli import EXIT_INFEASIBLE, main
 
-    task = _pit_task(15.0)
+    task = pit_task(15.0)
     result = solve_complete(task, BranchAndPruneOptions(time_limit_s=60))
     assert result.status == Status.INFEASIBLE and not result.solutions
     assert "no penetration-free solution" in result.message and result.stats["collision_pruned"] > 0
@@ -231,6 +210,6 @@ def test_a_task_infeasible_only_through_the_object_is_certified_and_re_proved(tm
 
 def test_a_wide_pit_is_solved_by_the_same_search():
     """The same task with the pit wide enough for the palm: solved, penetration-free."""
-    result = solve_complete(_pit_task(120.0), BranchAndPruneOptions(time_limit_s=60))
+    result = solve_complete(pit_task(120.0), BranchAndPruneOptions(time_limit_s=60))
     assert result.status == Status.SOLVED
     assert result.solutions[0].report.worst("object_collision") <= TOL

@@ -16,9 +16,9 @@ signed distance (1-Lipschitz, negative inside), so ``sd(p) < r - tol`` at any on
 a link of the system has its rotation ``R_object_link`` among the variables and its origin
 ``r_0 + sum (R_parent P - R_child Q)`` linear in them, so a probe point
 ``origin + R_object_link p`` is a linear expression ``c + A x`` of the variables, and its
-interval over the box ``[lower, upper]`` is ``c + A+ lower + A- upper`` to
-``c + A+ upper + A- lower`` (rounded outwards by a relative 1e-9): an axis-aligned box
-``B`` that holds the point for every configuration of the box.
+interval over the box ``[lower, upper]`` is ``c + A mid +- |A| half`` (``mid``, ``half``
+the box's centre and half-widths; rounded outwards by a relative 1e-9): an axis-aligned
+box ``B`` that holds the point for every configuration of the box.
 
 **Links the search does not model.**  Idle fingers, and the links of a taking-part finger
 beyond its contact link, are not in the system (the local refinement and the idle settling

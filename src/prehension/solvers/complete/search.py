@@ -1,14 +1,18 @@
 """Branch and prune over boxes (Rosales et al. 2011, sec. 4.2), with verified answers.
 
 Each box is *processed*: shrunk (contraction, then linear programs over the relaxations,
-:func:`.shrink.shrink_box`); if not empty, a point read from it is refined on the original
+:func:`.shrink.shrink_box`), and discarded when an enclosure proves that every
+configuration in it puts the hand into the object (:mod:`.collision`, after the
+contraction and again after the LPs); if not empty, a point read from it is refined on the original
 constraints and judged by the residual function (:func:`prehension.results.make_solution`);
 if that fails, the box is split through its widest scaled interval -- or, once it is
 narrower than ``sigma``, kept as an *unverified* solution box (never called a solution).
 
 Depth-first order stops at the first verified solution; breadth-first collects every
 solution box (``all_solutions``).  When every box is pruned the answer is **infeasible**,
-with the numbers of boxes and linear programs as its certificate.
+with the numbers of boxes and linear programs as its certificate -- for an object that
+collides, "no penetration-free solution" when the collision prune discarded any box
+(``stats["collision_pruned"]``).
 
 Boxes are independent, so :func:`solve_complete` can process them on any
 ``concurrent.futures.Executor`` (a process pool, a Dask cluster's executor): workers
