@@ -24,6 +24,7 @@ from prehension.system.embedding import embed
 from prehension.system.formulation import build_system
 from prehension.tasks.idle import settle_idle_fingers
 from prehension.tasks.model import Configuration, Task
+from prehension.tasks.object_collision import link_penetrations
 from prehension.tasks.residuals import evaluate
 
 TOL = 0.5  # the default object_penetration_mm
@@ -208,8 +209,18 @@ def test_a_task_infeasible_only_through_the_object_is_certified_and_re_proved(tm
     assert off.status == Status.GAVE_UP and off.stats["collision_pruned"] == 0 and not off.solutions
 
 
-def test_a_wide_pit_is_solved_by_the_same_search():
-    """The same task with the pit wide enough for the palm: solved, penetration-free."""
-    result = solve_complete(pit_task(120.0), BranchAndPruneOptions(time_limit_s=60))
+def test_a_wide_pit_is_solved_by_the_same_search_and_the_pad_zone_is_never_pruned_for():
+    """The same task with the pit wide enough for the palm: solved, penetration-free; the
+    palm's tip sphere is 1.5 mm into the floor at the pad, which the residual function
+    excepts, and so does the prune (at the solution's own point box)."""
+    task = pit_task(120.0)
+    result = solve_complete(task, BranchAndPruneOptions(time_limit_s=60))
     assert result.status == Status.SOLVED
-    assert result.solutions[0].report.worst("object_collision") <= TOL
+    solution = result.solutions[0]
+    assert solution.report.worst("object_collision") <= TOL
+    config = solution.configuration()
+    pose = forward_kinematics(task.hand, config.joint_angles)
+    assert link_penetrations(task, pose, config.T_palm_object)["palm"] > 1.0  # without the pad's exception
+    form = build_system(task)
+    x = embed(form, config)
+    assert collision_prune(form, x, x, TOL) is None

@@ -47,9 +47,12 @@ def pincer_task(d: float) -> Task:
 
 # -- the paddle and the pit: infeasible only because of the object --------------------------
 def paddle_hand() -> Hand:
-    """A palm capsule 100 mm long with a pad at its tip facing +x, and one idle finger."""
+    """A palm capsule 100 mm long with a pad at its tip facing +x, and one idle finger.
+
+    A small sphere at the palm's tip holds the pad and reaches 1.5 mm beyond it: penetration
+    that the residual function excepts (the pad's own zone), never pruned for."""
     half_pi = np.pi / 2
-    palm = Link("palm", (Capsule((0, 0, 0), (0, 0, 90), 10.0),))
+    palm = Link("palm", (Capsule((0, 0, 0), (0, 0, 90), 10.0), Capsule((7, 0, 97), (7, 0, 97), 4.5)))
     finger = Link("f1", (Capsule((0, 0, 0), (0, 0, 30), 6.0),))
     joint = Joint("j1", "revolute", "palm", "f1", (0, 0, 0), (0, 0, 0), (0, 1, 0), np.eye(3), ("j1",), (0.0,), (half_pi,))
     regions = {"pad": HandRegion("palm", PointRegion((10, 0, 100), (1, 0, 0)))}
