@@ -226,3 +226,29 @@ def test_a_wide_pit_is_solved_by_the_same_search_and_the_pad_zone_is_never_prune
     form = build_system(task)
     x = embed(form, config)
     assert collision_prune(form, x, x, TOL) is None
+
+
+def test_the_prune_gives_the_same_certificate_on_an_executor():
+    """Boxes processed ahead on workers: the same boxes, the same collision prunes."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    task = pit_task(15.0)
+    options = BranchAndPruneOptions(verify_starts=2)
+    alone = solve_complete(task, options)
+    with ThreadPoolExecutor(2) as pool:
+        pooled = solve_complete(task, options, executor=pool, workers=2)
+    assert alone.status == pooled.status == Status.INFEASIBLE
+    for key in ("boxes", "lps", "collision_pruned"):
+        assert pooled.stats[key] == alone.stats[key] > 0
+
+
+def test_a_resumed_search_keeps_its_count_of_collision_prunes(tmp_path):
+    task = pit_task(15.0)
+    options = BranchAndPruneOptions(verify_starts=2)
+    whole = solve_complete(task, options)
+    ckpt = tmp_path / "pit-search.json"
+    first = solve_complete(task, BranchAndPruneOptions(verify_starts=2, max_boxes=whole.stats["boxes"] // 2), checkpoint=ckpt)
+    assert first.status == Status.GAVE_UP and 0 < first.stats["collision_pruned"] < whole.stats["collision_pruned"]
+    resumed = solve_complete(task, options, checkpoint=ckpt, resume=True)
+    assert resumed.status == Status.INFEASIBLE
+    assert resumed.stats["collision_pruned"] == whole.stats["collision_pruned"] and resumed.stats["boxes"] == whole.stats["boxes"]
