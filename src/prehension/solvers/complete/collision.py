@@ -103,7 +103,8 @@ class CollisionProbes:
 
 @dataclass(frozen=True)
 class CollisionProof:
-    """Why a box holds no solution: probe ``probe`` on ``link`` is deeper than the tolerance.
+    """Why a box holds no solution: a probe on ``link`` is deeper than the tolerance in every
+    configuration of the box.
 
     Attributes:
         link: the link proven to penetrate.
@@ -141,7 +142,10 @@ def _build_probes(form: Formulation) -> CollisionProbes | None:
             for p in _segment_points(capsule.a, capsule.b):
                 if not _clear_of_pads(p, capsule.radius, pads.get(link.name, ())):
                     continue
-                point, e = (p, 0.0) if J is None else (J, reach + float(np.linalg.norm(p - _last_centre(form, link.name))))
+                if J is None:  # a link of the system: the point itself
+                    point, e = p, 0.0
+                else:  # outside it: the joint centre J, and how far p can be from it
+                    point, e = J, reach + float(np.linalg.norm(p - _last_centre(form, link.name)))
                 rows.append(_point_rows(form, anchor, point, n))
                 radius.append(float(capsule.radius)), extra.append(e), names.append(link.name), points.append(p)
     if not rows:
