@@ -25,10 +25,11 @@ from prehension.system.formulation import build_system
 from prehension.tasks.idle import settle_idle_fingers
 from prehension.tasks.model import Configuration, Task
 from prehension.tasks.object_collision import link_penetrations
-from prehension.tasks.residuals import evaluate
+from prehension.tasks.residuals import Tolerances, evaluate
 from prehension.verify import verify_result_file
 
-TOL = 0.5  # the default object_penetration_mm
+TOLS = Tolerances()  # strict, as every verified solution
+TOL = TOLS.object_penetration_mm  # 0.5 mm
 
 
 # -- forward-built tasks on solids -------------------------------------------------------
@@ -122,6 +123,28 @@ def test_enclosures_hold_the_link_points_of_every_configuration_in_the_box(spher
     assert checked == len(SEEDS) * 6 * 5
 
 
+def test_enclosures_through_the_contacts_hold_every_solution_and_are_tighter(sphere_cases):
+    """(a, contact anchors) Boxes of every size around each known configuration (its
+    contacts made): the enclosures intersected with those through the contacts still hold
+    its probe points, and they are tighter than the chain from the palm alone."""
+    rng = np.random.default_rng(13)
+    tighter = 0
+    for task, config in sphere_cases:
+        form = build_system(task)
+        probes = collision_probes(form)
+        assert len(probes.anchors) == len(task.contacts)  # every SA fingertip is a cap
+        x = embed(form, config)
+        p = _probe_points_in_object(task, probes, config)
+        for _ in range(8):
+            lower, upper = _box_around(rng, form, x[None], 10.0 ** rng.uniform(-7, -0.5))
+            lo, hi = probe_enclosures(probes, lower, upper, form, TOLS)
+            outside = np.linalg.norm(np.maximum(lo - p, 0.0) + np.maximum(p - hi, 0.0), axis=1)
+            assert np.all(outside <= probes.extra + 1e-9), (task.name, probes.link[int(np.argmax(outside - probes.extra))])
+            palm_lo, palm_hi = probe_enclosures(probes, lower, upper)
+            tighter += bool(np.sum(hi - lo) < 0.5 * np.sum(palm_hi - palm_lo))
+    assert tighter >= len(sphere_cases) * 4
+
+
 def test_probes_inside_the_system_are_exact_and_idle_ones_reach_from_their_joint(sphere_cases):
     task, config = sphere_cases[0]
     form = build_system(task)
@@ -152,7 +175,7 @@ def test_the_prune_never_discards_a_box_holding_a_penetration_free_solution(sphe
         boxes = [(x, x), (form.system.lower, form.system.upper)]
         boxes += [_box_around(rng, form, x[None], 10.0 ** rng.uniform(-9, 0)) for _ in range(12)]
         for lower, upper in boxes:
-            assert collision_prune(form, lower, upper, TOL) is None
+            assert collision_prune(form, lower, upper, TOLS) is None
         tried += 1
     assert tried == 5
 
@@ -164,7 +187,7 @@ def test_a_point_box_is_pruned_only_for_a_link_the_residual_function_finds_too_d
     for task, config in sphere_cases:
         form = build_system(task)
         x = embed(form, config)
-        proof = collision_prune(form, x, x, TOL)
+        proof = collision_prune(form, x, x, TOLS)
         if proof is not None:
             depth = {c.name: c.value for c in evaluate(task, config).checks if c.kind == "object_collision"}
             assert depth[proof.link] > TOL
@@ -225,7 +248,7 @@ def test_a_wide_pit_is_solved_by_the_same_search_and_the_pad_zone_is_never_prune
     assert link_penetrations(task, pose, config.T_palm_object)["palm"] > 1.0  # without the pad's exception
     form = build_system(task)
     x = embed(form, config)
-    assert collision_prune(form, x, x, TOL) is None
+    assert collision_prune(form, x, x, TOLS) is None
 
 
 def test_the_prune_gives_the_same_certificate_on_an_executor():

@@ -20,6 +20,17 @@ interval over the box ``[lower, upper]`` is ``c + A mid +- |A| half`` (``mid``, 
 the box's centre and half-widths; rounded outwards by a relative 1e-9): an axis-aligned
 box ``B`` that holds the point for every configuration of the box.
 
+**Through the contacts.**  The chain from the palm adds up the widths of every rotation
+on the way, so far from the palm it is loose.  At a solution each contact is made: a
+fingertip cap's centre ``c`` (or a hand point region's point) is at ``o + rho nu`` (the
+object point pushed out along its normal by the cap radius), within the contact
+tolerances.  So a probe point is also ``o + rho nu + (x_probe - x_c)``: ``o + rho nu`` is
+enclosed from the box's object parameters and normals (a patch's sub-patch control
+points), and the difference is linear in the rotations of the links between the two (the
+palm origin cancels).  Every such enclosure holds every *solution* in the box (not every
+configuration: only those whose contacts are made, which is all the prune needs); their
+intersection with the chain's is used (:class:`ContactAnchor`).
+
 **Links the search does not model.**  Idle fingers, and the links of a taking-part finger
 beyond its contact link, are not in the system (the local refinement and the idle settling
 of :func:`prehension.results.make_solution` move them freely within their limits).  Such a
@@ -57,10 +68,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...geometry.regions import PointRegion, SphereCap
 from ...system.formulation import Formulation, reach_ball
 from ...tasks.object_collision import SAMPLE_MM, pad_radius
+from ...tasks.residuals import Tolerances
 
-__all__ = ["CollisionProbes", "CollisionProof", "collision_probes", "probe_enclosures", "collision_prune",
+__all__ = ["CollisionProbes", "CollisionProof", "ContactAnchor", "collision_probes", "probe_enclosures", "collision_prune",
            "PROBE_SPACING_MM", "FLOAT_MARGIN_MM"]  # fmt: skip
 
 PROBE_SPACING_MM = 5.0  # largest distance between two probe points of a capsule [mm]
@@ -85,6 +98,8 @@ class CollisionProbes:
         point_in_link: (K, 3) the probe's point ``p`` in its link's frame [mm].
         deepest_mm: a bound on ``-sd`` over the whole space: half the smallest side of the
             surface's bounding box (no point of the solid is farther from the surface) [mm].
+        anchors: second enclosures of the same points, through each contact's anchor
+            (see :class:`ContactAnchor`), intersected with the first.
     """
 
     A: np.ndarray
@@ -95,10 +110,28 @@ class CollisionProbes:
     link: tuple[str, ...]
     point_in_link: np.ndarray
     deepest_mm: float
+    anchors: tuple = ()
 
     @property
     def size(self) -> int:
         return int(self.radius.size)
+
+
+@dataclass(frozen=True, eq=False)
+class ContactAnchor:
+    """The probes through contact ``contact``: at a solution, the hand region's anchor ``c``
+    (a fingertip cap's centre, or a hand point region's point; link frame of ``link``) is
+    at ``o + rho nu`` in the object frame (``o`` the object point, ``nu`` its unit outward
+    normal, ``rho`` the cap radius or 0), within the contact tolerances.  So a probe point
+    is ``o + rho nu + (x_probe - x_c)``, the difference linear in the rotations only
+    (the palm origin cancels): ``A`` (3K, m) in the variables ``columns``.  Near the
+    contact this is far tighter than the chain from the palm.
+    """
+
+    contact: int
+    rho: float
+    A: np.ndarray
+    columns: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -150,12 +183,34 @@ def _build_probes(form: Formulation) -> CollisionProbes | None:
                 radius.append(float(capsule.radius)), extra.append(e), names.append(link.name), points.append(p)
     if not rows:
         return None
-    A = np.vstack(rows)
-    columns = np.flatnonzero(np.any(A != 0.0, axis=0))
-    A = np.ascontiguousarray(A[:, columns])
+    A, columns = _compressed(np.vstack(rows))
     deepest = 0.5 * float(np.ptp(form.task.object.surface.vertices, axis=0).min())
+    anchors = tuple(_contact_anchors(form, np.vstack(rows)))
     return CollisionProbes(A, columns, np.zeros(A.shape[0]), np.array(radius), np.array(extra), tuple(names), np.array(points),
-                           deepest)  # fmt: skip
+                           deepest, anchors)  # fmt: skip
+
+
+def _compressed(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(A[:, columns], columns)``: only the columns with a nonzero coefficient."""
+    columns = np.flatnonzero(np.any(A != 0.0, axis=0))
+    return np.ascontiguousarray(A[:, columns]), columns
+
+
+def _contact_anchors(form: Formulation, rows: np.ndarray) -> list[ContactAnchor]:
+    """One :class:`ContactAnchor` per contact whose hand region is a cap or a point."""
+    out = []
+    for ci, contact in enumerate(form.task.contacts):
+        hreg = form.task.hand_region(contact)
+        if isinstance(hreg.region, SphereCap):
+            c, rho = np.asarray(hreg.region.center, dtype=float), float(hreg.region.radius)
+        elif isinstance(hreg.region, PointRegion):
+            c, rho = np.asarray(hreg.region.point, dtype=float), 0.0
+        else:
+            continue  # a hand patch: its point is a product of variables
+        anchor_rows = _point_rows(form, hreg.link, c, form.system.n)
+        A, columns = _compressed(rows - np.tile(anchor_rows, (rows.shape[0] // 3, 1)))
+        out.append(ContactAnchor(ci, rho, A, columns))
+    return out
 
 
 def _segment_points(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -227,28 +282,75 @@ def _origin_rows(form: Formulation, link: str, n: int) -> np.ndarray:
 
 
 # -- the test ---------------------------------------------------------------------------
-def probe_enclosures(probes: CollisionProbes, lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def probe_enclosures(
+    probes: CollisionProbes, lower: np.ndarray, upper: np.ndarray, form: Formulation | None = None,
+    tolerances: Tolerances | None = None,
+) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
     """``(lo, hi)``, each (K, 3) [mm]: a box holding each probe's point (its joint centre
-    ``J`` for links outside the system) for every point of the box ``[lower, upper]``."""
-    lower, upper = lower[probes.columns], upper[probes.columns]
-    mid, half = 0.5 * (lower + upper), 0.5 * (upper - lower)
-    centre = probes.const + probes.A @ mid
-    radius = np.abs(probes.A) @ half  # the interval c + A [lower, upper] is centre +- radius
-    size = np.abs(probes.const) + np.abs(probes.A) @ np.maximum(np.abs(lower), np.abs(upper))
-    pad = radius + _ROUNDING * (1.0 + size)
-    lo, hi = centre - pad, centre + pad
+    ``J`` for links outside the system) for every point of the box ``[lower, upper]``.
+
+    With ``form`` and ``tolerances``, intersected with the enclosures through each contact
+    anchor (:class:`ContactAnchor`), which hold for every configuration of the box whose
+    contacts are made within ``tolerances`` -- every solution; then ``lo > hi`` somewhere
+    means no solution lies in the box.
+    """
+    lo, hi = _affine_hull(probes.A, probes.columns, probes.const, lower, upper)
+    if form is not None and tolerances is not None:
+        for anchor in probes.anchors:
+            a_lo, a_hi = _anchor_interval(form, anchor, lower, upper, tolerances)
+            if a_lo is None:
+                continue
+            d_lo, d_hi = _affine_hull(anchor.A, anchor.columns, 0.0, lower, upper)
+            k = d_lo.size // 3
+            lo, hi = np.maximum(lo, d_lo + np.tile(a_lo, k)), np.minimum(hi, d_hi + np.tile(a_hi, k))
     return lo.reshape(-1, 3), hi.reshape(-1, 3)
 
 
-def collision_prune(form: Formulation, lower: np.ndarray, upper: np.ndarray, tol_mm: float) -> CollisionProof | None:
-    """A proof that every configuration in the box puts some link deeper than ``tol_mm``
-    into the object, the touching pads excepted (see the module docstring), or ``None``."""
-    probes = collision_probes(form)
+def _affine_hull(A, columns, const, lower, upper) -> tuple[np.ndarray, np.ndarray]:
+    """Interval hull ``(lo, hi)`` (R,) of ``const + A x`` over the box (outward rounded)."""
+    lower, upper = lower[columns], upper[columns]
+    mid, half = 0.5 * (lower + upper), 0.5 * (upper - lower)
+    centre = const + A @ mid
+    radius = np.abs(A) @ half  # the interval c + A [lower, upper] is centre +- radius
+    size = np.abs(const) + np.abs(A) @ np.maximum(np.abs(lower), np.abs(upper))
+    pad = radius + _ROUNDING * (1.0 + size)
+    return centre - pad, centre + pad
+
+
+def _anchor_interval(form: Formulation, anchor: ContactAnchor, lower, upper, tol: Tolerances):
+    """``(lo, hi)`` (3,) [mm] holding ``o + rho nu`` of the anchor's contact over the box,
+    grown by what the contact tolerances allow (``(None, None)`` when they are not finite)."""
+    slack = tol.contact_mm + anchor.rho * np.radians(tol.normal_deg)
+    if not np.isfinite(slack):
+        return None, None
+    region = form.task.object_region(form.task.contacts[anchor.contact])
+    variables = form.contact_vars[anchor.contact]
+    if isinstance(region, PointRegion):
+        lo = hi = np.asarray(region.point, dtype=float) + anchor.rho * np.asarray(region.normal, dtype=float)
+    else:
+        nu = list(variables.object_normal)
+        n_lo, n_hi = np.clip(lower[nu], -1.0, 1.0), np.clip(upper[nu], -1.0, 1.0)
+        if isinstance(region, SphereCap):
+            reach, (o_lo, o_hi) = region.radius + anchor.rho, (np.asarray(region.center, dtype=float),) * 2
+        else:
+            (s, t), reach = variables.object_params, anchor.rho
+            u = np.clip([lower[s], upper[s], lower[t], upper[t]], 0.0, 1.0)
+            o_lo, o_hi = region.patch.subdivide(*u).bounds()
+        lo, hi = o_lo + reach * n_lo, o_hi + reach * n_hi
+    pad = slack + _ROUNDING * (1.0 + np.abs(lo) + np.abs(hi))
+    return lo - pad, hi + pad
+
+
+def collision_prune(form: Formulation, lower: np.ndarray, upper: np.ndarray, tolerances: Tolerances) -> CollisionProof | None:
+    """A proof that every configuration in the box whose contacts are made within
+    ``tolerances`` puts some link deeper than ``tolerances.object_penetration_mm`` into
+    the object, the touching pads excepted (see the module docstring), or ``None``."""
+    probes, tol_mm = collision_probes(form), tolerances.object_penetration_mm
     if probes is None or not np.isfinite(tol_mm):
         return None
-    lo, hi = probe_enclosures(probes, lower, upper)
-    if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
-        return None
+    lo, hi = probe_enclosures(probes, lower, upper, form, tolerances)
+    if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)) and np.all(lo <= hi)):
+        return None  # (an empty intersection: no solution in the box either; left to the other proofs)
     # sd(centre) + halfdiag + e < r - tol - margin is the proof; sd >= -deepest anywhere,
     # so only the probes whose other terms leave room for it cost a distance query.
     reach = 0.5 * np.linalg.norm(hi - lo, axis=1) + probes.extra

@@ -215,7 +215,7 @@ def _penetrates(form: Formulation, lower, upper, options: BranchAndPruneOptions)
     """Whether every configuration of the box puts a link into the object (:mod:`.collision`)."""
     if not options.collision_prune:
         return False
-    return collision_prune(form, lower, upper, options.tolerances.object_penetration_mm) is not None
+    return collision_prune(form, lower, upper, options.tolerances) is not None
 
 
 def _inside(form: Formulation, solution: Solution, lower, upper) -> bool:
