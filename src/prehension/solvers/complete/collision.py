@@ -80,6 +80,7 @@ PROBE_SPACING_MM = 5.0  # largest distance between two probe points of a capsule
 FLOAT_MARGIN_MM = 1e-6  # rounding of the distance structure and of the enclosures [mm]
 _PAD_MARGIN_MM = 1e-3  # a probe this much farther than the pad exclusion [mm]
 _ROUNDING = 1e-9  # outward rounding of an enclosure, relative to its magnitude
+_SUBDIVIDE_BELOW = 0.25  # an object patch's (s, t) box smaller than this: bound its sub-patch (~0.5 ms)
 
 
 @dataclass(frozen=True, eq=False)
@@ -335,7 +336,8 @@ def _anchor_interval(form: Formulation, anchor: ContactAnchor, lower, upper, tol
         else:
             (s, t), reach = variables.object_params, anchor.rho
             u = np.clip([lower[s], upper[s], lower[t], upper[t]], 0.0, 1.0)
-            o_lo, o_hi = region.patch.subdivide(*u).bounds()
+            wide = (u[1] - u[0]) * (u[3] - u[2]) > _SUBDIVIDE_BELOW  # the whole patch's box will do
+            o_lo, o_hi = (region.patch if wide else region.patch.subdivide(*u)).bounds()
         lo, hi = o_lo + reach * n_lo, o_hi + reach * n_hi
     pad = slack + _ROUNDING * (1.0 + np.abs(lo) + np.abs(hi))
     return lo - pad, hi + pad
