@@ -509,6 +509,29 @@ def test_report_summary_failures_and_worst_by_hand():
     assert ResidualReport((), ()).ok
 
 
+def test_report_from_columns_is_the_report_of_its_checks(cases):
+    """evaluate() builds its report from columns and makes Check objects only when asked:
+    the same checks, verdict, failures and worst values as a report of Check objects; read-only;
+    pickled whole (batch workers send reports between processes)."""
+    import pickle
+
+    case = cases[0]
+    T = _translated(case.config.T_palm_object, [0.0, 0.0, 0.5])
+    report = evaluate(case.task, Configuration(case.config.joint_angles, T, case.config.contact_params))
+    again = ResidualReport(report.checks, report.contacts)
+    assert not report.ok and report.ok == again.ok and report.failures == again.failures
+    assert report.kinds == tuple(dict.fromkeys(c.kind for c in report.checks))
+    for kind in report.kinds + ("no_such_kind",):
+        assert report.worst(kind) == again.worst(kind)
+    assert report.summary() == again.summary()
+    with pytest.raises(AttributeError, match="read-only"):
+        report.contacts = ()
+    copy = pickle.loads(pickle.dumps(report))
+    assert copy.checks == report.checks and copy.summary() == report.summary()
+    with pytest.raises(ValueError, match="one kind, name, value, unit and tolerance per check"):
+        ResidualReport.from_columns(("contact_distance",), ("a",), [1.0, 2.0], ("mm",), [1e-6], ())
+
+
 def test_report_failures_list_exactly_the_failing_checks(cases):
     case = cases[0]
     T = _translated(case.config.T_palm_object, [0.0, 0.0, 0.5])

@@ -194,7 +194,7 @@ def _solution_to_dict(sol: Solution, task: Task, quality=None) -> dict:
             }
             for c in sol.contacts
         ],
-        "worst": {k: sol.report.worst(k) for k in sorted({c.kind for c in sol.report.checks})},
+        "worst": {k: sol.report.worst(k) for k in sorted(sol.report.kinds)},
         "tolerances": asdict(sol.tolerances),
         "idle_moved": list(sol.idle_moved),
         "quality": quality_entry(task, sol.T_palm_object, sol.contacts, quality or QualityOptions()),

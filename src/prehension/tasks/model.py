@@ -177,6 +177,13 @@ def _close(a: np.ndarray, b: np.ndarray, atol: float, rtol: float = 1e-5) -> boo
     return bool(np.all(np.abs(a - b) <= atol + rtol * np.abs(b)))
 
 
+def _det3(R: np.ndarray) -> float:
+    """Determinant of a (3, 3) matrix by cofactors (its sign is all that is asked: R is
+    orthonormal to 1e-6 when this runs, so the determinant is +-1 to rounding)."""
+    (a, b, c), (d, e, f), (g, h, i) = R.tolist()
+    return a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
+
+
 @dataclass(frozen=True, eq=False)
 class Configuration:
     """A candidate grasp.
@@ -201,7 +208,7 @@ class Configuration:
         if T.shape != (4, 4) or not np.all(np.isfinite(T)):
             raise InvalidConfiguration(f"T_palm_object must be a finite 4x4 transform, got shape {T.shape}")
         R = T[:3, :3]
-        if not _close(R.T @ R, _EYE3, 1e-6) or np.linalg.det(R) < 0 or not _close(T[3], _LAST_ROW, 1e-8):
+        if not _close(R.T @ R, _EYE3, 1e-6) or _det3(R) < 0 or not _close(T[3], _LAST_ROW, 1e-8):
             raise InvalidConfiguration("T_palm_object must be a rigid transform (rotation block orthonormal, det +1, last row 0 0 0 1)")
         object.__setattr__(self, "joint_angles", q)
         object.__setattr__(self, "T_palm_object", T)

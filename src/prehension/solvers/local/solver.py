@@ -142,14 +142,14 @@ class LocalRecord:
         tolerances in ``stats["acceptance"]``.
         """
         stats = {**self.stats, **(extra_stats or {})}
-        config = self.configuration()
-        if config is None:
+        if self.joint_angles is None:
             return SolveResult(task, "local", Status.GAVE_UP, self.message, (), seconds, stats)
         if self.verified is not None and self.success and self.verified[0] is task:
             sol = self.verified[1]  # made by make_solution (strict tolerances) when the waves checked it
             return SolveResult(task, "local", Status.SOLVED, self.message, (sol,), seconds,
                                {**stats, "max_contact_distance_mm": sol.report.worst("contact_distance"),
                                 "max_normal_angle_deg": sol.report.worst("contact_normal")})  # fmt: skip
+        config = self.configuration()
         sol = make_solution(task, config, STRICT)
         status = Status.SOLVED
         if sol is None and options.approximate:
@@ -425,6 +425,14 @@ def _place_poses(group: Group, names, poses: np.ndarray) -> np.ndarray:
     return x0
 
 
+def _is_local_solution(status: np.ndarray) -> np.ndarray:
+    """``np.isin(status, K.LOCAL_SOLUTIONS)`` for the kernel's few status codes, without isin's sorting."""
+    found = np.zeros(status.shape, dtype=bool)
+    for code in K.LOCAL_SOLUTIONS:
+        found |= status == code
+    return found
+
+
 def _wave(group, checker, options, tally: _Tally, todo, wave, x0) -> tuple[np.ndarray, float]:
     """Run one wave for problems ``todo``; the problems done after it, and the check time.
 
@@ -438,7 +446,7 @@ def _wave(group, checker, options, tally: _Tally, todo, wave, x0) -> tuple[np.nd
     tally.rejected[todo[out.status == K.COLLIDING]] += 1
     had_fallback = tally.level[todo] == 1
     got_strict = np.zeros(len(todo), dtype=bool)
-    sel = np.flatnonzero(np.isin(out.status, K.LOCAL_SOLUTIONS))
+    sel = np.flatnonzero(_is_local_solution(out.status))
     if sel.size:
         pi = todo[sel]
         lev, q, T, _, dmax, amax, sols = checker(pi, out.x[sel], out.R[sel], out.t[sel])
@@ -476,7 +484,7 @@ def _solve_group(group: Group, checker, options: LocalOptions, sequence: Initial
         wave_seconds[i] = time.perf_counter() - t_start
     records = [tally.record(group, p, tasks[p] if tasks is not None else None) for p in range(P)]
     strict = tally.level == 2
-    solved_after = np.array([np.sum(strict & (tally.solved_with <= i + 1)) for i in range(imax)])
+    solved_after = np.cumsum(np.bincount(tally.solved_with[strict], minlength=imax + 1))[1 : imax + 1]
     return records, wave_seconds, solved_after, {"kernel": kernel_s, "checks": check_s}
 
 
