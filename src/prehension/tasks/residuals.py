@@ -31,6 +31,7 @@ from ..geometry.regions import evaluate_regions
 from ..geometry.rotations import angle_between
 from ..hands.collision import capsule_clearances
 from ..hands.kinematics import HandPose, as_batch, forward_kinematics
+from ..hands.model import tree_tables
 from .locate import locate_contact_params
 from .model import Configuration, Task
 
@@ -220,7 +221,8 @@ def contact_residuals(task: Task, pose: HandPose, T_palm_object, params) -> dict
 def limit_violations(hand, q) -> np.ndarray:
     """How far each angle lies outside its limits, (B, n_dof) [rad], 0 inside."""
     q = as_batch(q, hand.n_dof)
-    return np.maximum(np.maximum(hand.lower - q, q - hand.upper), 0.0)
+    lower, upper = _limit_arrays(hand)
+    return np.maximum(np.maximum(lower - q, q - upper), 0.0)
 
 
 def coupling_violations(hand, q) -> np.ndarray:
@@ -228,11 +230,32 @@ def coupling_violations(hand, q) -> np.ndarray:
     q = as_batch(q, hand.n_dof)
     if not hand.couplings:
         return np.zeros((q.shape[0], 0))
-    dof = np.array([hand.dof_index(c.dof) for c in hand.couplings])
-    src = np.array([hand.dof_index(c.source) for c in hand.couplings])
-    ratio = np.array([c.ratio for c in hand.couplings])
-    offset = np.array([c.offset for c in hand.couplings])
+    dof, src, ratio, offset = _coupling_arrays(hand)
     return np.abs(q[:, dof] - (ratio * q[:, src] + offset))
+
+
+def _limit_arrays(hand) -> tuple[np.ndarray, np.ndarray]:
+    """``(hand.lower, hand.upper)`` (n_dof,) [rad], read-only, once per hand (kept with its tree tables)."""
+    tables = tree_tables(hand)
+    if "limits" not in tables:
+        lower, upper = hand.lower, hand.upper
+        lower.setflags(write=False)
+        upper.setflags(write=False)
+        tables["limits"] = (lower, upper)
+    return tables["limits"]
+
+
+def _coupling_arrays(hand) -> tuple[np.ndarray, ...]:
+    """Per coupling: ``dof`` and ``source`` indices, ``ratio``, ``offset``, once per hand."""
+    tables = tree_tables(hand)
+    if "couplings" not in tables:
+        tables["couplings"] = (
+            np.array([hand.dof_index(c.dof) for c in hand.couplings]),
+            np.array([hand.dof_index(c.source) for c in hand.couplings]),
+            np.array([c.ratio for c in hand.couplings]),
+            np.array([c.offset for c in hand.couplings]),
+        )
+    return tables["couplings"]
 
 
 # -- one configuration, with names ------------------------------------------------------
@@ -309,7 +332,9 @@ def _collision_checks(task, pose, tol) -> tuple:
     clearance, names = capsule_clearances(task.hand, pose)
     labels, group = _link_pairs(names)
     depth = np.zeros(len(labels))
-    np.maximum.at(depth, group, np.maximum(-clearance[0], 0.0))
+    if group.size:  # the pairs of one pair of links are contiguous (collision_pairs sorts them)
+        starts = np.flatnonzero(np.r_[True, group[1:] != group[:-1]])
+        depth[group[starts]] = np.maximum.reduceat(np.maximum(-clearance[0], 0.0), starts)
     n = len(labels)
     return ("collision",) * n, labels, depth.tolist(), ("mm",) * n, (tol.penetration_mm,) * n
 
