@@ -112,7 +112,7 @@ class ResidualReport:
     costs no object per check.  Either way the same checks, in the same order.
     """
 
-    __slots__ = ("_kinds", "_names", "_values", "_units", "_tolerances", "_checks", "contacts")
+    __slots__ = ("_kinds", "_names", "_values", "_units", "_tolerances", "_checks", "contacts", "_worst")
 
     def __init__(self, checks: Sequence[Check], contacts: tuple[ContactState, ...]):
         checks = tuple(checks)
@@ -133,7 +133,7 @@ class ResidualReport:
     def _fill(self, kinds, names, values, units, tolerances, checks, contacts) -> None:
         if not len(kinds) == len(names) == len(values) == len(units) == len(tolerances):
             raise ValueError("a residual report needs one kind, name, value, unit and tolerance per check")
-        for key, value in zip(self.__slots__, (kinds, names, values, units, tolerances, checks, contacts)):
+        for key, value in zip(self.__slots__, (kinds, names, values, units, tolerances, checks, contacts, None)):
             object.__setattr__(self, key, value)
 
     def __setattr__(self, key, value):
@@ -165,7 +165,12 @@ class ResidualReport:
 
     def worst(self, kind: str) -> float:
         """Largest violation of one kind (0 when there is no such check)."""
-        return max((v for k, v in zip(self._kinds, self._values) if k == kind), default=0.0)
+        if self._worst is None:  # every kind's largest value, in one pass (max() keeps the first of equal values)
+            worst: dict = {}
+            for k, v in zip(self._kinds, self._values):
+                worst[k] = max(worst[k], v) if k in worst else v
+            object.__setattr__(self, "_worst", worst)
+        return self._worst.get(kind, 0.0)
 
     def summary(self) -> str:
         if self.ok:
@@ -330,22 +335,23 @@ def _joint_checks(task, q, tol) -> tuple:
 def _collision_checks(task, pose, tol) -> tuple:
     """One check per pair of links: the deepest penetration of their capsule pairs [mm]."""
     clearance, names = capsule_clearances(task.hand, pose)
-    labels, group = _link_pairs(names)
+    labels, group, starts = _link_pairs(names)
     depth = np.zeros(len(labels))
     if group.size:  # the pairs of one pair of links are contiguous (collision_pairs sorts them)
-        starts = np.flatnonzero(np.r_[True, group[1:] != group[:-1]])
         depth[group[starts]] = np.maximum.reduceat(np.maximum(-clearance[0], 0.0), starts)
     n = len(labels)
     return ("collision",) * n, labels, depth.tolist(), ("mm",) * n, (tol.penetration_mm,) * n
 
 
 @lru_cache(maxsize=64)
-def _link_pairs(names: tuple[tuple[str, str], ...]) -> tuple[tuple[str, ...], np.ndarray]:
+def _link_pairs(names: tuple[tuple[str, str], ...]) -> tuple[tuple[str, ...], np.ndarray, np.ndarray]:
     """``("a/b" per link pair in order of first appearance, the link pair of each capsule
-    pair)`` for the capsule pairs' link ``names`` (the same tuple for every call on a hand)."""
+    pair, where each run of one link pair starts)`` for the capsule pairs' link ``names``
+    (the same tuple for every call on a hand)."""
     order: dict = {}
     group = np.array([order.setdefault(pair, len(order)) for pair in names], dtype=np.intp)
-    return tuple(f"{a}/{b}" for a, b in order), group
+    starts = np.flatnonzero(np.concatenate([[True], group[1:] != group[:-1]])) if group.size else np.zeros(0, np.intp)
+    return tuple(f"{a}/{b}" for a, b in order), group, starts
 
 
 def _object_collision_checks(task, pose, T_palm_object, hand_points_palm, tol) -> tuple:
