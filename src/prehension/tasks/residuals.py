@@ -37,6 +37,7 @@ from .model import Configuration, Task
 
 __all__ = [
     "Tolerances",
+    "TOLERANCE_OF_KIND",
     "Check",
     "ContactState",
     "ResidualReport",
@@ -66,6 +67,18 @@ class Tolerances:
     coupling_deg: float = 1e-9
     penetration_mm: float = 0.0
     object_penetration_mm: float = 0.5
+
+
+TOLERANCE_OF_KIND = {
+    "contact_distance": "contact_mm",
+    "contact_normal": "normal_deg",
+    "hand_region": "region",
+    "object_region": "region",
+    "joint_limit": "limit_deg",
+    "coupling": "coupling_deg",
+    "collision": "penetration_mm",
+    "object_collision": "object_penetration_mm",
+}  # each kind of check, and the Tolerances field it is judged with
 
 
 @dataclass(frozen=True)
@@ -171,6 +184,12 @@ class ResidualReport:
                 worst[k] = max(worst[k], v) if k in worst else v
             object.__setattr__(self, "_worst", worst)
         return self._worst.get(kind, 0.0)
+
+    def judged(self, tolerances: "Tolerances") -> "ResidualReport":
+        """The same checks judged with other tolerances (what :func:`evaluate` reports with
+        ``tolerances`` for the same configuration: its values do not depend on them)."""
+        tols = [getattr(tolerances, TOLERANCE_OF_KIND[k]) for k in self._kinds]
+        return ResidualReport.from_columns(self._kinds, self._names, self._values, self._units, tols, self.contacts)
 
     def summary(self) -> str:
         if self.ok:

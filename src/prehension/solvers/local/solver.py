@@ -36,7 +36,7 @@ from ...errors import InvalidTask
 from ...geometry.rotations import angle_between
 from ...hands.collision import max_penetration
 from ...hands.kinematics import HandPose, forward_kinematics
-from ...results import Solution, SolveResult, Status, make_solution
+from ...results import Solution, SolveResult, Status, first_solution, make_solution
 from ...tasks.model import Configuration, Task
 from ...tasks.residuals import Tolerances, contact_residuals, coupling_violations, limit_violations
 from . import _kernel as K
@@ -268,10 +268,9 @@ def _check_tasks(group: Group, tasks, idx, x, R, t, options: LocalOptions):
     level, dmax, amax, sols = np.zeros(S, dtype=np.int64), np.zeros(S), np.zeros(S), [None] * S
     for s, i in enumerate(idx):
         config = Configuration(q[s], T[s], tuple((h[s], o[s]) for h, o in params))
-        sols[s] = make_solution(tasks[i], config, STRICT)
-        loose = make_solution(tasks[i], config, options.acceptance) if sols[s] is None else None
-        held = sols[s] if sols[s] is not None else loose
-        level[s] = 2 if sols[s] is not None else (1 if loose is not None else 0)
+        k, held = first_solution(tasks[i], config, (STRICT, options.acceptance))  # evaluated once for both
+        sols[s] = held if k == 0 else None
+        level[s] = 2 if k == 0 else (1 if k == 1 else 0)
         if held is not None:
             dmax[s], amax[s] = held.report.worst("contact_distance"), held.report.worst("contact_normal")
         else:
