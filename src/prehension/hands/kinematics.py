@@ -40,7 +40,7 @@ def as_batch(q, n_dof: int) -> np.ndarray:
         raise InvalidConfiguration(
             f"joint angles must have shape (n_dof,) or (B, n_dof) with n_dof = {n_dof}, got {np.shape(q)}"
         )
-    if not np.all(np.isfinite(arr)):
+    if not np.isfinite(arr).all():
         raise InvalidConfiguration("joint angles must be finite numbers (rad)")
     return arr
 

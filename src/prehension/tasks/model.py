@@ -202,10 +202,10 @@ class Configuration:
 
     def __post_init__(self):
         q = np.asarray(self.joint_angles, dtype=float)
-        if q.ndim != 1 or not np.all(np.isfinite(q)):
+        if q.ndim != 1 or not np.isfinite(q).all():
             raise InvalidConfiguration(f"joint_angles must be a 1-D array of finite angles [rad], got shape {q.shape}")
         T = np.asarray(self.T_palm_object, dtype=float)
-        if T.shape != (4, 4) or not np.all(np.isfinite(T)):
+        if T.shape != (4, 4) or not np.isfinite(T).all():
             raise InvalidConfiguration(f"T_palm_object must be a finite 4x4 transform, got shape {T.shape}")
         R = T[:3, :3]
         if not _close(R.T @ R, _EYE3, 1e-6) or _det3(R) < 0 or not _close(T[3], _LAST_ROW, 1e-8):
@@ -246,7 +246,7 @@ def _pair(i: int, pair) -> tuple[np.ndarray, np.ndarray]:
             f"contact_params[{i}] must be a pair (hand_params, object_params) of numbers"
         ) from None
     for what, arr in (("hand", h), ("object", o)):
-        if arr.ndim > 1 or not np.all(np.isfinite(arr)):
+        if arr.ndim > 1 or not np.isfinite(arr).all():
             raise InvalidConfiguration(
                 f"contact_params[{i}]: {what} parameters must be a flat list of finite numbers, got shape {arr.shape}"
             )

@@ -473,13 +473,15 @@ def _solve_group(group: Group, checker, options: LocalOptions, sequence: Initial
     todo = np.arange(P)
     kernel_s = check_s = 0.0
     for i in range(imax):
-        if todo.size:
-            x0 = _starts(group, sequence, i, todo, options, rng, extra)
-            t0 = time.perf_counter()
-            done, dt = _wave(group, checker, options, tally, todo, i, x0)
-            check_s += dt
-            kernel_s += time.perf_counter() - t0 - dt
-            todo = todo[~done]
+        if not todo.size:  # every problem done: the later waves take no time
+            wave_seconds[i:] = wave_seconds[i - 1] if i else time.perf_counter() - t_start
+            break
+        x0 = _starts(group, sequence, i, todo, options, rng, extra)
+        t0 = time.perf_counter()
+        done, dt = _wave(group, checker, options, tally, todo, i, x0)
+        check_s += dt
+        kernel_s += time.perf_counter() - t0 - dt
+        todo = todo[~done]
         wave_seconds[i] = time.perf_counter() - t_start
     records = [tally.record(group, p, tasks[p] if tasks is not None else None) for p in range(P)]
     strict = tally.level == 2
