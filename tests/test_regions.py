@@ -338,3 +338,23 @@ def test_regions_reject_badly_shaped_parameters(rng):
             region.domain_violation(np.zeros((1, 1, 2)))
     with pytest.raises(InvalidGeometry, match=r"shape \(B, 0\)"):
         PointRegion([0, 0, 0], [0, 0, 1]).evaluate(np.zeros((2, 1)))
+
+
+def test_evaluate_regions_gives_each_regions_own_evaluate_checked_bit_for_bit(rng):
+    """The stacked evaluation (caps and points together, other kinds one by one) is only a
+    faster way to call each region's evaluate_checked: the same bits, column by column."""
+    from prehension.geometry.regions import evaluate_regions
+
+    regions = [random_cap(rng, h) for h in HALF_ANGLES_DEG] + [random_bezier_region(rng, 2, 3)]
+    regions += [PointRegion(rng.normal(size=3), rng.normal(size=3)), random_cap(rng, 30.0)]
+    rng.shuffle(regions)
+    for B in (1, 7):
+        params = [random_params_in_box(r, rng, B) * 1.2 for r in regions]  # some outside: violations > 0
+        points, normals, violation = evaluate_regions(regions, params)
+        assert points.shape == normals.shape == (B, len(regions), 3) and violation.shape == (B, len(regions))
+        for c, (region, prm) in enumerate(zip(regions, params)):
+            p, n, v = region.evaluate_checked(prm)
+            np.testing.assert_array_equal(points[:, c], p)
+            np.testing.assert_array_equal(normals[:, c], n)
+            np.testing.assert_array_equal(violation[:, c], v)
+        assert np.any(violation > 0) and np.any(violation == 0)

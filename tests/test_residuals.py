@@ -509,6 +509,29 @@ def test_report_summary_failures_and_worst_by_hand():
     assert ResidualReport((), ()).ok
 
 
+def test_report_from_columns_is_the_report_of_its_checks(cases):
+    """evaluate() builds its report from columns and makes Check objects only when asked:
+    the same checks, verdict, failures and worst values as a report of Check objects; read-only;
+    pickled whole (batch workers send reports between processes)."""
+    import pickle
+
+    case = cases[0]
+    T = _translated(case.config.T_palm_object, [0.0, 0.0, 0.5])
+    report = evaluate(case.task, Configuration(case.config.joint_angles, T, case.config.contact_params))
+    again = ResidualReport(report.checks, report.contacts)
+    assert not report.ok and report.ok == again.ok and report.failures == again.failures
+    assert report.kinds == tuple(dict.fromkeys(c.kind for c in report.checks))
+    for kind in report.kinds + ("no_such_kind",):
+        assert report.worst(kind) == again.worst(kind)
+    assert report.summary() == again.summary()
+    with pytest.raises(AttributeError, match="read-only"):
+        report.contacts = ()
+    copy = pickle.loads(pickle.dumps(report))
+    assert copy.checks == report.checks and copy.summary() == report.summary()
+    with pytest.raises(ValueError, match="one kind, name, value, unit and tolerance per check"):
+        ResidualReport.from_columns(("contact_distance",), ("a",), [1.0, 2.0], ("mm",), [1e-6], ())
+
+
 def test_report_failures_list_exactly_the_failing_checks(cases):
     case = cases[0]
     T = _translated(case.config.T_palm_object, [0.0, 0.0, 0.5])
@@ -589,3 +612,32 @@ def test_point_to_point_contact_needs_no_parameters(sa_hand):
     report = evaluate(task, Configuration(q, _translated(T, [0, 0.3, 0.4])))
     assert failing(report) == {("contact_distance", "palm_point->face")}
     assert report.contacts[0].distance_mm == pytest.approx(0.5, abs=1e-12)
+
+
+def test_a_report_judged_with_other_tolerances_is_evaluate_with_them(cases):
+    """first_solution evaluates a configuration once for the strict and the acceptance
+    tolerances: judging the report with other tolerances gives exactly evaluate's report
+    with them (same checks, same tolerances, same verdict), and every kind has a field."""
+    from dataclasses import fields
+
+    from prehension.results import first_solution, make_solution
+    from prehension.tasks.residuals import TOLERANCE_OF_KIND
+
+    names = {f.name for f in fields(Tolerances)}
+    assert set(TOLERANCE_OF_KIND.values()) <= names
+    strict_tol = NO_COLLISION  # the random FK cases are not all clear of self-collision
+    loose = Tolerances(contact_mm=1.0, normal_deg=2.0, region=0.5, limit_deg=3.0, coupling_deg=1e-3,
+                       penetration_mm=float("inf"), object_penetration_mm=0.5)  # fmt: skip
+    for case in cases[:4]:
+        T = _translated(case.config.T_palm_object, [0.0, 0.0, 0.3])  # fails strict, passes loose
+        for config in (case.config, Configuration(case.config.joint_angles, T, case.config.contact_params)):
+            strict = evaluate(case.task, config, strict_tol)
+            assert set(strict.kinds) <= set(TOLERANCE_OF_KIND)
+            for tol in (loose, Tolerances(), strict_tol):
+                direct, judged = evaluate(case.task, config, tol), strict.judged(tol)
+                assert judged.checks == direct.checks and judged.ok == direct.ok
+            k, sol = first_solution(case.task, config, (strict_tol, loose))
+            assert k == (0 if strict.ok else 1) and sol is not None and sol.tolerances == (strict_tol, loose)[k]
+            assert sol.report.checks == make_solution(case.task, config, sol.tolerances).report.checks
+    far = Configuration(case.config.joint_angles, _translated(T, [0, 0, 5.0]), case.config.contact_params)
+    assert first_solution(case.task, far, (strict_tol, loose)) == (-1, None)

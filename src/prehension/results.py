@@ -32,6 +32,7 @@ __all__ = [
     "Solution",
     "SolveResult",
     "make_solution",
+    "first_solution",
     "result_to_dict",
     "write_result",
     "read_result",
@@ -142,12 +143,34 @@ def make_solution(task: Task, config: Configuration, tolerances: Tolerances = To
     object are first moved clear of it (:func:`~prehension.tasks.idle.settle_idle_fingers`):
     they make no contact, so only collisions depend on them.
     """
+    return first_solution(task, config, (tolerances,))[1]
+
+
+def first_solution(task: Task, config: Configuration, levels) -> tuple[int, Solution | None]:
+    """``(k, make_solution(task, config, levels[k]))`` for the first of the tolerances
+    ``levels`` that ``config`` passes; ``(-1, None)`` when it passes none.
+
+    The configuration is evaluated once for all the levels that settle idle fingers alike
+    (the same ``object_penetration_mm``): the residual values do not depend on the
+    tolerances, only the verdict does (:meth:`ResidualReport.judged`).
+    """
     config.check_against(task)
-    config = settle_idle_fingers(task, config, tolerances.object_penetration_mm)
-    pose = forward_kinematics(task.hand, config.joint_angles)
-    report = evaluate(task, config, tolerances, pose=pose)
-    if not report.ok:
-        return None
+    evaluated: dict = {}  # object_penetration_mm -> (settled configuration, pose, report)
+    for k, tol in enumerate(levels):
+        key = tol.object_penetration_mm
+        if key not in evaluated:
+            settled = settle_idle_fingers(task, config, key)
+            pose = forward_kinematics(task.hand, settled.joint_angles)
+            evaluated[key] = (settled, pose, evaluate(task, settled, tol, pose=pose), tol)
+        settled, pose, report, judged_with = evaluated[key]
+        if tol != judged_with:
+            report = report.judged(tol)
+        if report.ok:
+            return k, _solution(task, settled, pose, report, tol)
+    return -1, None
+
+
+def _solution(task: Task, config: Configuration, pose, report: ResidualReport, tolerances: Tolerances) -> Solution:
     T = pose.T_palm_link[0]
     contacts = tuple(
         ContactResult(
@@ -194,7 +217,7 @@ def _solution_to_dict(sol: Solution, task: Task, quality=None) -> dict:
             }
             for c in sol.contacts
         ],
-        "worst": {k: sol.report.worst(k) for k in sorted({c.kind for c in sol.report.checks})},
+        "worst": {k: sol.report.worst(k) for k in sorted(sol.report.kinds)},
         "tolerances": asdict(sol.tolerances),
         "idle_moved": list(sol.idle_moved),
         "quality": quality_entry(task, sol.T_palm_object, sol.contacts, quality or QualityOptions()),

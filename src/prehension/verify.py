@@ -266,7 +266,7 @@ def _contacts(task: Task, report: ResidualReport, sol: dict, label: str) -> list
 
 def _worst(report: ResidualReport, sol: dict, label: str) -> list[Finding]:
     stored = sol.get("worst")
-    kinds = sorted({c.kind for c in report.checks})
+    kinds = sorted(report.kinds)
     if not isinstance(stored, dict) or sorted(stored) != kinds:
         return [Finding(f"{label}: worst residuals", False, f"must give {kinds}")]
     gaps = {k: abs(float(stored[k]) - report.worst(k)) for k in kinds}

@@ -29,7 +29,8 @@ some parameters, their points coincide and their normals are opposed.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cached_property, lru_cache
+from typing import Sequence
 
 import numpy as np
 
@@ -38,7 +39,7 @@ from .bezier import BezierPatch
 from .rotations import angle_between, orthonormal_frame
 from .vectors import cross3, unit3, vec3
 
-__all__ = ["Region", "BezierRegion", "SphereCap", "PointRegion"]
+__all__ = ["Region", "BezierRegion", "SphereCap", "PointRegion", "evaluate_regions"]
 
 
 def _params(params, k: int) -> np.ndarray:
@@ -269,3 +270,71 @@ class PointRegion(Region):
 
     def describe(self) -> str:
         return "point with normal"
+
+
+# -- many regions at once ------------------------------------------------------------------
+def evaluate_regions(regions: Sequence[Region], params: Sequence) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:meth:`Region.evaluate_checked` of ``C`` regions, each at its own parameters.
+
+    Args:
+        regions: ``C`` regions (any kinds, each in its own frame).
+        params: per region, ``(B, k)`` parameters (the same ``B`` for all).
+
+    Returns:
+        ``points (B, C, 3)`` [mm], ``normals (B, C, 3)`` and ``violation (B, C)``: column
+        ``c`` is what ``regions[c].evaluate_checked(params[c])`` gives.  The sphere caps
+        and the points are computed together (the same formulas, element by element, on
+        stacked arrays: one configuration of a four-fingertip task costs a few numpy
+        calls, not a few per contact); other kinds one by one.
+    """
+    regions = tuple(regions)
+    C = len(regions)
+    B = _params(params[0], regions[0].n_params).shape[0] if C else 0
+    points, normals, violation = np.empty((B, C, 3)), np.empty((B, C, 3)), np.empty((B, C))
+    stacked = _stacked(regions)
+    if stacked.caps.size:
+        _caps_checked(stacked, [params[c] for c in stacked.caps], points, normals, violation)
+    if stacked.points.size:
+        points[:, stacked.points] = stacked.point_xyz
+        normals[:, stacked.points] = stacked.point_normal
+        violation[:, stacked.points] = 0.0
+    for c in stacked.others:
+        points[:, c], normals[:, c], violation[:, c] = regions[c].evaluate_checked(params[c])
+    return points, normals, violation
+
+
+class _Stacked:
+    """The caps and points of a tuple of regions as stacked arrays (see :func:`_stacked`)."""
+
+    def __init__(self, regions: tuple):
+        kinds = [type(r) for r in regions]
+        self.caps = np.array([c for c, k in enumerate(kinds) if k is SphereCap], dtype=np.intp)
+        self.points = np.array([c for c, k in enumerate(kinds) if k is PointRegion], dtype=np.intp)
+        self.others = tuple(c for c, k in enumerate(kinds) if k is not SphereCap and k is not PointRegion)
+        caps = [regions[c] for c in self.caps]
+        self.center = np.array([r.center for r in caps]).reshape(-1, 3)  # (Cc, 3)
+        self.radius = np.array([r.radius for r in caps]).reshape(-1, 1)  # (Cc, 1)
+        frames = np.array([r.frame.T for r in caps]).reshape(-1, 3, 3)  # rows e1, e2, m
+        self.e1, self.e2, self.m = frames[:, 0], frames[:, 1], frames[:, 2]  # (Cc, 3) each
+        self.axis = np.array([r.axis for r in caps]).reshape(-1, 3)  # (Cc, 3): the cone's axis as given
+        self.half_deg = np.array([np.degrees(r.half_angle) for r in caps])  # (Cc,)
+        self.point_xyz = np.array([regions[c].point for c in self.points]).reshape(-1, 3)
+        self.point_normal = np.array([regions[c].normal for c in self.points]).reshape(-1, 3)
+
+
+@lru_cache(maxsize=256)
+def _stacked(regions: tuple) -> _Stacked:
+    """Stacked arrays of ``regions`` (regions compare by identity: one entry per task shape)."""
+    return _Stacked(regions)
+
+
+def _caps_checked(st: _Stacked, params: list, points, normals, violation) -> None:
+    """:meth:`SphereCap.evaluate_checked` of the stacked caps, written into columns ``st.caps``."""
+    ag = np.stack([_params(p, 2) for p in params], axis=1)  # (B, Cc, 2)
+    ca, sa = np.cos(ag[..., 0:1]), np.sin(ag[..., 0:1])
+    cg, sg = np.cos(ag[..., 1:2]), np.sin(ag[..., 1:2])
+    n = cg * ca * st.m - cg * sa * st.e2 + sg * st.e1  # (B, Cc, 3), as SphereCap.normals
+    points[:, st.caps] = st.center + st.radius * n
+    normals[:, st.caps] = n
+    angle = np.degrees(angle_between(n, st.axis))  # as SphereCap._cone_violation
+    violation[:, st.caps] = np.maximum(angle - st.half_deg, 0.0)

@@ -36,6 +36,7 @@ report of each fingertip found automatically (:attr:`Hand.tip_fits`).
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass, field
 from functools import cached_property
 from ..frozen import FrozenMap
@@ -442,7 +443,7 @@ def _replace(obj, **changes):
     return replace(obj, **changes)
 
 
-# -- derived tables (cached on the frozen Hand) -----------------------------------------
+# -- derived tables (a weak cache keyed by the Hand, never written onto it) ---------------
 def _tree_tables(hand: Hand) -> dict:
     """Index tables the batch kinematics needs, computed once per hand."""
     names = hand.link_names
@@ -454,9 +455,15 @@ def _tree_tables(hand: Hand) -> dict:
     return {"parent": parent_of_joint, "child": child_of_joint, "moves": moves}
 
 
+_TREE_TABLES: "weakref.WeakKeyDictionary[Hand, dict]" = weakref.WeakKeyDictionary()
+
+
 def tree_tables(hand: Hand) -> dict:
-    cache = hand.__dict__.get("_tables")
+    """The hand's derived index tables (see :func:`_tree_tables`), built once per hand and
+    held beside it (a weak cache: they go with the hand); other modules add their own
+    per-hand tables under their own keys (forward kinematics' chain, the residual function's
+    limits and couplings)."""
+    cache = _TREE_TABLES.get(hand)
     if cache is None:
-        cache = _tree_tables(hand)
-        object.__setattr__(hand, "_tables", cache)
+        cache = _TREE_TABLES[hand] = _tree_tables(hand)
     return cache

@@ -177,6 +177,13 @@ def _close(a: np.ndarray, b: np.ndarray, atol: float, rtol: float = 1e-5) -> boo
     return bool(np.all(np.abs(a - b) <= atol + rtol * np.abs(b)))
 
 
+def _det3(R: np.ndarray) -> float:
+    """Determinant of a (3, 3) matrix by cofactors (its sign is all that is asked: R is
+    orthonormal to 1e-6 when this runs, so the determinant is +-1 to rounding)."""
+    (a, b, c), (d, e, f), (g, h, i) = R.tolist()
+    return a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
+
+
 @dataclass(frozen=True, eq=False)
 class Configuration:
     """A candidate grasp.
@@ -195,13 +202,13 @@ class Configuration:
 
     def __post_init__(self):
         q = np.asarray(self.joint_angles, dtype=float)
-        if q.ndim != 1 or not np.all(np.isfinite(q)):
+        if q.ndim != 1 or not np.isfinite(q).all():
             raise InvalidConfiguration(f"joint_angles must be a 1-D array of finite angles [rad], got shape {q.shape}")
         T = np.asarray(self.T_palm_object, dtype=float)
-        if T.shape != (4, 4) or not np.all(np.isfinite(T)):
+        if T.shape != (4, 4) or not np.isfinite(T).all():
             raise InvalidConfiguration(f"T_palm_object must be a finite 4x4 transform, got shape {T.shape}")
         R = T[:3, :3]
-        if not _close(R.T @ R, _EYE3, 1e-6) or np.linalg.det(R) < 0 or not _close(T[3], _LAST_ROW, 1e-8):
+        if not _close(R.T @ R, _EYE3, 1e-6) or _det3(R) < 0 or not _close(T[3], _LAST_ROW, 1e-8):
             raise InvalidConfiguration("T_palm_object must be a rigid transform (rotation block orthonormal, det +1, last row 0 0 0 1)")
         object.__setattr__(self, "joint_angles", q)
         object.__setattr__(self, "T_palm_object", T)
@@ -239,7 +246,7 @@ def _pair(i: int, pair) -> tuple[np.ndarray, np.ndarray]:
             f"contact_params[{i}] must be a pair (hand_params, object_params) of numbers"
         ) from None
     for what, arr in (("hand", h), ("object", o)):
-        if arr.ndim > 1 or not np.all(np.isfinite(arr)):
+        if arr.ndim > 1 or not np.isfinite(arr).all():
             raise InvalidConfiguration(
                 f"contact_params[{i}]: {what} parameters must be a flat list of finite numbers, got shape {arr.shape}"
             )

@@ -23,17 +23,21 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import lru_cache
+from typing import Sequence
 
 import numpy as np
 
+from ..geometry.regions import evaluate_regions
 from ..geometry.rotations import angle_between
 from ..hands.collision import capsule_clearances
 from ..hands.kinematics import HandPose, as_batch, forward_kinematics
+from ..hands.model import tree_tables
 from .locate import locate_contact_params
 from .model import Configuration, Task
 
 __all__ = [
     "Tolerances",
+    "TOLERANCE_OF_KIND",
     "Check",
     "ContactState",
     "ResidualReport",
@@ -63,6 +67,18 @@ class Tolerances:
     coupling_deg: float = 1e-9
     penetration_mm: float = 0.0
     object_penetration_mm: float = 0.5
+
+
+TOLERANCE_OF_KIND = {
+    "contact_distance": "contact_mm",
+    "contact_normal": "normal_deg",
+    "hand_region": "region",
+    "object_region": "region",
+    "joint_limit": "limit_deg",
+    "coupling": "coupling_deg",
+    "collision": "penetration_mm",
+    "object_collision": "object_penetration_mm",
+}  # each kind of check, and the Tolerances field it is judged with
 
 
 @dataclass(frozen=True)
@@ -99,29 +115,92 @@ class ContactState:
     normal_angle_deg: float
 
 
-@dataclass(frozen=True, eq=False)
 class ResidualReport:
-    """Every check of a configuration against a task."""
+    """Every check of a configuration against a task (read-only).
 
-    checks: tuple[Check, ...]
-    contacts: tuple[ContactState, ...]
+    ``ResidualReport(checks, contacts)`` holds given :class:`Check` objects;
+    :func:`evaluate` builds it from columns (:meth:`from_columns`: one kind, name, value,
+    unit and tolerance per check) and makes the :class:`Check` objects only when
+    :attr:`checks` is read, so that judging a configuration (:attr:`ok`, :meth:`worst`)
+    costs no object per check.  Either way the same checks, in the same order.
+    """
+
+    __slots__ = ("_kinds", "_names", "_values", "_units", "_tolerances", "_checks", "contacts", "_worst")
+
+    def __init__(self, checks: Sequence[Check], contacts: tuple[ContactState, ...]):
+        checks = tuple(checks)
+        self._fill(
+            tuple(c.kind for c in checks), tuple(c.name for c in checks), [c.value for c in checks],
+            tuple(c.unit for c in checks), [c.tolerance for c in checks], checks, tuple(contacts),
+        )  # fmt: skip
+
+    @classmethod
+    def from_columns(cls, kinds, names, values, units, tolerances, contacts) -> "ResidualReport":
+        """A report of ``len(kinds)`` checks: ``kinds``, ``names``, ``units`` (str each),
+        ``values`` and ``tolerances`` (floats each, in the checks' units)."""
+        report = cls.__new__(cls)
+        report._fill(tuple(kinds), tuple(names), [float(v) for v in values], tuple(units),
+                     [float(t) for t in tolerances], None, tuple(contacts))  # fmt: skip
+        return report
+
+    def _fill(self, kinds, names, values, units, tolerances, checks, contacts) -> None:
+        if not len(kinds) == len(names) == len(values) == len(units) == len(tolerances):
+            raise ValueError("a residual report needs one kind, name, value, unit and tolerance per check")
+        for key, value in zip(self.__slots__, (kinds, names, values, units, tolerances, checks, contacts, None)):
+            object.__setattr__(self, key, value)
+
+    def __setattr__(self, key, value):
+        raise AttributeError(f"a ResidualReport is read-only (cannot set {key!r})")
+
+    def __reduce__(self):  # pickled between processes (batch workers): the columns travel
+        state = (self._kinds, self._names, self._values, self._units, self._tolerances, self._checks, self.contacts)
+        return _report_from_state, state
+
+    @property
+    def checks(self) -> tuple[Check, ...]:
+        if self._checks is None:
+            made = tuple(map(Check, self._kinds, self._names, self._values, self._units, self._tolerances))
+            object.__setattr__(self, "_checks", made)
+        return self._checks
+
+    @property
+    def kinds(self) -> tuple[str, ...]:
+        """The distinct kinds of check, in order of first appearance."""
+        return tuple(dict.fromkeys(self._kinds))
 
     @property
     def ok(self) -> bool:
-        return all(c.ok for c in self.checks)
+        return all(v <= t for v, t in zip(self._values, self._tolerances))
 
     @property
     def failures(self) -> tuple[Check, ...]:
-        return tuple(c for c in self.checks if not c.ok)
+        return tuple(c for c, v, t in zip(self.checks, self._values, self._tolerances) if not v <= t)
 
     def worst(self, kind: str) -> float:
         """Largest violation of one kind (0 when there is no such check)."""
-        return max((c.value for c in self.checks if c.kind == kind), default=0.0)
+        if self._worst is None:  # every kind's largest value, in one pass (max() keeps the first of equal values)
+            worst: dict = {}
+            for k, v in zip(self._kinds, self._values):
+                worst[k] = max(worst[k], v) if k in worst else v
+            object.__setattr__(self, "_worst", worst)
+        return self._worst.get(kind, 0.0)
+
+    def judged(self, tolerances: "Tolerances") -> "ResidualReport":
+        """The same checks judged with other tolerances (what :func:`evaluate` reports with
+        ``tolerances`` for the same configuration: its values do not depend on them)."""
+        tols = [getattr(tolerances, TOLERANCE_OF_KIND[k]) for k in self._kinds]
+        return ResidualReport.from_columns(self._kinds, self._names, self._values, self._units, tols, self.contacts)
 
     def summary(self) -> str:
         if self.ok:
             return "all constraints satisfied"
         return "; ".join(c.describe() for c in self.failures)
+
+
+def _report_from_state(kinds, names, values, units, tolerances, checks, contacts) -> ResidualReport:
+    report = ResidualReport.__new__(ResidualReport)
+    report._fill(kinds, names, values, units, tolerances, checks, contacts)
+    return report
 
 
 # -- batch cores ------------------------------------------------------------------------
@@ -144,19 +223,20 @@ def contact_residuals(task: Task, pose: HandPose, T_palm_object, params) -> dict
         ``object_point``, ``object_normal`` (B, C, 3).
     """
     T = np.asarray(T_palm_object, dtype=float).reshape(-1, 4, 4)
-    out = {k: [] for k in ("hand_point", "hand_normal", "object_point", "object_normal", "hand_region", "object_region")}
-    for contact, (hp, op) in zip(task.contacts, params):
-        hreg, oreg = task.hand_region(contact), task.object_region(contact)
-        li = task.hand.link_index(hreg.link)
-        h_pt, h_n, h_out = hreg.region.evaluate_checked(hp)
-        o_pt, o_n, o_out = oreg.evaluate_checked(op)
-        out["hand_point"].append(pose.points(li, h_pt))
-        out["hand_normal"].append(pose.directions(li, h_n))
-        out["object_point"].append(_transform_points(T, o_pt))
-        out["object_normal"].append(np.einsum("bij,bj->bi", T[:, :3, :3], o_n))
-        out["hand_region"].append(h_out)
-        out["object_region"].append(o_out)
-    res = {k: np.stack(v, axis=1) for k, v in out.items()}
+    hregs = [task.hand_region(c) for c in task.contacts]
+    h_pt, h_n, h_out = evaluate_regions([h.region for h in hregs], [hp for hp, _ in params])
+    o_pt, o_n, o_out = evaluate_regions([task.object_region(c) for c in task.contacts], [op for _, op in params])
+    links = [task.hand.link_index(h.link) for h in hregs]
+    R, r = pose.R_palm_link[:, links], pose.r_palm_link[:, links]  # (B, C, 3, 3), (B, C, 3)
+    R_o = T[:, None, :3, :3]
+    res = {
+        "hand_point": np.einsum("bcij,bcj->bci", R, h_pt) + r,
+        "hand_normal": np.einsum("bcij,bcj->bci", R, h_n),
+        "object_point": np.einsum("bcij,bcj->bci", np.broadcast_to(R_o, R.shape), o_pt) + T[:, None, :3, 3],
+        "object_normal": np.einsum("bcij,bcj->bci", np.broadcast_to(R_o, R.shape), o_n),
+        "hand_region": h_out,
+        "object_region": o_out,
+    }
     res["distance_mm"] = np.linalg.norm(res["hand_point"] - res["object_point"], axis=-1)
     res["normal_angle_deg"] = np.degrees(angle_between(res["hand_normal"], -res["object_normal"]))
     return res
@@ -165,7 +245,8 @@ def contact_residuals(task: Task, pose: HandPose, T_palm_object, params) -> dict
 def limit_violations(hand, q) -> np.ndarray:
     """How far each angle lies outside its limits, (B, n_dof) [rad], 0 inside."""
     q = as_batch(q, hand.n_dof)
-    return np.maximum(np.maximum(hand.lower - q, q - hand.upper), 0.0)
+    lower, upper = _limit_arrays(hand)
+    return np.maximum(np.maximum(lower - q, q - upper), 0.0)
 
 
 def coupling_violations(hand, q) -> np.ndarray:
@@ -173,11 +254,32 @@ def coupling_violations(hand, q) -> np.ndarray:
     q = as_batch(q, hand.n_dof)
     if not hand.couplings:
         return np.zeros((q.shape[0], 0))
-    dof = np.array([hand.dof_index(c.dof) for c in hand.couplings])
-    src = np.array([hand.dof_index(c.source) for c in hand.couplings])
-    ratio = np.array([c.ratio for c in hand.couplings])
-    offset = np.array([c.offset for c in hand.couplings])
+    dof, src, ratio, offset = _coupling_arrays(hand)
     return np.abs(q[:, dof] - (ratio * q[:, src] + offset))
+
+
+def _limit_arrays(hand) -> tuple[np.ndarray, np.ndarray]:
+    """``(hand.lower, hand.upper)`` (n_dof,) [rad], read-only, once per hand (kept with its tree tables)."""
+    tables = tree_tables(hand)
+    if "limits" not in tables:
+        lower, upper = hand.lower, hand.upper
+        lower.setflags(write=False)
+        upper.setflags(write=False)
+        tables["limits"] = (lower, upper)
+    return tables["limits"]
+
+
+def _coupling_arrays(hand) -> tuple[np.ndarray, ...]:
+    """Per coupling: ``dof`` and ``source`` indices, ``ratio``, ``offset``, once per hand."""
+    tables = tree_tables(hand)
+    if "couplings" not in tables:
+        tables["couplings"] = (
+            np.array([hand.dof_index(c.dof) for c in hand.couplings]),
+            np.array([hand.dof_index(c.source) for c in hand.couplings]),
+            np.array([c.ratio for c in hand.couplings]),
+            np.array([c.offset for c in hand.couplings]),
+        )
+    return tables["couplings"]
 
 
 # -- one configuration, with names ------------------------------------------------------
@@ -199,10 +301,12 @@ def evaluate(task: Task, config: Configuration, tolerances: Tolerances = Toleran
         params = locate_contact_params(task, pose, config.T_palm_object)
     batch_params = [(h[None], o[None]) for h, o in params]
     res = contact_residuals(task, pose, T, batch_params)
-    checks = _contact_checks(task, res, tolerances)
-    checks += _joint_checks(task, config.joint_angles, tolerances)
-    checks += _collision_checks(task, pose, tolerances)
-    checks += _object_collision_checks(task, pose, config.T_palm_object, res["hand_point"][0], tolerances)
+    blocks = (
+        _contact_checks(task, res, tolerances),
+        _joint_checks(task, config.joint_angles, tolerances),
+        _collision_checks(task, pose, tolerances),
+        _object_collision_checks(task, pose, config.T_palm_object, res["hand_point"][0], tolerances),
+    )
     states = tuple(
         ContactState(
             c.name, params[i][0], params[i][1],
@@ -211,58 +315,72 @@ def evaluate(task: Task, config: Configuration, tolerances: Tolerances = Toleran
         )  # fmt: skip
         for i, c in enumerate(task.contacts)
     )
-    return ResidualReport(tuple(checks), states)
+    columns = [sum((blk[k] for blk in blocks), ()) for k in (0, 1, 3)]
+    values = [v for blk in blocks for v in blk[2]]
+    tols = [t for blk in blocks for t in blk[4]]
+    return ResidualReport.from_columns(columns[0], columns[1], values, columns[2], tols, states)
 
 
-def _contact_checks(task, res, tol) -> list[Check]:
-    checks = []
-    for i, c in enumerate(task.contacts):
-        checks += [
-            Check("contact_distance", c.name, float(res["distance_mm"][0, i]), "mm", tol.contact_mm),
-            Check("contact_normal", c.name, float(res["normal_angle_deg"][0, i]), "deg", tol.normal_deg),
-            Check("hand_region", c.name, float(res["hand_region"][0, i]), _unit(task.hand_region(c).region), tol.region),
-            Check("object_region", c.name, float(res["object_region"][0, i]), _unit(task.object_region(c)), tol.region),
-        ]
-    return checks
+# Each block of checks is ``(kinds, names, values, units, tolerances)``: tuples of str and
+# sequences of floats, one entry per check (see ResidualReport.from_columns).
+_CONTACT_KINDS = ("contact_distance", "contact_normal", "hand_region", "object_region")
+
+
+def _contact_checks(task, res, tol) -> tuple:
+    """Per contact, in order: distance [mm], normal angle [deg], hand and object region."""
+    C = len(task.contacts)
+    values = np.stack([res[k][0] for k in ("distance_mm", "normal_angle_deg", "hand_region", "object_region")], axis=1)
+    units = tuple(u for c in task.contacts
+                  for u in ("mm", "deg", _unit(task.hand_region(c).region), _unit(task.object_region(c))))  # fmt: skip
+    names = tuple(c.name for c in task.contacts for _ in range(4))
+    tols = (tol.contact_mm, tol.normal_deg, tol.region, tol.region) * C
+    return _CONTACT_KINDS * C, names, values.ravel().tolist(), units, tols
 
 
 def _unit(region) -> str:
     return {"sphere_cap": "deg", "bezier": "param"}.get(region.kind, "-")
 
 
-def _joint_checks(task, q, tol) -> list[Check]:
+def _joint_checks(task, q, tol) -> tuple:
     hand = task.hand
     lim = np.degrees(limit_violations(hand, q)[0])
-    checks = [Check("joint_limit", d, float(v), "deg", tol.limit_deg) for d, v in zip(hand.dof_names, lim)]
     cpl = np.degrees(coupling_violations(hand, q)[0])
-    checks += [Check("coupling", f"{c.dof}={c.source}", float(v), "deg", tol.coupling_deg) for c, v in zip(hand.couplings, cpl)]
-    return checks
+    n, m = len(lim), len(cpl)
+    names = tuple(hand.dof_names) + tuple(f"{c.dof}={c.source}" for c in hand.couplings)
+    return (("joint_limit",) * n + ("coupling",) * m, names, lim.tolist() + cpl.tolist(), ("deg",) * (n + m),
+            (tol.limit_deg,) * n + (tol.coupling_deg,) * m)  # fmt: skip
 
 
-def _collision_checks(task, pose, tol) -> list[Check]:
+def _collision_checks(task, pose, tol) -> tuple:
     """One check per pair of links: the deepest penetration of their capsule pairs [mm]."""
     clearance, names = capsule_clearances(task.hand, pose)
-    labels, group = _link_pairs(names)
+    labels, group, starts = _link_pairs(names)
     depth = np.zeros(len(labels))
-    np.maximum.at(depth, group, np.maximum(-clearance[0], 0.0))
-    return [Check("collision", label, float(v), "mm", tol.penetration_mm) for label, v in zip(labels, depth)]
+    if group.size:  # the pairs of one pair of links are contiguous (collision_pairs sorts them)
+        depth[group[starts]] = np.maximum.reduceat(np.maximum(-clearance[0], 0.0), starts)
+    n = len(labels)
+    return ("collision",) * n, labels, depth.tolist(), ("mm",) * n, (tol.penetration_mm,) * n
 
 
 @lru_cache(maxsize=64)
-def _link_pairs(names: tuple[tuple[str, str], ...]) -> tuple[tuple[str, ...], np.ndarray]:
+def _link_pairs(names: tuple[tuple[str, str], ...]) -> tuple[tuple[str, ...], np.ndarray, np.ndarray]:
     """``("a/b" per link pair in order of first appearance, the link pair of each capsule
-    pair)`` for the capsule pairs' link ``names`` (the same tuple for every call on a hand)."""
+    pair, where each run of one link pair starts)`` for the capsule pairs' link ``names``
+    (the same tuple for every call on a hand)."""
     order: dict = {}
     group = np.array([order.setdefault(pair, len(order)) for pair in names], dtype=np.intp)
-    return tuple(f"{a}/{b}" for a, b in order), group
+    starts = np.flatnonzero(np.concatenate([[True], group[1:] != group[:-1]])) if group.size else np.zeros(0, np.intp)
+    return tuple(f"{a}/{b}" for a, b in order), group, starts
 
 
-def _object_collision_checks(task, pose, T_palm_object, hand_points_palm, tol) -> list[Check]:
+def _object_collision_checks(task, pose, T_palm_object, hand_points_palm, tol) -> tuple:
     if not task.object.collides:
-        return []
+        return (), (), [], (), ()
     from .object_collision import link_penetrations
 
     T = np.asarray(T_palm_object, dtype=float)
     points = (hand_points_palm - T[:3, 3]) @ T[:3, :3]  # palm -> object frame, (C, 3)
     depth = link_penetrations(task, pose, T, points)
-    return [Check("object_collision", link, v, "mm", tol.object_penetration_mm) for link, v in depth.items()]
+    n = len(depth)
+    return (("object_collision",) * n, tuple(depth), [float(v) for v in depth.values()], ("mm",) * n,
+            (tol.object_penetration_mm,) * n)  # fmt: skip

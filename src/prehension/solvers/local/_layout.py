@@ -230,11 +230,8 @@ class Group:
     def params_of(self, x: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
         """Per contact ``(hand params (S, k_h), object params (S, k_o))``."""
         x = np.atleast_2d(x)
-        out = []
-        for side in self.layout.sides:
-            (h0, hk), (o0, ok) = side[0, [S_X, S_K]], side[1, [S_X, S_K]]
-            out.append((x[:, h0 : h0 + hk].copy(), x[:, o0 : o0 + ok].copy()))
-        return out
+        spans = self.layout.sides[:, :, [S_X, S_K]].tolist()  # per contact [[h0, hk], [o0, ok]]
+        return [(x[:, h0 : h0 + hk].copy(), x[:, o0 : o0 + ok].copy()) for (h0, hk), (o0, ok) in spans]
 
 
 # -- building a group --------------------------------------------------------------------------

@@ -36,7 +36,7 @@ from ...errors import InvalidTask
 from ...geometry.rotations import angle_between
 from ...hands.collision import max_penetration
 from ...hands.kinematics import HandPose, forward_kinematics
-from ...results import Solution, SolveResult, Status, make_solution
+from ...results import Solution, SolveResult, Status, first_solution, make_solution
 from ...tasks.model import Configuration, Task
 from ...tasks.residuals import Tolerances, contact_residuals, coupling_violations, limit_violations
 from . import _kernel as K
@@ -142,14 +142,14 @@ class LocalRecord:
         tolerances in ``stats["acceptance"]``.
         """
         stats = {**self.stats, **(extra_stats or {})}
-        config = self.configuration()
-        if config is None:
+        if self.joint_angles is None:
             return SolveResult(task, "local", Status.GAVE_UP, self.message, (), seconds, stats)
         if self.verified is not None and self.success and self.verified[0] is task:
             sol = self.verified[1]  # made by make_solution (strict tolerances) when the waves checked it
             return SolveResult(task, "local", Status.SOLVED, self.message, (sol,), seconds,
                                {**stats, "max_contact_distance_mm": sol.report.worst("contact_distance"),
                                 "max_normal_angle_deg": sol.report.worst("contact_normal")})  # fmt: skip
+        config = self.configuration()
         sol = make_solution(task, config, STRICT)
         status = Status.SOLVED
         if sol is None and options.approximate:
@@ -268,10 +268,9 @@ def _check_tasks(group: Group, tasks, idx, x, R, t, options: LocalOptions):
     level, dmax, amax, sols = np.zeros(S, dtype=np.int64), np.zeros(S), np.zeros(S), [None] * S
     for s, i in enumerate(idx):
         config = Configuration(q[s], T[s], tuple((h[s], o[s]) for h, o in params))
-        sols[s] = make_solution(tasks[i], config, STRICT)
-        loose = make_solution(tasks[i], config, options.acceptance) if sols[s] is None else None
-        held = sols[s] if sols[s] is not None else loose
-        level[s] = 2 if sols[s] is not None else (1 if loose is not None else 0)
+        k, held = first_solution(tasks[i], config, (STRICT, options.acceptance))  # evaluated once for both
+        sols[s] = held if k == 0 else None
+        level[s] = 2 if k == 0 else (1 if k == 1 else 0)
         if held is not None:
             dmax[s], amax[s] = held.report.worst("contact_distance"), held.report.worst("contact_normal")
         else:
@@ -425,6 +424,14 @@ def _place_poses(group: Group, names, poses: np.ndarray) -> np.ndarray:
     return x0
 
 
+def _is_local_solution(status: np.ndarray) -> np.ndarray:
+    """``np.isin(status, K.LOCAL_SOLUTIONS)`` for the kernel's few status codes, without isin's sorting."""
+    found = np.zeros(status.shape, dtype=bool)
+    for code in K.LOCAL_SOLUTIONS:
+        found |= status == code
+    return found
+
+
 def _wave(group, checker, options, tally: _Tally, todo, wave, x0) -> tuple[np.ndarray, float]:
     """Run one wave for problems ``todo``; the problems done after it, and the check time.
 
@@ -438,7 +445,7 @@ def _wave(group, checker, options, tally: _Tally, todo, wave, x0) -> tuple[np.nd
     tally.rejected[todo[out.status == K.COLLIDING]] += 1
     had_fallback = tally.level[todo] == 1
     got_strict = np.zeros(len(todo), dtype=bool)
-    sel = np.flatnonzero(np.isin(out.status, K.LOCAL_SOLUTIONS))
+    sel = np.flatnonzero(_is_local_solution(out.status))
     if sel.size:
         pi = todo[sel]
         lev, q, T, _, dmax, amax, sols = checker(pi, out.x[sel], out.R[sel], out.t[sel])
@@ -466,17 +473,19 @@ def _solve_group(group: Group, checker, options: LocalOptions, sequence: Initial
     todo = np.arange(P)
     kernel_s = check_s = 0.0
     for i in range(imax):
-        if todo.size:
-            x0 = _starts(group, sequence, i, todo, options, rng, extra)
-            t0 = time.perf_counter()
-            done, dt = _wave(group, checker, options, tally, todo, i, x0)
-            check_s += dt
-            kernel_s += time.perf_counter() - t0 - dt
-            todo = todo[~done]
+        if not todo.size:  # every problem done: the later waves take no time
+            wave_seconds[i:] = wave_seconds[i - 1] if i else time.perf_counter() - t_start
+            break
+        x0 = _starts(group, sequence, i, todo, options, rng, extra)
+        t0 = time.perf_counter()
+        done, dt = _wave(group, checker, options, tally, todo, i, x0)
+        check_s += dt
+        kernel_s += time.perf_counter() - t0 - dt
+        todo = todo[~done]
         wave_seconds[i] = time.perf_counter() - t_start
     records = [tally.record(group, p, tasks[p] if tasks is not None else None) for p in range(P)]
     strict = tally.level == 2
-    solved_after = np.array([np.sum(strict & (tally.solved_with <= i + 1)) for i in range(imax)])
+    solved_after = np.cumsum(np.bincount(tally.solved_with[strict], minlength=imax + 1))[1 : imax + 1]
     return records, wave_seconds, solved_after, {"kernel": kernel_s, "checks": check_s}
 
 

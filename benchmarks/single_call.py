@@ -1,0 +1,114 @@
+"""One problem at a time: where a warm ``solve_local`` call spends its CPU (issue 11).
+
+    python benchmarks/single_call.py                 # 100 four-fingertip SA-hand tasks
+    python benchmarks/single_call.py --tasks 300 --builtin
+
+Rows, each the median CPU time (``time.process_time``) over the tasks, in one warm
+process (BLAS pinned to one thread): a whole ``solve_local`` call; the kernel on one
+initial pose (``run_kernel``); ``make_solution`` of the answer (the one residual
+function, idle fingers settled); inside it ``evaluate`` with the pose given, and
+``forward_kinematics`` of one configuration.  With ``--builtin`` also ``make_solution`` on
+the nine built-in tasks' answers, with the object checked and ignored.  CPU times are
+less at the mercy of other processes than wall times, not immune: read them beside the
+load average printed at the start.
+"""
+
+from __future__ import annotations
+
+import os
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import argparse  # noqa: E402
+import time  # noqa: E402
+from dataclasses import replace  # noqa: E402
+
+import numpy as np  # noqa: E402
+from rich.console import Console  # noqa: E402
+from rich.table import Table  # noqa: E402
+
+
+def _cpu_median(calls, repeats: int = 1) -> float:
+    """Median CPU seconds of each zero-argument callable (each run ``repeats`` times)."""
+    times = []
+    for call in calls:
+        t0 = time.process_time()
+        for _ in range(repeats):
+            call()
+        times.append((time.process_time() - t0) / repeats)
+    return float(np.median(times))
+
+
+def point_rows(n: int) -> list[tuple[str, float]]:
+    from prehension.hands.kinematics import forward_kinematics
+    from prehension.hands.sa_hand import schunk_sa_hand
+    from prehension.results import make_solution
+    from prehension.solvers.local import LocalOptions, random_point_problems, solve_local
+    from prehension.solvers.local.problems import group_from_tasks
+    from prehension.solvers.local.sequence import default_sequence
+    from prehension.solvers.local.solver import _place_poses, run_kernel
+    from prehension.tasks.residuals import evaluate
+
+    problems = random_point_problems(n, schunk_sa_hand(), seed=0)
+    tasks = [problems.task(i) for i in range(n)]
+    solve_local(tasks[0])  # warm: compiled code loaded, tables built
+    whole = _cpu_median([lambda t=t: solve_local(t) for t in tasks])
+    answers = [(t, r.solutions[0].configuration()) for t in tasks for r in [solve_local(t)] if r.solutions]
+    options, sequence = LocalOptions(), default_sequence(problems.hand)
+    kernel = []
+    for t in tasks:
+        group = group_from_tasks([t], options.joint_scale_mm)
+        x0 = _place_poses(group, sequence.names, sequence.poses(sequence.lambdas[0:1]))
+        kernel.append(lambda g=group, x=x0: run_kernel(g, np.zeros(1, dtype=np.int64), x, options))
+    poses = {id(c): forward_kinematics(t.hand, c.joint_angles) for t, c in answers}
+    return [
+        (f"solve_local, one call ({len(tasks)} tasks)", whole),
+        ("  kernel, one initial pose (run_kernel)", _cpu_median(kernel, 3)),
+        (f"  make_solution of the answer ({len(answers)} answers)", _cpu_median([lambda t=t, c=c: make_solution(t, c) for t, c in answers], 3)),
+        ("    evaluate, pose given", _cpu_median([lambda t=t, c=c: evaluate(t, c, pose=poses[id(c)]) for t, c in answers], 3)),
+        ("    forward_kinematics, one configuration", _cpu_median([lambda t=t, c=c: forward_kinematics(t.hand, c.joint_angles) for t, c in answers], 10)),
+    ]  # fmt: skip
+
+
+def builtin_rows() -> list[tuple[str, float]]:
+    from prehension.results import make_solution
+    from prehension.solvers.local import solve_local
+    from prehension.tasks.library import builtin_task_names, load_builtin_task
+
+    answers = []
+    for name in builtin_task_names():
+        task = load_builtin_task(name)
+        result = solve_local(task)
+        if result.solutions:
+            answers.append((task, result.solutions[0].configuration()))
+    rows = []
+    for collide in (True, False):
+        calls = []
+        for task, config in answers:
+            variant = replace(task, object=replace(task.object, collisions=collide))
+            make_solution(variant, config)
+            calls.append(lambda v=variant, c=config: make_solution(v, c))
+        label = "checked" if collide else "ignored"
+        rows.append((f"make_solution, {len(answers)} built-in answers, object {label}", _cpu_median(calls, 5)))
+    return rows
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--tasks", type=int, default=100, help="random four-fingertip SA-hand tasks (default 100)")
+    parser.add_argument("--builtin", action="store_true", help="also make_solution on the nine built-in answers")
+    args = parser.parse_args()
+    console = Console()
+    console.print(f"load average at the start {os.getloadavg()[0]:.1f} ({os.cpu_count()} cores)")
+    rows = point_rows(args.tasks) + (builtin_rows() if args.builtin else [])
+    table = Table(title="One problem at a time, warm process: CPU medians")
+    table.add_column("what")
+    table.add_column("ms", justify="right")
+    for label, seconds in rows:
+        table.add_row(label, f"{1e3 * seconds:.3f}")
+    console.print(table)
+
+
+if __name__ == "__main__":
+    main()
