@@ -163,6 +163,42 @@ def test_forward_built_pairs_are_never_proved_infeasible():
         assert not outcome.proved
 
 
+@pytest.mark.parametrize("case", range(5))
+def test_the_object_distance_range_contains_the_distances_on_random_boxes(case):
+    """The object side's |c_b - c_a| bounds of the span test hold at sampled points of many
+    seeded random boxes (patches, caps, points; boxes from the whole domain to 1e-3 of it)."""
+    task, _ = _pair_problems()[case]
+    pp = cg.pair_problem(task, 0, 1)
+    rng = np.random.default_rng(100 + case)
+    B = 200
+    width = (pp.upper - pp.lower) * 10.0 ** rng.uniform(-3, 0, (B, 1))
+    lo = pp.lower + rng.uniform(0, 1, (B, pp.n_dims)) * (pp.upper - pp.lower - width)
+    hi = lo + width
+    lower, upper = cg.object_distance_range(pp, lo, hi)
+    for _ in range(20):
+        z = lo + rng.uniform(0, 1, lo.shape) * (hi - lo)
+        distance = np.linalg.norm(_true_values(pp, z)[3], axis=1)
+        assert np.all(lower <= distance * (1 + 1e-12)) and np.all(distance <= upper * (1 + 1e-12))
+
+
+def test_forward_built_pairs_are_never_proved_out_of_span():
+    hand = schunk_sa_hand()
+    for task, _ in _pair_problems()[2:]:
+        assert not cg.prove_out_of_span(cg.pair_problem(task, 0, 1), hand).proved
+
+
+def test_the_span_test_proves_a_pinch_wider_than_the_span_and_not_one_within_it():
+    from prehension.hands.reach import span_bound_mm
+
+    pp = cg.pair_problem(_pinch_task(60.0), 0, 1)
+    (la, pa), (lb, pb) = pp.points
+    span = span_bound_mm(schunk_sa_hand(), la, pa, lb, pb)
+    extra = cg.object_distance_range(pp, pp.lower[None], pp.upper[None])[0][0] - 60.0  # the fingertip radii
+    assert cg.prove_out_of_span(cg.pair_problem(_pinch_task(span - extra + 0.01), 0, 1), schunk_sa_hand()).proved
+    outcome = cg.prove_out_of_span(cg.pair_problem(_pinch_task(span - extra - 0.01), 0, 1), schunk_sa_hand())
+    assert not outcome.proved and outcome.stopped == "witness"
+
+
 def test_a_pinch_past_reach_is_proved_and_ends_the_search_as_infeasible():
     proof = cg.prove_pair_infeasible(cg.pair_problem(_pinch_task(180.0), 0, 1), max_boxes=50_000)
     assert proof.proved
