@@ -46,6 +46,7 @@ then stops without a proof.
 
 from __future__ import annotations
 
+import heapq
 import time
 from dataclasses import dataclass
 
@@ -56,10 +57,15 @@ from ...hands.reach import PairKinematics, pair_kinematics, span_bound_mm
 from ...tasks.model import Task
 from . import affine as af
 
-__all__ = ["OUT_OF_SPAN_BOXES", "CongruenceResult", "PairProblem", "PairOutcome", "pair_problem", "prove_pair_infeasible", "prove_out_of_span",
+__all__ = ["NEAR_SPAN_MM", "OUT_OF_SPAN_BOXES", "object_distance_floor", "CongruenceResult", "PairProblem", "PairOutcome", "pair_problem", "prove_pair_infeasible", "prove_out_of_span",
            "object_distance_range", "congruence_test"]
 
 _REL_PAD = 1e-9
+
+#: Within this distance [mm] of the object side's floor, the pair test's boxes are split by
+#: its conditions; farther, through an angle for the hand's distance (``distance_floor_mm``
+#: of :func:`prove_pair_infeasible`).
+NEAR_SPAN_MM = 1.0
 
 #: Box budget of the object-side span test (:func:`prove_out_of_span`) of each pair in
 #: :func:`congruence_test`: it either proves or meets a witness within a few hundred boxes,
@@ -293,9 +299,19 @@ class PairOutcome:
 
 
 def prove_pair_infeasible(pp: PairProblem, *, max_boxes: int = 200_000, time_limit_s: float | None = None,
-                          witness_width: float = 1e-7, batch: int = 256) -> PairOutcome:  # fmt: skip
+                          witness_width: float = 1e-7, batch: int = 256, distance_floor_mm: float = 0.0) -> PairOutcome:  # fmt: skip
     """Branch and prune over the pair's box (see the module docstring); stops without a
-    proof after ``max_boxes`` boxes or ``time_limit_s`` seconds (None: no time limit)."""
+    proof after ``max_boxes`` boxes or ``time_limit_s`` seconds (None: no time limit).
+
+    ``distance_floor_mm``: a proven lower bound of ``|c_b - c_a|`` over the whole object
+    side (:func:`object_distance_floor`; 0: none).  The hand's distance must reach it:
+    a box of angles whose span bound (:meth:`PairKinematics.distance_upper_mm`) stays
+    below it is discarded, and a box whose bound exceeds it by more than
+    :data:`NEAR_SPAN_MM` is split through an angle, by the span search's rule.  The object
+    side is then not split where only the angles can decide (splitting both multiplies
+    the boxes), and near the frontier the search is left with the few configurations near
+    the hand's widest, where the cone conditions decide.
+    """
     started = time.perf_counter()
     scale = np.maximum(pp.upper - pp.lower, 1e-12)
     stack_lo, stack_hi = [pp.lower[None].copy()], [pp.upper[None].copy()]
@@ -303,7 +319,7 @@ def prove_pair_infeasible(pp: PairProblem, *, max_boxes: int = 200_000, time_lim
     while stack_lo:
         lo, hi = _take(stack_lo, stack_hi, batch)
         boxes += len(lo)
-        lo, hi, split, score = _prune_and_contract(pp, lo, hi)
+        lo, hi, split, score = _prune_and_contract(pp, lo, hi, distance_floor_mm)
         if len(lo) and np.any(((hi - lo) / scale).max(axis=1) < witness_width):
             k = int(np.argmin(((hi - lo) / scale).max(axis=1)))
             return PairOutcome(False, boxes, time.perf_counter() - started, "witness", 0.5 * (lo[k] + hi[k]))
@@ -329,10 +345,18 @@ def _push(stack_lo: list, stack_hi: list, lo: np.ndarray, hi: np.ndarray) -> Non
         stack_hi.append(hi)
 
 
-def _prune_and_contract(pp: PairProblem, lo: np.ndarray, hi: np.ndarray):
+def _prune_and_contract(pp: PairProblem, lo: np.ndarray, hi: np.ndarray, distance_floor_mm: float = 0.0):
     """Drop the boxes that cannot hold a solution, narrow the others; returns the kept boxes,
     which of them to split (the others narrowed enough to be evaluated again) and the
-    split scores ``(B, K)``."""
+    split scores ``(B, K)`` (see ``distance_floor_mm`` of :func:`prove_pair_infeasible`)."""
+    far = np.zeros(len(lo), dtype=bool)
+    if distance_floor_mm > 0.0:
+        sa = pp.slices[0]
+        reach, reach_score = pp.kin.distance_upper_mm(lo[:, sa], hi[:, sa])
+        reach = reach * (1.0 + _REL_PAD) + _REL_PAD
+        near = reach >= distance_floor_mm
+        lo, hi, reach, reach_score = lo[near], hi[near], reach[near], reach_score[near]
+        far = reach > distance_floor_mm + NEAR_SPAN_MM
     equations, cones = _conditions(pp, lo, hi)
     alive = np.ones(len(lo), dtype=bool)
     for g, pad in equations:
@@ -351,6 +375,9 @@ def _prune_and_contract(pp: PairProblem, lo: np.ndarray, hi: np.ndarray):
     new_hi = np.minimum(hi, zc + half * eps_hi + 1e-12 * np.abs(zc))
     shrunk = ((new_hi - new_lo) < 0.7 * (hi - lo)) & (hi - lo > 0)
     score = _split_scores(equations, cones, (hi - lo) / np.maximum(pp.upper - pp.lower, 1e-12))
+    if far.any():  # the angles alone decide these boxes: split them for the distance
+        score[far] = 0.0
+        score[np.ix_(far, np.arange(pp.slices[0].start, pp.slices[0].stop))] = 1.0 + reach_score[far]
     keep = alive & (new_lo <= new_hi).all(axis=1)
     split = ~shrunk[keep].any(axis=1)
     return new_lo[keep], new_hi[keep], split, score[keep]
@@ -406,52 +433,71 @@ def object_distance_range(pp: PairProblem, lo: np.ndarray, hi: np.ndarray) -> tu
     return np.maximum(np.maximum(a - s, projected), 0.0), a + s
 
 
-def prove_out_of_span(pp: PairProblem, hand, *, max_boxes: int = 20_000, batch: int = 256) -> PairOutcome:
-    """Whether the two contacts' fingertip centres (hand points) are always farther apart on
-    the object than the hand can ever hold them, whatever the pose.
+def object_distance_floor(pp: PairProblem, *, tol_mm: float = 0.01, max_boxes: int = 2_000,
+                          batch: int = 64) -> tuple[float, float, int]:  # fmt: skip
+    """``(floor, best, boxes)``: a proven lower bound ``floor`` [mm] of ``|c_b - c_a|`` over
+    the object regions' parameters (:func:`object_distance_range`), the smallest distance
+    met at a box centre (``best >= `` the true minimum ``>= floor``) and the boxes used.
 
-    The hand side is one number, the span ``S`` between the two points over the joint
-    limits (:func:`prehension.hands.reach.span_bound_mm`, proven, the bound the complete
-    solver's reach constraints use); the object side is searched alone, by branch and bound
-    over the object regions' parameters (at most four dimensions, where the full pair test
-    must search them together with every joint angle of both chains): a box is discarded
-    when the lower bound of :func:`object_distance_range` exceeds ``S`` (relative margin
-    1e-9 for rounding); a box centre whose distance is at most ``S`` is a witness (no proof).
-    Sound for any number of contacts: a grasp makes the two distances equal.
+    Best-first branch and bound over the object dimensions only (at most four): boxes with
+    the smallest lower bound are split (widest relative dimension) until ``best - floor <=
+    tol_mm`` or ``max_boxes`` (the floor is then looser, never invalid).
     """
-    started = time.perf_counter()
-    (link_a, point_a), (link_b, point_b) = pp.points
-    span = span_bound_mm(hand, link_a, point_a, link_b, point_b)
-    limit = span * (1.0 + _REL_PAD) + _REL_PAD
     dims = np.arange(pp.slices[1].start, pp.n_dims)
-    if not dims.size:  # two fixed points: one distance
-        lower, _ = object_distance_range(pp, pp.lower[None], pp.upper[None])
-        proved = bool(lower[0] > limit)
-        return PairOutcome(proved, 1, time.perf_counter() - started, "" if proved else "witness")
     scale = np.maximum(pp.upper - pp.lower, 1e-12)
-    lo, hi, boxes = pp.lower[None].copy(), pp.upper[None].copy(), 0
-    pending_lo, pending_hi = [], []
+    heap: list = []
+    best, boxes, counter = np.inf, 0, 0
+    lo, hi = pp.lower[None].copy(), pp.upper[None].copy()
     while True:
         boxes += len(lo)
         lower, _ = object_distance_range(pp, lo, hi)
-        centre_lower, _ = object_distance_range(pp, 0.5 * (lo + hi), 0.5 * (lo + hi))
-        if np.any(centre_lower <= limit):
-            return PairOutcome(False, boxes, time.perf_counter() - started, "witness")
-        keep = lower <= limit
-        lo, hi = lo[keep], hi[keep]
-        if len(lo):
-            k = dims[np.argmax(((hi - lo) / scale)[:, dims], axis=1)]
-            rows = np.arange(len(lo))
-            mid = 0.5 * (lo[rows, k] + hi[rows, k])
-            left_hi, right_lo = hi.copy(), lo.copy()
-            left_hi[rows, k], right_lo[rows, k] = mid, mid
-            pending_lo += [lo, right_lo]
-            pending_hi += [left_hi, hi]
-        if not pending_lo:
-            return PairOutcome(True, boxes, time.perf_counter() - started)
-        if boxes >= max_boxes:
-            return PairOutcome(False, boxes, time.perf_counter() - started, "budget")
-        lo, hi = _take(pending_lo, pending_hi, batch)
+        centre, _ = object_distance_range(pp, 0.5 * (lo + hi), 0.5 * (lo + hi))
+        best = min(best, float(centre.min()))
+        for value, a, b in zip(lower, lo, hi):
+            heapq.heappush(heap, (float(value), counter, a, b))
+            counter += 1
+        floor = heap[0][0]
+        if best - floor <= tol_mm or not dims.size or boxes >= max_boxes:
+            return max(floor, 0.0) * (1.0 - _REL_PAD) - _REL_PAD, best, boxes
+        popped = [heapq.heappop(heap) for _ in range(min(batch, len(heap)))]
+        take = [t for t in popped if t[0] < best - tol_mm] or popped[:1]
+        for t in popped[len(take):]:  # the others stay open: their bounds still count for the floor
+            heapq.heappush(heap, t)
+        lo, hi = _halves_widest(np.array([t[2] for t in take]), np.array([t[3] for t in take]), dims, scale)
+
+
+def _halves_widest(lo: np.ndarray, hi: np.ndarray, dims: np.ndarray, scale: np.ndarray):
+    """Both halves of every box through its widest relative dimension among ``dims``."""
+    k = dims[np.argmax(((hi - lo) / scale)[:, dims], axis=1)]
+    rows = np.arange(len(lo))
+    mid = 0.5 * (lo[rows, k] + hi[rows, k])
+    left_hi, right_lo = hi.copy(), lo.copy()
+    left_hi[rows, k], right_lo[rows, k] = mid, mid
+    return np.concatenate([lo, right_lo]), np.concatenate([left_hi, hi])
+
+
+def pair_span_mm(pp: PairProblem, hand) -> float:
+    """The proven span [mm] between the pair's two hand points (fingertip centres) over the
+    joint limits (:func:`prehension.hands.reach.span_bound_mm`, within 0.05 mm)."""
+    (link_a, point_a), (link_b, point_b) = pp.points
+    return span_bound_mm(hand, link_a, point_a, link_b, point_b, tol_mm=0.05, max_boxes=200_000)
+
+
+def prove_out_of_span(pp: PairProblem, hand, *, max_boxes: int = OUT_OF_SPAN_BOXES) -> PairOutcome:
+    """Whether the two contacts' fingertip centres (hand points) are always farther apart on
+    the object than the hand can ever hold them, whatever the pose: the object side's floor
+    (:func:`object_distance_floor`, searched alone: at most four dimensions, where the full
+    pair test searches them with every joint angle of both chains) above the hand's span
+    (:func:`pair_span_mm`), with a relative margin of 1e-9 for rounding.  Sound for any
+    number of contacts: a grasp makes the two distances equal.  ``stopped`` is "witness"
+    when a distance met on the object side is within the span.
+    """
+    started = time.perf_counter()
+    span = pair_span_mm(pp, hand) * (1.0 + _REL_PAD) + _REL_PAD
+    floor, best, boxes = object_distance_floor(pp, max_boxes=max_boxes)
+    if floor > span:
+        return PairOutcome(True, boxes, time.perf_counter() - started)
+    return PairOutcome(False, boxes, time.perf_counter() - started, "witness" if best <= span else "budget")
 
 
 # -- every pair of a task ---------------------------------------------------------------------------
@@ -482,9 +528,13 @@ def congruence_test(task: Task, *, max_boxes: int = 200_000, time_limit_s: float
         pp = pair_problem(task, a, b)
         if pp is None:
             continue
-        outcome = prove_out_of_span(pp, task.hand, max_boxes=min(share, OUT_OF_SPAN_BOXES))
-        if not outcome.proved:
-            outcome = prove_pair_infeasible(pp, max_boxes=share, time_limit_s=seconds)
+        started = time.perf_counter()
+        span = pair_span_mm(pp, task.hand) * (1.0 + _REL_PAD) + _REL_PAD
+        floor, _, boxes = object_distance_floor(pp, max_boxes=min(share, OUT_OF_SPAN_BOXES))
+        if floor > span:  # the object side alone is out of the hand's span
+            outcome = PairOutcome(True, boxes, time.perf_counter() - started)
+        else:
+            outcome = prove_pair_infeasible(pp, max_boxes=share, time_limit_s=seconds, distance_floor_mm=floor)
         outcomes.append(((a, b), outcome))
         if outcome.proved:
             return CongruenceResult(True, (a, b), tuple(outcomes))
