@@ -189,7 +189,7 @@ def test_forward_built_pairs_are_never_proved_out_of_span():
 
 def test_the_span_test_proves_a_pinch_wider_than_the_span_and_not_one_within_it():
     pp = cg.pair_problem(_pinch_task(60.0), 0, 1)
-    span = cg.pair_span_mm(pp, schunk_sa_hand())
+    span = cg.pair_span_mm(pp, schunk_sa_hand(), tight=True)
     extra = cg.object_distance_range(pp, pp.lower[None], pp.upper[None])[0][0] - 60.0  # the fingertip radii
     assert cg.prove_out_of_span(cg.pair_problem(_pinch_task(span - extra + 0.01), 0, 1), schunk_sa_hand()).proved
     outcome = cg.prove_out_of_span(cg.pair_problem(_pinch_task(span - extra - 0.01), 0, 1), schunk_sa_hand())

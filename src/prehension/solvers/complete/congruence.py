@@ -433,15 +433,17 @@ def object_distance_range(pp: PairProblem, lo: np.ndarray, hi: np.ndarray) -> tu
     return np.maximum(np.maximum(a - s, projected), 0.0), a + s
 
 
-def object_distance_floor(pp: PairProblem, *, tol_mm: float = 0.01, max_boxes: int = 2_000,
-                          batch: int = 64) -> tuple[float, float, int]:  # fmt: skip
+def object_distance_floor(pp: PairProblem, *, tol_mm: float = 0.01, max_boxes: int = 2_000, batch: int = 64,
+                          span_mm: float | None = None) -> tuple[float, float, int]:  # fmt: skip
     """``(floor, best, boxes)``: a proven lower bound ``floor`` [mm] of ``|c_b - c_a|`` over
     the object regions' parameters (:func:`object_distance_range`), the smallest distance
     met at a box centre (``best >= `` the true minimum ``>= floor``) and the boxes used.
 
     Best-first branch and bound over the object dimensions only (at most four): boxes with
     the smallest lower bound are split (widest relative dimension) until ``best - floor <=
-    tol_mm`` or ``max_boxes`` (the floor is then looser, never invalid).
+    tol_mm`` or ``max_boxes`` (the floor is then looser, never invalid).  Given the hand's
+    span ``span_mm``, a tenth of the gap between ``best`` and the span is tolerated as
+    well (a floor far below the span proves nothing and prunes little).
     """
     dims = np.arange(pp.slices[1].start, pp.n_dims)
     scale = np.maximum(pp.upper - pp.lower, 1e-12)
@@ -457,10 +459,11 @@ def object_distance_floor(pp: PairProblem, *, tol_mm: float = 0.01, max_boxes: i
             heapq.heappush(heap, (float(value), counter, a, b))
             counter += 1
         floor = heap[0][0]
-        if best - floor <= tol_mm or not dims.size or boxes >= max_boxes:
+        tol = tol_mm if span_mm is None else max(tol_mm, 0.1 * (span_mm - best))
+        if best - floor <= tol or not dims.size or boxes >= max_boxes:
             return max(floor, 0.0) * (1.0 - _REL_PAD) - _REL_PAD, best, boxes
         popped = [heapq.heappop(heap) for _ in range(min(batch, len(heap)))]
-        take = [t for t in popped if t[0] < best - tol_mm] or popped[:1]
+        take = [t for t in popped if t[0] < best - tol] or popped[:1]
         for t in popped[len(take):]:  # the others stay open: their bounds still count for the floor
             heapq.heappush(heap, t)
         lo, hi = _halves_widest(np.array([t[2] for t in take]), np.array([t[3] for t in take]), dims, scale)
@@ -476,11 +479,26 @@ def _halves_widest(lo: np.ndarray, hi: np.ndarray, dims: np.ndarray, scale: np.n
     return np.concatenate([lo, right_lo]), np.concatenate([left_hi, hi])
 
 
-def pair_span_mm(pp: PairProblem, hand) -> float:
+def pair_span_mm(pp: PairProblem, hand, *, tight: bool = False) -> float:
     """The proven span [mm] between the pair's two hand points (fingertip centres) over the
-    joint limits (:func:`prehension.hands.reach.span_bound_mm`, within 0.05 mm)."""
+    joint limits (:func:`prehension.hands.reach.span_bound_mm`): within 1 mm of the true
+    maximum (the bound of the system's reach constraints, remembered per hand), or within
+    0.05 mm when ``tight`` (about a second more per pair)."""
     (link_a, point_a), (link_b, point_b) = pp.points
-    return span_bound_mm(hand, link_a, point_a, link_b, point_b, tol_mm=0.05, max_boxes=200_000)
+    if tight:
+        return span_bound_mm(hand, link_a, point_a, link_b, point_b, tol_mm=0.05, max_boxes=200_000)
+    return span_bound_mm(hand, link_a, point_a, link_b, point_b)
+
+
+def _span_test(pp: PairProblem, hand, max_boxes: int) -> tuple[bool, float, bool, int]:
+    """``(proved, floor, witness, boxes)`` of the span test (see :func:`prove_out_of_span`): the
+    tight span is computed only when the floor comes within 1 mm of the loose one."""
+    pad = lambda x: x * (1.0 + _REL_PAD) + _REL_PAD  # noqa: E731
+    span = pad(pair_span_mm(pp, hand))
+    floor, best, boxes = object_distance_floor(pp, max_boxes=max_boxes, span_mm=span)
+    if span - 1.0 < floor <= span:
+        span = min(span, pad(pair_span_mm(pp, hand, tight=True)))
+    return floor > span, floor, best <= span, boxes
 
 
 def prove_out_of_span(pp: PairProblem, hand, *, max_boxes: int = OUT_OF_SPAN_BOXES) -> PairOutcome:
@@ -493,11 +511,8 @@ def prove_out_of_span(pp: PairProblem, hand, *, max_boxes: int = OUT_OF_SPAN_BOX
     when a distance met on the object side is within the span.
     """
     started = time.perf_counter()
-    span = pair_span_mm(pp, hand) * (1.0 + _REL_PAD) + _REL_PAD
-    floor, best, boxes = object_distance_floor(pp, max_boxes=max_boxes)
-    if floor > span:
-        return PairOutcome(True, boxes, time.perf_counter() - started)
-    return PairOutcome(False, boxes, time.perf_counter() - started, "witness" if best <= span else "budget")
+    proved, _, witness, boxes = _span_test(pp, hand, max_boxes)
+    return PairOutcome(proved, boxes, time.perf_counter() - started, "" if proved else "witness" if witness else "budget")
 
 
 # -- every pair of a task ---------------------------------------------------------------------------
@@ -529,11 +544,13 @@ def congruence_test(task: Task, *, max_boxes: int = 200_000, time_limit_s: float
         if pp is None:
             continue
         started = time.perf_counter()
-        span = pair_span_mm(pp, task.hand) * (1.0 + _REL_PAD) + _REL_PAD
-        floor, _, boxes = object_distance_floor(pp, max_boxes=min(share, OUT_OF_SPAN_BOXES))
-        if floor > span:  # the object side alone is out of the hand's span
+        proved, floor, _, boxes = _span_test(pp, task.hand, min(share, OUT_OF_SPAN_BOXES))
+        if proved:  # the object side alone is out of the hand's span
             outcome = PairOutcome(True, boxes, time.perf_counter() - started)
         else:
+            # the floor prunes only when the fingertips must be held wide apart (it costs a
+            # second evaluation of the kinematics per box)
+            floor = floor if floor > 0.5 * pair_span_mm(pp, task.hand) else 0.0
             outcome = prove_pair_infeasible(pp, max_boxes=share, time_limit_s=seconds, distance_floor_mm=floor)
         outcomes.append(((a, b), outcome))
         if outcome.proved:
