@@ -24,6 +24,7 @@ solver's system); the table says whether the configuration at ``t*`` collides.
     python benchmarks/frontier.py --quick               # lid, scalpel, sa-pinch at -0.5, +2, +4 mm, 30 s caps
     python benchmarks/frontier.py --families lid sa-pinch --time-limit 60
     python benchmarks/frontier.py --frontier-only       # only t* of every family
+    python benchmarks/frontier.py --families lid tuning --offsets 1 2 --max-boxes 40   # a box budget, no time cap
 
 One process, BLAS and numba pinned to one thread (the targets of issue 15 are on one core).
 At the end a Markdown table of every run is printed (for benchmarks/README.md).
@@ -159,9 +160,8 @@ def urdf_pinch_family() -> Family:
     from prehension.hands.urdf import hand_from_urdf
 
     hand = hand_from_urdf(HANDS / "allegro_hand" / "allegro_hand_right.urdf")
-    thumb, index = "link_15.0_tip", "link_3.0_tip"
     hand = hand.with_regions(fingertip_caps(hand))
-    return pinch_family("allegro-pinch", hand, f"{thumb}_cap", f"{index}_cap", (thumb, index), 40.0)
+    return pinch_family("allegro-pinch", hand, "thumb_cap", "index_cap", ("thumb", "index"), 40.0)
 
 
 def families(names: list[str] | None = None) -> list[Family]:
@@ -391,7 +391,8 @@ def _polish(family: Family, unknowns: _Unknowns, z: np.ndarray) -> tuple[float, 
 
 
 # -- the runs --------------------------------------------------------------------------------
-def run_family(console: Console, family: Family, frontier: Frontier, limit: float, offsets) -> list[dict]:
+def run_family(console: Console, family: Family, frontier: Frontier, limit: float | None, offsets,
+               max_boxes: int | None = None) -> list[dict]:  # fmt: skip
     table = Table(title=f"{family.name}: t* = {frontier.t_mm:.3f} mm ({frontier.starts} starts, "
                         f"{frontier.seconds:.1f} s; configuration at t* {'collides' if frontier.collides else 'collision-free'})")  # fmt: skip
     for col in ("t - t* [mm]", "status", "boxes", "LPs", "time [s]", "closest miss"):
@@ -400,7 +401,7 @@ def run_family(console: Console, family: Family, frontier: Frontier, limit: floa
     for delta in offsets:
         task = family.task_at(frontier.t_mm + delta)
         try:
-            result = solve_complete(task, BranchAndPruneOptions(time_limit_s=limit))
+            result = solve_complete(task, BranchAndPruneOptions(time_limit_s=limit, max_boxes=max_boxes))
         except PrehensionError as exc:  # e.g. a version of the solver that refuses the task
             table.add_row(f"{delta:+g}", f"error: {exc}", "", "", "", "")
             continue
@@ -422,10 +423,14 @@ def main() -> None:
     parser.add_argument("--time-limit", type=float, help="seconds per complete run (default 300; --quick: 30)")
     parser.add_argument("--offsets", type=float, nargs="*", help="t - t* [mm] to run (default -1 -0.5 0.5 1 2 4)")
     parser.add_argument("--quick", action="store_true", help="lid, scalpel, sa-pinch at -0.5, +2, +4 mm, 30 s per run")
+    parser.add_argument("--max-boxes", type=int, help="box budget per complete run (then no time limit unless "
+                        "--time-limit is given): the same search on a loaded machine")
     parser.add_argument("--frontier-only", action="store_true", help="only find t* of each family")
     parser.add_argument("--frontiers", type=Path, help="JSON file of t* per family: read when present, else written")
     args = parser.parse_args()
     defaults = QUICK if args.quick else {"families": None, "offsets": list(OFFSETS_MM), "time_limit": 300.0}
+    if args.max_boxes is not None and args.time_limit is None:
+        defaults = {**defaults, "time_limit": float("inf")}
     for key, value in defaults.items():
         if getattr(args, key) is None:
             setattr(args, key, value)
@@ -447,7 +452,8 @@ def main() -> None:
         summary.add_row(family.name, f"{frontier.t_mm:.3f}", str(frontier.starts), f"{frontier.seconds:.1f}",
                         "yes" if frontier.collides else "no")  # fmt: skip
         if not args.frontier_only:
-            all_rows += run_family(console, family, frontier, args.time_limit, args.offsets)
+            limit = None if args.time_limit == float("inf") else args.time_limit
+            all_rows += run_family(console, family, frontier, limit, args.offsets, args.max_boxes)
     console.print(summary)
     false = [r for r in all_rows if r["delta"] < 0 and r["status"] == Status.INFEASIBLE]
     console.print(f"false 'infeasible' below t*: {len(false)}")

@@ -163,6 +163,83 @@ def test_forward_built_pairs_are_never_proved_infeasible():
         assert not outcome.proved
 
 
+@pytest.mark.parametrize("case", range(5))
+def test_the_object_distance_range_contains_the_distances_on_random_boxes(case):
+    """The object side's |c_b - c_a| bounds of the span test hold at sampled points of many
+    seeded random boxes (patches, caps, points; boxes from the whole domain to 1e-3 of it)."""
+    task, _ = _pair_problems()[case]
+    pp = cg.pair_problem(task, 0, 1)
+    rng = np.random.default_rng(100 + case)
+    B = 200
+    width = (pp.upper - pp.lower) * 10.0 ** rng.uniform(-3, 0, (B, 1))
+    lo = pp.lower + rng.uniform(0, 1, (B, pp.n_dims)) * (pp.upper - pp.lower - width)
+    hi = lo + width
+    lower, upper = cg.object_distance_range(pp, lo, hi)
+    for _ in range(20):
+        z = lo + rng.uniform(0, 1, lo.shape) * (hi - lo)
+        distance = np.linalg.norm(_true_values(pp, z)[3], axis=1)
+        assert np.all(lower <= distance * (1 + 1e-12)) and np.all(distance <= upper * (1 + 1e-12))
+
+
+def test_forward_built_pairs_are_never_proved_out_of_span():
+    hand = schunk_sa_hand()
+    for task, _ in _pair_problems()[2:]:
+        assert not cg.prove_out_of_span(cg.pair_problem(task, 0, 1), hand).proved
+
+
+def test_the_span_test_proves_a_pinch_wider_than_the_span_and_not_one_within_it():
+    pp = cg.pair_problem(_pinch_task(60.0), 0, 1)
+    span = cg.pair_span_mm(pp, schunk_sa_hand(), tight=True)
+    extra = cg.object_distance_range(pp, pp.lower[None], pp.upper[None])[0][0] - 60.0  # the fingertip radii
+    assert cg.prove_out_of_span(cg.pair_problem(_pinch_task(span - extra + 0.01), 0, 1), schunk_sa_hand()).proved
+    outcome = cg.prove_out_of_span(cg.pair_problem(_pinch_task(span - extra - 0.01), 0, 1), schunk_sa_hand())
+    assert not outcome.proved and outcome.stopped == "witness"
+
+
+@pytest.mark.parametrize("case", range(5))
+def test_the_object_distance_floor_is_below_every_distance(case):
+    task, _ = _pair_problems()[case]
+    pp = cg.pair_problem(task, 0, 1)
+    floor, best, boxes = cg.object_distance_floor(pp, max_boxes=300)
+    rng = np.random.default_rng(200 + case)
+    z = pp.lower + rng.uniform(0, 1, (2000, pp.n_dims)) * (pp.upper - pp.lower)
+    distance = np.linalg.norm(_true_values(pp, z)[3], axis=1)
+    assert floor <= distance.min() and floor <= best and boxes <= 300 + 2 * 64
+
+
+@pytest.mark.parametrize("case", [2, 3, 4])
+def test_boxes_around_a_known_solution_survive_the_distance_floor(case):
+    """As above, with the object side's floor: the hand's distance bound never discards the
+    box of a known solution."""
+    task, config = _pair_problems()[case]
+    pp = cg.pair_problem(task, 0, 1)
+    floor, _, _ = cg.object_distance_floor(pp)
+    z = np.concatenate([config.joint_angles[pp.kin.problem.sources]] + [np.atleast_1d(config.contact_params[i][1]) for i in (0, 1)])
+    rng = np.random.default_rng(300 + case)
+    B = 300
+    width = (pp.upper - pp.lower) * 10.0 ** rng.uniform(-6, 0, (B, 1))
+    lo = np.maximum(pp.lower, z - rng.uniform(0, 1, (B, pp.n_dims)) * width)
+    hi = np.maximum(np.minimum(pp.upper, lo + width), z)
+    kept_lo, kept_hi, _, _ = cg._prune_and_contract(pp, lo, hi, floor)
+    assert len(kept_lo) == B and np.all(kept_lo <= z) and np.all(z <= kept_hi)
+
+
+def test_the_hand_distance_bound_contains_the_distances_on_random_boxes():
+    pp = cg.pair_problem(load_builtin_task("teapot-lid-lifting"), 0, 1)
+    sa = pp.slices[0]
+    rng = np.random.default_rng(5)
+    B = 300
+    lo_all, hi_all = pp.lower[sa], pp.upper[sa]
+    width = (hi_all - lo_all) * 10.0 ** rng.uniform(-3, 0, (B, 1))
+    lo = lo_all + rng.uniform(0, 1, (B, len(lo_all))) * (hi_all - lo_all - width)
+    hi = lo + width
+    upper, score = pp.kin.distance_upper_mm(lo, hi)
+    assert score.shape == lo.shape and np.all(score >= 0)
+    for _ in range(20):
+        d, _ = pp.kin.difference(lo + rng.uniform(0, 1, lo.shape) * (hi - lo))
+        assert np.all(np.linalg.norm(d, axis=1) <= upper * (1 + 1e-12))
+
+
 def test_a_pinch_past_reach_is_proved_and_ends_the_search_as_infeasible():
     proof = cg.prove_pair_infeasible(cg.pair_problem(_pinch_task(180.0), 0, 1), max_boxes=50_000)
     assert proof.proved

@@ -69,3 +69,16 @@ def test_half_a_millimetre_inside_is_solved_and_two_outside_certified(scalpel):
     outside = solve_complete(family.task_at(found.t_mm + 2.0), BranchAndPruneOptions(max_boxes=20))
     assert outside.status == Status.INFEASIBLE
     assert "boxes pruned" in outside.message
+
+
+def test_the_span_test_proves_a_task_past_the_distance_limit_and_never_one_just_inside(scalpel):
+    """The object-side span test (congruence.prove_out_of_span): the scalpel family 1 mm past
+    t* is proved (its regions are then farther apart than the hand's span), and never the
+    tasks just inside the frontier, which have a known solution."""
+    from prehension.solvers.complete.congruence import pair_problem, prove_out_of_span
+
+    family, found = scalpel
+    hand = family.base.hand
+    assert prove_out_of_span(pair_problem(family.task_at(found.t_mm + 1.0), 0, 1), hand).proved
+    for eps_mm in (0.001, 0.05):
+        assert not prove_out_of_span(pair_problem(family.task_at(found.t_mm - eps_mm), 0, 1), hand).proved

@@ -195,6 +195,16 @@ class PairKinematics:
         d, J, *_ = self.evaluate(angles)
         return d, J
 
+    def distance_upper_mm(self, lower: np.ndarray, upper: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Upper bounds ``(B,)`` [mm] of ``|p_a - p_b|`` over boxes of angles ``(B, n)`` (the
+        span search's bound, see the module docstring; not yet padded for rounding), and
+        each angle's share of it ``(B, n)`` (the span search's splitting score)."""
+        half = 0.5 * (upper - lower)
+        d, J = self.difference(0.5 * (lower + upper))
+        score = (np.maximum(np.linalg.norm(J, axis=1), 1e-3 * self.problem.weights_mm)
+                 + 0.5 * half @ self.problem.curvature_mm) * (upper - lower)  # fmt: skip
+        return _bounds(self.problem, d, J, half), score
+
 
 def pair_kinematics(hand: Hand, link_a: str, point_a_mm, link_b: str | None = None, point_b_mm=None) -> PairKinematics:
     """:class:`PairKinematics` of the point ``point_a_mm`` of ``link_a`` and ``point_b_mm`` of

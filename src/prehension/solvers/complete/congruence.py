@@ -46,19 +46,33 @@ then stops without a proof.
 
 from __future__ import annotations
 
+import heapq
 import time
 from dataclasses import dataclass
 
 import numpy as np
 
 from ...geometry.regions import BezierRegion, PointRegion, SphereCap
-from ...hands.reach import PairKinematics, pair_kinematics
+from ...hands.reach import PairKinematics, pair_kinematics, span_bound_mm
 from ...tasks.model import Task
 from . import affine as af
 
-__all__ = ["CongruenceResult", "PairProblem", "PairOutcome", "pair_problem", "prove_pair_infeasible", "congruence_test"]
+__all__ = ["NEAR_SPAN_MM", "OUT_OF_SPAN_BOXES", "object_distance_floor", "CongruenceResult", "PairProblem", "PairOutcome", "pair_problem", "prove_pair_infeasible", "prove_out_of_span",
+           "object_distance_range", "congruence_test"]
 
 _REL_PAD = 1e-9
+
+#: Within this distance [mm] of the object side's floor, the pair test's boxes are split by
+#: its conditions; farther, through an angle for the hand's distance (``distance_floor_mm``
+#: of :func:`prove_pair_infeasible`).
+NEAR_SPAN_MM = 1.0
+
+#: Box budget of the object-side span test (:func:`prove_out_of_span`) of each pair in
+#: :func:`congruence_test`, apart from the pair test's own: its boxes cost ~40 us (four
+#: dimensions, no kinematics); far from the span it stops after a few, within a tenth of
+#: a millimetre of it strongly curved patches need many (guitar-tuning at t* + 4 mm: 91,000
+#: boxes, 3.5 s).
+OUT_OF_SPAN_BOXES = 100_000
 
 
 # -- region kinds: second-derivative bounds -------------------------------------------------------
@@ -119,6 +133,7 @@ class PairProblem:
     slices: tuple  # angles, object a, object b
     lower: np.ndarray
     upper: np.ndarray
+    points: tuple = ()  # per side: (link, fingertip centre or hand point in the link [mm])
 
     @property
     def n_dims(self) -> int:
@@ -144,7 +159,7 @@ def pair_problem(task: Task, a: int, b: int) -> PairProblem | None:
     slices = tuple(slice(int(s), int(e)) for s, e in zip(edges[:-1], edges[1:]))
     lower = np.concatenate([np.asarray(x[0], dtype=float) for x in bounds])
     upper = np.concatenate([np.asarray(x[1], dtype=float) for x in bounds])
-    return PairProblem((a, b), kin, tuple(hands), tuple(objects), slices, lower, upper)
+    return PairProblem((a, b), kin, tuple(hands), tuple(objects), slices, lower, upper, tuple(centres))
 
 
 def _angle_bounds(task: Task, kin: PairKinematics) -> tuple[np.ndarray, np.ndarray]:
@@ -285,9 +300,19 @@ class PairOutcome:
 
 
 def prove_pair_infeasible(pp: PairProblem, *, max_boxes: int = 200_000, time_limit_s: float | None = None,
-                          witness_width: float = 1e-7, batch: int = 256) -> PairOutcome:  # fmt: skip
+                          witness_width: float = 1e-7, batch: int = 256, distance_floor_mm: float = 0.0) -> PairOutcome:  # fmt: skip
     """Branch and prune over the pair's box (see the module docstring); stops without a
-    proof after ``max_boxes`` boxes or ``time_limit_s`` seconds (None: no time limit)."""
+    proof after ``max_boxes`` boxes or ``time_limit_s`` seconds (None: no time limit).
+
+    ``distance_floor_mm``: a proven lower bound of ``|c_b - c_a|`` over the whole object
+    side (:func:`object_distance_floor`; 0: none).  The hand's distance must reach it:
+    a box of angles whose span bound (:meth:`PairKinematics.distance_upper_mm`) stays
+    below it is discarded, and a box whose bound exceeds it by more than
+    :data:`NEAR_SPAN_MM` is split through an angle, by the span search's rule.  The object
+    side is then not split where only the angles can decide (splitting both multiplies
+    the boxes), and near the frontier the search is left with the few configurations near
+    the hand's widest, where the cone conditions decide.
+    """
     started = time.perf_counter()
     scale = np.maximum(pp.upper - pp.lower, 1e-12)
     stack_lo, stack_hi = [pp.lower[None].copy()], [pp.upper[None].copy()]
@@ -295,7 +320,7 @@ def prove_pair_infeasible(pp: PairProblem, *, max_boxes: int = 200_000, time_lim
     while stack_lo:
         lo, hi = _take(stack_lo, stack_hi, batch)
         boxes += len(lo)
-        lo, hi, split, score = _prune_and_contract(pp, lo, hi)
+        lo, hi, split, score = _prune_and_contract(pp, lo, hi, distance_floor_mm)
         if len(lo) and np.any(((hi - lo) / scale).max(axis=1) < witness_width):
             k = int(np.argmin(((hi - lo) / scale).max(axis=1)))
             return PairOutcome(False, boxes, time.perf_counter() - started, "witness", 0.5 * (lo[k] + hi[k]))
@@ -321,10 +346,18 @@ def _push(stack_lo: list, stack_hi: list, lo: np.ndarray, hi: np.ndarray) -> Non
         stack_hi.append(hi)
 
 
-def _prune_and_contract(pp: PairProblem, lo: np.ndarray, hi: np.ndarray):
+def _prune_and_contract(pp: PairProblem, lo: np.ndarray, hi: np.ndarray, distance_floor_mm: float = 0.0):
     """Drop the boxes that cannot hold a solution, narrow the others; returns the kept boxes,
     which of them to split (the others narrowed enough to be evaluated again) and the
-    split scores ``(B, K)``."""
+    split scores ``(B, K)`` (see ``distance_floor_mm`` of :func:`prove_pair_infeasible`)."""
+    far = np.zeros(len(lo), dtype=bool)
+    if distance_floor_mm > 0.0:
+        sa = pp.slices[0]
+        reach, reach_score = pp.kin.distance_upper_mm(lo[:, sa], hi[:, sa])
+        reach = reach * (1.0 + _REL_PAD) + _REL_PAD
+        near = reach >= distance_floor_mm
+        lo, hi, reach, reach_score = lo[near], hi[near], reach[near], reach_score[near]
+        far = reach > distance_floor_mm + NEAR_SPAN_MM
     equations, cones = _conditions(pp, lo, hi)
     alive = np.ones(len(lo), dtype=bool)
     for g, pad in equations:
@@ -343,6 +376,9 @@ def _prune_and_contract(pp: PairProblem, lo: np.ndarray, hi: np.ndarray):
     new_hi = np.minimum(hi, zc + half * eps_hi + 1e-12 * np.abs(zc))
     shrunk = ((new_hi - new_lo) < 0.7 * (hi - lo)) & (hi - lo > 0)
     score = _split_scores(equations, cones, (hi - lo) / np.maximum(pp.upper - pp.lower, 1e-12))
+    if far.any():  # the angles alone decide these boxes: split them for the distance
+        score[far] = 0.0
+        score[np.ix_(far, np.arange(pp.slices[0].start, pp.slices[0].stop))] = 1.0 + reach_score[far]
     keep = alive & (new_lo <= new_hi).all(axis=1)
     split = ~shrunk[keep].any(axis=1)
     return new_lo[keep], new_hi[keep], split, score[keep]
@@ -379,6 +415,107 @@ def _halves(lo: np.ndarray, hi: np.ndarray, score: np.ndarray, scale: np.ndarray
     return np.concatenate([right_lo, lo]), np.concatenate([hi, left_hi])
 
 
+# -- the object side alone against the hand's span ---------------------------------------------------
+def object_distance_range(pp: PairProblem, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds ``(B,), (B,)`` [mm] of ``|c_b - c_a|`` over boxes of the pair's box dimensions (only
+    the object regions' parameters matter), ``c = o + r nu`` the fingertip centre (or hand
+    point) of each side when touching the object.
+
+    With the object side's form ``d = c + sum_k A_k eps_k + B(rho)``, ``s = sum_k |A_k| + rho``
+    and ``n = c / |c|``: ``|d| >= n . d >= |c| - sum_k |n . A_k| - rho`` and
+    ``|d| >= |c| - s``; ``|d| <= |c| + s``.
+    """
+    zc, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
+    d, _, _ = _object_forms(pp, zc, half)
+    a = np.linalg.norm(d.c, axis=1)
+    s = np.linalg.norm(d.A, axis=1).sum(axis=1) + d.rho
+    n = d.c / np.maximum(a, 1e-300)[:, None]
+    projected = a - np.abs(np.einsum("bi,bik->bk", n, d.A)).sum(axis=1) - d.rho
+    return np.maximum(np.maximum(a - s, projected), 0.0), a + s
+
+
+def object_distance_floor(pp: PairProblem, *, tol_mm: float = 0.01, max_boxes: int = 2_000, batch: int = 64,
+                          span_mm: float | None = None) -> tuple[float, float, int]:  # fmt: skip
+    """``(floor, best, boxes)``: a proven lower bound ``floor`` [mm] of ``|c_b - c_a|`` over
+    the object regions' parameters (:func:`object_distance_range`), the smallest distance
+    met at a box centre (``best >= `` the true minimum ``>= floor``) and the boxes used.
+
+    Best-first branch and bound over the object dimensions only (at most four): boxes with
+    the smallest lower bound are split (widest relative dimension) until ``best - floor <=
+    tol_mm`` or ``max_boxes`` (the floor is then looser, never invalid).  Given the hand's
+    span ``span_mm``, a tenth of the gap between ``best`` and the span is tolerated as
+    well (a floor far below the span proves nothing and prunes little).
+    """
+    dims = np.arange(pp.slices[1].start, pp.n_dims)
+    scale = np.maximum(pp.upper - pp.lower, 1e-12)
+    heap: list = []
+    best, boxes, counter = np.inf, 0, 0
+    lo, hi = pp.lower[None].copy(), pp.upper[None].copy()
+    while True:
+        boxes += len(lo)
+        lower, _ = object_distance_range(pp, lo, hi)
+        centre, _ = object_distance_range(pp, 0.5 * (lo + hi), 0.5 * (lo + hi))
+        best = min(best, float(centre.min()))
+        for value, a, b in zip(lower, lo, hi):
+            heapq.heappush(heap, (float(value), counter, a, b))
+            counter += 1
+        floor = heap[0][0]
+        tol = tol_mm if span_mm is None else max(tol_mm, 0.1 * (span_mm - best))
+        if best - floor <= tol or not dims.size or boxes >= max_boxes:
+            return max(floor, 0.0) * (1.0 - _REL_PAD) - _REL_PAD, best, boxes
+        popped = [heapq.heappop(heap) for _ in range(min(batch, len(heap)))]
+        take = [t for t in popped if t[0] < best - tol] or popped[:1]
+        for t in popped[len(take):]:  # the others stay open: their bounds still count for the floor
+            heapq.heappush(heap, t)
+        lo, hi = _halves_widest(np.array([t[2] for t in take]), np.array([t[3] for t in take]), dims, scale)
+
+
+def _halves_widest(lo: np.ndarray, hi: np.ndarray, dims: np.ndarray, scale: np.ndarray):
+    """Both halves of every box through its widest relative dimension among ``dims``."""
+    k = dims[np.argmax(((hi - lo) / scale)[:, dims], axis=1)]
+    rows = np.arange(len(lo))
+    mid = 0.5 * (lo[rows, k] + hi[rows, k])
+    left_hi, right_lo = hi.copy(), lo.copy()
+    left_hi[rows, k], right_lo[rows, k] = mid, mid
+    return np.concatenate([lo, right_lo]), np.concatenate([left_hi, hi])
+
+
+def pair_span_mm(pp: PairProblem, hand, *, tight: bool = False) -> float:
+    """The proven span [mm] between the pair's two hand points (fingertip centres) over the
+    joint limits (:func:`prehension.hands.reach.span_bound_mm`): within 1 mm of the true
+    maximum (the bound of the system's reach constraints, remembered per hand), or within
+    0.05 mm when ``tight`` (about a second more per pair)."""
+    (link_a, point_a), (link_b, point_b) = pp.points
+    if tight:
+        return span_bound_mm(hand, link_a, point_a, link_b, point_b, tol_mm=0.05, max_boxes=200_000)
+    return span_bound_mm(hand, link_a, point_a, link_b, point_b)
+
+
+def _span_test(pp: PairProblem, hand, max_boxes: int) -> tuple[bool, float, bool, int]:
+    """``(proved, floor, witness, boxes)`` of the span test (see :func:`prove_out_of_span`): the
+    tight span is computed only when the floor comes within 1 mm of the loose one."""
+    pad = lambda x: x * (1.0 + _REL_PAD) + _REL_PAD  # noqa: E731
+    span = pad(pair_span_mm(pp, hand))
+    floor, best, boxes = object_distance_floor(pp, max_boxes=max_boxes, span_mm=span)
+    if span - 1.0 < floor <= span:
+        span = min(span, pad(pair_span_mm(pp, hand, tight=True)))
+    return floor > span, floor, best <= span, boxes
+
+
+def prove_out_of_span(pp: PairProblem, hand, *, max_boxes: int = OUT_OF_SPAN_BOXES) -> PairOutcome:
+    """Whether the two contacts' fingertip centres (hand points) are always farther apart on
+    the object than the hand can ever hold them, whatever the pose: the object side's floor
+    (:func:`object_distance_floor`, searched alone: at most four dimensions, where the full
+    pair test searches them with every joint angle of both chains) above the hand's span
+    (:func:`pair_span_mm`), with a relative margin of 1e-9 for rounding.  Sound for any
+    number of contacts: a grasp makes the two distances equal.  ``stopped`` is "witness"
+    when a distance met on the object side is within the span.
+    """
+    started = time.perf_counter()
+    proved, _, witness, boxes = _span_test(pp, hand, max_boxes)
+    return PairOutcome(proved, boxes, time.perf_counter() - started, "" if proved else "witness" if witness else "budget")
+
+
 # -- every pair of a task ---------------------------------------------------------------------------
 @dataclass(frozen=True)
 class CongruenceResult:
@@ -394,8 +531,12 @@ class CongruenceResult:
 
 
 def congruence_test(task: Task, *, max_boxes: int = 200_000, time_limit_s: float | None = None) -> CongruenceResult:
-    """The pair test on every pair of contacts (until one is proved infeasible); the box
-    budget ``max_boxes`` and the time limit are shared evenly by the pairs."""
+    """The pair test on every pair of contacts (until one is proved infeasible): first the
+    object side against the hand's span (:func:`prove_out_of_span`, at most
+    :data:`OUT_OF_SPAN_BOXES` boxes, not counted in ``max_boxes``), then, without a proof,
+    the full test
+    (:func:`prove_pair_infeasible`); the box budget ``max_boxes`` and the time limit are
+    shared evenly by the pairs."""
     pairs = [(a, b) for a in range(len(task.contacts)) for b in range(a + 1, len(task.contacts))]
     share = max(1, max_boxes // max(1, len(pairs)))
     seconds = None if time_limit_s is None else time_limit_s / max(1, len(pairs))
@@ -404,7 +545,15 @@ def congruence_test(task: Task, *, max_boxes: int = 200_000, time_limit_s: float
         pp = pair_problem(task, a, b)
         if pp is None:
             continue
-        outcome = prove_pair_infeasible(pp, max_boxes=share, time_limit_s=seconds)
+        started = time.perf_counter()
+        proved, floor, _, boxes = _span_test(pp, task.hand, OUT_OF_SPAN_BOXES)
+        if proved:  # the object side alone is out of the hand's span
+            outcome = PairOutcome(True, boxes, time.perf_counter() - started)
+        else:
+            # the floor prunes only when the fingertips must be held wide apart (it costs a
+            # second evaluation of the kinematics per box)
+            floor = floor if floor > 0.5 * pair_span_mm(pp, task.hand) else 0.0
+            outcome = prove_pair_infeasible(pp, max_boxes=share, time_limit_s=seconds, distance_floor_mm=floor)
         outcomes.append(((a, b), outcome))
         if outcome.proved:
             return CongruenceResult(True, (a, b), tuple(outcomes))
