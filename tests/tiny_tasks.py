@@ -19,8 +19,10 @@ from __future__ import annotations
 import numpy as np
 
 from prehension.geometry.regions import PointRegion, SphereCap
-from prehension.hands.model import Finger, Hand, HandRegion, Joint, Link
+from prehension.hands.model import Capsule, Finger, Hand, HandRegion, Joint, Link
+from prehension.objects.meshes import Box
 from prehension.objects.model import GraspObject
+from prehension.objects.solid import PrimitiveSolid
 from prehension.tasks.model import Contact, Task
 
 FEASIBLE_UP_TO_MM = np.sqrt(70.0**2 - 50.0**2) - 2.0  # 46.99
@@ -41,3 +43,28 @@ def pincer_hand() -> Hand:
 def pincer_task(d: float) -> Task:
     obj = GraspObject("two-points", {"A": PointRegion((0, 0, 0), (-1, 0, 0)), "B": PointRegion((d, 0, 0), (-1, 0, 0))})
     return Task(f"pincer-{d:g}", pincer_hand(), obj, (Contact("pad", "A"), Contact("tip", "B")), ("f",))
+
+
+# -- the paddle and the pit: infeasible only because of the object --------------------------
+def paddle_hand() -> Hand:
+    """A palm capsule 100 mm long with a pad at its tip facing +x, and one idle finger.
+
+    A small sphere at the palm's tip holds the pad and reaches 1.5 mm beyond it: penetration
+    that the residual function excepts (the pad's own zone), never pruned for."""
+    half_pi = np.pi / 2
+    palm = Link("palm", (Capsule((0, 0, 0), (0, 0, 90), 10.0), Capsule((7, 0, 97), (7, 0, 97), 4.5)))
+    finger = Link("f1", (Capsule((0, 0, 0), (0, 0, 30), 6.0),))
+    joint = Joint("j1", "revolute", "palm", "f1", (0, 0, 0), (0, 0, 0), (0, 1, 0), np.eye(3), ("j1",), (0.0,), (half_pi,))
+    regions = {"pad": HandRegion("palm", PointRegion((10, 0, 100), (1, 0, 0)))}
+    return Hand("paddle", (palm, finger), (joint,), (), (Finger("f", ("f1",)),), regions)
+
+
+def pit_task(half_width: float) -> Task:
+    """The pad must touch the floor of a square pit (``2 half_width`` wide, 30 mm deep,
+    opening towards -x): the palm then lies 10 mm above the floor, in the walls."""
+    h, long = half_width, 2 * half_width + 160.0
+    walls = (Box((-15.0, 0.0, h + 40.0), (30.0, long, 80.0)), Box((-15.0, 0.0, -h - 40.0), (30.0, long, 80.0)),
+             Box((-15.0, h + 40.0, 0.0), (30.0, 80.0, 2 * h)), Box((-15.0, -h - 40.0, 0.0), (30.0, 80.0, 2 * h)))  # fmt: skip
+    solid = PrimitiveSolid((Box((30.0, 0.0, 0.0), (60.0, long + 40.0, long + 40.0)),) + walls)
+    obj = GraspObject("pit", {"floor": PointRegion((0, 0, 0), (-1, 0, 0))}, solid=solid)
+    return Task(f"pit-{2 * h:g}", paddle_hand(), obj, (Contact("pad", "floor"),), ())

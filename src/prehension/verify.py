@@ -299,7 +299,9 @@ def _reprove(task: Task, data: dict, reprove: bool, time_limit_s) -> tuple[Solve
     if again.status == Status.INFEASIBLE:
         same = again.stats.get("boxes") == stats.get("boxes")
         note = "same count" if same else f"the file says {stats.get('boxes')}: other options or another version"
-        return again, [Finding("infeasibility re-proved", True, f"all {again.stats['boxes']} boxes pruned again ({note})")]
+        by_collision = again.stats.get("collision_pruned", 0)
+        how = f", {by_collision} of them for hand-object collision: no penetration-free solution" if by_collision else ""
+        return again, [Finding("infeasibility re-proved", True, f"all {again.stats['boxes']} boxes pruned again{how} ({note})")]
     if again.status == Status.SOLVED:
         return again, [Finding("infeasibility", False, "FALSE: the complete solver finds a verified solution of the embedded task")]
     return again, [Finding("infeasibility (could not re-prove)", True, f"{claimed}; re-running it: {again.message}")]

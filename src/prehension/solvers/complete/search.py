@@ -1,14 +1,18 @@
 """Branch and prune over boxes (Rosales et al. 2011, sec. 4.2), with verified answers.
 
 Each box is *processed*: shrunk (contraction, then linear programs over the relaxations,
-:func:`.shrink.shrink_box`); if not empty, a point read from it is refined on the original
+:func:`.shrink.shrink_box`), and discarded when an enclosure proves that every
+configuration in it puts the hand into the object (:mod:`.collision`, after the
+contraction and again after the LPs); if not empty, a point read from it is refined on the original
 constraints and judged by the residual function (:func:`prehension.results.make_solution`);
 if that fails, the box is split through its widest scaled interval -- or, once it is
 narrower than ``sigma``, kept as an *unverified* solution box (never called a solution).
 
 Depth-first order stops at the first verified solution; breadth-first collects every
 solution box (``all_solutions``).  When every box is pruned the answer is **infeasible**,
-with the numbers of boxes and linear programs as its certificate.
+with the numbers of boxes and linear programs as its certificate -- for an object that
+collides, "no penetration-free solution" when the collision prune discarded any box
+(``stats["collision_pruned"]``).
 
 Boxes are independent, so :func:`solve_complete` can process them on any
 ``concurrent.futures.Executor`` (a process pool, a Dask cluster's executor): workers
@@ -38,6 +42,7 @@ from ..local.solver import refine_local
 from ...system.embedding import configuration_from_point, embed
 from ...system.formulation import Formulation, build_system
 from .checkpoint import SearchState, load_state, save_state, search_fingerprint
+from .collision import collision_prune
 from .congruence import congruence_test
 from .contract import contract
 from .shrink import ShrinkOptions, shrink_box
@@ -85,6 +90,10 @@ class BranchAndPruneOptions:
             variables narrower than 1e-7 that satisfies its conditions).  0 turns it
             off.  A budget in boxes, not seconds, so that the search is the same on
             every machine.
+        collision_prune: discard a box when an enclosure proves that every
+            configuration in it puts a link deeper into the object than
+            ``tolerances.object_penetration_mm`` (:mod:`.collision`; only for an object
+            that collides).  ``False``: such boxes are searched until ``sigma``.
     """
 
     sigma: float = 0.1
@@ -97,6 +106,7 @@ class BranchAndPruneOptions:
     refine: LocalOptions = field(default_factory=LocalOptions)
     tolerances: Tolerances = field(default_factory=Tolerances)
     pair_test_boxes: int = 200_000
+    collision_prune: bool = True
 
     def __post_init__(self):
         if not 0.0 < self.sigma < 1.0:
@@ -121,6 +131,7 @@ class BoxOutcome:
     solution: Solution | None = None
     children: tuple[tuple[np.ndarray, np.ndarray], ...] = ()
     best: tuple = (float("inf"), float("inf"))  # (contact_mm, normal_deg) the verification came closest to
+    by_collision: bool = False  # "empty" because every configuration in it penetrates the object
 
 
 def _scaled_widths(form: Formulation, lower, upper) -> np.ndarray:
@@ -172,6 +183,8 @@ def process_box(form: Formulation, lower, upper, depth: int, options: BranchAndP
                                    max_iter=options.shrink.contract_max_iter)  # fmt: skip
     if empty:
         return BoxOutcome("empty", lower, upper, depth, 0)
+    if _penetrates(form, lower, upper, options):
+        return BoxOutcome("empty", lower, upper, depth, 0, by_collision=True)
     best = (float("inf"), float("inf"))
     if not options.all_solutions:
         solution, best = _verify(form, lower, upper, options)
@@ -182,6 +195,8 @@ def process_box(form: Formulation, lower, upper, depth: int, options: BranchAndP
     if shrunk.empty:
         return BoxOutcome("empty", shrunk.lower, shrunk.upper, depth, shrunk.n_lps, best=best)
     lo, hi = shrunk.lower, shrunk.upper
+    if _penetrates(form, lo, hi, options):
+        return BoxOutcome("empty", lo, hi, depth, shrunk.n_lps, best=best, by_collision=True)
     widths = _scaled_widths(form, lo, hi)
     if widths.max() < options.sigma:
         if options.all_solutions:
@@ -194,6 +209,13 @@ def process_box(form: Formulation, lower, upper, depth: int, options: BranchAndP
     left_hi, right_lo = hi.copy(), lo.copy()
     left_hi[k], right_lo[k] = mid, mid
     return BoxOutcome("split", lo, hi, depth, shrunk.n_lps, children=((lo, left_hi), (right_lo, hi)), best=best)
+
+
+def _penetrates(form: Formulation, lower, upper, options: BranchAndPruneOptions) -> bool:
+    """Whether every configuration of the box puts a link into the object (:mod:`.collision`)."""
+    if not options.collision_prune:
+        return False
+    return collision_prune(form, lower, upper, options.tolerances) is not None
 
 
 def _inside(form: Formulation, solution: Solution, lower, upper) -> bool:
@@ -210,6 +232,7 @@ def _record(state: SearchState, out: BoxOutcome, options: BranchAndPruneOptions)
     state.lps += out.n_lps
     state.best = min(state.best, out.best, key=lambda b: max(b))
     state.max_depth = max(state.max_depth, out.depth)
+    state.collision_pruned += out.by_collision
     if out.kind == "solution":
         state.solutions.append(out.solution)
     elif out.kind == "small":
@@ -409,10 +432,15 @@ def _result(task, form, state: SearchState, options, started: float, stop: str, 
         msg = (f"infeasible: contacts {task.contacts[a].name} and {task.contacts[b].name} cannot be made together "
                f"whatever the object's pose (pair test: {state.pair_test.boxes} boxes pruned, after {state.boxes} "
                f"box(es) and {state.lps} LPs of the search)")  # fmt: skip
+    elif state.collision_pruned:
+        status = Status.INFEASIBLE
+        msg = (f"infeasible: no penetration-free solution: all {state.boxes} boxes pruned, {state.collision_pruned} "
+               f"of them because every configuration in them puts the hand into the object ({state.lps} linear programs)")  # fmt: skip
     else:
         status = Status.INFEASIBLE
         msg = f"infeasible: all {state.boxes} boxes pruned ({state.lps} linear programs)"
     stats["open_box_solutions"] = len(in_open)
+    stats["collision_pruned"] = state.collision_pruned
     if state.pair_test is not None:
         stats["pair_test"] = {"proved": state.pair_test.proved, "boxes": state.pair_test.boxes,
                               "pair": list(state.pair_test.pair) if state.pair_test.pair else None}  # fmt: skip
