@@ -469,3 +469,55 @@ def test_compile_pending_tells_a_first_run_from_a_cached_one(tmp_path):
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}  # an empty cache: a fresh install
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
     assert out.stdout.strip() == "True", out.stderr
+
+
+# Each kernel function compiled once: a constant argument (``0``, ``True``) is typed by numba
+# as a literal and compiles a specialisation of the whole call graph below it, and a
+# read-only array another; the first run pays for every one of them.  Two legitimate
+# exceptions: ``copy`` and ``fill`` serve arrays of several ranks and dtypes.
+_ONE_SIGNATURE = {
+    "_kernel": ("run_states", "solve_state", "start", "iterate", "polish", "repair", "clearance", "_step", "_keep",
+                "_restore", "new_workspace"),
+    "_model": ("contact_rows", "_hand_side", "_object_side", "_side_point", "inequality_rows", "self_collision_rows",
+               "pose_hand", "initial_pose", "move"),
+    "_penetration": ("object_rows",),
+}  # fmt: skip
+
+
+def _cached_signatures(dispatcher):
+    """The signatures numba's on-disk cache index holds for ``dispatcher``'s current code."""
+    import hashlib
+
+    index = dispatcher._cache._cache_file._load_index()
+    code = hashlib.sha256(dispatcher.py_func.__code__.co_code).hexdigest()
+    return {key[0] for key in index if key[2][0] == code}
+
+
+def test_the_kernel_compiles_each_function_for_one_signature():
+    import importlib
+
+    from prehension.objects import distance
+    from prehension.solvers.local._jit import HAVE_NUMBA
+
+    if not HAVE_NUMBA:
+        pytest.skip("numba is not installed: nothing is compiled")
+    solve_local(load_builtin_task("teapot-lid-lifting"))  # compiles (or loads) the kernel with the object's rows
+    task = load_builtin_task("teapot-service")
+    task.object.distance.capsule_depth(np.zeros((1, 3)), np.ones((1, 3)), np.full(1, 5.0))
+    radius = np.full(1, 5.0)
+    radius.flags.writeable = False  # a read-only radius is copied: one signature for every caller
+    task.object.distance.capsule_depth(np.zeros((1, 3)), np.ones((1, 3)), radius)
+    more, missing, checked = {}, [], 0
+    for module, names in _ONE_SIGNATURE.items():
+        mod = importlib.import_module(f"prehension.solvers.local.{module}")
+        for name in names:
+            checked += 1
+            sigs = _cached_signatures(getattr(mod, name))
+            if not sigs:  # its file changed after a cached caller was compiled: the caller loads without it
+                missing.append(f"{module}.{name}")
+            if len(sigs) > 1:  # name the arguments whose types differ
+                differ = [i for i, types in enumerate(zip(*sigs)) if len(set(types)) > 1]
+                more[f"{module}.{name}"] = {i: sorted({str(s[i]) for s in sigs}) for i in differ}
+    assert len(_cached_signatures(distance.capsule_depths)) == 1
+    assert _cached_signatures(K.run_states) and len(missing) <= checked // 2, f"not in numba's cache: {missing}"
+    assert not more, f"compiled for more than one signature (or a stale cache from older sources): {more}"

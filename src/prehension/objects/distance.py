@@ -676,7 +676,7 @@ class MeshDistance:
         :func:`capsule_depths`: much cheaper for a yes/no test)."""
         a = np.ascontiguousarray(np.asarray(starts, dtype=float).reshape(-1, 3))
         b = np.ascontiguousarray(np.asarray(ends, dtype=float).reshape(-1, 3))
-        r = np.ascontiguousarray(np.asarray(radius, dtype=float).reshape(-1))
+        r = np.array(radius, dtype=float).reshape(-1)  # a writable copy: one compiled signature for every caller
         return capsule_depths(self.arrays, a, b, r, float(step), float(cap))
 
     def closest_faces(self, points) -> np.ndarray:

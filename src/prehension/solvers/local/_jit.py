@@ -3,6 +3,14 @@
 Every compiled function is cached on disk (``cache=True``), so a process after the first
 loads machine code instead of compiling it; :func:`prehension.solvers.local.warm_up`
 compiles (or loads) everything at once and says how long it took.
+
+One signature per function: numba types a constant argument (``0``, ``True``, a module
+constant such as ``BEST``) as a *literal* and compiles a specialisation of the callee -- and
+of everything it calls -- for each value, so the first run pays for every variant.  Calls
+between compiled functions therefore pass constants as ``np.int64(0)`` / ``np.bool_(True)``
+(typed ``int64`` / ``bool``), and Python callers pass writable C-contiguous arrays (a
+read-only array is another type).  ``test_the_kernel_compiles_each_function_for_one_signature``
+keeps it so.
 """
 
 from __future__ import annotations

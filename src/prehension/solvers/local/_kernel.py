@@ -182,7 +182,7 @@ def _restore(ws, data, slot):
     copy(ws.keep_R[slot], ws.R)
     copy(ws.keep_t[slot], ws.t)
     pose_hand(ws)
-    contact_rows(ws, data, True)
+    contact_rows(ws, data, np.bool_(True))
 
 
 # -- one step ---------------------------------------------------------------------------------------
@@ -291,7 +291,7 @@ def iterate(ws, data):
     C = lay.sides.shape[0]
     stall = 0
     for k in range(opt.k_max + 1):
-        contact_rows(ws, data, True)
+        contact_rows(ws, data, np.bool_(True))
         if ws.err[0] < opt.d_min and ws.err[1] < opt.d_min:
             return WITHIN_DMIN, k
         if k > 0:
@@ -316,29 +316,29 @@ def polish(ws, data):
     opt = ws.opt
     tol = opt.polish_tol
     best = max(ws.err[0], ws.err[1]) / tol
-    _keep(ws, BEST)
+    _keep(ws, np.int64(BEST))
     it = 0
     while it < opt.n_polish and best > 1.0:
         it += 1
-        if not _step(ws, data, 1e-18, True):
+        if not _step(ws, data, 1e-18, np.bool_(True)):
             break
         move(ws, data)
         pose_hand(ws)
-        contact_rows(ws, data, True)
+        contact_rows(ws, data, np.bool_(True))
         cur = max(ws.err[0], ws.err[1]) / tol
         if cur < best:
             best = cur
-            _keep(ws, BEST)
+            _keep(ws, np.int64(BEST))
         elif cur > 100.0 * best:  # diverging
             break
-    _restore(ws, data, BEST)
+    _restore(ws, data, np.int64(BEST))
     return (STRICT if best <= 1.0 else WITHIN_DMIN), it
 
 
 @njit(cache=True)
 def clearance(ws, data):
     """Smallest inequality value of the state (negative: in collision) [mm]."""
-    return inequality_rows(ws, data, ws.opt.collision_margin, 0, 0)[1]
+    return inequality_rows(ws, data, ws.opt.collision_margin, np.int64(0), np.int64(0))[1]
 
 
 @njit(cache=True)
@@ -370,10 +370,10 @@ def repair(ws, data):
     prev, slow, cmin, rk = 1e300, 0, -1.0, 0
     strict = within = False
     for rk in range(opt.n_repair + 1):
-        contact_rows(ws, data, True)
+        contact_rows(ws, data, np.bool_(True))
         copy(ws.J, ws.M[:n])
         copy(ws.f, ws.g[:n])
-        rows, cmin = inequality_rows(ws, data, opt.collision_margin, n, MAX_INEQUALITY_ROWS)
+        rows, cmin = inequality_rows(ws, data, opt.collision_margin, n, np.int64(MAX_INEQUALITY_ROWS))
         strict = max(ws.err[0], ws.err[1]) <= opt.polish_tol
         within = ws.err[0] < opt.d_min and ws.err[1] < opt.d_min
         if (cmin >= 0.0 and strict) or rk == opt.n_repair:
@@ -413,11 +413,11 @@ def solve_state(x0, ws, data):
         return COLLIDING, k, n_pol, 0
     code, n_rep = repair(ws, data)
     if code == WITHIN_DMIN and opt.n_polish > 0:  # polish the repaired answer, keep it clear
-        _keep(ws, REPAIRED)
+        _keep(ws, np.int64(REPAIRED))
         code, more = polish(ws, data)
         n_pol += more
         if code != STRICT or clearance(ws, data) < 0.0:
-            _restore(ws, data, REPAIRED)
+            _restore(ws, data, np.int64(REPAIRED))
             code = WITHIN_DMIN
     return code, k, n_pol, n_rep
 
@@ -449,7 +449,7 @@ def _state_at(x, R, t, data, model):
     copy(R, ws.R)
     copy(t, ws.t)
     pose_hand(ws)
-    contact_rows(ws, data, True)
+    contact_rows(ws, data, np.bool_(True))
     return ws
 
 
@@ -470,7 +470,7 @@ def penetration_at(x, R, t, data, model, margin, g, M):
     ``(rows written, smallest value seen)``.  For tests."""
     ws = _state_at(x, R, t, data, model)
     place_capsules(ws)
-    n, vmin = object_rows(ws, data, margin, 0, min(g.shape[0], ws.g.shape[0]))
+    n, vmin = object_rows(ws, data, margin, np.int64(0), min(g.shape[0], ws.g.shape[0]))
     copy(ws.g[:n], g[:n])
     copy(ws.M[:n], M[:n])
     return n, vmin

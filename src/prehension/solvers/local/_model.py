@@ -330,7 +330,7 @@ def _frame_of(z, F):
 @njit(cache=True)
 def _side_point(c, side, ws, data):
     """Region point and normal of one side of contact ``c`` in its own frame -> ws.pt, ws.nr."""
-    RG.evaluate(ws.lay.sides[c, side], data, ws.x, False, ws)
+    RG.evaluate(ws.lay.sides[c, side], data, ws.x, np.bool_(False), ws)
 
 
 @njit(cache=True)
@@ -388,7 +388,7 @@ def _grid_object_params(ws, data, grid):
                 ws.x[i0] = lay.lo[i0] + (lay.hi[i0] - lay.lo[i0]) * (ga + 0.5) / grid
                 ws.x[i0 + 1] = lay.lo[i0 + 1] + (lay.hi[i0 + 1] - lay.lo[i0 + 1]) * (gb + 0.5) / grid
                 RG.project(s[S_KIND], s[S_OFF], data, ws.x, i0, lay.lo, lay.hi, margin)
-                _side_point(c, 1, ws, data)
+                _side_point(c, np.int64(1), ws, data)
                 cost = _object_cost(c, ws)
                 if cost < best:
                     best, ba, bb = cost, ws.x[i0], ws.x[i0 + 1]
@@ -403,10 +403,10 @@ def _place_hand_points(ws, data, poo, no_anchor):
     for c in range(lay.sides.shape[0]):
         RG.start_params(lay.sides[c, 1, S_KIND], ws.x, lay.sides[c, 1, S_X])
         li = lay.link[c]
-        _side_point(c, 0, ws, data)
+        _side_point(c, np.int64(0), ws, data)
         mat_vec(ws.Rl[li], ws.pt, ws.ph[c])
         mat_vec(ws.Rl[li], ws.nr, ws.nh[c])
-        _side_point(c, 1, ws, data)
+        _side_point(c, np.int64(1), ws, data)
         for i in range(3):
             ws.ph[c, i] += ws.rl[li, i]
             poo[c, i] = ws.pt[i]

@@ -196,7 +196,9 @@ def object_rows(ws, data, margin, row0, max_rows):
     docstring) is below ``margin`` [mm], into ``ws.M``, ``ws.g`` from ``row0``, at most
     ``max_rows``; ``(rows written, smallest value seen)``, a capsule farther than the margin
     counted as ``margin`` (its distance is searched only up to there).  The capsules must be placed
-    (:func:`._model.place_capsules`) and the contact points ``ws.ph`` current."""
+    (:func:`._model.place_capsules`) and the contact points ``ws.ph`` current.  ``row0`` and
+    ``max_rows`` are int64: callers pass ``np.int64(0)``, never a literal ``0``, so that the
+    function compiles once (see :mod:`._jit`)."""
     obj = ws.obj
     nrows, vmin = 0, 1e300
     if not obj.active:

@@ -199,9 +199,10 @@ def _bezier_eval(data, side, u, v, want_jac, ws):
     _bezier_normal(d, ws.pt, ws.nr, ws.dpt, ws.dnr, want_jac)
 
 
-@njit(cache=True)
+@njit(inline="always")
 def _cross_at(d, a, b, out, o):
-    """``out[o:o+3] = d[a:a+3] x d[b:b+3]``."""
+    """``out[o:o+3] = d[a:a+3] x d[b:b+3]``; inlined into its caller, as its constant offsets would
+    otherwise compile one specialisation per call site."""
     out[o + 0] = d[a + 1] * d[b + 2] - d[a + 2] * d[b + 1]
     out[o + 1] = d[a + 2] * d[b + 0] - d[a + 0] * d[b + 2]
     out[o + 2] = d[a + 0] * d[b + 1] - d[a + 1] * d[b + 0]

@@ -13,8 +13,10 @@ import time
 
 __all__ = ["compile_pending", "warm_up", "COMPILING_MESSAGE"]
 
-#: What a front end prints before a first, compiling run (measured: 74-80 s of CPU, 100-106 s
-#: of wall time on the loaded 2-core development machine, see docs/local-solver.md).
+#: What a front end prints before a first, compiling run (measured for the README's first
+#: command with an empty cache: 71-93 s of CPU on the 2-core development machine, 72.5 s of
+#: wall time at load ~3 and several minutes under heavy load;
+#: ``benchmarks/first_run.py``, docs/local-solver.md).
 COMPILING_MESSAGE = "compiling the local solver once (one to two minutes); later runs start at once"
 
 
