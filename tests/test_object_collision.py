@@ -19,11 +19,24 @@ from prehension.tasks.object_collision import _kept_pieces, batch_link_depths, l
 from prehension.tasks.residuals import Tolerances, evaluate
 
 
-def test_capsule_depth_is_radius_minus_the_least_signed_distance(rng):
+def _boxes(pieces: int):
+    """One box, or two overlapping boxes as one mesh of two pieces (signs by winding number)."""
     import trimesh
 
     box = trimesh.creation.box(extents=(40.0, 30.0, 20.0))
-    md = MeshDistance(box.vertices, box.faces)
+    if pieces == 1:
+        return box.vertices, box.faces
+    other = trimesh.creation.box(extents=(20.0, 20.0, 20.0))
+    other.apply_translation((15.0, 10.0, 10.0))
+    return np.vstack([box.vertices, other.vertices]), np.vstack([box.faces, other.faces + len(box.vertices)])
+
+
+@pytest.mark.parametrize("pieces", [1, 2])
+def test_capsule_depth_is_radius_minus_the_least_signed_distance(rng, pieces):
+    """Segments from inside and outside the mesh's bounding box (whose outside needs no sign
+    query), wholly inside, wholly outside and crossing, on one piece and on two."""
+    md = MeshDistance(*_boxes(pieces))
+    assert md.arrays.robust_sign == (pieces == 2)
     a = rng.uniform(-40, 40, size=(200, 3))
     b = a + rng.normal(scale=12.0, size=(200, 3))
     r = rng.uniform(1.0, 8.0, size=200)
