@@ -149,16 +149,17 @@ def _rodrigues(k, kk, j, angle, out):
 
 
 @njit(cache=True)
-def _mat3(A, B, out):
-    """``out = A @ B`` for (3, 3) matrices (sums in index order)."""
+def mat_mat(A, B, out):
+    """``out = A @ B`` for (3, 3) matrices (sums in index order; ``out`` distinct from ``A``
+    and ``B``).  Also the local solver's kernel's 3x3 product (``solvers.local._linalg``)."""
     for i in range(3):
         for m in range(3):
             out[i, m] = A[i, 0] * B[0, m] + A[i, 1] * B[1, m] + A[i, 2] * B[2, m]
 
 
 @njit(cache=True)
-def _vec3(A, v, out):
-    """``out = A @ v`` for a (3, 3) matrix and a (3,) vector."""
+def mat_vec(A, v, out):
+    """``out = A @ v`` for a (3, 3) matrix and a (3,) vector (also the kernel's)."""
     for i in range(3):
         out[i] = A[i, 0] * v[0] + A[i, 1] * v[1] + A[i, 2] * v[2]
 
@@ -171,21 +172,21 @@ def _fk_loop(q, ch, R, r, axis, origin):
     for b in range(q.shape[0]):
         for k in range(ch.parent.shape[0]):
             p, c, d = ch.parent[k], ch.child[k], ch.offset[k]
-            _vec3(R[b, p], ch.origin_in_parent[k], vec)
+            mat_vec(R[b, p], ch.origin_in_parent[k], vec)
             for i in range(3):
                 origin[b, d, i] = vec[i] + r[b, p, i]
-            _vec3(R[b, p], ch.axis_in_parent[k], axis[b, d])
+            mat_vec(R[b, p], ch.axis_in_parent[k], axis[b, d])
             _rodrigues(ch.k1, ch.kk1, k, q[b, d], rot)
-            _mat3(R[b, p], rot, tmp)
-            _mat3(tmp, ch.R_zero[k], R[b, c])
+            mat_mat(R[b, p], rot, tmp)
+            mat_mat(tmp, ch.R_zero[k], R[b, c])
             if ch.universal[k] == 1:
-                _vec3(R[b, c], ch.axis_in_child[k], axis[b, d + 1])
+                mat_vec(R[b, c], ch.axis_in_child[k], axis[b, d + 1])
                 for i in range(3):
                     origin[b, d + 1, i] = origin[b, d, i]
                 _rodrigues(ch.k2, ch.kk2, k, q[b, d + 1], rot)
                 tmp[:, :] = R[b, c]
-                _mat3(tmp, rot, R[b, c])
-            _vec3(R[b, c], ch.origin_in_child[k], vec)
+                mat_mat(tmp, rot, R[b, c])
+            mat_vec(R[b, c], ch.origin_in_child[k], vec)
             for i in range(3):
                 r[b, c, i] = origin[b, d, i] - vec[i]
 

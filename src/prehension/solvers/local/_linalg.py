@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 
+from ...hands.kinematics import mat_mat, mat_vec  # the 3x3 products forward kinematics compiles too
 from ._jit import njit
 
 __all__ = ["copy", "fill", "dot", "rot", "mat_mat", "mat_vec", "cross", "cholesky_solve", "dls_contacts", "dls_dense"]
@@ -60,21 +61,6 @@ def rot(u0, u1, u2, th, out):
     out[2, 0] = u2 * u0 * v - u1 * s
     out[2, 1] = u2 * u1 * v + u0 * s
     out[2, 2] = c + u2 * u2 * v
-
-
-@njit(cache=True)
-def mat_mat(A, B, out):
-    """``out = A B`` (3x3; ``out`` distinct from ``A`` and ``B``)."""
-    for i in range(3):
-        for j in range(3):
-            out[i, j] = A[i, 0] * B[0, j] + A[i, 1] * B[1, j] + A[i, 2] * B[2, j]
-
-
-@njit(cache=True)
-def mat_vec(A, x, out):
-    """``out = A x`` (3x3 times 3)."""
-    for i in range(3):
-        out[i] = A[i, 0] * x[0] + A[i, 1] * x[1] + A[i, 2] * x[2]
 
 
 @njit(cache=True)
