@@ -1,15 +1,19 @@
-"""A read-only mapping that, unlike ``types.MappingProxyType``, can be pickled.
+"""Frozen model values: a read-only mapping that, unlike ``types.MappingProxyType``, can
+be pickled, and the cache of what is derived from a frozen value.
 
 Frozen model values (hands, objects, tasks) travel to worker processes and cluster
-workers, so everything they hold must pickle.
+workers, so everything they hold must pickle; what a module derives from one (tables,
+solids, probes) is kept beside it by :func:`cached_per_value`, never written onto it.
 """
 
 from __future__ import annotations
 
+import functools
+import weakref
 from collections.abc import Mapping
-from typing import Iterator, TypeVar
+from typing import Callable, Iterator, TypeVar
 
-__all__ = ["FrozenMap"]
+__all__ = ["FrozenMap", "cached_per_value"]
 
 K = TypeVar("K")
 V = TypeVar("V")
@@ -40,3 +44,24 @@ class FrozenMap(Mapping[K, V]):
 
     def __reduce__(self):
         return (FrozenMap, (self._data,))
+
+
+R = TypeVar("R")
+
+
+def cached_per_value(build: Callable[[K], R]) -> Callable[[K], R]:
+    """``build(value)`` computed once per value object and held in a weak cache keyed by it
+    (gone with the value; the value is not written to).  For frozen values compared by
+    identity (``eq=False``: hands, objects, tasks, formulations).  A build that raises
+    caches nothing; ``None`` is cached like any result."""
+    cache: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+    @functools.wraps(build)
+    def get(value: K) -> R:
+        try:
+            return cache[value]
+        except KeyError:
+            result = cache[value] = build(value)
+            return result
+
+    return get

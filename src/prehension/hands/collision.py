@@ -16,11 +16,11 @@ hand object (never written onto the frozen :class:`~prehension.hands.model.Hand`
 from __future__ import annotations
 
 import math
-import weakref
 from dataclasses import dataclass
 
 import numpy as np
 
+from ..frozen import cached_per_value
 from .kinematics import HandPose
 from .model import Hand
 
@@ -89,19 +89,9 @@ class CollisionPairs:
     link_radius: np.ndarray
 
 
-_PAIRS: "weakref.WeakKeyDictionary[Hand, CollisionPairs]" = weakref.WeakKeyDictionary()
-
-
+@cached_per_value
 def collision_pairs(hand: Hand) -> CollisionPairs:
     """The capsule pairs of ``hand`` that a self-collision check must test (cached per hand)."""
-    cached = _PAIRS.get(hand)
-    if cached is None:
-        cached = _build_pairs(hand)
-        _PAIRS[hand] = cached
-    return cached
-
-
-def _build_pairs(hand: Hand) -> CollisionPairs:
     shapes = [(i, c) for i, link in enumerate(hand.links) for c in link.collision]
     joined = {frozenset((j.parent, j.child)) for j in hand.joints}
     joined |= {frozenset(p) for p in hand.collision_exclusions}

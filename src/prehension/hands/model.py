@@ -36,10 +36,9 @@ report of each fingertip found automatically (:attr:`Hand.tip_fits`).
 
 from __future__ import annotations
 
-import weakref
 from dataclasses import dataclass, field
 from functools import cached_property
-from ..frozen import FrozenMap
+from ..frozen import FrozenMap, cached_per_value
 from typing import Literal, Mapping
 
 import numpy as np
@@ -455,15 +454,10 @@ def _tree_tables(hand: Hand) -> dict:
     return {"parent": parent_of_joint, "child": child_of_joint, "moves": moves}
 
 
-_TREE_TABLES: "weakref.WeakKeyDictionary[Hand, dict]" = weakref.WeakKeyDictionary()
-
-
+@cached_per_value
 def tree_tables(hand: Hand) -> dict:
     """The hand's derived index tables (see :func:`_tree_tables`), built once per hand and
     held beside it (a weak cache: they go with the hand); other modules add their own
     per-hand tables under their own keys (forward kinematics' chain, the residual function's
     limits and couplings)."""
-    cache = _TREE_TABLES.get(hand)
-    if cache is None:
-        cache = _TREE_TABLES[hand] = _tree_tables(hand)
-    return cache
+    return _tree_tables(hand)

@@ -22,13 +22,13 @@ twice, which is also how a physics engine weighs a body made of several geoms.
 
 from __future__ import annotations
 
-import weakref
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
 from ..errors import InvalidObject
+from ..frozen import cached_per_value
 from ..geometry.regions import PointRegion, Region, SphereCap
 from ..geometry.rotations import orthonormal_frame
 from ..objects.meshes import Mesh, Torus
@@ -65,20 +65,9 @@ class MassProperties:
     inertia_mm5: np.ndarray
 
 
-_SOLIDS: "weakref.WeakKeyDictionary[GraspObject, Solid]" = weakref.WeakKeyDictionary()
-_CENTRES: "weakref.WeakKeyDictionary[GraspObject, np.ndarray]" = weakref.WeakKeyDictionary()
-
-
+@cached_per_value
 def object_solid(obj: GraspObject) -> Solid:
     """The solid ``obj`` is (see the module docstring); computed once per object."""
-    cached = _SOLIDS.get(obj)
-    if cached is None:
-        cached = _build_solid(obj)
-        _SOLIDS[obj] = cached
-    return cached
-
-
-def _build_solid(obj: GraspObject) -> Solid:
     if isinstance(obj.solid, PrimitiveSolid):
         pieces = [piece for prim in obj.solid.primitives for piece in _primitive_pieces(prim)]
         return Solid(tuple(pieces), (True,) * len(pieces), "primitives")
@@ -244,12 +233,13 @@ def object_reference(obj: GraspObject, center_mm=None) -> tuple[np.ndarray, floa
 def object_center(obj: GraspObject) -> np.ndarray:
     """(3,) the centre :func:`object_reference` takes [mm]: the solid's centroid, else the
     centroid of the regions' sample points."""
-    cached = _CENTRES.get(obj)
-    if cached is None:
-        try:
-            cached = mass_properties(object_solid(obj)).centroid_mm
-        except InvalidObject:
-            points = _region_points(obj)
-            cached = points.mean(axis=0) if len(points) else np.zeros(3)
-        _CENTRES[obj] = cached
-    return cached.copy()
+    return _object_center(obj).copy()
+
+
+@cached_per_value
+def _object_center(obj: GraspObject) -> np.ndarray:
+    try:
+        return mass_properties(object_solid(obj)).centroid_mm
+    except InvalidObject:
+        points = _region_points(obj)
+        return points.mean(axis=0) if len(points) else np.zeros(3)

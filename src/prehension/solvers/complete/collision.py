@@ -63,11 +63,11 @@ not used.  No probe is used on any doubt: an object without a solid, or with
 
 from __future__ import annotations
 
-import weakref
 from dataclasses import dataclass
 
 import numpy as np
 
+from ...frozen import cached_per_value
 from ...geometry.regions import PointRegion, SphereCap
 from ...system.formulation import Formulation, reach_ball
 from ...tasks.object_collision import SAMPLE_MM, pad_radius
@@ -153,15 +153,11 @@ class CollisionProof:
 
 
 # -- building the probes ----------------------------------------------------------------
-_CACHE: "weakref.WeakKeyDictionary[Formulation, CollisionProbes | None]" = weakref.WeakKeyDictionary()
-
-
+@cached_per_value
 def collision_probes(form: Formulation) -> CollisionProbes | None:
     """The probes of a formulation (kept per formulation); ``None`` when the task's object
     does not collide (no solid, or ``collisions: false``) or no probe can be used."""
-    if form not in _CACHE:
-        _CACHE[form] = _build_probes(form) if form.task.object.collides else None
-    return _CACHE[form]
+    return _build_probes(form) if form.task.object.collides else None
 
 
 def _build_probes(form: Formulation) -> CollisionProbes | None:

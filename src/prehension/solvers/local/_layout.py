@@ -21,13 +21,13 @@ Unknowns ``x`` (one row per state):
 from __future__ import annotations
 
 import hashlib
-import weakref
 from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 
 from ...errors import InvalidTask
+from ...frozen import cached_per_value
 from ...geometry.regions import Region, SphereCap
 from ...hands.collision import collision_pairs
 from ...hands.model import Hand
@@ -112,17 +112,11 @@ class HandArrays(NamedTuple):
         return h.hexdigest()
 
 
-_ARRAYS: "weakref.WeakKeyDictionary[Hand, tuple[HandArrays, str]]" = weakref.WeakKeyDictionary()
-
-
+@cached_per_value
 def hand_arrays(hand: Hand) -> tuple[HandArrays, str]:
     """``(HandArrays.from_hand(hand), its digest)``, built once per hand object (weak cache)."""
-    hit = _ARRAYS.get(hand)
-    if hit is None:
-        arrays = HandArrays.from_hand(hand)
-        hit = (arrays, arrays.digest(hand))
-        _ARRAYS[hand] = hit
-    return hit
+    arrays = HandArrays.from_hand(hand)
+    return arrays, arrays.digest(hand)
 
 
 class Layout(NamedTuple):

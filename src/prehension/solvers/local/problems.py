@@ -16,7 +16,6 @@ expressed in a random object frame.  The true configuration is kept in ``truth``
 
 from __future__ import annotations
 
-import weakref
 from collections import OrderedDict
 from dataclasses import dataclass, field, replace
 from typing import Mapping
@@ -24,6 +23,7 @@ from typing import Mapping
 import numpy as np
 
 from ...errors import InvalidTask
+from ...frozen import cached_per_value
 from ...geometry.regions import BezierRegion, PointRegion, SphereCap
 from ...hands.collision import max_penetration
 from ...hands.kinematics import forward_kinematics
@@ -254,11 +254,11 @@ def random_point_problems(
 
 
 # -- tasks ------------------------------------------------------------------------------
-_KEYS: "weakref.WeakKeyDictionary[Task, tuple]" = weakref.WeakKeyDictionary()
 _TEMPLATES: "OrderedDict[tuple, Group]" = OrderedDict()  # structure key -> a group of that structure
 _TEMPLATES_KEPT = 32
 
 
+@cached_per_value
 def structure_key(task: Task) -> tuple:
     """Tasks with equal keys share one group: same hand (kinematics, capsules, and name: its
     shipped sequence), moving angles, per contact the region kinds and everything the
@@ -266,18 +266,14 @@ def structure_key(task: Task) -> tuple:
     parameters) and their parameters' boxes --, and the same colliding solid (or none), so
     that a task's answer does not depend on the other tasks of its batch; see
     :mod:`._layout`.  Computed once per task object."""
-    key = _KEYS.get(task)
-    if key is None:
-        per_contact = []
-        for c in task.contacts:
-            h, o = task.hand_region(c), task.object_region(c)
-            boxes = tuple(np.concatenate(RG.unknown_box(r)[:2]).tobytes() for r in (h.region, o))
-            per_contact.append((h.link, RG.code(h.region)[:3], RG.code(o)[:3], RG.size(h.region), RG.size(o), boxes))
-        solid = id(task.object.distance) if task.object.collides else None  # the task holds it: the id stays its own
-        key = (hand_arrays(task.hand)[1], task.hand.name, tuple(task.fingers), task.active_mask.tobytes(),
-               task.idle_vector.tobytes(), tuple(per_contact), solid)  # fmt: skip
-        _KEYS[task] = key
-    return key
+    per_contact = []
+    for c in task.contacts:
+        h, o = task.hand_region(c), task.object_region(c)
+        boxes = tuple(np.concatenate(RG.unknown_box(r)[:2]).tobytes() for r in (h.region, o))
+        per_contact.append((h.link, RG.code(h.region)[:3], RG.code(o)[:3], RG.size(h.region), RG.size(o), boxes))
+    solid = id(task.object.distance) if task.object.collides else None  # the task holds it: the id stays its own
+    return (hand_arrays(task.hand)[1], task.hand.name, tuple(task.fingers), task.active_mask.tobytes(),
+            task.idle_vector.tobytes(), tuple(per_contact), solid)  # fmt: skip
 
 
 def _task_row(task: Task) -> np.ndarray:
