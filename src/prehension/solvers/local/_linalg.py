@@ -22,6 +22,12 @@ from ._jit import njit
 
 __all__ = ["copy", "fill", "dot", "rot", "mat_mat", "mat_vec", "cross", "cholesky_solve", "dls_contacts", "dls_dense"]
 
+# The sums of the damped step may be reordered (vectorised) and divisions turned into
+# products with a reciprocal; NaN and infinity keep their meaning (no "nnan"/"ninf"), so a
+# matrix that is not positive definite is still recognised.  Measured: the Cholesky
+# solve of 24 rows 2.37 -> 1.83 us, of 44 rows 10.3 -> 6.7 us (same answers to 1e-15).
+FAST = {"reassoc", "contract", "nsz", "arcp"}
+
 
 @njit(cache=True)
 def copy(src, dst):
@@ -70,7 +76,7 @@ def cross(a, b, out):
     out[2] = a[0] * b[1] - a[1] * b[0]
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FAST)
 def cholesky_solve(A, b, n, L, y):
     """Solve ``A y = b`` (symmetric positive definite, first ``n`` rows); False if it fails."""
     for j in range(n):
@@ -108,7 +114,7 @@ def _scale_columns(J, n, col_scale, frozen, Js):
             Js[r, k] = J[r, k] * d
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FAST)
 def _back(Js, y, n, col_scale, frozen, dx):
     """``dx = -D^-1 Js^T y`` over the first ``n`` rows (frozen unknowns stay put)."""
     for k in range(dx.shape[0]):
@@ -129,7 +135,7 @@ def _add_damping(A, n, mu2, rel):
         A[i, i] += mu2 + rel * scale
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FAST)
 def dls_contacts(J, f, scaling, blocks, mu2, out):
     """Damped step for the ``6 C`` contact rows, ``J~ J~^T`` assembled from shared columns.
 
@@ -167,7 +173,7 @@ def dls_contacts(J, f, scaling, blocks, mu2, out):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FAST)
 def dls_dense(M, g, n, scaling, mu2, out):
     """Damped step for the first ``n`` rows of any stack ``M`` (dense ``M~ M~^T``);
     ``scaling`` and ``out`` as in :func:`dls_contacts`."""
