@@ -27,7 +27,7 @@ from prehension.solvers.local import (
 from prehension.solvers.local import _kernel as K
 from prehension.solvers.local import _regions as RG
 from prehension.solvers.local._layout import S_K, S_X
-from prehension.solvers.local._linalg import dls_contacts
+from prehension.solvers.local._linalg import dls_dense
 from prehension.solvers.local.problems import group_from_tasks
 
 DEG = np.pi / 180.0
@@ -158,7 +158,7 @@ def test_a_damped_step_decreases_the_error_on_a_smooth_problem(sa_hand):
     A, L, Js = np.zeros((6 * C, 6 * C)), np.zeros((6 * C, 6 * C)), np.zeros((6 * C, nx))
     y, dx, frozen = np.zeros(6 * C), np.zeros(nx), np.zeros(nx, dtype=bool)
     L_ = group.layout
-    assert dls_contacts(J, f, (L_.col_scale, frozen), (L_.shared, L_.n_shared), 0.02**2, (A, L, y, dx, Js))
+    assert dls_dense(J, f, 6 * C, (L_.col_scale, frozen), 0.02**2, (A, L, y, dx, Js))
     f1, _ = st.residual(*st.moved(x, R, t, dx))
     assert np.linalg.norm(f1) < 0.1 * np.linalg.norm(f)
     f_half, _ = st.residual(*st.moved(x, R, t, 0.5 * dx))

@@ -34,7 +34,7 @@ import numpy as np
 from . import _regions as RG
 from ._jit import HAVE_NUMBA, njit
 from ._layout import S_KIND, S_OFF, S_X
-from ._linalg import copy, dls_contacts, dls_dense, fill
+from ._linalg import copy, dls_dense, fill
 from ._model import contact_rows, inequality_rows, initial_pose, move, place_capsules, pose_hand, project_all
 from ._penetration import object_rows
 
@@ -282,10 +282,10 @@ def _step(ws, data, damping_sq, active_set):
         _turn_rims(ws, data)
     else:
         fill(ws.rims, 0.0)
-    args = (ws.J, ws.f, (ws.col_scale, ws.frozen), (lay.shared, lay.n_shared), damping_sq, (ws.A, ws.L, ws.y, ws.dx, ws.Js))
-    ok = dls_contacts(*args)
+    args = (ws.J, ws.f, 6 * lay.sides.shape[0], (ws.col_scale, ws.frozen), damping_sq, (ws.A, ws.L, ws.y, ws.dx, ws.Js))
+    ok = dls_dense(*args)
     if ok and active_set and _update_active_set(ws, data):
-        ok = dls_contacts(*args)
+        ok = dls_dense(*args)
     for slot in range(ws.rims.shape[0]):  # back to (alpha, gamma); the radial part is 0
         if ws.rims[slot, 0] != 0.0:
             i0 = lay.sides[slot // 2, slot % 2, S_X]
