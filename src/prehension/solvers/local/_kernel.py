@@ -34,7 +34,7 @@ import numpy as np
 from . import _regions as RG
 from ._jit import HAVE_NUMBA, njit
 from ._layout import S_KIND, S_OFF, S_X
-from ._linalg import copy, dls_dense, fill
+from ._linalg import copy, dls_again, dls_dense, fill, refresh_column
 from ._model import contact_rows, inequality_rows, initial_pose, move, place_capsules, pose_hand, project_all
 from ._penetration import object_rows
 
@@ -197,6 +197,14 @@ def _turn(ws, c, i0, ga, gg):
 
 
 @njit(cache=True)
+def _refresh(ws, k):
+    """Column ``k`` was frozen, released or turned after the step's solve: the solve's
+    product follows (:func:`._linalg.refresh_column`)."""
+    d = 0.0 if ws.frozen[k] else ws.col_scale[k]
+    refresh_column(ws.J, 6 * ws.lay.sides.shape[0], k, d, ws.A, ws.Js)
+
+
+@njit(cache=True)
 def _turn_rims(ws, data):
     """Before a step's first solve: the caps held on their rim by the previous step that
     are still on it get their columns turned again and the radial one frozen (the rim's
@@ -236,6 +244,8 @@ def _update_caps(ws, data):
                     dt = ws.dx[i0 + 1]
                     ws.dx[i0], ws.dx[i0 + 1] = -ws.rims[slot, 2] * dt, ws.rims[slot, 1] * dt
                     ws.frozen[i0], ws.rims[slot, 0] = False, 0.0
+                    _refresh(ws, i0)
+                    _refresh(ws, i0 + 1)
                 continue
             on, ga, gg = RG.rim_gradient(s[S_KIND], s[S_OFF], data, ws.x, i0, margin)
             if on and ga * ws.dx[i0] + gg * ws.dx[i0 + 1] < 0.0:
@@ -243,6 +253,8 @@ def _update_caps(ws, data):
                 ws.dx[i0], ws.dx[i0 + 1] = 0.0, -gg * ws.dx[i0] + ga * ws.dx[i0 + 1]  # the step's tangent part
                 ws.frozen[i0], again = True, True
                 ws.rims[slot, 0], ws.rims[slot, 1], ws.rims[slot, 2] = 1.0, ga, gg
+                _refresh(ws, i0)
+                _refresh(ws, i0 + 1)
     return again
 
 
@@ -263,9 +275,11 @@ def _update_active_set(ws, data):
             for r in range(6 * C):
                 d -= ws.J[r, k] * ws.y[r]
             if (at_lo and d > 0.0) or (at_hi and d < 0.0):
-                ws.frozen[k] = False  # from the next step on
+                ws.frozen[k] = False  # in the solve again if there is one, else from the next step on
+                _refresh(ws, k)
         elif (at_lo and ws.dx[k] < 0.0) or (at_hi and ws.dx[k] > 0.0):
             ws.frozen[k], again = True, True
+            _refresh(ws, k)
     return _update_caps(ws, data) or again
 
 
@@ -273,7 +287,8 @@ def _update_active_set(ws, data):
 def _step(ws, data, damping_sq, active_set):
     """One damped step ``ws.dx`` with an active set warm-started from the previous step's
     (frozen unknowns stay frozen while at their bound, held caps while on their rim);
-    recomputed once if the active set changed.  False if the system could not be solved."""
+    solved once more if the active set changed, the product ``J~ J~^T`` updated for the
+    changed columns only.  False if the system could not be solved."""
     lay = ws.lay
     for k in range(ws.x.shape[0]):
         at_bound = lay.boxed[k] and (ws.x[k] <= lay.lo[k] or ws.x[k] >= lay.hi[k])
@@ -284,8 +299,8 @@ def _step(ws, data, damping_sq, active_set):
         fill(ws.rims, 0.0)
     args = (ws.J, ws.f, 6 * lay.sides.shape[0], (ws.col_scale, ws.frozen), damping_sq, (ws.A, ws.L, ws.y, ws.dx, ws.Js))
     ok = dls_dense(*args)
-    if ok and active_set and _update_active_set(ws, data):
-        ok = dls_dense(*args)
+    if ok and active_set and _update_active_set(ws, data):  # the product updated column by column
+        ok = dls_again(ws.f, args[2], args[3], args[5])
     for slot in range(ws.rims.shape[0]):  # back to (alpha, gamma); the radial part is 0
         if ws.rims[slot, 0] != 0.0:
             i0 = lay.sides[slot // 2, slot % 2, S_X]

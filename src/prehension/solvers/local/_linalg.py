@@ -21,7 +21,7 @@ import math
 from ...hands.kinematics import mat_mat, mat_vec  # the 3x3 products forward kinematics compiles too
 from ._jit import njit
 
-__all__ = ["copy", "fill", "dot", "rot", "mat_mat", "mat_vec", "cross", "cholesky_solve", "dls_dense"]
+__all__ = ["copy", "fill", "dot", "rot", "mat_mat", "mat_vec", "cross", "cholesky_solve", "dls_dense", "refresh_column", "dls_again"]
 
 # The sums of the damped step may be reordered (vectorised) and divisions turned into
 # products with a reciprocal; NaN and infinity keep their meaning (no "nnan"/"ninf"), so a
@@ -159,6 +159,38 @@ def dls_dense(M, g, n, scaling, mu2, out):
             A[i, j] = s
             A[j, i] = s
     _add_damping(A, n, mu2, 1e-12)
+    if not cholesky_solve(A, g, n, L, y):
+        fill(dx, 0.0)
+        return False
+    _back(Ms, y, n, col_scale, frozen, dx)
+    return True
+
+
+@njit(cache=True, fastmath=FAST)
+def refresh_column(M, n, k, d, A, Ms):
+    """Column ``k`` of ``M`` or its scale ``d`` changed (``d = 0``: frozen) since
+    :func:`dls_dense`: ``Ms`` and ``A = M~ M~^T + damping`` (first ``n`` rows) follow, by
+    taking the column's old outer product out and its new one in -- O(n^2) per column
+    instead of a new O(n^2 nx) product (only the rows where the column is not zero)."""
+    for i in range(n):
+        a = Ms[i, k]
+        if a != 0.0:
+            for j in range(n):
+                A[i, j] -= a * Ms[j, k]
+    for r in range(n):
+        Ms[r, k] = M[r, k] * d
+    for i in range(n):
+        a = Ms[i, k]
+        if a != 0.0:
+            for j in range(n):
+                A[i, j] += a * Ms[j, k]
+
+
+@njit(cache=True, fastmath=FAST)
+def dls_again(g, n, scaling, out):
+    """:func:`dls_dense` again after :func:`refresh_column` changes: factor and solve only."""
+    col_scale, frozen = scaling
+    A, L, y, dx, Ms = out
     if not cholesky_solve(A, g, n, L, y):
         fill(dx, 0.0)
         return False
