@@ -101,11 +101,10 @@ class LocalOptions:
             *repaired* -- Gauss-Newton on the contacts plus one row per capsule pair
             closer than ``collision_margin_mm``, which pushes the pair apart within the
             contacts' null space -- for at most this many iterations (0: the paper's
-            behaviour, go straight to the next initial pose).  20 (formerly 30): of 265
-            colliding local solutions (fig9, 30 deg caps) 102 were repaired, most within
-            3-12 iterations, while the 163 that were not each spent the whole budget; the
-            next initial pose is the cheaper rescue.  Penetration repairs on the built-in
-            tasks need more: 10 solved guitar-holding for 5 of 12 seeds, 20 and 30 for 9.
+            behaviour, go straight to the next initial pose).  30: on fig9's point
+            problems (30 deg caps) successful repairs take 3-12 iterations and 10 would
+            do, but penetration repairs on the built-in tasks need more: guitar-holding
+            was solved for 5 of 12 seeds with 10, and one batch test's seed needs 30.
         collision_margin_mm: clearance the repair aims at [mm].
         tolerances: acceptance tolerances when the strict ones are not met
             (default: derived from ``d_min_mm``, see :attr:`acceptance`).
@@ -131,7 +130,7 @@ class LocalOptions:
     psi_rule: str = "procrustes"
     initial: str = "sequence"
     check_collisions: bool = True
-    repair_iterations: int = 20
+    repair_iterations: int = 30
     collision_margin_mm: float = 0.5
     tolerances: Tolerances | None = field(default=None)
     cap_margin_rad: float = 1e-9
