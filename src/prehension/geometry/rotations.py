@@ -19,7 +19,6 @@ Conventions
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from prehension.errors import InvalidGeometry
 
@@ -135,6 +134,8 @@ def matrix_to_axis_angle(R: np.ndarray, atol: float = 1e-6) -> tuple[np.ndarray,
         raise InvalidGeometry(
             f"R[{int(np.argmax(bad))}] is not a rotation matrix (orthonormal, det +1) within atol={atol}"
         )
+    from scipy.spatial.transform import Rotation  # here, not at import: scipy.spatial costs ~0.3 s to import
+
     rotvec = Rotation.from_matrix(R).as_rotvec().reshape(-1, 3)
     angle = np.linalg.norm(rotvec, axis=-1)
     axis = np.tile([0.0, 0.0, 1.0], (len(R), 1))
@@ -177,6 +178,8 @@ def random_rotations(rng: np.random.Generator, B: int) -> np.ndarray:
     # Normalised 4-D Gaussians are uniform unit quaternions, hence Haar rotations.
     q = rng.standard_normal((int(B), 4))
     q /= np.linalg.norm(q, axis=1, keepdims=True)
+    from scipy.spatial.transform import Rotation  # here, not at import: scipy.spatial costs ~0.3 s to import
+
     return Rotation.from_quat(q).as_matrix().reshape(int(B), 3, 3)
 
 
