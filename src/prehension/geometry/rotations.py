@@ -229,7 +229,9 @@ def angle_between(a, b) -> np.ndarray:
     rounded cosine loses half the digits (an error of ~1e-8 rad at 0).
     """
     a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-    return np.arctan2(np.linalg.norm(cross3(a, b), axis=-1), np.sum(a * b, axis=-1))
+    c = cross3(a, b)
+    # np.linalg.norm(c, axis=-1) and np.sum(a * b, axis=-1), the same operations without their wrappers
+    return np.arctan2(np.sqrt(np.add.reduce(c * c, axis=-1)), np.add.reduce(a * b, axis=-1))
 
 
 def signed_angle(a: np.ndarray, b: np.ndarray, axis: np.ndarray) -> np.ndarray:
