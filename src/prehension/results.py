@@ -24,7 +24,7 @@ from .errors import InvalidTask
 from .hands.kinematics import forward_kinematics
 from .tasks.idle import settle_idle_fingers
 from .tasks.model import Configuration, Task
-from .tasks.residuals import ResidualReport, Tolerances, evaluate
+from .tasks.residuals import ResidualReport, Tolerances, _evaluate
 
 __all__ = [
     "Status",
@@ -161,7 +161,7 @@ def first_solution(task: Task, config: Configuration, levels) -> tuple[int, Solu
         if key not in evaluated:
             settled = settle_idle_fingers(task, config, key)
             pose = forward_kinematics(task.hand, settled.joint_angles)
-            evaluated[key] = (settled, pose, evaluate(task, settled, tol, pose=pose), tol)
+            evaluated[key] = (settled, pose, _evaluate(task, settled, tol, pose), tol)  # evaluate(): shapes checked above
         settled, pose, report, judged_with = evaluated[key]
         if tol != judged_with:
             report = report.judged(tol)

@@ -27,6 +27,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ..frozen import cached_per_value
 from ..geometry.regions import evaluate_regions
 from ..geometry.rotations import angle_between
 from ..hands.collision import capsule_clearances
@@ -294,6 +295,11 @@ def evaluate(task: Task, config: Configuration, tolerances: Tolerances = Toleran
     computed it already (it is not computed twice).
     """
     config.check_against(task)
+    return _evaluate(task, config, tolerances, pose)
+
+
+def _evaluate(task: Task, config: Configuration, tolerances: Tolerances, pose: HandPose | None) -> ResidualReport:
+    """:func:`evaluate` of a configuration whose shapes fit the task (``check_against`` done)."""
     if pose is None:
         pose = forward_kinematics(task.hand, config.joint_angles)
     T = config.T_palm_object[None]
@@ -331,11 +337,17 @@ def _contact_checks(task, res, tol) -> tuple:
     """Per contact, in order: distance [mm], normal angle [deg], hand and object region."""
     C = len(task.contacts)
     values = np.stack([res[k][0] for k in ("distance_mm", "normal_angle_deg", "hand_region", "object_region")], axis=1)
-    units = tuple(u for c in task.contacts
-                  for u in ("mm", "deg", _unit(task.hand_region(c).region), _unit(task.object_region(c))))  # fmt: skip
-    names = tuple(c.name for c in task.contacts for _ in range(4))
+    names, units = _contact_labels(task)
     tols = (tol.contact_mm, tol.normal_deg, tol.region, tol.region) * C
     return _CONTACT_KINDS * C, names, values.ravel().tolist(), units, tols
+
+
+@cached_per_value
+def _contact_labels(task: Task) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """The names and units of a task's contact checks (the same for every configuration)."""
+    units = tuple(u for c in task.contacts
+                  for u in ("mm", "deg", _unit(task.hand_region(c).region), _unit(task.object_region(c))))  # fmt: skip
+    return tuple(c.name for c in task.contacts for _ in range(4)), units
 
 
 def _unit(region) -> str:
@@ -347,9 +359,15 @@ def _joint_checks(task, q, tol) -> tuple:
     lim = np.degrees(limit_violations(hand, q)[0])
     cpl = np.degrees(coupling_violations(hand, q)[0])
     n, m = len(lim), len(cpl)
-    names = tuple(hand.dof_names) + tuple(f"{c.dof}={c.source}" for c in hand.couplings)
+    names = _joint_labels(hand)
     return (("joint_limit",) * n + ("coupling",) * m, names, lim.tolist() + cpl.tolist(), ("deg",) * (n + m),
             (tol.limit_deg,) * n + (tol.coupling_deg,) * m)  # fmt: skip
+
+
+@cached_per_value
+def _joint_labels(hand) -> tuple[str, ...]:
+    """The names of a hand's limit and coupling checks."""
+    return tuple(hand.dof_names) + tuple(f"{c.dof}={c.source}" for c in hand.couplings)
 
 
 def _collision_checks(task, pose, tol) -> tuple:
