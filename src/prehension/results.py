@@ -179,14 +179,13 @@ def _solution(task: Task, config: Configuration, pose, report: ResidualReport, t
         )  # fmt: skip
         for s in report.contacts
     )
-    idle = task.idle_vector
-    moved = tuple(
-        d for i, d in enumerate(task.hand.dof_names) if not task.active_mask[i] and config.joint_angles[i] != idle[i]
-    )
+    q = config.joint_angles
+    moved_mask = (~task.active_mask & (q != task.idle_vector)).tolist()  # idle dofs that settling moved
+    moved = tuple(d for d, m in zip(task.hand.dof_names, moved_mask) if m)
     return Solution(
-        dict(zip(task.hand.dof_names, (float(x) for x in config.joint_angles))),
+        dict(zip(task.hand.dof_names, q.tolist())),  # Python floats, the same values
         config.T_palm_object.copy(),
-        {name: T[i] for i, name in enumerate(task.hand.link_names)},
+        dict(zip(task.hand.link_names, T)),  # T[i] per link, in order
         contacts,
         report,
         tolerances,
