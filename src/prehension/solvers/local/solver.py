@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import time
 import zlib
+from functools import lru_cache
 from dataclasses import asdict, dataclass, field
 from typing import Any, Mapping, Sequence
 
@@ -417,12 +418,21 @@ class _RandomPoses:
 
 def _place_poses(group: Group, names, poses: np.ndarray) -> np.ndarray:
     """The group's unknowns (S, nx) with the named pose components ``poses (S, D)`` placed."""
-    where = {n: i for i, n in enumerate(names)}
-    pidx = np.array([where.get(n, -1) if n is not None else -1 for n in group.pose_names], dtype=np.int64)
-    use = pidx >= 0
+    pidx, use = _pose_columns(tuple(group.pose_names), tuple(names))
     x0 = np.repeat(group.x_default[None], poses.shape[0], axis=0)
     x0[:, use] = poses[:, pidx[use]]
     return x0
+
+
+@lru_cache(maxsize=64)
+def _pose_columns(pose_names: tuple, names: tuple) -> tuple[np.ndarray, np.ndarray]:
+    """Per unknown, the column of its pose component in ``names`` (-1: none), and which have one."""
+    where = {n: i for i, n in enumerate(names)}
+    pidx = np.array([where.get(n, -1) if n is not None else -1 for n in pose_names], dtype=np.int64)
+    pidx.setflags(write=False)
+    use = pidx >= 0
+    use.setflags(write=False)
+    return pidx, use
 
 
 def _is_local_solution(status: np.ndarray) -> np.ndarray:
