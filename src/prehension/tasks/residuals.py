@@ -21,6 +21,7 @@ when every check passes.  The batch cores (:func:`contact_residuals`,
 
 from __future__ import annotations
 
+import operator
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import Sequence
@@ -171,7 +172,7 @@ class ResidualReport:
 
     @property
     def ok(self) -> bool:
-        return all(v <= t for v, t in zip(self._values, self._tolerances))
+        return all(map(operator.le, self._values, self._tolerances))  # every value <= its tolerance (NaN fails)
 
     @property
     def failures(self) -> tuple[Check, ...]:
@@ -179,10 +180,8 @@ class ResidualReport:
 
     def worst(self, kind: str) -> float:
         """Largest violation of one kind (0 when there is no such check)."""
-        if self._worst is None:  # every kind's largest value, in one pass (max() keeps the first of equal values)
-            worst: dict = {}
-            for k, v in zip(self._kinds, self._values):
-                worst[k] = max(worst[k], v) if k in worst else v
+        if self._worst is None:  # every kind's largest value (max() over each kind's values in order)
+            worst = {k: max(take(self._values)) for k, take in _kind_getters(self._kinds)}
             object.__setattr__(self, "_worst", worst)
         return self._worst.get(kind, 0.0)
 
@@ -196,6 +195,23 @@ class ResidualReport:
         if self.ok:
             return "all constraints satisfied"
         return "; ".join(c.describe() for c in self.failures)
+
+
+@lru_cache(maxsize=256)
+def _kind_getters(kinds: tuple[str, ...]) -> tuple:
+    """Per distinct kind (in order of first appearance): a function of the values list
+    giving that kind's values, in order (the same kinds for every configuration of a task)."""
+    where: dict = {}
+    for i, k in enumerate(kinds):
+        where.setdefault(k, []).append(i)
+    return tuple((k, _getter(idx)) for k, idx in where.items())
+
+
+def _getter(idx: list[int]):
+    if len(idx) == 1:
+        i = idx[0]
+        return lambda values: (values[i],)
+    return operator.itemgetter(*idx)
 
 
 def _report_from_state(kinds, names, values, units, tolerances, checks, contacts) -> ResidualReport:
