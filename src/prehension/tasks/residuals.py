@@ -240,10 +240,9 @@ def contact_residuals(task: Task, pose: HandPose, T_palm_object, params) -> dict
         ``object_point``, ``object_normal`` (B, C, 3).
     """
     T = np.asarray(T_palm_object, dtype=float).reshape(-1, 4, 4)
-    hregs = [task.hand_region(c) for c in task.contacts]
-    h_pt, h_n, h_out = evaluate_regions([h.region for h in hregs], [hp for hp, _ in params])
-    o_pt, o_n, o_out = evaluate_regions([task.object_region(c) for c in task.contacts], [op for _, op in params])
-    links = [task.hand.link_index(h.link) for h in hregs]
+    hand_regions, object_regions, links = _contact_sides(task)
+    h_pt, h_n, h_out = evaluate_regions(hand_regions, [hp for hp, _ in params])
+    o_pt, o_n, o_out = evaluate_regions(object_regions, [op for _, op in params])
     R, r = pose.R_palm_link[:, links], pose.r_palm_link[:, links]  # (B, C, 3, 3), (B, C, 3)
     R_o = T[:, None, :3, :3]
     res = {
@@ -258,6 +257,16 @@ def contact_residuals(task: Task, pose: HandPose, T_palm_object, params) -> dict
     res["distance_mm"] = np.sqrt(np.add.reduce(gap * gap, axis=-1))  # np.linalg.norm(gap, axis=-1) without its wrapper
     res["normal_angle_deg"] = np.degrees(angle_between(res["hand_normal"], -res["object_normal"]))
     return res
+
+
+@cached_per_value
+def _contact_sides(task: Task) -> tuple[tuple, tuple, np.ndarray]:
+    """Per contact: the hand's region, the object's region, the index of the hand region's
+    link (C,) -- the same for every configuration of a task."""
+    hregs = [task.hand_region(c) for c in task.contacts]
+    links = np.array([task.hand.link_index(h.link) for h in hregs], dtype=np.intp)
+    links.setflags(write=False)
+    return tuple(h.region for h in hregs), tuple(task.object_region(c) for c in task.contacts), links
 
 
 def limit_violations(hand, q) -> np.ndarray:
