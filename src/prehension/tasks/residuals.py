@@ -145,6 +145,14 @@ class ResidualReport:
                      [float(t) for t in tolerances], None, tuple(contacts))  # fmt: skip
         return report
 
+    @classmethod
+    def _from_floats(cls, kinds: tuple, names: tuple, values: list, units: tuple, tolerances: list, contacts: tuple):
+        """:meth:`from_columns` of columns already of the right types (tuples of str, lists
+        of Python floats), as :func:`evaluate` builds them: nothing converted again."""
+        report = cls.__new__(cls)
+        report._fill(kinds, names, values, units, tolerances, None, contacts)
+        return report
+
     def _fill(self, kinds, names, values, units, tolerances, checks, contacts) -> None:
         if not len(kinds) == len(names) == len(values) == len(units) == len(tolerances):
             raise ValueError("a residual report needs one kind, name, value, unit and tolerance per check")
@@ -350,11 +358,12 @@ def _evaluate(task: Task, config: Configuration, tolerances: Tolerances, pose: H
     columns = [sum((blk[k] for blk in blocks), ()) for k in (0, 1, 3)]
     values = [v for blk in blocks for v in blk[2]]
     tols = [t for blk in blocks for t in blk[4]]
-    return ResidualReport.from_columns(columns[0], columns[1], values, columns[2], tols, states)
+    return ResidualReport._from_floats(columns[0], columns[1], values, columns[2], tols, states)  # floats: see the blocks
 
 
 # Each block of checks is ``(kinds, names, values, units, tolerances)``: tuples of str and
-# sequences of floats, one entry per check (see ResidualReport.from_columns).
+# lists of Python floats (values) and tuples of Python floats (tolerances), one entry per
+# check (see ResidualReport.from_columns).
 _CONTACT_KINDS = ("contact_distance", "contact_normal", "hand_region", "object_region")
 
 
@@ -363,7 +372,7 @@ def _contact_checks(task, res, tol) -> tuple:
     C = len(task.contacts)
     values = np.stack([res[k][0] for k in ("distance_mm", "normal_angle_deg", "hand_region", "object_region")], axis=1)
     names, units = _contact_labels(task)
-    tols = (tol.contact_mm, tol.normal_deg, tol.region, tol.region) * C
+    tols = (float(tol.contact_mm), float(tol.normal_deg), float(tol.region), float(tol.region)) * C
     return _CONTACT_KINDS * C, names, values.ravel().tolist(), units, tols
 
 
@@ -386,7 +395,7 @@ def _joint_checks(task, q, tol) -> tuple:
     n, m = len(lim), len(cpl)
     names = _joint_labels(hand)
     return (("joint_limit",) * n + ("coupling",) * m, names, lim.tolist() + cpl.tolist(), ("deg",) * (n + m),
-            (tol.limit_deg,) * n + (tol.coupling_deg,) * m)  # fmt: skip
+            (float(tol.limit_deg),) * n + (float(tol.coupling_deg),) * m)  # fmt: skip
 
 
 @cached_per_value
@@ -403,7 +412,7 @@ def _collision_checks(task, pose, tol) -> tuple:
     if group.size:  # the pairs of one pair of links are contiguous (collision_pairs sorts them)
         depth[group[starts]] = np.maximum.reduceat(np.maximum(-clearance[0], 0.0), starts)
     n = len(labels)
-    return ("collision",) * n, labels, depth.tolist(), ("mm",) * n, (tol.penetration_mm,) * n
+    return ("collision",) * n, labels, depth.tolist(), ("mm",) * n, (float(tol.penetration_mm),) * n
 
 
 @lru_cache(maxsize=64)
@@ -427,4 +436,4 @@ def _object_collision_checks(task, pose, T_palm_object, hand_points_palm, tol) -
     depth = link_penetrations(task, pose, T, points)
     n = len(depth)
     return (("object_collision",) * n, tuple(depth), [float(v) for v in depth.values()], ("mm",) * n,
-            (tol.object_penetration_mm,) * n)  # fmt: skip
+            (float(tol.object_penetration_mm),) * n)  # fmt: skip
