@@ -231,30 +231,3 @@ def test_segment_min_sd_equals_the_smallest_of_every_sample(name):
         assert np.linalg.norm(pair[0] - samples[np.argmin(sd)]) < 1e-9
         assert distance.signed_distance(pair[0][None])[0] == pytest.approx(got, abs=1e-9)
     assert inside >= 20
-
-
-@pytest.mark.parametrize("name", ["teapot-service", "guitar-tuning"])
-def test_segment_min_sd_until_is_exact_above_enough_and_a_close_upper_bound_below(name):
-    """The repair's query: exact wherever its answer is at least ``enough``; below, the
-    coarse samples' minimum, never below the exact one and within 4 sample spacings of it."""
-    from prehension.objects.distance import segment_min_sd, segment_min_sd_until
-
-    distance = load_builtin_task(name).object.distance
-    lo, hi = distance.arrays.node_lo[0], distance.arrays.node_hi[0]
-    rng = np.random.default_rng(6)
-    coarse = 0
-    for _ in range(60):
-        a = rng.uniform(lo, hi)
-        b = a + rng.uniform(-40, 40, 3)
-        enough = rng.uniform(-6.0, 1.0)
-        exact = segment_min_sd(distance.arrays, a, b, 0.25, np.empty((2, 3)), np.inf)
-        pair = np.empty((2, 3))
-        got = segment_min_sd_until(distance.arrays, a, b, 0.25, pair, np.inf, enough)
-        spacing = np.linalg.norm(b - a) / (int(np.linalg.norm(b - a) / 0.25 + 0.5) + 1)
-        assert exact - 1e-12 <= got <= exact + 4 * spacing + 1e-9
-        if got >= enough:
-            assert got == exact
-        else:
-            coarse += got != exact
-            assert distance.signed_distance(pair[0][None])[0] == pytest.approx(got, abs=1e-9)
-    assert coarse >= 5  # the coarse answer is used, and differs from the exact one

@@ -37,7 +37,7 @@ except ImportError:  # pragma: no cover
         return lambda f: f
 
 
-__all__ = ["MeshArrays", "MeshDistance", "build_mesh_arrays", "empty_mesh_arrays", "segment_closest", "segment_closest_within", "segment_min_sd", "segment_min_sd_until"]
+__all__ = ["MeshArrays", "MeshDistance", "build_mesh_arrays", "empty_mesh_arrays", "segment_closest", "segment_closest_within", "segment_min_sd"]
 
 LEAF_SIZE = 8
 _STACK = 128  # traversal stack depth: enough for trees of up to 2^60 leaves
@@ -545,17 +545,12 @@ def _sample(p0, p1, j, k, out):
 
 
 @njit(cache=True)
-def _sampled_min_sd(m, p0, p1, k, pair, enough):
+def _sampled_min_sd(m, p0, p1, k, pair):
     """The smallest signed distance over the ``k`` evenly spaced points of ``p0``-``p1``,
     exactly as if every point were measured, but measuring only those that could be lower
     than the best so far: every ``_COARSE``-th point first, then a point between two
     measured ones only where ``sd`` being 1-Lipschitz allows it to be lower.  Each search
-    starts from the bound the nearest measured point gives (``|sd|`` is 1-Lipschitz too).
-
-    When the every-``_COARSE``-th points already give a value below ``enough`` [mm] (``-inf``:
-    never), that value is returned without the points between them: an upper bound of the
-    smallest, at most ``_COARSE / 2`` sample spacings above it (for a caller that needs the
-    value exactly only above ``enough``)."""
+    starts from the bound the nearest measured point gives (``|sd|`` is 1-Lipschitz too)."""
     h = np.sqrt((p1[0] - p0[0]) ** 2 + (p1[1] - p0[1]) ** 2 + (p1[2] - p0[2]) ** 2) / (k - 1)
     marks = np.arange(0, k + _COARSE - 1, _COARSE)
     marks[-1] = k - 1
@@ -570,8 +565,6 @@ def _sampled_min_sd(m, p0, p1, k, pair, enough):
             best = sd[a]
             pair[0] = p
             pair[1] = q
-    if best < enough:
-        return best
     slack = 1e-9 * (1.0 + h * k)
     for a in range(marks.shape[0] - 1):
         j0, j1 = marks[a], marks[a + 1]
@@ -600,21 +593,10 @@ def segment_min_sd(m, p0, p1, step, pair, bound):
     ``sd`` being 1-Lipschitz; the count rounded to the nearest, so that a capsule of a round
     length does not flip between two counts as it moves), and at most 0 (such a segment
     has a point on or inside the surface, which the samples may miss)."""
-    return segment_min_sd_until(m, p0, p1, step, pair, bound, -np.inf)
-
-
-@njit(cache=True)
-def segment_min_sd_until(m, p0, p1, step, pair, bound, enough):
-    """As :func:`segment_min_sd`, exact only down to ``enough`` [mm]: a segment whose
-    coarse samples (every ``_COARSE``-th) already reach below ``enough`` gets their smallest
-    value, an upper bound of the sampled minimum within ``_COARSE * step / 2`` of it, and
-    below ``enough`` too.  The local solver's repair asks this: a capsule deeper than its
-    margin is in collision whatever its exact depth, and the coarse deepest point gives
-    its row the same direction, for a fraction of the point queries."""
     d = segment_closest_within(m, p0, p1, pair[0], pair[1], bound)
     if _wholly_outside(m, p0, d):  # exact (or the bound)
         return d
-    return min(_sampled_min_sd(m, p0, p1, _sample_count(p0, p1, step), pair, enough), 0.0)
+    return min(_sampled_min_sd(m, p0, p1, _sample_count(p0, p1, step), pair), 0.0)
 
 
 @njit(cache=True)
@@ -674,7 +656,7 @@ def capsule_depths(m, starts, ends, radius, step, cap):
             out[i] = radius[i] + d
         else:  # as segment_min_sd, without its closest pair
             k = _sample_count(starts[i], ends[i], step)
-            out[i] = radius[i] - min(_sampled_min_sd(m, starts[i], ends[i], k, pair, -np.inf), 0.0)
+            out[i] = radius[i] - min(_sampled_min_sd(m, starts[i], ends[i], k, pair), 0.0)
     return out
 
 

@@ -14,10 +14,6 @@ link (``rho`` the contact's pad radius).  So ``max(0, -value)`` is exactly the d
 one residual function reports for that capsule (:func:`~prehension.objects.distance.capsule_depths`:
 the exact segment distance when the piece is outside the solid, else the deepest of
 samples ``step`` mm apart), and the kernel and the residual function agree on what counts.
-That holds for every value down to ``-margin``; a capsule deeper than the margin (a
-collision whatever its exact depth) gets the value of the coarse samples
-(:func:`~prehension.objects.distance.segment_min_sd_until`), below ``-margin`` too and
-within ``_COARSE * step / 2`` above the sampled one, its row from the coarse deepest point.
 
 **Its gradient.**  With the closest pair ``(p, s)`` -- ``p`` on the segment (fixed on the
 link), ``s`` on the surface (fixed on the object) -- and ``n`` the outward unit normal
@@ -36,7 +32,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ...objects.distance import MeshArrays, empty_mesh_arrays, segment_min_sd_until
+from ...objects.distance import MeshArrays, empty_mesh_arrays, segment_min_sd
 from ._jit import njit
 from ._linalg import cross, mat_vec
 
@@ -122,16 +118,14 @@ def _piece_end(ws, s, u, out):
 def _capsule_value(ws, s, best, reach):
     """Capsule ``s``'s value ``min (sd - r)`` over its kept pieces [mm] (``1e300`` when
     the pads cover it; at least ``reach`` is all that is known of a capsule whose value is
-    at least ``reach``, and a value below ``-reach`` is the coarse samples'), with the worst
-    piece's pair (object frame) in ``best (2, 3)`` and
+    at least ``reach``), with the worst piece's pair (object frame) in ``best (2, 3)`` and
     that pair's distance [mm] (0: no direction) second."""
     obj, oseg = ws.obj, ws.oseg
     value = 1e300
     for k in range(_cut(ws, s, ws.cut)):
         _piece_end(ws, s, ws.cut[0, k, 0], oseg[0])
         _piece_end(ws, s, ws.cut[0, k, 1], oseg[1])
-        r = ws.hand.cap_radius[s]
-        sd = segment_min_sd_until(obj.mesh, oseg[0], oseg[1], obj.step, oseg[2:4], r + reach, r - reach)
+        sd = segment_min_sd(obj.mesh, oseg[0], oseg[1], obj.step, oseg[2:4], ws.hand.cap_radius[s] + reach)
         if sd - ws.hand.cap_radius[s] >= reach:
             value = min(value, reach)  # no row: farther than the reach
             continue
