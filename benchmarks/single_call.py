@@ -2,6 +2,7 @@
 
     python benchmarks/single_call.py                 # 100 four-fingertip SA-hand tasks
     python benchmarks/single_call.py --tasks 300 --builtin
+    python benchmarks/single_call.py --cli 10        # + the command line, 10 fresh processes
 
 Rows, each the median CPU time (``time.process_time``) over the tasks, in one warm
 process (BLAS pinned to one thread): a whole ``solve_local`` call; the kernel on one
@@ -11,6 +12,14 @@ function, idle fingers settled); inside it ``evaluate`` with the pose given, and
 the nine built-in tasks' answers, with the object checked and ignored.  CPU times are
 less at the mercy of other processes than wall times, not immune: read them beside the
 load average printed at the start.
+
+With ``--cli N``: ``prehension solve teapot-lid-lifting`` (the README's first command)
+run N times as a fresh process, its median wall and CPU time (start-up included; numba's
+cache and the geometry cache warm: the first run warms them and is not counted); then the
+median split of the same work in N fresh processes: ``import prehension.cli``, loading
+the task, ``solve`` and writing the result file.  Python writes and reuses its bytecode
+(``PYTHONDONTWRITEBYTECODE`` is removed from the children's environment, as on a user's
+machine).
 """
 
 from __future__ import annotations
@@ -21,6 +30,11 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMB
     os.environ.setdefault(_var, "1")
 
 import argparse  # noqa: E402
+import json  # noqa: E402
+import resource  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
 import time  # noqa: E402
 from dataclasses import replace  # noqa: E402
 
@@ -94,14 +108,70 @@ def builtin_rows() -> list[tuple[str, float]]:
     return rows
 
 
+CLI_TASK = "teapot-lid-lifting"
+_SPLIT = r"""
+import json, sys, time
+t = [time.perf_counter()]
+import prehension.cli
+t.append(time.perf_counter())
+from prehension.tasks.library import resolve_task
+task = resolve_task(sys.argv[1])
+t.append(time.perf_counter())
+from prehension.solve import solve
+result = solve(task, "auto")
+t.append(time.perf_counter())
+from prehension.results import write_result
+write_result(result, sys.argv[2])
+t.append(time.perf_counter())
+print(json.dumps([b - a for a, b in zip(t, t[1:])] + [result.status]))
+"""
+
+
+def _child_env() -> dict:
+    env = dict(os.environ)
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
+    return env
+
+
+def _timed_child(argv: list[str]) -> tuple[float, float, str]:
+    """``(wall s, CPU s of the child, stdout)`` of one fresh process."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    done = subprocess.run(argv, capture_output=True, text=True, env=_child_env(), check=True)
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return wall, cpu, done.stdout
+
+
+def cli_rows(n: int) -> list[tuple[str, float]]:
+    with tempfile.TemporaryDirectory() as tmp:
+        out = os.path.join(tmp, "r.json")
+        command = [sys.executable, "-m", "prehension.cli", "solve", CLI_TASK, "-o", out]
+        _timed_child(command)  # warm: bytecode, numba's cache, the geometry cache
+        runs = [_timed_child(command)[:2] for _ in range(n)]
+        splits = [json.loads(_timed_child([sys.executable, "-c", _SPLIT, CLI_TASK, out])[2])[:4] for _ in range(n)]
+    wall, cpu = np.median(runs, axis=0)
+    parts = np.median(splits, axis=0)
+    return [
+        (f"prehension solve {CLI_TASK}, fresh process: wall ({n} runs)", float(wall)),
+        ("  the same: CPU of the process", float(cpu)),
+        ("  split (wall, fresh processes): import prehension.cli", float(parts[0])),
+        ("    load the task (YAML, hand, object, region checks)", float(parts[1])),
+        ("    solve (auto: the local solver)", float(parts[2])),
+        ("    write the result file (grasp quality included)", float(parts[3])),
+    ]
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--tasks", type=int, default=100, help="random four-fingertip SA-hand tasks (default 100)")
     parser.add_argument("--builtin", action="store_true", help="also make_solution on the nine built-in answers")
+    parser.add_argument("--cli", type=int, default=0, metavar="N", help=f"also `prehension solve {CLI_TASK}` in N fresh processes")
     args = parser.parse_args()
     console = Console()
     console.print(f"load average at the start {os.getloadavg()[0]:.1f} ({os.cpu_count()} cores)")
-    rows = point_rows(args.tasks) + (builtin_rows() if args.builtin else [])
+    rows = point_rows(args.tasks) + (builtin_rows() if args.builtin else []) + (cli_rows(args.cli) if args.cli else [])
     table = Table(title="One problem at a time, warm process: CPU medians")
     table.add_column("what")
     table.add_column("ms", justify="right")

@@ -13,6 +13,23 @@ CUIK_DIR = SHARED / "cuik-ijrr"
 HANDS_DIR = SHARED / "hands"
 
 
+@pytest.fixture(scope="session", autouse=True)
+def _own_geometry_cache(tmp_path_factory):
+    """The suite's own on-disk geometry cache (``PREHENSION_CACHE_DIR``), inherited by the
+    command-line runs it starts: a run never reads or fills the user's ``~/.cache``."""
+    import os
+
+    from prehension.objects.geometry_cache import CACHE_ENV
+
+    before = os.environ.get(CACHE_ENV)
+    os.environ[CACHE_ENV] = str(tmp_path_factory.mktemp("geometry-cache"))
+    yield
+    if before is None:
+        os.environ.pop(CACHE_ENV, None)
+    else:
+        os.environ[CACHE_ENV] = before
+
+
 @pytest.fixture(scope="session")
 def sa_hand():
     from prehension.hands.sa_hand import schunk_sa_hand

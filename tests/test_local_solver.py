@@ -547,3 +547,30 @@ def test_the_kernel_compiles_each_function_for_one_signature():
     assert len(_cached_signatures(distance.capsule_depths)) == 1
     assert _cached_signatures(K.run_states) and len(missing) <= checked // 2, f"not in numba's cache: {missing}"
     assert not more, f"compiled for more than one signature (or a stale cache from older sources): {more}"
+
+
+def test_a_seed_draws_what_the_generator_it_names_draws():
+    """solve_local makes its generator only when it draws (random initial poses, or poses
+    beyond the sequence); every draw is the one of np.random.default_rng(seed)."""
+    from dataclasses import replace
+
+    from prehension.hands.sa_hand import schunk_sa_hand
+    from prehension.solvers.local.sequence import default_sequence
+
+    problems = random_point_problems(6, schunk_sa_hand(), seed=11)
+    tasks = [problems.task(i) for i in range(6)]
+    full = default_sequence(schunk_sa_hand())
+    short = replace(full, lambdas=full.lambdas[:1])  # waves 2 and 3 draw random poses
+    for options, sequence in ((LocalOptions(initial="random", i_max=4), None), (LocalOptions(i_max=3, k_max=2), short)):
+        lazy = solve_local_batch(tasks, options, sequence, rng=7)
+        assert sequence is None or sum(r.initial_poses_tried > 1 for r in lazy) >= 1  # random poses were drawn
+        eager = solve_local_batch(tasks, options, sequence, rng=np.random.default_rng(7))
+        for a, b in zip(lazy, eager):
+            assert a.per_pose_iterations == b.per_pose_iterations and a.solved_with_pose == b.solved_with_pose
+            assert (a.joint_angles is None) == (b.joint_angles is None)
+            if a.joint_angles is not None:
+                np.testing.assert_array_equal(a.joint_angles, b.joint_angles)
+        one = solve_local(tasks[0], options, sequence, seed=7)
+        assert one.stats["per_pose_iterations"] == list(eager[0].per_pose_iterations)
+    with pytest.raises(ValueError):
+        solve_local(tasks[0], LocalOptions(initial="random"), seed=-1)  # refused as numpy refuses it

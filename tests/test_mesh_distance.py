@@ -75,6 +75,26 @@ def test_segment_distance_is_the_minimum_over_the_segment(bunny, rng):
         assert d[i] >= sampled - seg / 800 - 1e-9  # ... within the sampling step (1-Lipschitz)
 
 
+@requires_objects
+def test_long_segments_pruned_by_their_distance_to_each_box_lose_no_triangle(bunny, rng):
+    """The traversal prunes a box by its distance to the segment (not to the segment's own
+    box): the answer is still the minimum over every triangle, bit for bit."""
+    from prehension.objects import distance as D
+
+    _, md = bunny
+    m = md.arrays
+    lo, hi = m.node_lo[0] - 30, m.node_hi[0] + 30
+    pair = np.empty((2, 3))
+    for _ in range(25):
+        a = rng.uniform(lo, hi)
+        b = a + rng.normal(size=3) / 1.0 * 80.0
+        brute = min(D._segment_triangle_sq(a, b, m.tri[f, 0], m.tri[f, 1], m.tri[f, 2], np.empty(3)) for f in range(len(m.tri)))
+        assert D.segment_distances(m, a[None], b[None])[0] == np.sqrt(brute)
+        assert D.segment_closest(m, a, b, pair[0], pair[1]) == np.sqrt(brute)
+        if brute > 0:
+            assert np.linalg.norm(pair[0] - pair[1]) == pytest.approx(np.sqrt(brute), abs=1e-9)
+
+
 def test_cube_distances_exact():
     import trimesh
 

@@ -52,3 +52,30 @@ def test_tasks_pickle_for_worker_processes():
     )
     with __import__("pytest").raises(TypeError):
         task.hand.regions["x"] = None  # still read-only
+
+
+def test_importing_the_command_line_leaves_the_heavy_parts_for_later():
+    """``import prehension.cli`` (what every command pays) imports no mesh library, no
+    scipy.spatial / scipy.optimize, no quality measures, viewer or cluster code: the
+    public names are imported on first use."""
+    import subprocess
+    import sys
+
+    heavy = ("trimesh", "scipy.spatial", "scipy.optimize", "scipy.ndimage", "prehension.quality",
+             "prehension.viewer", "prehension.solvers.complete.search", "dask", "distributed")  # fmt: skip
+    code = f"import sys, prehension.cli; print([m for m in {heavy!r} if m in sys.modules])"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "[]"
+
+
+def test_public_names_are_the_objects_of_their_modules():
+    from prehension.results import make_solution
+    from prehension.solve import solve
+    from prehension.tasks.residuals import evaluate
+
+    assert prehension.evaluate is evaluate and prehension.make_solution is make_solution
+    assert prehension.solve is solve  # the function, not the submodule of the same name
+    assert set(prehension.__all__) <= set(dir(prehension))
+    with __import__("pytest").raises(AttributeError, match="no attribute 'not_a_name'"):
+        prehension.not_a_name  # noqa: B018

@@ -238,3 +238,26 @@ def test_a_gave_up_result_writes_strict_json(tmp_path):
         raise ValueError(f"non-standard JSON constant {name}")
 
     json.loads(path.read_text(), parse_constant=refuse)
+
+
+def test_a_solution_names_the_idle_angles_that_differ_from_the_task():
+    import numpy as np
+
+    from prehension.results import _solution
+    from prehension.solvers.local import solve_local
+    from prehension.tasks.library import load_builtin_task
+    from prehension.tasks.model import Configuration
+
+    task = load_builtin_task("teapot-lid-lifting")
+    sol = solve_local(task).solutions[0]
+    idle = [d for d, a in zip(task.hand.dof_names, task.active_mask) if not a]
+    q = sol.q.copy()
+    for d in idle[:2]:
+        i = task.hand.dof_index(d)
+        q[i] = 0.5 * (task.idle_vector[i] + task.hand.upper[i]) if task.idle_vector[i] < task.hand.upper[i] else task.hand.lower[i]
+    config = Configuration(q, sol.T_palm_object, sol.configuration().contact_params)
+    made = _solution(task, config, __import__("prehension").forward_kinematics(task.hand, q), sol.report, sol.tolerances)
+    assert made.idle_moved == tuple(idle[:2]) and len(idle) > 2
+    assert list(made.joint_angles) == list(task.hand.dof_names) and all(type(v) is float for v in made.joint_angles.values())
+    np.testing.assert_array_equal(np.array(list(made.joint_angles.values())), q)
+    assert list(made.link_poses) == list(task.hand.link_names)

@@ -6,6 +6,7 @@ configuration is judged by one residual function, :func:`evaluate`.
 
 from __future__ import annotations
 
+from importlib import import_module
 from importlib.metadata import PackageNotFoundError, version
 
 from .errors import (
@@ -18,28 +19,40 @@ from .errors import (
     PrehensionError,
     WorldFileError,
 )
-from .geometry.bezier import BezierPatch
-from .geometry.regions import BezierRegion, PointRegion, Region, SphereCap
-from .hands.kinematics import HandPose, forward_kinematics
-from .hands.model import Capsule, Coupling, Finger, Hand, HandRegion, Joint, Link
-from .hands.sa_hand import schunk_sa_hand
-from .hands.files import load_hand_file
-from .hands.mjcf import hand_from_mjcf
-from .hands.urdf import hand_from_urdf
-from .best import BestOptions, solve_best
-from .objects.mesh_io import load_mesh
-from .objects.model import GraspObject
-from .objects.pick import PickedRegion, region_from_mesh
-from .objects.solid import MeshFileSolid, PrimitiveSolid
-from .quality import GraspQuality, QualityOptions, grasp_quality
-from .results import Solution, SolveResult, Status, make_solution, read_result, write_result
-from .solve import solve
-from .tasks.cuik_import import import_world
-from .tasks.library import builtin_task_names, load_builtin_task, resolve_task
-from .tasks.model import Configuration, Contact, Task
-from .tasks.residuals import ResidualReport, Tolerances, evaluate
-from .tasks.variants import move_object_region, turn_object_region
-from .tasks.yaml_io import dump_task, dumps_task, load_task, loads_task
+
+# Where each public name lives.  They are imported on first use (PEP 562 ``__getattr__``),
+# so that ``import prehension.cli`` (or any submodule) does not pay for scipy.spatial,
+# trimesh, the quality measures or the solvers it does not touch: the command line
+# starts in a fraction of the time.  ``from prehension import X`` and ``prehension.X``
+# work as with eager imports; ``dir(prehension)`` lists every name.
+_SOURCES = {
+    ".geometry.bezier": ("BezierPatch",),
+    ".geometry.regions": ("BezierRegion", "PointRegion", "Region", "SphereCap"),
+    ".hands.kinematics": ("HandPose", "forward_kinematics"),
+    ".hands.model": ("Capsule", "Coupling", "Finger", "Hand", "HandRegion", "Joint", "Link"),
+    ".hands.sa_hand": ("schunk_sa_hand",),
+    ".hands.files": ("load_hand_file",),
+    ".hands.mjcf": ("hand_from_mjcf",),
+    ".hands.urdf": ("hand_from_urdf",),
+    ".best": ("BestOptions", "solve_best"),
+    ".objects.mesh_io": ("load_mesh",),
+    ".objects.model": ("GraspObject",),
+    ".objects.pick": ("PickedRegion", "region_from_mesh"),
+    ".objects.solid": ("MeshFileSolid", "PrimitiveSolid"),
+    ".quality": ("GraspQuality", "QualityOptions", "grasp_quality"),
+    ".results": ("Solution", "SolveResult", "Status", "make_solution", "read_result", "write_result"),
+    ".tasks.cuik_import": ("import_world",),
+    ".tasks.library": ("builtin_task_names", "load_builtin_task", "resolve_task"),
+    ".tasks.model": ("Configuration", "Contact", "Task"),
+    ".tasks.residuals": ("ResidualReport", "Tolerances", "evaluate"),
+    ".tasks.variants": ("move_object_region", "turn_object_region"),
+    ".tasks.yaml_io": ("dump_task", "dumps_task", "load_task", "loads_task"),
+}
+_MODULE_OF = {name: module for module, names in _SOURCES.items() for name in names}
+
+# ``solve`` is both a submodule and the function it defines: imported now, so that
+# ``prehension.solve`` is the function whichever of them is imported first.
+from .solve import solve  # noqa: E402
 
 try:
     __version__ = version("prehension")
@@ -67,3 +80,17 @@ __all__ = [
     # does the grasp hold? (the physics test: prehension.sim, extra "sim")
     "grasp_quality", "QualityOptions", "GraspQuality", "solve_best", "BestOptions",
 ]  # fmt: skip
+
+
+def __getattr__(name: str):
+    """A public name, imported from its module on first use (then kept in the package)."""
+    module = _MODULE_OF.get(name)
+    if module is None:
+        raise AttributeError(f"module 'prehension' has no attribute {name!r}")
+    value = getattr(import_module(module, __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_MODULE_OF))

@@ -24,7 +24,7 @@ from .errors import InvalidTask
 from .hands.kinematics import forward_kinematics
 from .tasks.idle import settle_idle_fingers
 from .tasks.model import Configuration, Task
-from .tasks.residuals import ResidualReport, Tolerances, evaluate
+from .tasks.residuals import ResidualReport, Tolerances, _evaluate
 
 __all__ = [
     "Status",
@@ -161,7 +161,7 @@ def first_solution(task: Task, config: Configuration, levels) -> tuple[int, Solu
         if key not in evaluated:
             settled = settle_idle_fingers(task, config, key)
             pose = forward_kinematics(task.hand, settled.joint_angles)
-            evaluated[key] = (settled, pose, evaluate(task, settled, tol, pose=pose), tol)
+            evaluated[key] = (settled, pose, _evaluate(task, settled, tol, pose), tol)  # evaluate(): shapes checked above
         settled, pose, report, judged_with = evaluated[key]
         if tol != judged_with:
             report = report.judged(tol)
@@ -179,14 +179,13 @@ def _solution(task: Task, config: Configuration, pose, report: ResidualReport, t
         )  # fmt: skip
         for s in report.contacts
     )
-    idle = task.idle_vector
-    moved = tuple(
-        d for i, d in enumerate(task.hand.dof_names) if not task.active_mask[i] and config.joint_angles[i] != idle[i]
-    )
+    q = config.joint_angles
+    moved_mask = (~task.active_mask & (q != task.idle_vector)).tolist()  # idle dofs that settling moved
+    moved = tuple(d for d, m in zip(task.hand.dof_names, moved_mask) if m)
     return Solution(
-        dict(zip(task.hand.dof_names, (float(x) for x in config.joint_angles))),
+        dict(zip(task.hand.dof_names, q.tolist())),  # Python floats, the same values
         config.T_palm_object.copy(),
-        {name: T[i] for i, name in enumerate(task.hand.link_names)},
+        dict(zip(task.hand.link_names, T)),  # T[i] per link, in order
         contacts,
         report,
         tolerances,

@@ -19,7 +19,6 @@ Conventions
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from prehension.errors import InvalidGeometry
 
@@ -135,6 +134,8 @@ def matrix_to_axis_angle(R: np.ndarray, atol: float = 1e-6) -> tuple[np.ndarray,
         raise InvalidGeometry(
             f"R[{int(np.argmax(bad))}] is not a rotation matrix (orthonormal, det +1) within atol={atol}"
         )
+    from scipy.spatial.transform import Rotation  # here, not at import: scipy.spatial costs ~0.3 s to import
+
     rotvec = Rotation.from_matrix(R).as_rotvec().reshape(-1, 3)
     angle = np.linalg.norm(rotvec, axis=-1)
     axis = np.tile([0.0, 0.0, 1.0], (len(R), 1))
@@ -177,6 +178,8 @@ def random_rotations(rng: np.random.Generator, B: int) -> np.ndarray:
     # Normalised 4-D Gaussians are uniform unit quaternions, hence Haar rotations.
     q = rng.standard_normal((int(B), 4))
     q /= np.linalg.norm(q, axis=1, keepdims=True)
+    from scipy.spatial.transform import Rotation  # here, not at import: scipy.spatial costs ~0.3 s to import
+
     return Rotation.from_quat(q).as_matrix().reshape(int(B), 3, 3)
 
 
@@ -226,7 +229,9 @@ def angle_between(a, b) -> np.ndarray:
     rounded cosine loses half the digits (an error of ~1e-8 rad at 0).
     """
     a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-    return np.arctan2(np.linalg.norm(cross3(a, b), axis=-1), np.sum(a * b, axis=-1))
+    c = cross3(a, b)
+    # np.linalg.norm(c, axis=-1) and np.sum(a * b, axis=-1), the same operations without their wrappers
+    return np.arctan2(np.sqrt(np.add.reduce(c * c, axis=-1)), np.add.reduce(a * b, axis=-1))
 
 
 def signed_angle(a: np.ndarray, b: np.ndarray, axis: np.ndarray) -> np.ndarray:

@@ -337,6 +337,25 @@ def signed_distances(m, points, out_closest):
 
 
 @njit(cache=True)
+def _box_segment_sq(lo, hi, p0, p1, seg_lo, seg_hi):
+    """A lower bound of the squared distance from box ``lo``-``hi`` to segment ``p0``-``p1``
+    (whose own box is ``seg_lo``-``seg_hi``): the larger of the two boxes' distance and the
+    distance from the box's centre to the segment less the box's half diagonal (its
+    bounding sphere), made smaller by 1e-9 mm so that rounding never makes it exceed the
+    true distance.  The sphere's bound is the tight one for a long segment across the
+    mesh, whose own box holds many boxes that the segment passes far from."""
+    d_box = _box_box_sq(lo, hi, seg_lo, seg_hi)
+    dx, dy, dz = p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]
+    cx, cy, cz = 0.5 * (lo[0] + hi[0]) - p0[0], 0.5 * (lo[1] + hi[1]) - p0[1], 0.5 * (lo[2] + hi[2]) - p0[2]
+    dd = dx * dx + dy * dy + dz * dz
+    u = min(max((cx * dx + cy * dy + cz * dz) / dd, 0.0), 1.0) if dd > 0.0 else 0.0
+    ex, ey, ez = cx - u * dx, cy - u * dy, cz - u * dz
+    half = 0.5 * np.sqrt((hi[0] - lo[0]) ** 2 + (hi[1] - lo[1]) ** 2 + (hi[2] - lo[2]) ** 2)
+    gap = np.sqrt(ex * ex + ey * ey + ez * ez) - half - 1e-9
+    return max(d_box, gap * gap) if gap > 0.0 else d_box
+
+
+@njit(cache=True)
 def _seg_seg_st(p0, p1, q0, q1):
     """Closest points of segments p0p1 and q0q1 (Ericson 5.1.9, scalar code):
     ``(squared distance, s, t)`` with the points ``p0 + s (p1 - p0)`` and ``q0 + t (q1 - q0)``."""
@@ -421,7 +440,7 @@ def _segment_query(m, p0, p1):
     while top > 0 and best > 0.0:
         top -= 1
         k = stack[top]
-        if _box_box_sq(m.node_lo[k], m.node_hi[k], lo, hi) >= best:
+        if _box_segment_sq(m.node_lo[k], m.node_hi[k], p0, p1, lo, hi) >= best:
             continue
         if m.node_left[k] < 0:
             for f in range(m.node_start[k], m.node_start[k] + m.node_count[k]):
@@ -488,7 +507,7 @@ def segment_closest_within(m, p0, p1, ps, pm, bound):
     while top > 0 and best > 0.0:
         top -= 1
         k = stack[top]
-        if _box_box_sq(m.node_lo[k], m.node_hi[k], lo, hi) >= best:
+        if _box_segment_sq(m.node_lo[k], m.node_hi[k], p0, p1, lo, hi) >= best:
             continue
         if m.node_left[k] < 0:
             for f in range(m.node_start[k], m.node_start[k] + m.node_count[k]):

@@ -74,7 +74,8 @@ Solid = MeshFileSolid | PrimitiveSolid
 
 def solid_geometry(solid: Solid, closed: bool = True):
     """``(Mesh, MeshDistance)`` of a solid, shared by every object made from the same
-    solid (a mesh file is known by its path, size and modification time)."""
+    solid (a mesh file is known by its path, size and modification time), and kept on
+    disk between processes (:mod:`.geometry_cache`)."""
     key = (solid, closed)
     if isinstance(solid, MeshFileSolid):
         try:
@@ -87,11 +88,20 @@ def solid_geometry(solid: Solid, closed: bool = True):
 
 @functools.lru_cache(maxsize=32)
 def _cached_geometry(key):
+    """Built once per process; across processes read from the disk cache of
+    :mod:`.geometry_cache` (the same arrays, bit for bit) when an entry exists."""
     from .distance import MeshDistance
+    from .geometry_cache import geometry_key, load_geometry, store_geometry
 
     solid, closed = key[0], key[1]
+    disk_key = geometry_key(solid, closed)
+    stored = load_geometry(disk_key)
+    if stored is not None:
+        return stored
     mesh = solid.mesh(closed=closed)
-    return mesh, MeshDistance(mesh.vertices, mesh.faces)
+    distance = MeshDistance(mesh.vertices, mesh.faces)
+    store_geometry(disk_key, mesh, distance)
+    return mesh, distance
 
 
 def _sections(radius: float, tol: float = TESSELLATION_MM) -> int:

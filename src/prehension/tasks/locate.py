@@ -16,7 +16,6 @@ small grid.  When the contact holds, the minimum is 0 and the parameters found w
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from ..hands.kinematics import HandPose
 
@@ -86,7 +85,7 @@ def locate_contact_params(task, pose: HandPose, T_palm_object) -> tuple[tuple[np
         lo, hi = _bounds(hreg, oreg)
         best = None
         for x0 in seeds[np.argsort(cost)[:_STARTS]]:
-            sol = least_squares(
+            sol = _least_squares()(
                 lambda x: residual(x)[0], np.clip(x0, lo, hi), jac=jacobian, bounds=(lo, hi),
                 xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=200,
             )  # fmt: skip
@@ -94,3 +93,10 @@ def locate_contact_params(task, pose: HandPose, T_palm_object) -> tuple[tuple[np
                 best = sol
         out.append((best.x[:kh].copy(), best.x[kh:].copy()))
     return tuple(out)
+
+
+def _least_squares():
+    """``scipy.optimize.least_squares``, imported on first use (scipy.optimize costs ~0.2 s to import)."""
+    from scipy.optimize import least_squares
+
+    return least_squares

@@ -21,12 +21,14 @@ when every check passes.  The batch cores (:func:`contact_residuals`,
 
 from __future__ import annotations
 
+import operator
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import Sequence
 
 import numpy as np
 
+from ..frozen import cached_per_value
 from ..geometry.regions import evaluate_regions
 from ..geometry.rotations import angle_between
 from ..hands.collision import capsule_clearances
@@ -143,6 +145,14 @@ class ResidualReport:
                      [float(t) for t in tolerances], None, tuple(contacts))  # fmt: skip
         return report
 
+    @classmethod
+    def _from_floats(cls, kinds: tuple, names: tuple, values: list, units: tuple, tolerances: list, contacts: tuple):
+        """:meth:`from_columns` of columns already of the right types (tuples of str, lists
+        of Python floats), as :func:`evaluate` builds them: nothing converted again."""
+        report = cls.__new__(cls)
+        report._fill(kinds, names, values, units, tolerances, None, contacts)
+        return report
+
     def _fill(self, kinds, names, values, units, tolerances, checks, contacts) -> None:
         if not len(kinds) == len(names) == len(values) == len(units) == len(tolerances):
             raise ValueError("a residual report needs one kind, name, value, unit and tolerance per check")
@@ -170,7 +180,7 @@ class ResidualReport:
 
     @property
     def ok(self) -> bool:
-        return all(v <= t for v, t in zip(self._values, self._tolerances))
+        return all(map(operator.le, self._values, self._tolerances))  # every value <= its tolerance (NaN fails)
 
     @property
     def failures(self) -> tuple[Check, ...]:
@@ -178,10 +188,8 @@ class ResidualReport:
 
     def worst(self, kind: str) -> float:
         """Largest violation of one kind (0 when there is no such check)."""
-        if self._worst is None:  # every kind's largest value, in one pass (max() keeps the first of equal values)
-            worst: dict = {}
-            for k, v in zip(self._kinds, self._values):
-                worst[k] = max(worst[k], v) if k in worst else v
+        if self._worst is None:  # every kind's largest value (max() over each kind's values in order)
+            worst = {k: max(take(self._values)) for k, take in _kind_getters(self._kinds)}
             object.__setattr__(self, "_worst", worst)
         return self._worst.get(kind, 0.0)
 
@@ -195,6 +203,23 @@ class ResidualReport:
         if self.ok:
             return "all constraints satisfied"
         return "; ".join(c.describe() for c in self.failures)
+
+
+@lru_cache(maxsize=256)
+def _kind_getters(kinds: tuple[str, ...]) -> tuple:
+    """Per distinct kind (in order of first appearance): a function of the values list
+    giving that kind's values, in order (the same kinds for every configuration of a task)."""
+    where: dict = {}
+    for i, k in enumerate(kinds):
+        where.setdefault(k, []).append(i)
+    return tuple((k, _getter(idx)) for k, idx in where.items())
+
+
+def _getter(idx: list[int]):
+    if len(idx) == 1:
+        i = idx[0]
+        return lambda values: (values[i],)
+    return operator.itemgetter(*idx)
 
 
 def _report_from_state(kinds, names, values, units, tolerances, checks, contacts) -> ResidualReport:
@@ -223,10 +248,9 @@ def contact_residuals(task: Task, pose: HandPose, T_palm_object, params) -> dict
         ``object_point``, ``object_normal`` (B, C, 3).
     """
     T = np.asarray(T_palm_object, dtype=float).reshape(-1, 4, 4)
-    hregs = [task.hand_region(c) for c in task.contacts]
-    h_pt, h_n, h_out = evaluate_regions([h.region for h in hregs], [hp for hp, _ in params])
-    o_pt, o_n, o_out = evaluate_regions([task.object_region(c) for c in task.contacts], [op for _, op in params])
-    links = [task.hand.link_index(h.link) for h in hregs]
+    hand_regions, object_regions, links = _contact_sides(task)
+    h_pt, h_n, h_out = evaluate_regions(hand_regions, [hp for hp, _ in params])
+    o_pt, o_n, o_out = evaluate_regions(object_regions, [op for _, op in params])
     R, r = pose.R_palm_link[:, links], pose.r_palm_link[:, links]  # (B, C, 3, 3), (B, C, 3)
     R_o = T[:, None, :3, :3]
     res = {
@@ -237,9 +261,20 @@ def contact_residuals(task: Task, pose: HandPose, T_palm_object, params) -> dict
         "hand_region": h_out,
         "object_region": o_out,
     }
-    res["distance_mm"] = np.linalg.norm(res["hand_point"] - res["object_point"], axis=-1)
+    gap = res["hand_point"] - res["object_point"]
+    res["distance_mm"] = np.sqrt(np.add.reduce(gap * gap, axis=-1))  # np.linalg.norm(gap, axis=-1) without its wrapper
     res["normal_angle_deg"] = np.degrees(angle_between(res["hand_normal"], -res["object_normal"]))
     return res
+
+
+@cached_per_value
+def _contact_sides(task: Task) -> tuple[tuple, tuple, np.ndarray]:
+    """Per contact: the hand's region, the object's region, the index of the hand region's
+    link (C,) -- the same for every configuration of a task."""
+    hregs = [task.hand_region(c) for c in task.contacts]
+    links = np.array([task.hand.link_index(h.link) for h in hregs], dtype=np.intp)
+    links.setflags(write=False)
+    return tuple(h.region for h in hregs), tuple(task.object_region(c) for c in task.contacts), links
 
 
 def limit_violations(hand, q) -> np.ndarray:
@@ -293,6 +328,11 @@ def evaluate(task: Task, config: Configuration, tolerances: Tolerances = Toleran
     computed it already (it is not computed twice).
     """
     config.check_against(task)
+    return _evaluate(task, config, tolerances, pose)
+
+
+def _evaluate(task: Task, config: Configuration, tolerances: Tolerances, pose: HandPose | None) -> ResidualReport:
+    """:func:`evaluate` of a configuration whose shapes fit the task (``check_against`` done)."""
     if pose is None:
         pose = forward_kinematics(task.hand, config.joint_angles)
     T = config.T_palm_object[None]
@@ -318,11 +358,12 @@ def evaluate(task: Task, config: Configuration, tolerances: Tolerances = Toleran
     columns = [sum((blk[k] for blk in blocks), ()) for k in (0, 1, 3)]
     values = [v for blk in blocks for v in blk[2]]
     tols = [t for blk in blocks for t in blk[4]]
-    return ResidualReport.from_columns(columns[0], columns[1], values, columns[2], tols, states)
+    return ResidualReport._from_floats(columns[0], columns[1], values, columns[2], tols, states)  # floats: see the blocks
 
 
 # Each block of checks is ``(kinds, names, values, units, tolerances)``: tuples of str and
-# sequences of floats, one entry per check (see ResidualReport.from_columns).
+# lists of Python floats (values) and tuples of Python floats (tolerances), one entry per
+# check (see ResidualReport.from_columns).
 _CONTACT_KINDS = ("contact_distance", "contact_normal", "hand_region", "object_region")
 
 
@@ -330,11 +371,17 @@ def _contact_checks(task, res, tol) -> tuple:
     """Per contact, in order: distance [mm], normal angle [deg], hand and object region."""
     C = len(task.contacts)
     values = np.stack([res[k][0] for k in ("distance_mm", "normal_angle_deg", "hand_region", "object_region")], axis=1)
+    names, units = _contact_labels(task)
+    tols = (float(tol.contact_mm), float(tol.normal_deg), float(tol.region), float(tol.region)) * C
+    return _CONTACT_KINDS * C, names, values.ravel().tolist(), units, tols
+
+
+@cached_per_value
+def _contact_labels(task: Task) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """The names and units of a task's contact checks (the same for every configuration)."""
     units = tuple(u for c in task.contacts
                   for u in ("mm", "deg", _unit(task.hand_region(c).region), _unit(task.object_region(c))))  # fmt: skip
-    names = tuple(c.name for c in task.contacts for _ in range(4))
-    tols = (tol.contact_mm, tol.normal_deg, tol.region, tol.region) * C
-    return _CONTACT_KINDS * C, names, values.ravel().tolist(), units, tols
+    return tuple(c.name for c in task.contacts for _ in range(4)), units
 
 
 def _unit(region) -> str:
@@ -346,9 +393,15 @@ def _joint_checks(task, q, tol) -> tuple:
     lim = np.degrees(limit_violations(hand, q)[0])
     cpl = np.degrees(coupling_violations(hand, q)[0])
     n, m = len(lim), len(cpl)
-    names = tuple(hand.dof_names) + tuple(f"{c.dof}={c.source}" for c in hand.couplings)
+    names = _joint_labels(hand)
     return (("joint_limit",) * n + ("coupling",) * m, names, lim.tolist() + cpl.tolist(), ("deg",) * (n + m),
-            (tol.limit_deg,) * n + (tol.coupling_deg,) * m)  # fmt: skip
+            (float(tol.limit_deg),) * n + (float(tol.coupling_deg),) * m)  # fmt: skip
+
+
+@cached_per_value
+def _joint_labels(hand) -> tuple[str, ...]:
+    """The names of a hand's limit and coupling checks."""
+    return tuple(hand.dof_names) + tuple(f"{c.dof}={c.source}" for c in hand.couplings)
 
 
 def _collision_checks(task, pose, tol) -> tuple:
@@ -359,7 +412,7 @@ def _collision_checks(task, pose, tol) -> tuple:
     if group.size:  # the pairs of one pair of links are contiguous (collision_pairs sorts them)
         depth[group[starts]] = np.maximum.reduceat(np.maximum(-clearance[0], 0.0), starts)
     n = len(labels)
-    return ("collision",) * n, labels, depth.tolist(), ("mm",) * n, (tol.penetration_mm,) * n
+    return ("collision",) * n, labels, depth.tolist(), ("mm",) * n, (float(tol.penetration_mm),) * n
 
 
 @lru_cache(maxsize=64)
@@ -383,4 +436,4 @@ def _object_collision_checks(task, pose, T_palm_object, hand_points_palm, tol) -
     depth = link_penetrations(task, pose, T, points)
     n = len(depth)
     return (("object_collision",) * n, tuple(depth), [float(v) for v in depth.values()], ("mm",) * n,
-            (tol.object_penetration_mm,) * n)  # fmt: skip
+            (float(tol.object_penetration_mm),) * n)  # fmt: skip

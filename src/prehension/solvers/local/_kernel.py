@@ -16,7 +16,8 @@ function that returns a status code (``MESSAGES`` says what each means, as
    self-collision, or with a link in the object's solid, is moved out of it by
    Gauss-Newton on the contact rows plus one inequality row per capsule pair or capsule
    closer than the margin (:mod:`._model`, :mod:`._penetration`), then polished again;
-   ``COLLIDING`` when that fails.
+   ``COLLIDING`` when that fails; a clear state within ``d_min`` met on the way is
+   polished at once (:func:`_polished_clear`), which ends the repair when it succeeds.
 
 The caller (:mod:`.solver`) re-checks every answer with the foundation's functions.
 The state, its scratch arrays and its options travel as NamedTuples
@@ -425,12 +426,33 @@ def _repair_step(ws, n_rows):
 
 
 @njit(cache=True)
+def _polished_clear(ws, data):
+    """Polish a clear repair state: ``(True, iterations)``, polished, if that reaches
+    ``STRICT`` and stays clear; else ``(False, iterations)`` with the state back as it was
+    (the repair goes on from it).
+
+    Without it the repair's Gauss-Newton steps keep the inequality rows of the capsules
+    that come within the margin, which appear and vanish from one step to the next and
+    slow the contacts' convergence to the polishing tolerance (often all ``n_repair``
+    iterations), each step paying the capsule-vs-mesh queries; the polish steps need none."""
+    _keep(ws, np.int64(REPAIRED))
+    code, it = polish(ws, data)
+    if code == STRICT and clearance(ws, data) >= 0.0:
+        return True, it
+    _restore(ws, data, np.int64(REPAIRED))
+    return False, it
+
+
+@njit(cache=True)
 def repair(ws, data):
     """Out of collision: Gauss-Newton on the contact rows and the inequality rows of
-    capsule pairs and capsules (against the object) closer than the margin.  ``(STRICT, WITHIN_DMIN or COLLIDING, iterations)``."""
+    capsule pairs and capsules (against the object) closer than the margin; from each
+    clear state within ``d_min``, a polish (:func:`_polished_clear`), which ends the repair
+    when it reaches ``STRICT`` and stays clear.  ``(STRICT, WITHIN_DMIN or COLLIDING,
+    iterations, polish iterations)``."""
     opt = ws.opt
     n = 6 * ws.lay.sides.shape[0]
-    prev, slow, cmin, rk = 1e300, 0, -1.0, 0
+    prev, slow, cmin, rk, n_pol = 1e300, 0, -1.0, 0, 0
     strict = within = False
     for rk in range(opt.n_repair + 1):
         contact_rows(ws, data, np.bool_(True))
@@ -450,13 +472,18 @@ def repair(ws, data):
             slow += 1
         if cmin >= 0.0 and within and slow >= 5:
             break  # clear, within d_min, no longer converging
+        if cmin >= 0.0 and within and opt.n_polish > 0:
+            done, it = _polished_clear(ws, data)
+            n_pol += it
+            if done:
+                return STRICT, rk, n_pol  # polished from a clear state: done
         if not _repair_step(ws, n + rows):
             break
         move(ws, data)
         pose_hand(ws)
     if cmin < 0.0:
-        return COLLIDING, rk
-    return (STRICT if strict else (WITHIN_DMIN if within else COLLIDING)), rk
+        return COLLIDING, rk, n_pol
+    return (STRICT if strict else (WITHIN_DMIN if within else COLLIDING)), rk, n_pol
 
 
 @njit(cache=True)
@@ -474,7 +501,8 @@ def solve_state(x0, ws, data):
         return code, k, n_pol, 0
     if opt.n_repair == 0:
         return COLLIDING, k, n_pol, 0
-    code, n_rep = repair(ws, data)
+    code, n_rep, more = repair(ws, data)
+    n_pol += more
     if code == WITHIN_DMIN and opt.n_polish > 0:  # polish the repaired answer, keep it clear
         _keep(ws, np.int64(REPAIRED))
         code, more = polish(ws, data)

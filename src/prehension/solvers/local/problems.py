@@ -268,12 +268,20 @@ def structure_key(task: Task) -> tuple:
     :mod:`._layout`.  Computed once per task object."""
     per_contact = []
     for c in task.contacts:
-        h, o = task.hand_region(c), task.object_region(c)
-        boxes = tuple(np.concatenate(RG.unknown_box(r)[:2]).tobytes() for r in (h.region, o))
-        per_contact.append((h.link, RG.code(h.region)[:3], RG.code(o)[:3], RG.size(h.region), RG.size(o), boxes))
+        h = task.hand_region(c)
+        (hcode, hsize, hbox), (ocode, osize, obox) = _region_key(h.region), _region_key(task.object_region(c))
+        per_contact.append((h.link, hcode, ocode, hsize, osize, (hbox, obox)))
     solid = id(task.object.distance) if task.object.collides else None  # the task holds it: the id stays its own
     return (hand_arrays(task.hand)[1], task.hand.name, tuple(task.fingers), task.active_mask.tobytes(),
             task.idle_vector.tobytes(), tuple(per_contact), solid)  # fmt: skip
+
+
+@cached_per_value
+def _region_key(region) -> tuple:
+    """What :func:`structure_key` takes from one region: its kind and degrees, its size and
+    its parameters' box (as bytes); once per region object (a hand's regions serve every
+    task of the hand)."""
+    return RG.code(region)[:3], RG.size(region), np.concatenate(RG.unknown_box(region)[:2]).tobytes()
 
 
 def _task_row(task: Task) -> np.ndarray:

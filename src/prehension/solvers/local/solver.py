@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import time
 import zlib
+from functools import lru_cache
 from dataclasses import asdict, dataclass, field
 from typing import Any, Mapping, Sequence
 
@@ -410,18 +411,28 @@ class _RandomPoses:
         if p not in self._poses:
             key = zlib.crc32(np.ascontiguousarray(group.pdata[p]).tobytes())
             seed = self.seed[p] if isinstance(self.seed, list) else self.seed
+            seed = seed.pose_seed if isinstance(seed, _OwnGenerator) else seed
             self.names, self._poses[p] = sample_poses(self.hand, self.count, np.random.default_rng([seed, key]))
         return self._poses[p][k]
 
 
 def _place_poses(group: Group, names, poses: np.ndarray) -> np.ndarray:
     """The group's unknowns (S, nx) with the named pose components ``poses (S, D)`` placed."""
-    where = {n: i for i, n in enumerate(names)}
-    pidx = np.array([where.get(n, -1) if n is not None else -1 for n in group.pose_names], dtype=np.int64)
-    use = pidx >= 0
+    pidx, use = _pose_columns(tuple(group.pose_names), tuple(names))
     x0 = np.repeat(group.x_default[None], poses.shape[0], axis=0)
     x0[:, use] = poses[:, pidx[use]]
     return x0
+
+
+@lru_cache(maxsize=64)
+def _pose_columns(pose_names: tuple, names: tuple) -> tuple[np.ndarray, np.ndarray]:
+    """Per unknown, the column of its pose component in ``names`` (-1: none), and which have one."""
+    where = {n: i for i, n in enumerate(names)}
+    pidx = np.array([where.get(n, -1) if n is not None else -1 for n in pose_names], dtype=np.int64)
+    pidx.setflags(write=False)
+    use = pidx >= 0
+    use.setflags(write=False)
+    return pidx, use
 
 
 def _is_local_solution(status: np.ndarray) -> np.ndarray:
@@ -467,7 +478,10 @@ def _wave(group, checker, options, tally: _Tally, todo, wave, x0) -> tuple[np.nd
 def _solve_group(group: Group, checker, options: LocalOptions, sequence: InitialPoseSequence, rng, t_start, tasks=None):
     P, imax = group.n_problems, options.i_max
     tally = _Tally(P, imax, group.nx, group.hand.n_dof)
-    seeds = [int(r.integers(2**62)) for r in rng] if isinstance(rng, list) else int(rng.integers(2**62))
+    if isinstance(rng, list):
+        seeds = [int(r.integers(2**62)) for r in rng]
+    else:
+        seeds = rng if isinstance(rng, _OwnGenerator) else int(rng.integers(2**62))  # the former draws on use
     extra = _RandomPoses(group.hand, seeds, max(imax - len(sequence), 0))
     wave_seconds = np.zeros(imax)
     todo = np.arange(P)
@@ -489,15 +503,44 @@ def _solve_group(group: Group, checker, options: LocalOptions, sequence: Initial
     return records, wave_seconds, solved_after, {"kernel": kernel_s, "checks": check_s}
 
 
-def _as_rng(rng, n: int):
-    """One generator for the batch, or a list of ``n`` (one per problem) from a sequence."""
+def _as_rng(rng, n: int, one_group: bool = False):
+    """One generator for the batch, or a list of ``n`` (one per problem) from a sequence.
+
+    With ``one_group`` and a seed (not a generator): an :class:`_OwnGenerator`, made only
+    if a draw is asked for (most calls never draw: the sequence's poses are enough)."""
     if isinstance(rng, np.random.Generator):
         return rng
     if isinstance(rng, (list, tuple, np.ndarray)):
         if len(rng) != n:
             raise InvalidTask(f"solve_local_batch: rng holds {len(rng)} seeds for {n} problems; give one per problem")
         return [r if isinstance(r, np.random.Generator) else np.random.default_rng(r) for r in rng]
-    return np.random.default_rng(0 if rng is None else rng)
+    seed = 0 if rng is None else rng
+    plain = isinstance(seed, (int, np.integer)) and not isinstance(seed, bool) and seed >= 0  # numpy would accept it
+    return _OwnGenerator(seed) if one_group and plain else np.random.default_rng(seed)
+
+
+class _OwnGenerator:
+    """``np.random.default_rng(seed)`` for one group, made on first use (~30 us saved on
+    each call that draws nothing).  Its first draw is :attr:`pose_seed`, as
+    :func:`_solve_group` draws first from a generator it is given, so every draw is the
+    one the eager generator gives."""
+
+    def __init__(self, seed):
+        self.seed, self._generator, self._pose_seed = seed, None, 0
+
+    def _made(self) -> np.random.Generator:
+        if self._generator is None:
+            self._generator = np.random.default_rng(self.seed)
+            self._pose_seed = int(self._generator.integers(2**62))
+        return self._generator
+
+    @property
+    def pose_seed(self) -> int:
+        self._made()
+        return self._pose_seed
+
+    def uniform(self, low, high, size):
+        return self._made().uniform(low, high, size)
 
 
 def _subset(rng, members):
@@ -532,7 +575,7 @@ def solve_local_batch(
     """
     t_start = time.perf_counter()
     if isinstance(problems, PointProblems):
-        rng = _as_rng(rng, len(problems))
+        rng = _as_rng(rng, len(problems), one_group=True)
         hand = problems.hand
         sequence = sequence if sequence is not None else default_sequence(hand)
         if len(problems) == 0:
@@ -544,7 +587,6 @@ def solve_local_batch(
         return LocalBatch(records, time.perf_counter() - t_start, waves, after, options, sequence, timings)
 
     tasks = list(problems)
-    rng = _as_rng(rng, len(tasks))
     if not tasks:
         return LocalBatch([], 0.0, np.zeros(options.i_max), np.zeros(options.i_max, dtype=int), options, sequence)
     for t in tasks:
@@ -553,6 +595,7 @@ def solve_local_batch(
     groups: dict = {}
     for i, t in enumerate(tasks):
         groups.setdefault(structure_key(t), []).append(i)
+    rng = _as_rng(rng, len(tasks), one_group=len(groups) == 1)
     records: list = [None] * len(tasks)
     waves = np.zeros(options.i_max)
     after = np.zeros(options.i_max, dtype=int)
