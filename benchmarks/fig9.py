@@ -159,7 +159,7 @@ def main(argv=None) -> int:
     sequence = InitialPoseSequence.load(args.sequence) if args.sequence else default_sequence(problems.hand)
     options = LocalOptions(i_max=args.imax)
     random_options = LocalOptions(i_max=args.imax, initial="random")
-    paper_options = LocalOptions(i_max=args.imax, psi_rule="paper", repair_iterations=0, strict_retries=0, polish=False)
+    paper_options = LocalOptions(i_max=args.imax, k_max=100, psi_rule="paper", repair_iterations=0, strict_retries=0, polish=False)
     solve_local_batch(problems.subset(np.arange(min(50, args.problems))), options, sequence)  # load the compiled kernel
 
     print("local solver, off-line sequence ...", flush=True)

@@ -27,7 +27,7 @@ from prehension.solvers.local import (
 from prehension.solvers.local import _kernel as K
 from prehension.solvers.local import _regions as RG
 from prehension.solvers.local._layout import S_K, S_X
-from prehension.solvers.local._linalg import dls_contacts
+from prehension.solvers.local._linalg import dls_again, dls_dense, refresh_column
 from prehension.solvers.local.problems import group_from_tasks
 
 DEG = np.pi / 180.0
@@ -158,11 +158,36 @@ def test_a_damped_step_decreases_the_error_on_a_smooth_problem(sa_hand):
     A, L, Js = np.zeros((6 * C, 6 * C)), np.zeros((6 * C, 6 * C)), np.zeros((6 * C, nx))
     y, dx, frozen = np.zeros(6 * C), np.zeros(nx), np.zeros(nx, dtype=bool)
     L_ = group.layout
-    assert dls_contacts(J, f, (L_.col_scale, frozen), (L_.shared, L_.n_shared), 0.02**2, (A, L, y, dx, Js))
+    assert dls_dense(J, f, 6 * C, (L_.col_scale, frozen), 0.02**2, (A, L, y, dx, Js))
     f1, _ = st.residual(*st.moved(x, R, t, dx))
     assert np.linalg.norm(f1) < 0.1 * np.linalg.norm(f)
     f_half, _ = st.residual(*st.moved(x, R, t, 0.5 * dx))
     assert np.linalg.norm(f_half) < np.linalg.norm(f)
+
+
+def test_a_step_solved_again_after_column_changes_is_the_step_solved_afresh():
+    """refresh_column + dls_again (the active set's second solve) == dls_dense from scratch."""
+    rng = np.random.default_rng(11)
+    n, nx = 24, 27
+    M, g, scale = rng.normal(size=(n, nx)), rng.normal(size=n), rng.uniform(0.5, 2.0, nx)
+    M[:, 5][rng.random(n) < 0.7] = 0.0  # a column that only some rows see, as a finger's joint
+
+    def scratch():
+        return np.zeros((n, n)), np.zeros((n, n)), np.zeros(n), np.zeros(nx), np.zeros((n, nx))
+
+    frozen = np.zeros(nx, dtype=bool)
+    out = scratch()
+    assert dls_dense(M, g, n, (scale, frozen), 1e-3, out)
+    frozen[3] = True  # freeze one column, turn another (changed values), release nothing
+    M[:, 7] = rng.normal(size=n)
+    for k in (3, 7):
+        refresh_column(M, n, k, 0.0 if frozen[k] else scale[k], out[0], out[4])
+    assert dls_again(g, n, (scale, frozen), out)
+    fresh = scratch()
+    assert dls_dense(M, g, n, (scale, frozen), 1e-3, fresh)
+    np.testing.assert_allclose(out[3], fresh[3], rtol=1e-9, atol=1e-12)
+    assert out[3][3] == 0.0
+    np.testing.assert_allclose(out[0], fresh[0], rtol=1e-9, atol=1e-9)
 
 
 # -- solutions ----------------------------------------------------------------------------
@@ -477,7 +502,8 @@ def test_compile_pending_tells_a_first_run_from_a_cached_one(tmp_path):
 # exceptions: ``copy`` and ``fill`` serve arrays of several ranks and dtypes.
 _ONE_SIGNATURE = {
     "_kernel": ("run_states", "solve_state", "start", "iterate", "polish", "repair", "clearance", "_step", "_keep",
-                "_restore", "new_workspace"),
+                "_restore", "new_workspace", "_update_active_set", "_update_caps", "_turn_rims", "_turn", "_refresh"),
+    "_linalg": ("dls_dense", "dls_again", "refresh_column", "cholesky_solve"),
     "_model": ("contact_rows", "_hand_side", "_object_side", "_side_point", "inequality_rows", "self_collision_rows",
                "pose_hand", "initial_pose", "move"),
     "_penetration": ("object_rows",),

@@ -35,7 +35,7 @@ import numpy as np
 from . import _regions as RG
 from ._jit import HAVE_NUMBA, njit
 from ._layout import S_KIND, S_OFF, S_X
-from ._linalg import copy, dls_contacts, dls_dense, fill
+from ._linalg import copy, dls_again, dls_dense, fill, refresh_column
 from ._model import contact_rows, inequality_rows, initial_pose, move, place_capsules, pose_hand, project_all
 from ._penetration import object_rows
 
@@ -99,7 +99,8 @@ _WORKSPACE_DOC = """One state, its scratch arrays, and what it is solved with.
     centres, ``f`` (6C) contact rows, ``J`` (6C, nx), ``ph``/``nh``/``po``/``no`` (C, 3)
     contact points and normals, ``err`` (2) largest contact distance and weighted normal
     error [mm].  Saved states: ``keep_*`` (slots ``BEST``, ``REPAIRED``).  The rest is
-    scratch: the step (``dx``, ``frozen``, ``A``, ``L``, ``y``, ``Js``, ``rims``), stacked rows
+    scratch: the step (``dx``, ``frozen``, ``A``, ``L``, ``y``, ``Js``; ``rims`` (2C, 3) the caps held
+    on their rim, kept from step to step: :func:`_turn_rims`), stacked rows
     (``M``, ``Ms``, ``g``), regions (``pt``, ``nr``, ``dpt``, ``dnr``, ``work``), capsules
     (``ends``, ``half``, ``pa``, ``pb``), the object's rows (``cut`` pieces of a segment,
     ``oseg`` points in the object frame) and 3-vectors.
@@ -188,12 +189,82 @@ def _restore(ws, data, slot):
 
 # -- one step ---------------------------------------------------------------------------------------
 @njit(cache=True)
+def _turn(ws, c, i0, ga, gg):
+    """Turn the columns ``(alpha, gamma)`` of a cap of contact ``c`` into (radial, tangent)
+    with the rim's unit gradient ``(ga, gg)``; ``(ga, -gg)`` turns them back."""
+    for r in range(6 * c, 6 * c + 6):
+        u, v = ws.J[r, i0], ws.J[r, i0 + 1]
+        ws.J[r, i0], ws.J[r, i0 + 1] = ga * u + gg * v, -gg * u + ga * v
+
+
+@njit(cache=True)
+def _refresh(ws, k):
+    """Column ``k`` was frozen, released or turned after the step's solve: the solve's
+    product follows (:func:`._linalg.refresh_column`)."""
+    d = 0.0 if ws.frozen[k] else ws.col_scale[k]
+    refresh_column(ws.J, 6 * ws.lay.sides.shape[0], k, d, ws.A, ws.Js)
+
+
+@njit(cache=True)
+def _turn_rims(ws, data):
+    """Before a step's first solve: the caps held on their rim by the previous step that
+    are still on it get their columns turned again and the radial one frozen (the rim's
+    part of the warm-started active set); the others are let go.  ``ws.rims[2 c + side]``
+    is ``(held, g_a, g_g)``."""
+    lay, margin = ws.lay, ws.opt.cap_margin
+    for c in range(lay.sides.shape[0]):
+        for side in range(2):
+            slot, s = 2 * c + side, lay.sides[c, side]
+            if ws.rims[slot, 0] == 0.0:
+                continue
+            i0 = s[S_X]
+            on, ga, gg = RG.rim_gradient(s[S_KIND], s[S_OFF], data, ws.x, i0, margin)
+            ws.rims[slot, 0], ws.rims[slot, 1], ws.rims[slot, 2] = (1.0 if on else 0.0), ga, gg
+            if on:
+                _turn(ws, c, i0, ga, gg)
+                ws.frozen[i0] = True
+
+
+@njit(cache=True)
+def _update_caps(ws, data):
+    """After a solve: hold a cap on its rim when the step pushes it out; let a held cap go
+    when its radial column's unconstrained step ``-J^T y`` points inside.  True if
+    anything changed."""
+    lay, margin = ws.lay, ws.opt.cap_margin
+    again = False
+    for c in range(lay.sides.shape[0]):
+        for side in range(2):
+            slot, s = 2 * c + side, lay.sides[c, side]
+            i0 = s[S_X]
+            if ws.rims[slot, 0] != 0.0:
+                d = 0.0
+                for r in range(6 * c, 6 * c + 6):
+                    d -= ws.J[r, i0] * ws.y[r]
+                if d > 0.0:  # let go; this step's answer keeps it on the rim
+                    _turn(ws, c, i0, ws.rims[slot, 1], -ws.rims[slot, 2])
+                    dt = ws.dx[i0 + 1]
+                    ws.dx[i0], ws.dx[i0 + 1] = -ws.rims[slot, 2] * dt, ws.rims[slot, 1] * dt
+                    ws.frozen[i0], ws.rims[slot, 0] = False, 0.0
+                    _refresh(ws, i0)
+                    _refresh(ws, i0 + 1)
+                continue
+            on, ga, gg = RG.rim_gradient(s[S_KIND], s[S_OFF], data, ws.x, i0, margin)
+            if on and ga * ws.dx[i0] + gg * ws.dx[i0 + 1] < 0.0:
+                _turn(ws, c, i0, ga, gg)
+                ws.dx[i0], ws.dx[i0 + 1] = 0.0, -gg * ws.dx[i0] + ga * ws.dx[i0 + 1]  # the step's tangent part
+                ws.frozen[i0], again = True, True
+                ws.rims[slot, 0], ws.rims[slot, 1], ws.rims[slot, 2] = 1.0, ga, gg
+                _refresh(ws, i0)
+                _refresh(ws, i0 + 1)
+    return again
+
+
+@njit(cache=True)
 def _update_active_set(ws, data):
     """After a solve: freeze unknowns at a bound that the step pushes out, release frozen
-    ones whose unconstrained step points inside; turn the columns of a cap on its rim that
-    the step pushes out into (radial, tangent) and freeze the radial one.  True if anything
-    changed; the turned caps are listed in ``ws.rims`` (count returned second)."""
-    lay, margin = ws.lay, ws.opt.cap_margin
+    ones whose unconstrained step points inside, and the same for caps on their rim
+    (:func:`_update_caps`).  True if anything changed."""
+    lay = ws.lay
     C = lay.sides.shape[0]
     again = False
     for k in range(ws.x.shape[0]):
@@ -205,46 +276,37 @@ def _update_active_set(ws, data):
             for r in range(6 * C):
                 d -= ws.J[r, k] * ws.y[r]
             if (at_lo and d > 0.0) or (at_hi and d < 0.0):
-                ws.frozen[k], again = False, True
+                ws.frozen[k] = False  # in the solve again if there is one, else from the next step on
+                _refresh(ws, k)
         elif (at_lo and ws.dx[k] < 0.0) or (at_hi and ws.dx[k] > 0.0):
             ws.frozen[k], again = True, True
-    n_rims = 0
-    for c in range(C):
-        for side in range(2):
-            s = lay.sides[c, side]
-            i0 = s[S_X]
-            on, ga, gg = RG.rim_gradient(s[S_KIND], s[S_OFF], data, ws.x, i0, margin)
-            if on and ga * ws.dx[i0] + gg * ws.dx[i0 + 1] < 0.0:
-                for r in range(6 * c, 6 * c + 6):  # columns -> (radial, tangent)
-                    u, v = ws.J[r, i0], ws.J[r, i0 + 1]
-                    ws.J[r, i0], ws.J[r, i0 + 1] = ga * u + gg * v, -gg * u + ga * v
-                ws.frozen[i0] = True
-                ws.rims[n_rims, 0], ws.rims[n_rims, 1], ws.rims[n_rims, 2] = i0, ga, gg
-                n_rims += 1
-                again = True
-    return again, n_rims
+            _refresh(ws, k)
+    return _update_caps(ws, data) or again
 
 
 @njit(cache=True)
 def _step(ws, data, damping_sq, active_set):
     """One damped step ``ws.dx`` with an active set warm-started from the previous step's
-    (frozen unknowns stay frozen while at their bound); recomputed once if the active set
-    changed.  False if the system could not be solved."""
+    (frozen unknowns stay frozen while at their bound, held caps while on their rim);
+    solved once more if the active set changed, the product ``J~ J~^T`` updated for the
+    changed columns only.  False if the system could not be solved."""
     lay = ws.lay
     for k in range(ws.x.shape[0]):
         at_bound = lay.boxed[k] and (ws.x[k] <= lay.lo[k] or ws.x[k] >= lay.hi[k])
         ws.frozen[k] = ws.frozen[k] and at_bound and active_set
-    args = (ws.J, ws.f, (ws.col_scale, ws.frozen), (lay.shared, lay.n_shared), damping_sq, (ws.A, ws.L, ws.y, ws.dx, ws.Js))
-    ok = dls_contacts(*args)
-    if not ok or not active_set:
-        return ok
-    again, n_rims = _update_active_set(ws, data)
-    if again:
-        ok = dls_contacts(*args)
-        for k in range(n_rims):  # back to (alpha, gamma); the radial part is 0
-            i0, ga, gg = int(ws.rims[k, 0]), ws.rims[k, 1], ws.rims[k, 2]
+    if active_set:
+        _turn_rims(ws, data)
+    else:
+        fill(ws.rims, 0.0)
+    args = (ws.J, ws.f, 6 * lay.sides.shape[0], (ws.col_scale, ws.frozen), damping_sq, (ws.A, ws.L, ws.y, ws.dx, ws.Js))
+    ok = dls_dense(*args)
+    if ok and active_set and _update_active_set(ws, data):  # the product updated column by column
+        ok = dls_again(ws.f, args[2], args[3], args[5])
+    for slot in range(ws.rims.shape[0]):  # back to (alpha, gamma); the radial part is 0
+        if ws.rims[slot, 0] != 0.0:
+            i0 = lay.sides[slot // 2, slot % 2, S_X]
             dt = ws.dx[i0 + 1]
-            ws.dx[i0], ws.dx[i0 + 1] = -gg * dt, ga * dt
+            ws.dx[i0], ws.dx[i0 + 1] = -ws.rims[slot, 2] * dt, ws.rims[slot, 1] * dt
             ws.frozen[i0] = False
     return ok
 
@@ -283,6 +345,7 @@ def start(x0, ws, data):
     pose_hand(ws)
     initial_pose(ws, data)
     fill(ws.frozen, False)
+    fill(ws.rims, 0.0)
 
 
 @njit(cache=True)

@@ -129,7 +129,6 @@ class Layout(NamedTuple):
             data offset, degrees ``m``, ``n``, first unknown, number of unknowns.
         link: (C,) link of each contact's hand region.
         chain: (C, maxd) dofs that move that link, ``chain_len`` (C,) how many.
-        shared: (C, C, maxp) unknowns two contacts' rows share, ``n_shared`` (C, C).
         anchor, pair_a, pair_b: contact placed exactly at the start, and the two whose
             direction fixes the rotation about its normal (-1: none).
         lo, hi: (nx,) bounds of the unknowns; ``boxed`` (nx,) whether the box is a hard limit.
@@ -148,8 +147,6 @@ class Layout(NamedTuple):
     link: np.ndarray
     chain: np.ndarray
     chain_len: np.ndarray
-    shared: np.ndarray
-    n_shared: np.ndarray
     anchor: int
     pair_a: int
     pair_b: int
@@ -336,10 +333,10 @@ def build_group(
             off += nd
         specs.append(ContactSpec(contact_names[c], link, tip))
     links = np.array([hand.link_index(link) for link, _ in hand_regions], dtype=np.int64)
-    chain, chain_len, shared, n_shared = _chains_and_shared(hand, hand_regions, dof_free, len(free), sides)
+    chain, chain_len = _chains(hand, hand_regions)
     anchor, pa, pb = _anchor_and_pair(hand, specs)
     layout = Layout(
-        dof_free, ratio, offset, q_fixed, sides, links, chain, chain_len, shared, n_shared, anchor, pa, pb,
+        dof_free, ratio, offset, q_fixed, sides, links, chain, chain_len, anchor, pa, pb,
         np.array(unknowns.lo), np.array(unknowns.hi), np.array(unknowns.boxed, dtype=np.bool_),
         1.0 / np.array(unknowns.scale), len(free), off,
     )  # fmt: skip
@@ -347,27 +344,15 @@ def build_group(
                  tuple(unknowns.names), np.array(unknowns.start))  # fmt: skip
 
 
-def _chains_and_shared(hand, hand_regions, dof_free, nf, sides):
-    """Per contact the dofs that move its link, and per pair of contacts the unknowns both use."""
+def _chains(hand, hand_regions):
+    """Per contact the dofs that move its link: ``(chain (C, maxd), chain_len (C,))``."""
     C = len(hand_regions)
     chains = [hand.chain_dofs(link) for link, _ in hand_regions]
     chain = np.zeros((C, max([len(ch) for ch in chains] + [1])), dtype=np.int64)
     chain_len = np.array([len(ch) for ch in chains], dtype=np.int64)
-    cols = []
     for c, ch in enumerate(chains):
         chain[c, : len(ch)] = ch
-        used = {int(dof_free[d]) for d in ch if dof_free[d] >= 0} | set(range(nf, nf + 6))
-        for s in range(2):
-            used |= set(range(sides[c, s, S_X], sides[c, s, S_X] + sides[c, s, S_K]))
-        cols.append(used)
-    shared = np.zeros((C, C, max(len(s) for s in cols)), dtype=np.int64)
-    n_shared = np.zeros((C, C), dtype=np.int64)
-    for a in range(C):
-        for b in range(C):
-            common = sorted(cols[a] & cols[b])
-            shared[a, b, : len(common)] = common
-            n_shared[a, b] = len(common)
-    return chain, chain_len, shared, n_shared
+    return chain, chain_len
 
 
 def _anchor_and_pair(hand: Hand, specs) -> tuple[int, int, int]:

@@ -7,10 +7,11 @@ The step of :mod:`._kernel` is damped least squares on column-scaled unknowns,
     \\Delta x = -D^{-1} \\tilde J^T (\\tilde J \\tilde J^T + \\mu^2 I)^{-1} f,
     \\qquad \\tilde J = J D^{-1},
 
-with frozen unknowns (an active set) as zero columns.  :func:`dls_contacts` builds
-``J~ J~^T`` block by block from the columns two contacts share (the object twist and
-common joints), so its cost grows with the contacts, not with the square of the unknowns;
-:func:`dls_dense` is the plain version for stacks of contact and inequality rows.
+with frozen unknowns (an active set) as zero columns: :func:`dls_dense`, for the contact
+rows and for stacks of contact and inequality rows.  ``J~ J~^T`` is assembled densely:
+at the kernel's sizes (24 rows, 27 unknowns for four fingertips) the dense products,
+vectorised, cost less than gathering only the columns two contacts share (measured: one
+step 5.4-9 us block by block, 4.1 us dense, in the same process).
 """
 
 from __future__ import annotations
@@ -20,7 +21,13 @@ import math
 from ...hands.kinematics import mat_mat, mat_vec  # the 3x3 products forward kinematics compiles too
 from ._jit import njit
 
-__all__ = ["copy", "fill", "dot", "rot", "mat_mat", "mat_vec", "cross", "cholesky_solve", "dls_contacts", "dls_dense"]
+__all__ = ["copy", "fill", "dot", "rot", "mat_mat", "mat_vec", "cross", "cholesky_solve", "dls_dense", "refresh_column", "dls_again"]
+
+# The sums of the damped step may be reordered (vectorised) and divisions turned into
+# products with a reciprocal; NaN and infinity keep their meaning (no "nnan"/"ninf"), so a
+# matrix that is not positive definite is still recognised.  Measured: the Cholesky
+# solve of 24 rows 2.37 -> 1.83 us, of 44 rows 10.3 -> 6.7 us (same answers to 1e-15).
+FAST = {"reassoc", "contract", "nsz", "arcp"}
 
 
 @njit(cache=True)
@@ -70,7 +77,7 @@ def cross(a, b, out):
     out[2] = a[0] * b[1] - a[1] * b[0]
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FAST)
 def cholesky_solve(A, b, n, L, y):
     """Solve ``A y = b`` (symmetric positive definite, first ``n`` rows); False if it fails."""
     for j in range(n):
@@ -108,7 +115,7 @@ def _scale_columns(J, n, col_scale, frozen, Js):
             Js[r, k] = J[r, k] * d
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FAST)
 def _back(Js, y, n, col_scale, frozen, dx):
     """``dx = -D^-1 Js^T y`` over the first ``n`` rows (frozen unknowns stay put)."""
     for k in range(dx.shape[0]):
@@ -129,48 +136,17 @@ def _add_damping(A, n, mu2, rel):
         A[i, i] += mu2 + rel * scale
 
 
-@njit(cache=True)
-def dls_contacts(J, f, scaling, blocks, mu2, out):
-    """Damped step for the ``6 C`` contact rows, ``J~ J~^T`` assembled from shared columns.
+@njit(cache=True, fastmath=FAST)
+def dls_dense(M, g, n, scaling, mu2, out):
+    """Damped step for the first ``n`` rows of a stack ``M`` (the contact rows, or the
+    contact rows and inequality rows), ``M~ M~^T`` assembled densely.
 
     Args:
-        J, f: (6C, nx) Jacobian and (6C,) rows.
+        M, g: (m, nx) Jacobian and (m,) rows, of which the first ``n`` are used.
         scaling: ``(col_scale (nx,), frozen (nx,))``: ``D^-1`` and the frozen unknowns.
-        blocks: ``(shared (C, C, m), n_shared (C, C))``: unknowns two contacts share.
         mu2: damping ``mu^2`` [mm^2].
-        out: ``(A, L, y, dx, Js)`` scratch, the step in ``dx`` (nx,).
+        out: ``(A, L, y, dx, Ms)`` scratch, the step in ``dx`` (nx,).
     """
-    col_scale, frozen = scaling
-    shared, n_shared = blocks
-    A, L, y, dx, Js = out
-    C = n_shared.shape[0]
-    n = 6 * C
-    _scale_columns(J, n, col_scale, frozen, Js)
-    for c1 in range(C):
-        for c2 in range(c1, C):
-            m = n_shared[c1, c2]
-            for i in range(6):
-                r1 = 6 * c1 + i
-                for j in range(i if c1 == c2 else 0, 6):
-                    r2 = 6 * c2 + j
-                    s = 0.0
-                    for kk in range(m):
-                        k = shared[c1, c2, kk]
-                        s += Js[r1, k] * Js[r2, k]
-                    A[r1, r2] = s
-                    A[r2, r1] = s
-    _add_damping(A, n, mu2, 1e-14)
-    if not cholesky_solve(A, f, n, L, y):
-        fill(dx, 0.0)
-        return False
-    _back(Js, y, n, col_scale, frozen, dx)
-    return True
-
-
-@njit(cache=True)
-def dls_dense(M, g, n, scaling, mu2, out):
-    """Damped step for the first ``n`` rows of any stack ``M`` (dense ``M~ M~^T``);
-    ``scaling`` and ``out`` as in :func:`dls_contacts`."""
     col_scale, frozen = scaling
     A, L, y, dx, Ms = out
     _scale_columns(M, n, col_scale, frozen, Ms)
@@ -183,6 +159,38 @@ def dls_dense(M, g, n, scaling, mu2, out):
             A[i, j] = s
             A[j, i] = s
     _add_damping(A, n, mu2, 1e-12)
+    if not cholesky_solve(A, g, n, L, y):
+        fill(dx, 0.0)
+        return False
+    _back(Ms, y, n, col_scale, frozen, dx)
+    return True
+
+
+@njit(cache=True, fastmath=FAST)
+def refresh_column(M, n, k, d, A, Ms):
+    """Column ``k`` of ``M`` or its scale ``d`` changed (``d = 0``: frozen) since
+    :func:`dls_dense`: ``Ms`` and ``A = M~ M~^T + damping`` (first ``n`` rows) follow, by
+    taking the column's old outer product out and its new one in -- O(n^2) per column
+    instead of a new O(n^2 nx) product (only the rows where the column is not zero)."""
+    for i in range(n):
+        a = Ms[i, k]
+        if a != 0.0:
+            for j in range(n):
+                A[i, j] -= a * Ms[j, k]
+    for r in range(n):
+        Ms[r, k] = M[r, k] * d
+    for i in range(n):
+        a = Ms[i, k]
+        if a != 0.0:
+            for j in range(n):
+                A[i, j] += a * Ms[j, k]
+
+
+@njit(cache=True, fastmath=FAST)
+def dls_again(g, n, scaling, out):
+    """:func:`dls_dense` again after :func:`refresh_column` changes: factor and solve only."""
+    col_scale, frozen = scaling
+    A, L, y, dx, Ms = out
     if not cholesky_solve(A, g, n, L, y):
         fill(dx, 0.0)
         return False
