@@ -24,6 +24,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..errors import InvalidConfiguration
+from ..frozen import cached_per_value
 from ..geometry.rotations import skew
 from ._capsules import njit
 from .model import Hand, tree_tables
@@ -114,29 +115,26 @@ class _ChainArrays(NamedTuple):
     kk2: np.ndarray
 
 
+@cached_per_value
 def _chain_arrays(hand: Hand) -> _ChainArrays:
-    """The hand's :class:`_ChainArrays`, once per hand (kept in :func:`tree_tables`)."""
+    """The hand's :class:`_ChainArrays`, once per hand."""
     tables = tree_tables(hand)
-    arrays = tables.get("chain")
-    if arrays is None:
-        J = len(hand.joints)
-        k1, kk1, k2, kk2 = (np.zeros((J, 3, 3)) for _ in range(4))
-        for k, j in enumerate(hand.joints):
-            k1[k], kk1[k] = _axis_terms(j.axis_in_parent)
-            if j.kind == "universal":
-                k2[k], kk2[k] = _axis_terms(j.axis_in_child)
-        vec = lambda name: np.array([np.broadcast_to(getattr(j, name), 3) for j in hand.joints], dtype=float).reshape(J, 3)  # noqa: E731
-        arrays = _ChainArrays(
-            np.asarray(tables["parent"], dtype=np.int64).reshape(J), np.asarray(tables["child"], dtype=np.int64).reshape(J),
-            np.array(hand.dof_offsets, dtype=np.int64).reshape(J),
-            np.array([j.kind == "universal" for j in hand.joints], dtype=np.int64).reshape(J),
-            vec("origin_in_parent"), vec("origin_in_child"), vec("axis_in_parent"),
-            np.array([j.axis_in_child if j.kind == "universal" else np.zeros(3) for j in hand.joints], dtype=float).reshape(J, 3),
-            np.array([j.R_parent_child_zero for j in hand.joints], dtype=float).reshape(J, 3, 3),
-            k1, kk1, k2, kk2,
-        )  # fmt: skip
-        tables["chain"] = arrays
-    return arrays
+    J = len(hand.joints)
+    k1, kk1, k2, kk2 = (np.zeros((J, 3, 3)) for _ in range(4))
+    for k, j in enumerate(hand.joints):
+        k1[k], kk1[k] = _axis_terms(j.axis_in_parent)
+        if j.kind == "universal":
+            k2[k], kk2[k] = _axis_terms(j.axis_in_child)
+    vec = lambda name: np.array([np.broadcast_to(getattr(j, name), 3) for j in hand.joints], dtype=float).reshape(J, 3)  # noqa: E731
+    return _ChainArrays(
+        np.asarray(tables["parent"], dtype=np.int64).reshape(J), np.asarray(tables["child"], dtype=np.int64).reshape(J),
+        np.array(hand.dof_offsets, dtype=np.int64).reshape(J),
+        np.array([j.kind == "universal" for j in hand.joints], dtype=np.int64).reshape(J),
+        vec("origin_in_parent"), vec("origin_in_child"), vec("axis_in_parent"),
+        np.array([j.axis_in_child if j.kind == "universal" else np.zeros(3) for j in hand.joints], dtype=float).reshape(J, 3),
+        np.array([j.R_parent_child_zero for j in hand.joints], dtype=float).reshape(J, 3, 3),
+        k1, kk1, k2, kk2,
+    )  # fmt: skip
 
 
 @njit(cache=True)

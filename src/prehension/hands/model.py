@@ -457,7 +457,6 @@ def _tree_tables(hand: Hand) -> dict:
 @cached_per_value
 def tree_tables(hand: Hand) -> dict:
     """The hand's derived index tables (see :func:`_tree_tables`), built once per hand and
-    held beside it (a weak cache: they go with the hand); other modules add their own
-    per-hand tables under their own keys (forward kinematics' chain, the residual function's
-    limits and couplings)."""
+    held beside it (a weak cache: they go with the hand).  Other modules keep their own
+    per-hand tables the same way (:func:`prehension.frozen.cached_per_value`)."""
     return _tree_tables(hand)

@@ -33,7 +33,6 @@ from ..geometry.regions import evaluate_regions
 from ..geometry.rotations import angle_between
 from ..hands.collision import capsule_clearances
 from ..hands.kinematics import HandPose, as_batch, forward_kinematics
-from ..hands.model import tree_tables
 from .locate import locate_contact_params
 from .model import Configuration, Task
 
@@ -293,28 +292,24 @@ def coupling_violations(hand, q) -> np.ndarray:
     return np.abs(q[:, dof] - (ratio * q[:, src] + offset))
 
 
+@cached_per_value
 def _limit_arrays(hand) -> tuple[np.ndarray, np.ndarray]:
-    """``(hand.lower, hand.upper)`` (n_dof,) [rad], read-only, once per hand (kept with its tree tables)."""
-    tables = tree_tables(hand)
-    if "limits" not in tables:
-        lower, upper = hand.lower, hand.upper
-        lower.setflags(write=False)
-        upper.setflags(write=False)
-        tables["limits"] = (lower, upper)
-    return tables["limits"]
+    """``(hand.lower, hand.upper)`` (n_dof,) [rad], read-only, once per hand."""
+    lower, upper = hand.lower, hand.upper
+    lower.setflags(write=False)
+    upper.setflags(write=False)
+    return lower, upper
 
 
+@cached_per_value
 def _coupling_arrays(hand) -> tuple[np.ndarray, ...]:
     """Per coupling: ``dof`` and ``source`` indices, ``ratio``, ``offset``, once per hand."""
-    tables = tree_tables(hand)
-    if "couplings" not in tables:
-        tables["couplings"] = (
-            np.array([hand.dof_index(c.dof) for c in hand.couplings]),
-            np.array([hand.dof_index(c.source) for c in hand.couplings]),
-            np.array([c.ratio for c in hand.couplings]),
-            np.array([c.offset for c in hand.couplings]),
-        )
-    return tables["couplings"]
+    return (
+        np.array([hand.dof_index(c.dof) for c in hand.couplings]),
+        np.array([hand.dof_index(c.source) for c in hand.couplings]),
+        np.array([c.ratio for c in hand.couplings]),
+        np.array([c.offset for c in hand.couplings]),
+    )
 
 
 # -- one configuration, with names ------------------------------------------------------
