@@ -504,12 +504,10 @@ def solve_state(x0, ws, data):
     code, n_rep, more = repair(ws, data)
     n_pol += more
     if code == WITHIN_DMIN and opt.n_polish > 0:  # polish the repaired answer, keep it clear
-        _keep(ws, np.int64(REPAIRED))
-        code, more = polish(ws, data)
+        done, more = _polished_clear(ws, data)
         n_pol += more
-        if code != STRICT or clearance(ws, data) < 0.0:
-            _restore(ws, data, np.int64(REPAIRED))
-            code = WITHIN_DMIN
+        if done:
+            code = STRICT
     return code, k, n_pol, n_rep
 
 

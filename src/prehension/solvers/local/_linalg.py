@@ -148,7 +148,7 @@ def dls_dense(M, g, n, scaling, mu2, out):
         out: ``(A, L, y, dx, Ms)`` scratch, the step in ``dx`` (nx,).
     """
     col_scale, frozen = scaling
-    A, L, y, dx, Ms = out
+    A, Ms = out[0], out[4]
     _scale_columns(M, n, col_scale, frozen, Ms)
     nx = M.shape[1]
     for i in range(n):
@@ -159,11 +159,7 @@ def dls_dense(M, g, n, scaling, mu2, out):
             A[i, j] = s
             A[j, i] = s
     _add_damping(A, n, mu2, 1e-12)
-    if not cholesky_solve(A, g, n, L, y):
-        fill(dx, 0.0)
-        return False
-    _back(Ms, y, n, col_scale, frozen, dx)
-    return True
+    return dls_again(g, n, scaling, out)
 
 
 @njit(cache=True, fastmath=FAST)
