@@ -236,8 +236,7 @@ def _cone_condition(axis: af.Form, d: tuple[af.Form, af.Form], h: af.Form, cos_b
     f = af.sub(af.dot(axis, d[0]), _scaled(kappa, cos_b))
     # d . h >= -|d| cos(beta) on the whole box: with cos(beta) >= 0 the lower bound of |d|
     # makes it certain, with cos(beta) < 0 (beta > 90 deg) its upper bound
-    d_lower = np.maximum(np.linalg.norm(d[1].c, axis=1) - np.linalg.norm(d[1].A, axis=1).sum(axis=1) - d[1].rho, 0.0)
-    d_size = d_lower if cos_b >= 0.0 else _norm_upper(d[1])
+    d_size = _length(d[1])[0] if cos_b >= 0.0 else _norm_upper(d[1])
     valid = kappa.c - af.spread(kappa) + d_size * cos_b >= 0.0
     return af.Form(np.where(valid, f.c + sin_b * _norm_upper(af.cross(d[1], h)), np.inf), f.A, f.rho)
 
@@ -306,12 +305,13 @@ def _mul(a: tuple, b: tuple) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _length(d: af.Form) -> tuple[np.ndarray, np.ndarray]:
-    """Bounds of ``|d|`` over the boxes (B,), (B,)."""
-    a, s = np.linalg.norm(d.c, axis=1), _spread_vector_rho(d)
-    return np.maximum(a - s, 0.0), a + s
+    """Bounds of ``|d|`` over the boxes (B,), (B,): ``|c|`` less and plus the form's spread."""
+    lower = np.maximum(np.linalg.norm(d.c, axis=1) - np.linalg.norm(d.A, axis=1).sum(axis=1) - d.rho, 0.0)
+    return lower, _norm_upper(d)
 
 
-def _spread_vector_rho(d: af.Form) -> np.ndarray:
+def _vector_spread(d: af.Form) -> np.ndarray:
+    """``sum_k |A_k| + rho`` of a vector form: how far it strays from ``c`` over the box (B,)."""
     return np.linalg.norm(d.A, axis=1).sum(axis=1) + d.rho
 
 
@@ -474,7 +474,7 @@ def _prune_and_contract(pp: PairProblem, lo: np.ndarray, hi: np.ndarray, distanc
         alive &= f.c + af.spread(f) + pad >= 0.0
     # the twist condition only where the others hold and the box is narrow enough for it to
     # prune (it costs as much again; a choice of effort, not of soundness)
-    rows = np.flatnonzero(alive & (_spread_vector_rho(d_hand) < TWIST_RELATIVE_SPREAD * np.linalg.norm(d_hand.c, axis=1)))
+    rows = np.flatnonzero(alive & (_vector_spread(d_hand) < TWIST_RELATIVE_SPREAD * np.linalg.norm(d_hand.c, axis=1)))
     if len(rows):
         alive[rows] = twist_possible(pp, _rows(d_hand, rows), [_rows(v, rows) for v in dirs], _rows(d_obj, rows),
                                      tuple(_rows(v, rows) for v in normals))  # fmt: skip
@@ -542,7 +542,7 @@ def object_distance_range(pp: PairProblem, lo: np.ndarray, hi: np.ndarray) -> tu
     zc, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
     d, _, _ = _object_forms(pp, zc, half)
     a = np.linalg.norm(d.c, axis=1)
-    s = np.linalg.norm(d.A, axis=1).sum(axis=1) + d.rho
+    s = _vector_spread(d)
     n = d.c / np.maximum(a, 1e-300)[:, None]
     projected = a - np.abs(np.einsum("bi,bik->bk", n, d.A)).sum(axis=1) - d.rho
     return np.maximum(np.maximum(a - s, projected), 0.0), a + s
