@@ -432,8 +432,17 @@ def _segment_triangle_sq(p0, p1, a, b, c, q):
 
 @njit(cache=True)
 def _segment_query(m, p0, p1):
+    """Squared distance from segment ``p0``-``p1`` to the surface (0 when it crosses it)."""
+    return _segment_query_within(m, p0, p1, np.inf)
+
+
+@njit(cache=True)
+def _segment_query_within(m, p0, p1, bound):
+    """As :func:`_segment_query`, pruning from the start every box farther than ``bound``
+    (squared): the squared distance when it is below ``bound``, else ``bound``.  Below the
+    bound, the same value as the unbounded search (the same triangles' minimum)."""
     lo, hi = np.minimum(p0, p1), np.maximum(p0, p1)
-    best = np.inf
+    best = bound
     q = np.empty(3)
     stack = np.empty(_STACK, np.int64)
     stack[0], top = 0, 1
@@ -594,14 +603,17 @@ def segment_min_sd(m, p0, p1, step, pair, bound):
     length does not flip between two counts as it moves), and at most 0 (such a segment
     has a point on or inside the surface, which the samples may miss)."""
     d = segment_closest_within(m, p0, p1, pair[0], pair[1], bound)
-    if _wholly_outside(m, p0, d):  # exact (or the bound)
+    near = d + np.sqrt(_dist_sq(p0, pair[0])) if d < bound else np.inf  # p0 is no farther
+    if _wholly_outside(m, p0, d, near):  # exact (or the bound)
         return d
     return min(_sampled_min_sd(m, p0, p1, _sample_count(p0, p1, step), pair), 0.0)
 
 
 @njit(cache=True)
-def _wholly_outside(m, p0, d):
-    """Whether a segment from ``p0`` at distance ``d`` from the surface lies wholly outside.
+def _wholly_outside(m, p0, d, near):
+    """Whether a segment from ``p0`` at distance ``d`` from the surface lies wholly outside;
+    ``near``: an upper bound of ``p0``'s distance to the surface (``inf`` if none is known),
+    which only makes the search faster.
 
     A segment that does not meet the surface (``d > 0``) lies wholly on one side, the side
     of ``p0``: outside when ``p0`` is outside the bounding box of the whole mesh (no point
@@ -613,7 +625,7 @@ def _wholly_outside(m, p0, d):
     if _outside_root_box(m, p0):
         return True
     q = np.empty(3)
-    return _signed_distance(m, p0, q, np.inf) > 0.0
+    return _signed_distance(m, p0, q, near) > 0.0
 
 
 @njit(cache=True)
@@ -649,9 +661,12 @@ def capsule_depths(m, starts, ends, radius, step, cap):
     out = np.zeros(n)
     pair = np.empty((2, 3))
     for i in range(n):
-        d = np.sqrt(_segment_query(m, starts[i], ends[i]))
-        if _wholly_outside(m, starts[i], d):  # exact
-            out[i] = max(0.0, radius[i] - d)
+        # searched only up to the radius: a segment outside and at least ``r`` away is 0 deep
+        reach = radius[i] * (1.0 + 1e-9) + 1e-9
+        d = np.sqrt(_segment_query_within(m, starts[i], ends[i], reach * reach))
+        near = d + np.sqrt(_dist_sq(starts[i], ends[i])) if d < reach else np.inf  # starts[i] no farther
+        if _wholly_outside(m, starts[i], d, near):  # exact (0 beyond the reach)
+            out[i] = max(0.0, radius[i] - d) if d < reach else 0.0
         elif radius[i] + d > cap:  # touching or inside: at least r (+ d when wholly inside)
             out[i] = radius[i] + d
         else:  # as segment_min_sd, without its closest pair
