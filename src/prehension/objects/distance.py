@@ -356,6 +356,23 @@ def _box_segment_sq(lo, hi, p0, p1, seg_lo, seg_hi):
 
 
 @njit(cache=True)
+def _triangle_beyond(p0, p1, a, b, c, best):
+    """Whether triangle ``abc`` is at least ``sqrt(best)`` from segment ``p0``-``p1`` by its
+    bounding sphere (centroid, farthest corner): a lower bound of the true distance less
+    1e-9 mm, so that a triangle skipped by it could not have been closer than ``best``."""
+    cx, cy, cz = (a[0] + b[0] + c[0]) / 3.0, (a[1] + b[1] + c[1]) / 3.0, (a[2] + b[2] + c[2]) / 3.0
+    r2 = max((a[0] - cx) ** 2 + (a[1] - cy) ** 2 + (a[2] - cz) ** 2, (b[0] - cx) ** 2 + (b[1] - cy) ** 2 + (b[2] - cz) ** 2,
+             (c[0] - cx) ** 2 + (c[1] - cy) ** 2 + (c[2] - cz) ** 2)  # fmt: skip
+    dx, dy, dz = p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]
+    ex, ey, ez = cx - p0[0], cy - p0[1], cz - p0[2]
+    dd = dx * dx + dy * dy + dz * dz
+    u = min(max((ex * dx + ey * dy + ez * dz) / dd, 0.0), 1.0) if dd > 0.0 else 0.0
+    ex, ey, ez = ex - u * dx, ey - u * dy, ez - u * dz
+    gap = np.sqrt(ex * ex + ey * ey + ez * ez) - np.sqrt(r2) - 1e-9
+    return gap > 0.0 and gap * gap >= best
+
+
+@njit(cache=True)
 def _seg_seg_st(p0, p1, q0, q1):
     """Closest points of segments p0p1 and q0q1 (Ericson 5.1.9, scalar code):
     ``(squared distance, s, t)`` with the points ``p0 + s (p1 - p0)`` and ``q0 + t (q1 - q0)``."""
@@ -453,7 +470,8 @@ def _segment_query_within(m, p0, p1, bound):
             continue
         if m.node_left[k] < 0:
             for f in range(m.node_start[k], m.node_start[k] + m.node_count[k]):
-                best = min(best, _segment_triangle_sq(p0, p1, m.tri[f, 0], m.tri[f, 1], m.tri[f, 2], q))
+                if not _triangle_beyond(p0, p1, m.tri[f, 0], m.tri[f, 1], m.tri[f, 2], best):
+                    best = min(best, _segment_triangle_sq(p0, p1, m.tri[f, 0], m.tri[f, 1], m.tri[f, 2], q))
             continue
         l, r = m.node_left[k], m.node_right[k]
         if _box_box_sq(m.node_lo[l], m.node_hi[l], lo, hi) < _box_box_sq(m.node_lo[r], m.node_hi[r], lo, hi):
@@ -520,6 +538,8 @@ def segment_closest_within(m, p0, p1, ps, pm, bound):
             continue
         if m.node_left[k] < 0:
             for f in range(m.node_start[k], m.node_start[k] + m.node_count[k]):
+                if _triangle_beyond(p0, p1, m.tri[f, 0], m.tri[f, 1], m.tri[f, 2], best):
+                    continue  # its bounding sphere is no closer than the best so far
                 d = _segment_triangle_pair(p0, p1, m.tri[f, 0], m.tri[f, 1], m.tri[f, 2], q, s_t, m_t)
                 if d < best:
                     best = d
