@@ -4,6 +4,7 @@ other parallel searches, on local clusters of 1 and 2 worker processes.
     python benchmarks/scaling.py                  # everything (~10 min on 2 cores, a cold compile included)
     python benchmarks/scaling.py --quick          # smaller sizes, one repeat, no cold compile
     python benchmarks/scaling.py --batch-only     # the batch tables only
+    python benchmarks/scaling.py --stages-only    # one process only: per task, per stage, the client alone
 
 **Batch** (issue 16): the built-in tasks, ``--tasks`` of them (the nine, repeated, each with
 its own id), method ``local``:
@@ -16,7 +17,9 @@ its own id), method ``local``:
    worker-seconds per task, the workers' CPU per task, the client process's CPU per task
    (the local cluster's scheduler runs in it too), speed-up against 1 worker;
 3. the client's own cost per task, alone: precomputed chunk outputs appended to a journal
-   (``_Run.accept``: one write and one fsync per chunk, progress per chunk);
+   (``_Run.accept``: one write and one fsync per chunk, progress per chunk); then where a
+   task's time goes in one process: the worker's seconds per stage (``ChunkOutput.stages``:
+   load, solve, quality, record) and the client's write, per task;
 4. bytes per record (compact and self-contained), what travels per task, Dask's cost per
    Dask task (no-op tasks), and what follows for a cluster of hundreds of workers;
 5. a fresh worker's first chunk with a cold numba cache (``NUMBA_CACHE_DIR`` an empty
@@ -159,17 +162,29 @@ def _on_clusters(tasks: Path, folder: Path, repeats: int) -> dict:
     return results
 
 
-def batch_table(args, tasks: Path, entries: list[dict], folder: Path) -> Table:
-    n = len(entries)
-    table = Table(title=f"prehension batch, {n} built-in tasks (the nine in turn), method local: medians of {args.repeats}")
+def _batch_columns(table: Table) -> Table:
     for col in ("where", "time [s]", "tasks/s", "per task [ms]", "worker CPU / task [ms]", "client CPU / task [ms]",
                 "speed-up", "solved"):  # fmt: skip
         table.add_column(col, justify="left" if col == "where" else "right")
-    runs = [inline(entries) for _ in range(args.repeats)]
-    _inline_row(table, "one process, no Dask", runs)
+    return table
+
+
+def inline_runs(args, entries: list[dict], folder: Path) -> dict:
+    """``{label: [inline runs]}``: the built-in tasks, then (``--distinct``) distinct inline tasks."""
+    runs = {"one process, no Dask": [inline(entries) for _ in range(args.repeats)]}
     if args.distinct:
         _, distinct = wired(distinct_lines(args.distinct), folder, "distinct.jsonl")
-        _inline_row(table, f"  {args.distinct} distinct inline tasks, no Dask", [inline(distinct) for _ in range(args.repeats)])
+        runs[f"  {args.distinct} distinct inline tasks, no Dask"] = [inline(distinct) for _ in range(args.repeats)]
+    return runs
+
+
+def batch_table(args, tasks: Path, entries: list[dict], runs: dict, folder: Path) -> Table:
+    n = len(entries)
+    table = _batch_columns(Table(title=f"prehension batch, {n} built-in tasks (the nine in turn), method local: medians of {args.repeats}"))
+    for label, label_runs in runs.items():
+        _inline_row(table, label, label_runs)
+    if args.stages_only:
+        return table
     results = _on_clusters(tasks, folder, args.repeats)
     base = statistics.median(r["wall"] for r in results[1])
     for workers, rs in results.items():
@@ -181,7 +196,29 @@ def batch_table(args, tasks: Path, entries: list[dict], folder: Path) -> Table:
         )  # fmt: skip
     table.caption = ("per task = wall x workers / tasks (worker-seconds per task, Dask and the client included); "
                      "the client process also runs the local cluster's scheduler and nannies")  # fmt: skip
-    return table, runs[0][2]
+    return table
+
+
+# -- 1b. where a task's time goes ----------------------------------------------------------------
+def stages_table(runs: dict, client_s: float) -> Table:
+    """Per task, the worker's seconds in each stage (``ChunkOutput.stages``, medians over the
+    repeats) and the client's cost (table 3): what a task costs beyond its solve."""
+    from prehension.batch.records import STAGES
+
+    table = Table(title="Where a task's time goes, one process, no Dask (ms per task; medians of the repeats)")
+    for col in ("tasks", *STAGES, "write (client)", "beyond the solve", "all"):
+        table.add_column(col, justify="left" if col == "tasks" else "right")
+    for label, label_runs in runs.items():
+        n = sum(len(o.records) for o in label_runs[0][2])
+        ms = {s: 1e3 * statistics.median(sum(o.stages[s] for o in r[2]) for r in label_runs) / n for s in STAGES}
+        ms["write (client)"] = 1e3 * client_s
+        beyond = sum(v for k, v in ms.items() if k != "solve")
+        table.add_row(label.strip().replace(", no Dask", "").replace("one process", "the built-in tasks"),
+                      *(f"{ms[k]:.3f}" for k in ms), f"{beyond:.3f}", f"{beyond + ms['solve']:.3f}")  # fmt: skip
+    table.caption = ("load: parse (or find in the worker's cache) the task; solve: the local batch call and each "
+                     "answer's verification; quality: the stored quality of each solution; record: the result "
+                     "as a JSON line; write: the client's own cost per task (table 3), on another process")  # fmt: skip
+    return table
 
 
 # -- 3. the client alone -------------------------------------------------------------------------
@@ -336,6 +373,8 @@ def main() -> None:
     parser.add_argument("--distinct", type=int, default=360, help="batch: also that many distinct inline tasks, one process")
     parser.add_argument("--no-cold", action="store_true", help="skip the cold-cache compile (a minute or two)")
     parser.add_argument("--batch-only", action="store_true", help="only the batch tables")
+    parser.add_argument("--stages-only", action="store_true", help="only one process: the batch per task, the client "
+                        "alone and where a task's time goes (no cluster)")  # fmt: skip
     parser.add_argument("--problems", type=int, default=10_000, help="solvers: random point problems")
     parser.add_argument("--chunk", type=int, default=1000, help="solvers: problems per Dask task")
     parser.add_argument("--boxes", type=int, default=16, help="solvers: boxes of the hard search")
@@ -354,11 +393,16 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as folder:
         folder = Path(folder)
         tasks, entries = wired(builtin_lines(args.tasks), folder)
-        table, outputs = batch_table(args, tasks, entries, folder)
-        console.print(table)
-        wall, _, _ = inline(entries)
+        runs = inline_runs(args, entries, folder)
+        console.print(batch_table(args, tasks, entries, runs, folder))
+        outputs = next(iter(runs.values()))[0][2]
         client, client_s = client_table(outputs, folder, args.repeats)
         console.print(client)
+        console.print(stages_table(runs, client_s))
+        if args.stages_only:
+            console.print(f"whole run: {time.perf_counter() - started:.0f} s; load average at the end {os.getloadavg()[0]:.1f}")
+            return
+        wall, _, _ = inline(entries)
         whole = inline(entries, self_contained=True)[2]
         with cluster(workers=2) as two:
             console.print(wire_table(entries, outputs, whole, two, wall / len(entries), client_s))

@@ -102,3 +102,25 @@ def test_a_chunk_reports_its_seconds_per_stage_and_they_fit_in_its_records(tmp_p
     assert before_the_record == pytest.approx(seconds, rel=1e-9)  # a record's seconds: its stages until its record
     assert pickle.loads(pickle.dumps(output)) == output  # it travels back from a worker as it is
     assert ChunkOutput([], {}).stages == {}  # the client's error chunks have none
+
+
+def test_the_closure_margin_without_presolve_is_the_lp_optimum(rng):
+    """``t*`` of the force-closure LP (HiGHS, no presolve) against scipy's ``linprog`` on the
+    same LP written independently (dense, HiGHS with its presolve)."""
+    from scipy.optimize import linprog
+
+    from prehension.quality.measures import _positive_combination_margin
+
+    positive = 0
+    for _ in range(25):
+        p, n = random_grasp(rng, int(rng.integers(3, 6)))
+        W = primitive_wrenches(p, n, np.zeros(3), 30.0, QualityOptions(friction=float(rng.uniform(0.2, 0.9)))).reshape(-1, 6)
+        K = len(W)
+        A_eq = np.vstack([np.c_[W.T, np.zeros(6)], np.r_[np.ones(K), 0.0]])  # sum lambda_k w_k = 0, sum lambda_k = 1
+        A_ub = np.c_[-np.eye(K), np.ones(K)]  # t - lambda_k <= 0
+        lp = linprog(np.r_[np.zeros(K), -1.0], A_ub=A_ub, b_ub=np.zeros(K), A_eq=A_eq, b_eq=np.r_[np.zeros(6), 1.0],
+                     bounds=[(0, 1)] * (K + 1), method="highs")  # fmt: skip
+        expected = max(-lp.fun, 0.0) if lp.status == 0 else 0.0
+        assert _positive_combination_margin(W) == pytest.approx(expected, rel=1e-9, abs=1e-12)
+        positive += expected > 1e-9
+    assert positive >= 5  # force-closure grasps among them, not only zeros
