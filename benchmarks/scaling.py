@@ -12,7 +12,8 @@ its own id), method ``local``:
 1. per task, in one process without Dask (``solve_chunk`` on chunks of 64: loading,
    the batch solve, verification, the JSON record), wall and CPU time; and the same for
    ``--distinct`` tasks that are all different (inline, each object moved by its own
-   offset): every task parsed, grouped and verified on its own;
+   offset; other ones each repeat): every task parsed, grouped, verified and its quality
+   measured on its own;
 2. ``run_batch`` on clusters of 1 and 2 workers (records to a journal on disk): tasks/s,
    worker-seconds per task, the workers' CPU per task, the client process's CPU per task
    (the local cluster's scheduler runs in it too), speed-up against 1 worker;
@@ -67,10 +68,11 @@ def builtin_lines(n: int) -> list[dict]:
     return [{"id": f"{names[i % len(names)]}-{i}", "task": names[i % len(names)]} for i in range(n)]
 
 
-def distinct_lines(n: int) -> list[dict]:
+def distinct_lines(n: int, first: int = 0) -> list[dict]:
     """``n`` different tasks written inline: the nine built-in tasks in turn, each object
     moved by its own offset (the object pose absorbs it: as solvable, but no two tasks
-    alike, so that every task is parsed, grouped and verified on its own)."""
+    alike, so that every task is parsed, grouped, verified and measured on its own);
+    tasks ``first .. first + n - 1`` of that sequence (another ``first``: other tasks)."""
     from prehension.geometry.regions import BezierRegion, PointRegion, SphereCap
     from prehension.objects.model import GraspObject
     from prehension.tasks.library import builtin_task_names, load_builtin_task
@@ -85,7 +87,7 @@ def distinct_lines(n: int) -> list[dict]:
 
     tasks = [load_builtin_task(name) for name in builtin_task_names()]
     lines = []
-    for i in range(n):
+    for i in range(first, first + n):
         task, t = tasks[i % len(tasks)], np.array([0.01 * (i + 1), 0.0, 0.0])
         obj = GraspObject(task.object.name, {k: moved(r, t) for k, r in task.object.regions.items()}, task.object.primitives)
         lines.append({"id": f"distinct-{i}", "task": task_to_dict(replace(task, object=obj))})
@@ -172,9 +174,10 @@ def _batch_columns(table: Table) -> Table:
 def inline_runs(args, entries: list[dict], folder: Path) -> dict:
     """``{label: [inline runs]}``: the built-in tasks, then (``--distinct``) distinct inline tasks."""
     runs = {"one process, no Dask": [inline(entries) for _ in range(args.repeats)]}
-    if args.distinct:
-        _, distinct = wired(distinct_lines(args.distinct), folder, "distinct.jsonl")
-        runs[f"  {args.distinct} distinct inline tasks, no Dask"] = [inline(distinct) for _ in range(args.repeats)]
+    if args.distinct:  # other tasks each repeat: none of them met before (parsed, measured afresh)
+        repeats = [wired(distinct_lines(args.distinct, r * args.distinct), folder, f"distinct-{r}.jsonl")[1]
+                   for r in range(args.repeats)]  # fmt: skip
+        runs[f"  {args.distinct} distinct inline tasks, no Dask"] = [inline(distinct) for distinct in repeats]
     return runs
 
 
@@ -205,19 +208,21 @@ def stages_table(runs: dict, client_s: float) -> Table:
     repeats) and the client's cost (table 3): what a task costs beyond its solve."""
     from prehension.batch.records import STAGES
 
-    table = Table(title="Where a task's time goes, one process, no Dask (ms per task; medians of the repeats)")
-    for col in ("tasks", *STAGES, "write (client)", "beyond the solve", "all"):
+    table = Table(title="Where a task's time goes, one process, no Dask (wall ms per task; medians of the repeats)")
+    for col in ("tasks", *STAGES, "write (client)", "beyond the solve", "all", "CPU / wall"):
         table.add_column(col, justify="left" if col == "tasks" else "right")
     for label, label_runs in runs.items():
         n = sum(len(o.records) for o in label_runs[0][2])
         ms = {s: 1e3 * statistics.median(sum(o.stages[s] for o in r[2]) for r in label_runs) / n for s in STAGES}
         ms["write (client)"] = 1e3 * client_s
         beyond = sum(v for k, v in ms.items() if k != "solve")
+        busy = statistics.median(r[1] / r[0] for r in label_runs)
         table.add_row(label.strip().replace(", no Dask", "").replace("one process", "the built-in tasks"),
-                      *(f"{ms[k]:.3f}" for k in ms), f"{beyond:.3f}", f"{beyond + ms['solve']:.3f}")  # fmt: skip
+                      *(f"{ms[k]:.3f}" for k in ms), f"{beyond:.3f}", f"{beyond + ms['solve']:.3f}", f"{busy:.2f}")  # fmt: skip
     table.caption = ("load: parse (or find in the worker's cache) the task; solve: the local batch call and each "
-                     "answer's verification; quality: the stored quality of each solution; record: the result "
-                     "as a JSON line; write: the client's own cost per task (table 3), on another process")  # fmt: skip
+                     "answer's verification; quality: the stored quality of each solution (measured once per "
+                     "distinct grasp); record: the result as a JSON line; write: the client's own cost per task "
+                     "(table 3), on another process; CPU / wall < 1: the process waited for a core (a busy machine)")  # fmt: skip
     return table
 
 

@@ -124,3 +124,19 @@ def test_the_closure_margin_without_presolve_is_the_lp_optimum(rng):
         assert _positive_combination_margin(W) == pytest.approx(expected, rel=1e-9, abs=1e-12)
         positive += expected > 1e-9
     assert positive >= 5  # force-closure grasps among them, not only zeros
+
+
+def test_a_hand_mapping_is_built_once_per_hand_and_each_caller_gets_its_own_copy():
+    from prehension.tasks.format import write
+    from prehension.tasks.yaml_io import hand_from_dict, hand_to_dict, task_to_dict
+
+    task = load_builtin_task("guitar-tuning")
+    first = hand_to_dict(task.hand)
+    assert write._hand_dict(task.hand) is write._hand_dict(task.hand)  # built once
+    first["joints"][0]["name"] = "changed"
+    first["name"] = "changed"
+    again = hand_to_dict(task.hand)
+    assert again == write._hand_dict(task.hand) and again is not write._hand_dict(task.hand)
+    assert again["name"] == task.hand.name and again["joints"][0]["name"] != "changed"
+    assert hand_to_dict(hand_from_dict(again)) == again  # still the inverse of reading
+    assert task_to_dict(task, hand_inline=True)["hand"] == again
