@@ -204,25 +204,30 @@ def batch_table(args, tasks: Path, entries: list[dict], runs: dict, folder: Path
 
 # -- 1b. where a task's time goes ----------------------------------------------------------------
 def stages_table(runs: dict, client_s: float) -> Table:
-    """Per task, the worker's seconds in each stage (``ChunkOutput.stages``, medians over the
-    repeats) and the client's cost (table 3): what a task costs beyond its solve."""
+    """Per task, the worker's CPU seconds in each stage (``ChunkOutput.stages``, medians over
+    the repeats) and the client's cost (table 3): what a task costs beyond its solve."""
     from prehension.batch.records import STAGES
 
-    table = Table(title="Where a task's time goes, one process, no Dask (wall ms per task; medians of the repeats)")
-    for col in ("tasks", *STAGES, "write (client)", "beyond the solve", "all", "CPU / wall"):
+    table = Table(title="Where a task's time goes, one process, no Dask (CPU ms per task; medians of the repeats)")
+    for col in ("tasks", *STAGES, "write (client)", "beyond the solve", "all", "beyond the solve, wall"):
         table.add_column(col, justify="left" if col == "tasks" else "right")
     for label, label_runs in runs.items():
         n = sum(len(o.records) for o in label_runs[0][2])
-        ms = {s: 1e3 * statistics.median(sum(o.stages[s] for o in r[2]) for r in label_runs) / n for s in STAGES}
+
+        def per_task(stage: str, which: int) -> float:
+            return 1e3 * statistics.median(sum(o.stages[stage][which] for o in r[2]) for r in label_runs) / n
+
+        ms = {s: per_task(s, 1) for s in STAGES}
         ms["write (client)"] = 1e3 * client_s
         beyond = sum(v for k, v in ms.items() if k != "solve")
-        busy = statistics.median(r[1] / r[0] for r in label_runs)
+        beyond_wall = sum(per_task(s, 0) for s in STAGES if s != "solve") + ms["write (client)"]
         table.add_row(label.strip().replace(", no Dask", "").replace("one process", "the built-in tasks"),
-                      *(f"{ms[k]:.3f}" for k in ms), f"{beyond:.3f}", f"{beyond + ms['solve']:.3f}", f"{busy:.2f}")  # fmt: skip
+                      *(f"{ms[k]:.3f}" for k in ms), f"{beyond:.3f}", f"{beyond + ms['solve']:.3f}", f"{beyond_wall:.3f}")  # fmt: skip
     table.caption = ("load: parse (or find in the worker's cache) the task; solve: the local batch call and each "
                      "answer's verification; quality: the stored quality of each solution (measured once per "
                      "distinct grasp); record: the result as a JSON line; write: the client's own cost per task "
-                     "(table 3), on another process; CPU / wall < 1: the process waited for a core (a busy machine)")  # fmt: skip
+                     "(table 3: the largest of its loop wall, its CPU and the wall until fsynced), on another process; "
+                     "CPU of the worker's thread, wall in the last column (above it when the machine is busy)")  # fmt: skip
     return table
 
 

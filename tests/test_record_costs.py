@@ -96,9 +96,9 @@ def test_a_chunk_reports_its_seconds_per_stage_and_they_fit_in_its_records(tmp_p
     output = solve_chunk([_wire(e) for e in read_inputs(path)] + [bad], BatchOptions(method="local"))
     assert [json.loads(r.line)["status"] for r in output.records] == ["invalid", "solved", "solved"]
     assert tuple(output.stages) == STAGES
-    assert all(output.stages[s] > 0 for s in STAGES)
+    assert all(0 < cpu <= wall + 0.01 for wall, cpu in output.stages.values())  # (wall, CPU of the thread) [s]
     seconds = sum(json.loads(r.line)["seconds"] for r in output.records)
-    before_the_record = sum(output.stages[s] for s in STAGES if s != "record")
+    before_the_record = sum(output.stages[s][0] for s in STAGES if s != "record")
     assert before_the_record == pytest.approx(seconds, rel=1e-9)  # a record's seconds: its stages until its record
     assert pickle.loads(pickle.dumps(output)) == output  # it travels back from a worker as it is
     assert ChunkOutput([], {}).stages == {}  # the client's error chunks have none
@@ -125,18 +125,3 @@ def test_the_closure_margin_without_presolve_is_the_lp_optimum(rng):
         positive += expected > 1e-9
     assert positive >= 5  # force-closure grasps among them, not only zeros
 
-
-def test_a_hand_mapping_is_built_once_per_hand_and_each_caller_gets_its_own_copy():
-    from prehension.tasks.format import write
-    from prehension.tasks.yaml_io import hand_from_dict, hand_to_dict, task_to_dict
-
-    task = load_builtin_task("guitar-tuning")
-    first = hand_to_dict(task.hand)
-    assert write._hand_dict(task.hand) is write._hand_dict(task.hand)  # built once
-    first["joints"][0]["name"] = "changed"
-    first["name"] = "changed"
-    again = hand_to_dict(task.hand)
-    assert again == write._hand_dict(task.hand) and again is not write._hand_dict(task.hand)
-    assert again["name"] == task.hand.name and again["joints"][0]["name"] != "changed"
-    assert hand_to_dict(hand_from_dict(again)) == again  # still the inverse of reading
-    assert task_to_dict(task, hand_inline=True)["hand"] == again

@@ -29,8 +29,8 @@ class RecordLine(NamedTuple):
 
 class ChunkOutput(NamedTuple):
     """What a chunk sends back: its records, the task lines they refer to (by ref), and
-    the worker's seconds per stage of the chunk (:data:`STAGES`; only for benchmarks and
-    profiling: nothing of it is written)."""
+    the worker's ``(wall, CPU)`` seconds per stage of the chunk (:data:`STAGES`; CPU of the
+    worker's thread; for benchmarks and profiling: nothing of it is written)."""
 
     records: list
     tasks: dict

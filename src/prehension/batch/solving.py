@@ -136,14 +136,15 @@ class _Chunk:
         self.options = options
         self.records: list[RecordLine] = []
         self.tasks: dict[str, bytes] = {}
-        self.stages: dict[str, float] = dict.fromkeys(STAGES, 0.0)  # seconds per stage (ChunkOutput.stages)
+        self.stages: dict[str, tuple[float, float]] = dict.fromkeys(STAGES, (0.0, 0.0))  # ChunkOutput.stages
         self._sequences: dict = {}
 
-    def spent(self, stage: str, started: float) -> float:
-        """Add the time since ``started`` (``perf_counter``) to ``stage``; return it [s]."""
-        seconds = time.perf_counter() - started
-        self.stages[stage] += seconds
-        return seconds
+    def spent(self, stage: str, started: tuple[float, float]) -> float:
+        """Add the wall and CPU time since ``started`` (:func:`_clock`) to ``stage``; return the wall time [s]."""
+        wall, cpu = time.perf_counter() - started[0], time.thread_time() - started[1]
+        before = self.stages[stage]
+        self.stages[stage] = (before[0] + wall, before[1] + cpu)
+        return wall
 
     def seed(self, entry) -> int:
         return task_seed(self.options.seed, entry["id"])
@@ -163,7 +164,7 @@ class _Chunk:
         """The record of ``result`` (its ``seconds`` set to the task's time so far): the
         physics test (``simulate``, counted as solving), the quality of every solution,
         then the JSON line."""
-        started = time.perf_counter()
+        started = _clock()
         try:
             extra = {}
             if self.options.simulate is not None:
@@ -171,10 +172,10 @@ class _Chunk:
 
                 extra["physics"] = physics_records(loaded.task, result, self.options.simulate, self.seed(entry))
                 seconds += self.spent("solve", started)
-                started = time.perf_counter()
+                started = _clock()
             qualities = _qualities(loaded.task, result, self.options.quality)
             seconds += self.spent("quality", started)
-            started = time.perf_counter()
+            started = _clock()
             line = result_line(entry, self.options.method, self.seed(entry), result, loaded,
                                seconds, self.options.self_contained, qualities, extra)  # fmt: skip
             if line.task_ref is not None:
@@ -187,6 +188,11 @@ class _Chunk:
 
     def output(self) -> ChunkOutput:
         return ChunkOutput(self.records, self.tasks, self.stages)
+
+
+def _clock() -> tuple[float, float]:
+    """``(wall, CPU of this thread)`` now [s], for :meth:`_Chunk.spent`."""
+    return time.perf_counter(), time.thread_time()
 
 
 def _qualities(task, result, options) -> list[dict]:
@@ -205,7 +211,7 @@ def _load(chunk: _Chunk, entries) -> list[tuple[Mapping, Any, float]]:
     for entry in entries:
         if chunk.options.delay_s:
             time.sleep(chunk.options.delay_s)
-        started = time.perf_counter()
+        started = _clock()
         try:
             loaded = load_entry(entry["payload"])
         except Exception as exc:
@@ -221,7 +227,7 @@ def _solve_alone(chunk: _Chunk, entry, loaded, seconds: float) -> None:
     from ..batch_extras import solve_task
 
     options = chunk.options
-    started = time.perf_counter()
+    started = _clock()
     try:
         result = solve_task(loaded.task, options.method, chunk.seed(entry), options.time_limit_s, options.best,
                             chunk.sequence(loaded.task.hand.name))  # fmt: skip
@@ -237,7 +243,7 @@ def _local_batch(chunk: _Chunk, todo, sequence) -> list | None:
     call raised (each task is then solved alone)."""
     from ..solvers.local import solve_local_batch
 
-    started = time.perf_counter()
+    started = _clock()
     try:
         batch = solve_local_batch([loaded.task for _, loaded, _ in todo], _local_options(), sequence,
                                   [chunk.seed(entry) for entry, _, _ in todo])  # fmt: skip
@@ -296,7 +302,7 @@ def _solve_local_first(chunk: _Chunk, todo) -> None:
                 _solve_alone(chunk, entry, loaded, seconds)
             continue
         for (entry, loaded, seconds), (record, share) in zip(group, solved):
-            started = time.perf_counter()
+            started = _clock()
             try:
                 result = _verified(record, loaded.task, sequence, share)
             except Exception as exc:

@@ -8,7 +8,6 @@ gives the same numbers (see :func:`_settled`).
 
 from __future__ import annotations
 
-import copy
 import functools
 import math
 from pathlib import Path
@@ -18,7 +17,6 @@ import numpy as np
 
 from ...atomic import to_plain
 from ...errors import InvalidTask
-from ...frozen import cached_per_value
 from ...geometry.regions import BezierRegion, PointRegion, Region, SphereCap
 from ...hands.model import Capsule, Coupling, Hand, HandRegion, Joint, Link, _unit3
 from ...objects.model import GraspObject
@@ -128,16 +126,7 @@ def _coupling_to_dict(c: Coupling) -> dict:
 
 
 def hand_to_dict(hand: Hand) -> dict:
-    """The inline hand mapping of ``hand`` (plain Python types; inverse of :func:`hand_from_dict`).
-
-    Built once per hand (a hand is frozen; a batch writes the task line of every distinct
-    task, most of them sharing a hand): each call returns its own copy, free to change.
-    """
-    return copy.deepcopy(_hand_dict(hand))
-
-
-@cached_per_value
-def _hand_dict(hand: Hand) -> dict:
+    """The inline hand mapping of ``hand`` (plain Python types; inverse of :func:`hand_from_dict`)."""
     out: dict = {
         "name": hand.name,
         "links": [_link_to_dict(link) for link in hand.links],
