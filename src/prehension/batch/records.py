@@ -34,7 +34,7 @@ class ChunkOutput(NamedTuple):
 
     records: list
     tasks: dict
-    stages: Mapping[str, float] = {}
+    stages: Mapping[str, tuple[float, float]] = {}
 
 
 def encode(data: Mapping[str, Any]) -> bytes:

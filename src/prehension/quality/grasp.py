@@ -12,8 +12,8 @@ object-frame points and normals, the centre, the radius and the options; each pr
 keeps the last :data:`MEMO_SIZE` of them keyed by the exact bytes of those inputs, so a
 grasp met again (a batch solving one task many times, ``prehension check`` after
 ``solve``) is not measured again, and gets bit for bit the same values.  Any other
-grasp -- one bit apart -- is measured afresh.  The object's centre and radius are
-computed once per object and options.
+grasp -- one bit apart -- is measured afresh.  The object's own centre and radius (the
+default options) are computed once per object.
 """
 
 from __future__ import annotations
