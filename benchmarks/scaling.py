@@ -183,7 +183,8 @@ def inline_runs(args, entries: list[dict], folder: Path) -> dict:
 
 def batch_table(args, tasks: Path, entries: list[dict], runs: dict, folder: Path) -> Table:
     n = len(entries)
-    table = _batch_columns(Table(title=f"prehension batch, {n} built-in tasks (the nine in turn), method local: medians of {args.repeats}"))
+    title = f"prehension batch, {n} built-in tasks (the nine in turn), method local: medians of {args.repeats}"
+    table = _batch_columns(Table(title=title))
     for label, label_runs in runs.items():
         _inline_row(table, label, label_runs)
     if args.stages_only:

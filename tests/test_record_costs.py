@@ -92,7 +92,8 @@ def test_given_quality_entries_are_stored_as_given_and_must_match_the_solutions(
 
 def test_a_chunk_reports_its_seconds_per_stage_and_they_fit_in_its_records(tmp_path):
     path = write_jsonl(tmp_path / "tasks.jsonl", [{"task": "guitar-tuning"}, {"id": "again", "task": "guitar-tuning"}])
-    bad = {"id": "bad", "name": "bad", "source": "test", "payload": {"kind": "yaml", "text": "hand: [", "source": "bad.yaml", "base_dir": str(tmp_path)}}
+    payload = {"kind": "yaml", "text": "hand: [", "source": "bad.yaml", "base_dir": str(tmp_path)}
+    bad = {"id": "bad", "name": "bad", "source": "test", "payload": payload}
     output = solve_chunk([_wire(e) for e in read_inputs(path)] + [bad], BatchOptions(method="local"))
     assert [json.loads(r.line)["status"] for r in output.records] == ["invalid", "solved", "solved"]
     assert tuple(output.stages) == STAGES

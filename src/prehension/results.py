@@ -238,7 +238,8 @@ def result_to_dict(result: SolveResult, quality=None, *, embed_task: bool = True
     if embed_task:
         head["task"] = task_to_dict(result.task, hand_inline=True)  # a result file is re-checkable alone
     if qualities is None:
-        qualities = [quality_entry(result.task, s.T_palm_object, s.contacts, quality or QualityOptions()) for s in result.solutions]
+        options = quality or QualityOptions()
+        qualities = [quality_entry(result.task, s.T_palm_object, s.contacts, options) for s in result.solutions]
     elif len(qualities) != len(result.solutions):
         raise PrehensionError(f"result_to_dict: {len(qualities)} quality entries given for {len(result.solutions)} solutions")
     return {
