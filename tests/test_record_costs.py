@@ -38,7 +38,7 @@ def measured_afresh(p, n, centre, radius, options):
 
 
 def test_a_grasp_met_again_gets_bit_identical_measures_without_measuring_again(rng):
-    grasp_module._measured.cache_clear()
+    grasp_module.clear_memo()
     for _ in range(12):
         p, n = random_grasp(rng, int(rng.integers(3, 6)))
         centre, options = rng.normal(size=3), QualityOptions(friction=float(rng.uniform(0.2, 0.9)))
@@ -53,7 +53,7 @@ def test_a_grasp_met_again_gets_bit_identical_measures_without_measuring_again(r
 
 
 def test_a_grasp_one_bit_apart_or_with_other_options_is_measured_afresh(rng):
-    grasp_module._measured.cache_clear()
+    grasp_module.clear_memo()
     p, n = random_grasp(rng, 4)
     first = contact_quality(p, n, np.zeros(3), 30.0)
     nudged = p.copy()

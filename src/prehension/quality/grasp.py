@@ -89,6 +89,11 @@ def contact_quality(points_mm, inward_normals, center_mm, radius_mm: float, opti
     return _measured(exact(points_mm), exact(inward_normals), exact(center_mm), float(radius_mm), options)
 
 
+def clear_memo() -> None:
+    """Forget every grasp measured so far (benchmarks timing the measures; nothing else needs it)."""
+    _measured.cache_clear()
+
+
 @lru_cache(maxsize=MEMO_SIZE)
 def _measured(points: bytes, inward: bytes, center: bytes, radius_mm: float, options: QualityOptions) -> GraspQuality:
     """:func:`contact_quality` of float64 inputs given by their bytes (the memo's key)."""
