@@ -95,6 +95,29 @@ def test_long_segments_pruned_by_their_distance_to_each_box_lose_no_triangle(bun
             assert np.linalg.norm(pair[0] - pair[1]) == pytest.approx(np.sqrt(brute), abs=1e-9)
 
 
+@requires_objects
+def test_bounded_segment_queries_are_the_unbounded_answer_below_the_bound(bunny, rng):
+    """A search bounded by ``bound`` (the capsule depths search only up to the radius) gives
+    the unbounded answer bit for bit when it is below the bound, and the bound otherwise."""
+    from prehension.objects import distance as D
+
+    _, md = bunny
+    m = md.arrays
+    lo, hi = m.node_lo[0] - 20, m.node_hi[0] + 20
+    pair, far = np.empty((2, 3)), 0
+    for _ in range(40):
+        a = rng.uniform(lo, hi)
+        b = a + rng.normal(size=3) * 15.0
+        exact = D._segment_query(m, a, b)
+        for bound in (0.5 * np.sqrt(exact), np.sqrt(exact) + 1e-6, 2.0 * np.sqrt(exact) + 1.0):
+            got = D._segment_query_within(m, a, b, bound * bound)
+            assert got == (exact if exact < bound * bound else bound * bound)
+            within = D.segment_closest_within(m, a, b, pair[0], pair[1], bound)
+            assert within == (np.sqrt(exact) if exact < bound * bound else bound)
+            far += exact >= bound * bound
+    assert far >= 40  # both cases occur (the first bound is always below the distance)
+
+
 def test_cube_distances_exact():
     import trimesh
 

@@ -356,6 +356,23 @@ def _box_segment_sq(lo, hi, p0, p1, seg_lo, seg_hi):
 
 
 @njit(cache=True)
+def _triangle_beyond(p0, p1, a, b, c, best):
+    """Whether triangle ``abc`` is at least ``sqrt(best)`` from segment ``p0``-``p1`` by its
+    bounding sphere (centroid, farthest corner): a lower bound of the true distance less
+    1e-9 mm, so that a triangle skipped by it could not have been closer than ``best``."""
+    cx, cy, cz = (a[0] + b[0] + c[0]) / 3.0, (a[1] + b[1] + c[1]) / 3.0, (a[2] + b[2] + c[2]) / 3.0
+    r2 = max((a[0] - cx) ** 2 + (a[1] - cy) ** 2 + (a[2] - cz) ** 2, (b[0] - cx) ** 2 + (b[1] - cy) ** 2 + (b[2] - cz) ** 2,
+             (c[0] - cx) ** 2 + (c[1] - cy) ** 2 + (c[2] - cz) ** 2)  # fmt: skip
+    dx, dy, dz = p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]
+    ex, ey, ez = cx - p0[0], cy - p0[1], cz - p0[2]
+    dd = dx * dx + dy * dy + dz * dz
+    u = min(max((ex * dx + ey * dy + ez * dz) / dd, 0.0), 1.0) if dd > 0.0 else 0.0
+    ex, ey, ez = ex - u * dx, ey - u * dy, ez - u * dz
+    gap = np.sqrt(ex * ex + ey * ey + ez * ez) - np.sqrt(r2) - 1e-9
+    return gap > 0.0 and gap * gap >= best
+
+
+@njit(cache=True)
 def _seg_seg_st(p0, p1, q0, q1):
     """Closest points of segments p0p1 and q0q1 (Ericson 5.1.9, scalar code):
     ``(squared distance, s, t)`` with the points ``p0 + s (p1 - p0)`` and ``q0 + t (q1 - q0)``."""
@@ -432,8 +449,17 @@ def _segment_triangle_sq(p0, p1, a, b, c, q):
 
 @njit(cache=True)
 def _segment_query(m, p0, p1):
+    """Squared distance from segment ``p0``-``p1`` to the surface (0 when it crosses it)."""
+    return _segment_query_within(m, p0, p1, np.inf)
+
+
+@njit(cache=True)
+def _segment_query_within(m, p0, p1, bound):
+    """As :func:`_segment_query`, pruning from the start every box farther than ``bound``
+    (squared): the squared distance when it is below ``bound``, else ``bound``.  Below the
+    bound, the same value as the unbounded search (the same triangles' minimum)."""
     lo, hi = np.minimum(p0, p1), np.maximum(p0, p1)
-    best = np.inf
+    best = bound
     q = np.empty(3)
     stack = np.empty(_STACK, np.int64)
     stack[0], top = 0, 1
@@ -444,7 +470,8 @@ def _segment_query(m, p0, p1):
             continue
         if m.node_left[k] < 0:
             for f in range(m.node_start[k], m.node_start[k] + m.node_count[k]):
-                best = min(best, _segment_triangle_sq(p0, p1, m.tri[f, 0], m.tri[f, 1], m.tri[f, 2], q))
+                if not _triangle_beyond(p0, p1, m.tri[f, 0], m.tri[f, 1], m.tri[f, 2], best):
+                    best = min(best, _segment_triangle_sq(p0, p1, m.tri[f, 0], m.tri[f, 1], m.tri[f, 2], q))
             continue
         l, r = m.node_left[k], m.node_right[k]
         if _box_box_sq(m.node_lo[l], m.node_hi[l], lo, hi) < _box_box_sq(m.node_lo[r], m.node_hi[r], lo, hi):
@@ -511,6 +538,8 @@ def segment_closest_within(m, p0, p1, ps, pm, bound):
             continue
         if m.node_left[k] < 0:
             for f in range(m.node_start[k], m.node_start[k] + m.node_count[k]):
+                if _triangle_beyond(p0, p1, m.tri[f, 0], m.tri[f, 1], m.tri[f, 2], best):
+                    continue  # its bounding sphere is no closer than the best so far
                 d = _segment_triangle_pair(p0, p1, m.tri[f, 0], m.tri[f, 1], m.tri[f, 2], q, s_t, m_t)
                 if d < best:
                     best = d
@@ -594,14 +623,17 @@ def segment_min_sd(m, p0, p1, step, pair, bound):
     length does not flip between two counts as it moves), and at most 0 (such a segment
     has a point on or inside the surface, which the samples may miss)."""
     d = segment_closest_within(m, p0, p1, pair[0], pair[1], bound)
-    if _wholly_outside(m, p0, d):  # exact (or the bound)
+    near = d + np.sqrt(_dist_sq(p0, pair[0])) if d < bound else np.inf  # p0 is no farther
+    if _wholly_outside(m, p0, d, near):  # exact (or the bound)
         return d
     return min(_sampled_min_sd(m, p0, p1, _sample_count(p0, p1, step), pair), 0.0)
 
 
 @njit(cache=True)
-def _wholly_outside(m, p0, d):
-    """Whether a segment from ``p0`` at distance ``d`` from the surface lies wholly outside.
+def _wholly_outside(m, p0, d, near):
+    """Whether a segment from ``p0`` at distance ``d`` from the surface lies wholly outside;
+    ``near``: an upper bound of ``p0``'s distance to the surface (``inf`` if none is known),
+    which only makes the search faster.
 
     A segment that does not meet the surface (``d > 0``) lies wholly on one side, the side
     of ``p0``: outside when ``p0`` is outside the bounding box of the whole mesh (no point
@@ -613,7 +645,7 @@ def _wholly_outside(m, p0, d):
     if _outside_root_box(m, p0):
         return True
     q = np.empty(3)
-    return _signed_distance(m, p0, q, np.inf) > 0.0
+    return _signed_distance(m, p0, q, near) > 0.0
 
 
 @njit(cache=True)
@@ -649,9 +681,12 @@ def capsule_depths(m, starts, ends, radius, step, cap):
     out = np.zeros(n)
     pair = np.empty((2, 3))
     for i in range(n):
-        d = np.sqrt(_segment_query(m, starts[i], ends[i]))
-        if _wholly_outside(m, starts[i], d):  # exact
-            out[i] = max(0.0, radius[i] - d)
+        # searched only up to the radius: a segment outside and at least ``r`` away is 0 deep
+        reach = radius[i] * (1.0 + 1e-9) + 1e-9
+        d = np.sqrt(_segment_query_within(m, starts[i], ends[i], reach * reach))
+        near = d + np.sqrt(_dist_sq(starts[i], ends[i])) if d < reach else np.inf  # starts[i] no farther
+        if _wholly_outside(m, starts[i], d, near):  # exact (0 beyond the reach)
+            out[i] = max(0.0, radius[i] - d) if d < reach else 0.0
         elif radius[i] + d > cap:  # touching or inside: at least r (+ d when wholly inside)
             out[i] = radius[i] + d
         else:  # as segment_min_sd, without its closest pair

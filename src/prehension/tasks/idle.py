@@ -64,7 +64,9 @@ def _clear(task: Task, q: np.ndarray, T, links, limit_mm: float) -> np.ndarray:
     depth = batch_link_depths(task, pose, T, links, cap=limit_mm).max(axis=1)
     clearance, _ = capsule_clearances(task.hand, pose)
     pairs = collision_pairs(task.hand)
-    mine = np.isin(pairs.link[pairs.first], links) | np.isin(pairs.link[pairs.second], links)
+    moved = np.zeros(len(task.hand.link_names), dtype=bool)
+    moved[links] = True  # a lookup table: np.isin sorts, at ~20x the cost for these few links
+    mine = moved[pairs.link[pairs.first]] | moved[pairs.link[pairs.second]]
     self_ok = np.all(clearance[:, mine] >= 0.0, axis=1) if mine.any() else np.ones(len(q), bool)
     return (depth <= limit_mm) & self_ok
 

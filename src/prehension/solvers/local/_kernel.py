@@ -444,12 +444,20 @@ def _polished_clear(ws, data):
 
 
 @njit(cache=True)
-def repair(ws, data):
+def first_inequality_rows(ws, data):
+    """The inequality rows of the state, written after its contact rows (where the repair's
+    first step reads them): ``(rows, smallest value)``, as :func:`clearance` judges it."""
+    return inequality_rows(ws, data, ws.opt.collision_margin, np.int64(6 * ws.lay.sides.shape[0]), np.int64(MAX_INEQUALITY_ROWS))
+
+
+@njit(cache=True)
+def repair(ws, data, rows0, cmin0):
     """Out of collision: Gauss-Newton on the contact rows and the inequality rows of
     capsule pairs and capsules (against the object) closer than the margin; from each
     clear state within ``d_min``, a polish (:func:`_polished_clear`), which ends the repair
-    when it reaches ``STRICT`` and stays clear.  ``(STRICT, WITHIN_DMIN or COLLIDING,
-    iterations, polish iterations)``."""
+    when it reaches ``STRICT`` and stays clear.  ``rows0``, ``cmin0``: the state's
+    inequality rows, already written (:func:`first_inequality_rows`: not searched twice).
+    ``(STRICT, WITHIN_DMIN or COLLIDING, iterations, polish iterations)``."""
     opt = ws.opt
     n = 6 * ws.lay.sides.shape[0]
     prev, slow, cmin, rk, n_pol = 1e300, 0, -1.0, 0, 0
@@ -458,7 +466,10 @@ def repair(ws, data):
         contact_rows(ws, data, np.bool_(True))
         copy(ws.J, ws.M[:n])
         copy(ws.f, ws.g[:n])
-        rows, cmin = inequality_rows(ws, data, opt.collision_margin, n, np.int64(MAX_INEQUALITY_ROWS))
+        if rk == 0:
+            rows, cmin = rows0, cmin0
+        else:
+            rows, cmin = inequality_rows(ws, data, opt.collision_margin, n, np.int64(MAX_INEQUALITY_ROWS))
         strict = max(ws.err[0], ws.err[1]) <= opt.polish_tol
         within = ws.err[0] < opt.d_min and ws.err[1] < opt.d_min
         if (cmin >= 0.0 and strict) or rk == opt.n_repair:
@@ -497,11 +508,14 @@ def solve_state(x0, ws, data):
     n_pol = n_rep = 0
     if opt.n_polish > 0:
         code, n_pol = polish(ws, data)
-    if not opt.check_collisions or clearance(ws, data) >= 0.0:
+    if not opt.check_collisions:
+        return code, k, n_pol, 0
+    rows, cmin = first_inequality_rows(ws, data)
+    if cmin >= 0.0:
         return code, k, n_pol, 0
     if opt.n_repair == 0:
         return COLLIDING, k, n_pol, 0
-    code, n_rep, more = repair(ws, data)
+    code, n_rep, more = repair(ws, data, rows, cmin)
     n_pol += more
     if code == WITHIN_DMIN and opt.n_polish > 0:  # polish the repaired answer, keep it clear
         done, more = _polished_clear(ws, data)
