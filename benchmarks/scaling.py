@@ -4,6 +4,7 @@ other parallel searches, on local clusters of 1 and 2 worker processes.
     python benchmarks/scaling.py                  # everything (~10 min on 2 cores, a cold compile included)
     python benchmarks/scaling.py --quick          # smaller sizes, one repeat, no cold compile
     python benchmarks/scaling.py --batch-only     # the batch tables only
+    python benchmarks/scaling.py --stages-only    # one process only: per task, per stage, the client alone
 
 **Batch** (issue 16): the built-in tasks, ``--tasks`` of them (the nine, repeated, each with
 its own id), method ``local``:
@@ -11,12 +12,15 @@ its own id), method ``local``:
 1. per task, in one process without Dask (``solve_chunk`` on chunks of 64: loading,
    the batch solve, verification, the JSON record), wall and CPU time; and the same for
    ``--distinct`` tasks that are all different (inline, each object moved by its own
-   offset): every task parsed, grouped and verified on its own;
+   offset; other ones each repeat): every task parsed, grouped, verified and its quality
+   measured on its own;
 2. ``run_batch`` on clusters of 1 and 2 workers (records to a journal on disk): tasks/s,
    worker-seconds per task, the workers' CPU per task, the client process's CPU per task
    (the local cluster's scheduler runs in it too), speed-up against 1 worker;
 3. the client's own cost per task, alone: precomputed chunk outputs appended to a journal
-   (``_Run.accept``: one write and one fsync per chunk, progress per chunk);
+   (``_Run.accept``: one write and one fsync per chunk, progress per chunk); then where a
+   task's time goes in one process: the worker's seconds per stage (``ChunkOutput.stages``:
+   load, solve, quality, record) and the client's write, per task;
 4. bytes per record (compact and self-contained), what travels per task, Dask's cost per
    Dask task (no-op tasks), and what follows for a cluster of hundreds of workers;
 5. a fresh worker's first chunk with a cold numba cache (``NUMBA_CACHE_DIR`` an empty
@@ -64,10 +68,11 @@ def builtin_lines(n: int) -> list[dict]:
     return [{"id": f"{names[i % len(names)]}-{i}", "task": names[i % len(names)]} for i in range(n)]
 
 
-def distinct_lines(n: int) -> list[dict]:
+def distinct_lines(n: int, first: int = 0) -> list[dict]:
     """``n`` different tasks written inline: the nine built-in tasks in turn, each object
     moved by its own offset (the object pose absorbs it: as solvable, but no two tasks
-    alike, so that every task is parsed, grouped and verified on its own)."""
+    alike, so that every task is parsed, grouped, verified and measured on its own);
+    tasks ``first .. first + n - 1`` of that sequence (another ``first``: other tasks)."""
     from prehension.geometry.regions import BezierRegion, PointRegion, SphereCap
     from prehension.objects.model import GraspObject
     from prehension.tasks.library import builtin_task_names, load_builtin_task
@@ -82,7 +87,7 @@ def distinct_lines(n: int) -> list[dict]:
 
     tasks = [load_builtin_task(name) for name in builtin_task_names()]
     lines = []
-    for i in range(n):
+    for i in range(first, first + n):
         task, t = tasks[i % len(tasks)], np.array([0.01 * (i + 1), 0.0, 0.0])
         obj = GraspObject(task.object.name, {k: moved(r, t) for k, r in task.object.regions.items()}, task.object.primitives)
         lines.append({"id": f"distinct-{i}", "task": task_to_dict(replace(task, object=obj))})
@@ -159,17 +164,31 @@ def _on_clusters(tasks: Path, folder: Path, repeats: int) -> dict:
     return results
 
 
-def batch_table(args, tasks: Path, entries: list[dict], folder: Path) -> Table:
-    n = len(entries)
-    table = Table(title=f"prehension batch, {n} built-in tasks (the nine in turn), method local: medians of {args.repeats}")
+def _batch_columns(table: Table) -> Table:
     for col in ("where", "time [s]", "tasks/s", "per task [ms]", "worker CPU / task [ms]", "client CPU / task [ms]",
                 "speed-up", "solved"):  # fmt: skip
         table.add_column(col, justify="left" if col == "where" else "right")
-    runs = [inline(entries) for _ in range(args.repeats)]
-    _inline_row(table, "one process, no Dask", runs)
-    if args.distinct:
-        _, distinct = wired(distinct_lines(args.distinct), folder, "distinct.jsonl")
-        _inline_row(table, f"  {args.distinct} distinct inline tasks, no Dask", [inline(distinct) for _ in range(args.repeats)])
+    return table
+
+
+def inline_runs(args, entries: list[dict], folder: Path) -> dict:
+    """``{label: [inline runs]}``: the built-in tasks, then (``--distinct``) distinct inline tasks."""
+    runs = {"one process, no Dask": [inline(entries) for _ in range(args.repeats)]}
+    if args.distinct:  # other tasks each repeat: none of them met before (parsed, measured afresh)
+        repeats = [wired(distinct_lines(args.distinct, r * args.distinct), folder, f"distinct-{r}.jsonl")[1]
+                   for r in range(args.repeats)]  # fmt: skip
+        runs[f"  {args.distinct} distinct inline tasks, no Dask"] = [inline(distinct) for distinct in repeats]
+    return runs
+
+
+def batch_table(args, tasks: Path, entries: list[dict], runs: dict, folder: Path) -> Table:
+    n = len(entries)
+    title = f"prehension batch, {n} built-in tasks (the nine in turn), method local: medians of {args.repeats}"
+    table = _batch_columns(Table(title=title))
+    for label, label_runs in runs.items():
+        _inline_row(table, label, label_runs)
+    if args.stages_only:
+        return table
     results = _on_clusters(tasks, folder, args.repeats)
     base = statistics.median(r["wall"] for r in results[1])
     for workers, rs in results.items():
@@ -181,7 +200,36 @@ def batch_table(args, tasks: Path, entries: list[dict], folder: Path) -> Table:
         )  # fmt: skip
     table.caption = ("per task = wall x workers / tasks (worker-seconds per task, Dask and the client included); "
                      "the client process also runs the local cluster's scheduler and nannies")  # fmt: skip
-    return table, runs[0][2]
+    return table
+
+
+# -- 1b. where a task's time goes ----------------------------------------------------------------
+def stages_table(runs: dict, client_s: float) -> Table:
+    """Per task, the worker's CPU seconds in each stage (``ChunkOutput.stages``, medians over
+    the repeats) and the client's cost (table 3): what a task costs beyond its solve."""
+    from prehension.batch.records import STAGES
+
+    table = Table(title="Where a task's time goes, one process, no Dask (CPU ms per task; medians of the repeats)")
+    for col in ("tasks", *STAGES, "write (client)", "beyond the solve", "all", "beyond the solve, wall"):
+        table.add_column(col, justify="left" if col == "tasks" else "right")
+    for label, label_runs in runs.items():
+        n = sum(len(o.records) for o in label_runs[0][2])
+
+        def per_task(stage: str, which: int) -> float:
+            return 1e3 * statistics.median(sum(o.stages[stage][which] for o in r[2]) for r in label_runs) / n
+
+        ms = {s: per_task(s, 1) for s in STAGES}
+        ms["write (client)"] = 1e3 * client_s
+        beyond = sum(v for k, v in ms.items() if k != "solve")
+        beyond_wall = sum(per_task(s, 0) for s in STAGES if s != "solve") + ms["write (client)"]
+        table.add_row(label.strip().replace(", no Dask", "").replace("one process", "the built-in tasks"),
+                      *(f"{ms[k]:.3f}" for k in ms), f"{beyond:.3f}", f"{beyond + ms['solve']:.3f}", f"{beyond_wall:.3f}")  # fmt: skip
+    table.caption = ("load: parse (or find in the worker's cache) the task; solve: the local batch call and each "
+                     "answer's verification; quality: the stored quality of each solution (measured once per "
+                     "distinct grasp); record: the result as a JSON line; write: the client's own cost per task "
+                     "(table 3: the largest of its loop wall, its CPU and the wall until fsynced), on another process; "
+                     "CPU of the worker's thread, wall in the last column (above it when the machine is busy)")  # fmt: skip
+    return table
 
 
 # -- 3. the client alone -------------------------------------------------------------------------
@@ -336,6 +384,8 @@ def main() -> None:
     parser.add_argument("--distinct", type=int, default=360, help="batch: also that many distinct inline tasks, one process")
     parser.add_argument("--no-cold", action="store_true", help="skip the cold-cache compile (a minute or two)")
     parser.add_argument("--batch-only", action="store_true", help="only the batch tables")
+    parser.add_argument("--stages-only", action="store_true", help="only one process: the batch per task, the client "
+                        "alone and where a task's time goes (no cluster)")  # fmt: skip
     parser.add_argument("--problems", type=int, default=10_000, help="solvers: random point problems")
     parser.add_argument("--chunk", type=int, default=1000, help="solvers: problems per Dask task")
     parser.add_argument("--boxes", type=int, default=16, help="solvers: boxes of the hard search")
@@ -354,11 +404,16 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as folder:
         folder = Path(folder)
         tasks, entries = wired(builtin_lines(args.tasks), folder)
-        table, outputs = batch_table(args, tasks, entries, folder)
-        console.print(table)
-        wall, _, _ = inline(entries)
+        runs = inline_runs(args, entries, folder)
+        console.print(batch_table(args, tasks, entries, runs, folder))
+        outputs = next(iter(runs.values()))[0][2]
         client, client_s = client_table(outputs, folder, args.repeats)
         console.print(client)
+        console.print(stages_table(runs, client_s))
+        if args.stages_only:
+            console.print(f"whole run: {time.perf_counter() - started:.0f} s; load average at the end {os.getloadavg()[0]:.1f}")
+            return
+        wall, _, _ = inline(entries)
         whole = inline(entries, self_contained=True)[2]
         with cluster(workers=2) as two:
             console.print(wire_table(entries, outputs, whole, two, wall / len(entries), client_s))

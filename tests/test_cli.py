@@ -17,7 +17,9 @@ def test_version_and_help(capsys):
     with pytest.raises(SystemExit) as info:
         main(["--version"])
     assert info.value.code == 0
-    assert "prehension" in capsys.readouterr().out
+    from importlib.metadata import version
+
+    assert capsys.readouterr().out == f"prehension {version('prehension')}\n"
     assert main([]) == EXIT_OK
 
 

@@ -64,6 +64,9 @@ def test_bad_input_exit_code(capsys, tmp_path):
     assert "neither a built-in task" in capsys.readouterr().err
     assert main(["solve", "teapot-lid-lifting", "--sigma", "2", "--method", "complete"]) == EXIT_BAD_INPUT
     assert "sigma must lie in (0, 1)" in capsys.readouterr().err
+    # with auto too, before any solving, although the complete solver's options are made only if it runs
+    assert main(["solve", "teapot-lid-lifting", "--sigma", "1", "-o", str(tmp_path / "n.json")]) == EXIT_BAD_INPUT
+    assert "sigma must lie in (0, 1)" in capsys.readouterr().err and not (tmp_path / "n.json").exists()
     bad = tmp_path / "x.json"
     bad.write_text("{not json")
     assert main(["check", str(bad)]) == EXIT_BAD_INPUT
@@ -113,3 +116,24 @@ def test_check_reverifies_every_record_of_a_batch_output(tmp_path, capsys):
     out.write_text("{not json\n")
     assert main(["check", str(out)]) == EXIT_BAD_INPUT
     assert "results.jsonl:1: not valid JSON" in capsys.readouterr().err
+
+
+def test_auto_makes_the_complete_solvers_options_only_when_it_falls_back():
+    """``solve(complete_options=callable)``: called only if the complete solver runs (the
+    command line passes one, so that ``auto`` does not import the complete solver when
+    the local one succeeds)."""
+    from prehension.solve import solve
+    from prehension.solvers.complete.search import BranchAndPruneOptions
+
+    def never():
+        raise AssertionError("the complete solver's options were made")
+
+    assert solve(pincer_task(30.0), "auto", complete_options=never).status == "solved"  # the local solver answered
+    made = []
+
+    def options():
+        made.append(True)
+        return BranchAndPruneOptions(sigma=0.05)
+
+    result = solve(pincer_task(60.0), "auto", complete_options=options)  # the local solver fails; the complete one proves
+    assert made == [True] and result.status == "infeasible"

@@ -63,10 +63,18 @@ def test_importing_the_command_line_leaves_the_heavy_parts_for_later():
 
     heavy = ("trimesh", "scipy.spatial", "scipy.optimize", "scipy.ndimage", "prehension.quality",
              "prehension.viewer", "prehension.solvers.complete.search", "dask", "distributed")  # fmt: skip
-    code = f"import sys, prehension.cli; print([m for m in {heavy!r} if m in sys.modules])"
+    code = (f"import sys, prehension, prehension.cli; print([m for m in {heavy!r} if m in sys.modules], "
+            "'__version__' in vars(prehension))")  # fmt: skip
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
-    assert out.stdout.strip() == "[]"
+    assert out.stdout.strip() == "[] False"  # nor the package metadata (read for --version only)
+
+
+def test_version_is_the_installed_distributions():
+    from importlib.metadata import version
+
+    assert prehension.__version__ == version("prehension")
+    assert "__version__" in prehension.__all__ and "__version__" in dir(prehension)
 
 
 def test_public_names_are_the_objects_of_their_modules():

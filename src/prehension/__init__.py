@@ -7,7 +7,6 @@ configuration is judged by one residual function, :func:`evaluate`.
 from __future__ import annotations
 
 from importlib import import_module
-from importlib.metadata import PackageNotFoundError, version
 
 from .errors import (
     DegeneratePatch,
@@ -54,10 +53,6 @@ _MODULE_OF = {name: module for module, names in _SOURCES.items() for name in nam
 # ``prehension.solve`` is the function whichever of them is imported first.
 from .solve import solve  # noqa: E402
 
-try:
-    __version__ = version("prehension")
-except PackageNotFoundError:  # running from a source tree without installation
-    __version__ = "0.0.0+local"
 
 __all__ = [
     "__version__",
@@ -82,8 +77,24 @@ __all__ = [
 ]  # fmt: skip
 
 
+def _version() -> str:
+    """The installed distribution's version (``0.0.0+local`` in a source tree without
+    installation).  Read on first use of ``prehension.__version__``: asking the package
+    metadata costs ~10 ms, which every command would otherwise pay at start-up."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("prehension")
+    except PackageNotFoundError:
+        return "0.0.0+local"
+
+
 def __getattr__(name: str):
-    """A public name, imported from its module on first use (then kept in the package)."""
+    """A public name, imported from its module on first use (then kept in the package);
+    ``__version__`` read from the package metadata on first use."""
+    if name == "__version__":
+        globals()[name] = value = _version()
+        return value
     module = _MODULE_OF.get(name)
     if module is None:
         raise AttributeError(f"module 'prehension' has no attribute {name!r}")
@@ -93,4 +104,4 @@ def __getattr__(name: str):
 
 
 def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_MODULE_OF))
+    return sorted(set(globals()) | set(_MODULE_OF) | {"__version__"})

@@ -20,7 +20,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from .atomic import read_json, to_plain, write_json_atomic
-from .errors import InvalidTask
+from .errors import InvalidTask, PrehensionError
 from .hands.kinematics import forward_kinematics
 from .tasks.idle import settle_idle_fingers
 from .tasks.model import Configuration, Task
@@ -194,9 +194,7 @@ def _solution(task: Task, config: Configuration, pose, report: ResidualReport, t
 
 
 # -- files ------------------------------------------------------------------------------
-def _solution_to_dict(sol: Solution, task: Task, quality=None) -> dict:
-    from .quality import QualityOptions, quality_entry
-
+def _solution_to_dict(sol: Solution, quality: dict) -> dict:
     return {
         "joint_angles_deg": {k: float(np.degrees(v)) for k, v in sol.joint_angles.items()},
         "joint_angles_rad": dict(sol.joint_angles),
@@ -219,15 +217,17 @@ def _solution_to_dict(sol: Solution, task: Task, quality=None) -> dict:
         "worst": {k: sol.report.worst(k) for k in sorted(sol.report.kinds)},
         "tolerances": asdict(sol.tolerances),
         "idle_moved": list(sol.idle_moved),
-        "quality": quality_entry(task, sol.T_palm_object, sol.contacts, quality or QualityOptions()),
+        "quality": quality,
     }
 
 
-def result_to_dict(result: SolveResult, quality=None, *, embed_task: bool = True) -> dict:
+def result_to_dict(result: SolveResult, quality=None, *, embed_task: bool = True, qualities=None) -> dict:
     """A JSON-ready dict: units in keys, the task embedded (unless ``embed_task`` is false:
     a batch stores each distinct task once and its records refer to it); each solution's
     grasp quality measured with ``quality`` (:class:`prehension.quality.QualityOptions`,
-    default ones if ``None``)."""
+    default ones if ``None``), or given: ``qualities``, one
+    :func:`~prehension.quality.quality_entry` per solution (a batch measures them itself)."""
+    from .quality import QualityOptions, quality_entry
     from .tasks.yaml_io import task_to_dict
 
     head = {
@@ -237,6 +237,11 @@ def result_to_dict(result: SolveResult, quality=None, *, embed_task: bool = True
     }
     if embed_task:
         head["task"] = task_to_dict(result.task, hand_inline=True)  # a result file is re-checkable alone
+    if qualities is None:
+        options = quality or QualityOptions()
+        qualities = [quality_entry(result.task, s.T_palm_object, s.contacts, options) for s in result.solutions]
+    elif len(qualities) != len(result.solutions):
+        raise PrehensionError(f"result_to_dict: {len(qualities)} quality entries given for {len(result.solutions)} solutions")
     return {
         **head,
         "method": result.method,
@@ -245,7 +250,7 @@ def result_to_dict(result: SolveResult, quality=None, *, embed_task: bool = True
         "message": result.message,
         "seconds": result.seconds,
         "stats": to_plain(dict(result.stats)),
-        "solutions": [_solution_to_dict(s, result.task, quality) for s in result.solutions],
+        "solutions": [_solution_to_dict(s, q) for s, q in zip(result.solutions, qualities)],
         "unverified_boxes": [{"lower": lo.tolist(), "upper": hi.tolist()} for lo, hi in result.unverified_boxes],
     }
 

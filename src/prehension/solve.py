@@ -45,6 +45,10 @@ def solve(
     :class:`~prehension.solvers.local.InitialPoseSequence`, e.g. from ``prehension
     offline``); it must have been made for the task's hand (checked by
     :func:`check_sequence`).  Default: the hand's shipped sequence, else the default one.
+
+    ``complete_options``: a :class:`~prehension.solvers.complete.search.BranchAndPruneOptions`,
+    or a zero-argument callable that makes one, called only if the complete solver runs
+    (so that ``auto`` does not import the complete solver when the local one succeeds).
     """
     if method not in ("auto", "local", "complete"):
         raise PrehensionError(f"method must be 'auto', 'local' or 'complete', got {method!r}")
@@ -61,6 +65,8 @@ def solve(
 
     if progress is not None:
         progress({"stage": "complete solver"})
+    if callable(complete_options):
+        complete_options = complete_options()
     result = solve_complete(
         task, complete_options or BranchAndPruneOptions(), executor=executor, workers=workers,
         checkpoint=checkpoint, resume=resume, progress=progress,

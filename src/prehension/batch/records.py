@@ -9,11 +9,13 @@ and the task line of every ref its records use (see :mod:`.journal`).
 from __future__ import annotations
 
 import json
-from typing import Any, Mapping, NamedTuple
+from typing import Any, Mapping, NamedTuple, Sequence
 
 from .journal import RECORD_TAG
 
-__all__ = ["ChunkOutput", "RecordLine", "record_dict", "encode", "result_line", "error_line"]
+__all__ = ["ChunkOutput", "RecordLine", "STAGES", "record_dict", "encode", "result_line", "error_line"]
+
+STAGES = ("load", "solve", "quality", "record")  # where a worker's time on a chunk goes (ChunkOutput.stages)
 
 
 class RecordLine(NamedTuple):
@@ -26,10 +28,13 @@ class RecordLine(NamedTuple):
 
 
 class ChunkOutput(NamedTuple):
-    """What a chunk sends back: its records and the task lines they refer to, by ref."""
+    """What a chunk sends back: its records, the task lines they refer to (by ref), and
+    the worker's ``(wall, CPU)`` seconds per stage of the chunk (:data:`STAGES`; CPU of the
+    worker's thread; for benchmarks and profiling: nothing of it is written)."""
 
     records: list
     tasks: dict
+    stages: Mapping[str, tuple[float, float]] = {}
 
 
 def encode(data: Mapping[str, Any]) -> bytes:
@@ -52,7 +57,7 @@ def error_line(entry: Mapping[str, Any], method: str, seed: int, status: str, me
 
 
 def result_line(entry: Mapping[str, Any], method: str, seed: int, result, loaded, seconds: float,
-                self_contained: bool, quality=None, extra: Mapping[str, Any] | None = None) -> RecordLine:  # fmt: skip
+                self_contained: bool, qualities: Sequence[dict], extra: Mapping[str, Any] | None = None) -> RecordLine:  # fmt: skip
     """The record of a solved (or given up, or proven infeasible) task.
 
     Args:
@@ -60,12 +65,13 @@ def result_line(entry: Mapping[str, Any], method: str, seed: int, result, loaded
         loaded: its :class:`~.loading.LoadedTask` (the task dict and ref, built once).
         seconds: the task's time on the worker [s].
         self_contained: embed the task in the result, else refer to its task line.
-        quality: the :class:`~prehension.quality.QualityOptions` of the stored quality.
+        qualities: the ``"quality"`` entry of each solution
+            (:func:`~prehension.quality.quality_entry`), measured by the caller.
         extra: fields after ``result`` (``physics``).
     """
     from ..results import result_to_dict
 
-    data = result_to_dict(result, quality, embed_task=False)
+    data = result_to_dict(result, embed_task=False, qualities=qualities)
     fields = dict(status=result.status, seconds=seconds, message=result.message)
     if self_contained:
         head = {k: data[k] for k in ("prehension", "units", "frames")}

@@ -17,8 +17,8 @@ complete solver); ``"complete"`` solves every task that way.
 records are serialised here (:mod:`.records`), the task stored once per distinct task.
 
 **Seconds.**  A record's ``seconds`` is the task's share of the chunk's work on the
-worker: its loading, an equal share of the batch call it took part in, and its own
-verification (and, with ``auto``, its complete solve).  Times are the only fields of a
+worker: its loading, an equal share of the batch call it took part in, its own
+verification (and, with ``auto``, its complete solve) and the quality of its solutions.  Times are the only fields of a
 record that depend on the chunking.
 """
 
@@ -33,7 +33,7 @@ from functools import lru_cache
 from typing import Any, Mapping, Sequence
 
 from ..errors import PrehensionError
-from .records import ChunkOutput, RecordLine, error_line, result_line
+from .records import STAGES, ChunkOutput, RecordLine, error_line, result_line
 
 __all__ = ["BatchOptions", "task_seed", "solve_chunk"]
 
@@ -136,7 +136,15 @@ class _Chunk:
         self.options = options
         self.records: list[RecordLine] = []
         self.tasks: dict[str, bytes] = {}
+        self.stages: dict[str, tuple[float, float]] = dict.fromkeys(STAGES, (0.0, 0.0))  # ChunkOutput.stages
         self._sequences: dict = {}
+
+    def spent(self, stage: str, started: tuple[float, float]) -> float:
+        """Add the wall and CPU time since ``started`` (:func:`_clock`) to ``stage``; return the wall time [s]."""
+        wall, cpu = time.perf_counter() - started[0], time.thread_time() - started[1]
+        before = self.stages[stage]
+        self.stages[stage] = (before[0] + wall, before[1] + cpu)
+        return wall
 
     def seed(self, entry) -> int:
         return task_seed(self.options.seed, entry["id"])
@@ -153,26 +161,46 @@ class _Chunk:
         self.records.append(error_line(entry, self.options.method, self.seed(entry), status, message, seconds))
 
     def add(self, entry, loaded, result, seconds: float) -> None:
-        """The record of ``result`` (its ``seconds`` set to the task's time so far)."""
-        started = time.perf_counter()
+        """The record of ``result`` (its ``seconds`` set to the task's time so far): the
+        physics test (``simulate``, counted as solving), the quality of every solution,
+        then the JSON line."""
+        started = _clock()
         try:
             extra = {}
             if self.options.simulate is not None:
                 from ..batch_extras import physics_records
 
                 extra["physics"] = physics_records(loaded.task, result, self.options.simulate, self.seed(entry))
+                seconds += self.spent("solve", started)
+                started = _clock()
+            qualities = _qualities(loaded.task, result, self.options.quality)
+            seconds += self.spent("quality", started)
+            started = _clock()
             line = result_line(entry, self.options.method, self.seed(entry), result, loaded,
-                               seconds + time.perf_counter() - started, self.options.self_contained,
-                               self.options.quality, extra)  # fmt: skip
+                               seconds, self.options.self_contained, qualities, extra)  # fmt: skip
             if line.task_ref is not None:
                 self.tasks.setdefault(line.task_ref, loaded.task_line)
         except Exception as exc:  # a bug must not stop the other tasks; the record says what happened
-            self.fail(entry, exc, seconds + time.perf_counter() - started)
+            self.fail(entry, exc, seconds + self.spent("record", started))
             return
+        self.spent("record", started)
         self.records.append(line)
 
     def output(self) -> ChunkOutput:
-        return ChunkOutput(self.records, self.tasks)
+        return ChunkOutput(self.records, self.tasks, self.stages)
+
+
+def _clock() -> tuple[float, float]:
+    """``(wall, CPU of this thread)`` now [s], for :meth:`_Chunk.spent`."""
+    return time.perf_counter(), time.thread_time()
+
+
+def _qualities(task, result, options) -> list[dict]:
+    """The stored quality of each solution of ``result`` (default options if ``None``)."""
+    from ..quality import QualityOptions, quality_entry
+
+    options = options if options is not None else QualityOptions()
+    return [quality_entry(task, s.T_palm_object, s.contacts, options) for s in result.solutions]
 
 
 def _load(chunk: _Chunk, entries) -> list[tuple[Mapping, Any, float]]:
@@ -183,13 +211,13 @@ def _load(chunk: _Chunk, entries) -> list[tuple[Mapping, Any, float]]:
     for entry in entries:
         if chunk.options.delay_s:
             time.sleep(chunk.options.delay_s)
-        started = time.perf_counter()
+        started = _clock()
         try:
             loaded = load_entry(entry["payload"])
         except Exception as exc:
-            chunk.fail(entry, exc, time.perf_counter() - started)
+            chunk.fail(entry, exc, chunk.spent("load", started))
             continue
-        out.append((entry, loaded, time.perf_counter() - started))
+        out.append((entry, loaded, chunk.spent("load", started)))
     return out
 
 
@@ -199,14 +227,14 @@ def _solve_alone(chunk: _Chunk, entry, loaded, seconds: float) -> None:
     from ..batch_extras import solve_task
 
     options = chunk.options
-    started = time.perf_counter()
+    started = _clock()
     try:
         result = solve_task(loaded.task, options.method, chunk.seed(entry), options.time_limit_s, options.best,
                             chunk.sequence(loaded.task.hand.name))  # fmt: skip
     except Exception as exc:
-        chunk.fail(entry, exc, seconds + time.perf_counter() - started)
+        chunk.fail(entry, exc, seconds + chunk.spent("solve", started))
         return
-    chunk.add(entry, loaded, result, seconds + time.perf_counter() - started)
+    chunk.add(entry, loaded, result, seconds + chunk.spent("solve", started))
 
 
 def _local_batch(chunk: _Chunk, todo, sequence) -> list | None:
@@ -215,13 +243,14 @@ def _local_batch(chunk: _Chunk, todo, sequence) -> list | None:
     call raised (each task is then solved alone)."""
     from ..solvers.local import solve_local_batch
 
-    started = time.perf_counter()
+    started = _clock()
     try:
         batch = solve_local_batch([loaded.task for _, loaded, _ in todo], _local_options(), sequence,
                                   [chunk.seed(entry) for entry, _, _ in todo])  # fmt: skip
     except Exception:
+        chunk.spent("solve", started)
         return None
-    share = (time.perf_counter() - started) / len(todo)
+    share = chunk.spent("solve", started) / len(todo)
     return [(record, share) for record in batch]
 
 
@@ -273,13 +302,13 @@ def _solve_local_first(chunk: _Chunk, todo) -> None:
                 _solve_alone(chunk, entry, loaded, seconds)
             continue
         for (entry, loaded, seconds), (record, share) in zip(group, solved):
-            started = time.perf_counter()
+            started = _clock()
             try:
                 result = _verified(record, loaded.task, sequence, share)
             except Exception as exc:
-                chunk.fail(entry, exc, seconds + share + time.perf_counter() - started)
+                chunk.fail(entry, exc, seconds + share + chunk.spent("solve", started))
                 continue
-            spent = seconds + share + time.perf_counter() - started
+            spent = seconds + share + chunk.spent("solve", started)
             if chunk.options.method == "auto" and not result.success:
                 _solve_alone(chunk, entry, loaded, spent)  # solve(auto) runs the local solver first: same answer
             else:

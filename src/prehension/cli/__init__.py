@@ -13,7 +13,6 @@ from pathlib import Path
 from rich.console import Console
 from rich.markup import escape
 
-from .. import __version__
 from ..errors import PrehensionError
 from . import batch, check, hands, offline, region, simulate, solve, view
 from .codes import EXIT_APPROXIMATE, EXIT_BAD_INPUT, EXIT_CHECK_FAILED, EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK
@@ -31,7 +30,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog="prehension",
         description="Grasp configurations of multi-fingered hands with specified contact regions.",
     )
-    parser.add_argument("--version", action="version", version=f"prehension {__version__}")
+    parser.add_argument("--version", action=_Version, help="show the program's version number and exit")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.add_parser("tasks", help="list the built-in tasks")
     show = sub.add_parser("show", help="describe a task (hand, limits, contacts, problem size) or a hand (fingers, fingertips)")
@@ -62,6 +61,20 @@ def _add_import(sub) -> None:
         "--couple", action="append", default=[], metavar="ANGLE=SOURCE", help="couple two joint angles (equal angles)"
     )
     imp.add_argument("--force", action="store_true", help="overwrite the output file if it exists")
+
+
+class _Version(argparse.Action):
+    """``--version``: prints ``prehension X.Y.Z`` and exits; the version is read only when
+    asked for (reading the package metadata would cost every command ~10 ms)."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS, help=None):
+        super().__init__(option_strings=option_strings, dest=dest, default=default, nargs=0, help=help)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        from .. import __version__
+
+        print(f"prehension {__version__}")  # on stdout, as argparse's own "version" action
+        parser.exit()
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -109,12 +109,25 @@ def _check_outputs(args, task) -> Path:
 
 
 def _options(args):
-    from ..solvers.complete.search import BranchAndPruneOptions
+    """The complete solver's options, as a zero-argument callable that makes them.
 
-    return BranchAndPruneOptions(
-        sigma=args.sigma, order="breadth" if args.all else "depth", all_solutions=args.all,
-        max_boxes=args.max_boxes, time_limit_s=types.time_limit(args.time_limit),
-    )  # fmt: skip
+    Importing the complete solver costs ~50 ms (its LP and relaxation modules), which
+    ``--method auto`` needs only when the local solver finds nothing: :func:`~prehension.solve.solve`
+    calls this only then.  The one value the command line can make invalid, ``--sigma``,
+    is checked here, before any work, with the options' own words.
+    """
+    if not 0.0 < args.sigma < 1.0:
+        raise PrehensionError(f"sigma must lie in (0, 1) (a fraction of the initial box), got {args.sigma}")
+
+    def make():
+        from ..solvers.complete.search import BranchAndPruneOptions
+
+        return BranchAndPruneOptions(
+            sigma=args.sigma, order="breadth" if args.all else "depth", all_solutions=args.all,
+            max_boxes=args.max_boxes, time_limit_s=types.time_limit(args.time_limit),
+        )  # fmt: skip
+
+    return make
 
 
 def _sequence(args):
@@ -140,13 +153,14 @@ def cmd_solve(args, console: Console) -> int:
     task = resolve_task(args.task)
     print_hand_warnings(console, task.hand)
     sequence = _sequence(args)
-    options = _options(args)
+    complete_options = _options(args)
+    time_limit_s = types.time_limit(args.time_limit)
     if args.resume and args.checkpoint is None:
         raise PrehensionError("--resume needs --checkpoint FILE (the file the interrupted run saved)")
     if args.resume and not args.checkpoint.is_file():
         raise PrehensionError(f"cannot resume: no checkpoint file {args.checkpoint}")
     path = _check_outputs(args, task)
-    quality, best = quality_options(args), best_options(args, options.time_limit_s)
+    quality, best = quality_options(args), best_options(args, time_limit_s)
     where = (args.scheduler, args.workers if args.workers > 1 else None)
     check_where(*where)
     if args.method == "local":  # the cluster only serves the complete solver's boxes
@@ -157,16 +171,16 @@ def cmd_solve(args, console: Console) -> int:
         if compile_pending():
             print(COMPILING_MESSAGE, file=sys.stderr, flush=True)
     with executor_for(*where) as executor:
-        with LiveProgress(console, enabled=not (args.quiet or args.json), time_limit_s=options.time_limit_s) as update:
+        with LiveProgress(console, enabled=not (args.quiet or args.json), time_limit_s=time_limit_s) as update:
             workers = executor.max_workers if executor is not None else 1
             if best is not None:
                 from ..best import solve_best
 
-                result = solve_best(task, best, args.method, seed=args.seed, complete_options=options,
+                result = solve_best(task, best, args.method, seed=args.seed, complete_options=complete_options(),
                                     executor=executor, workers=workers, progress=update, sequence=sequence)  # fmt: skip
             else:
                 result = solve(
-                    task, args.method, complete_options=options, local_options=_local_options(args), seed=args.seed,
+                    task, args.method, complete_options=complete_options, local_options=_local_options(args), seed=args.seed,
                     executor=executor, workers=workers, checkpoint=args.checkpoint, resume=args.resume, progress=update,
                     sequence=sequence,
                 )  # fmt: skip

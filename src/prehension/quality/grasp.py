@@ -6,15 +6,25 @@
 touched, in the object frame, pushing into it; torques are taken about the object's
 centre and scaled by its radius (:func:`~prehension.quality.solid.object_reference`)
 unless :class:`~prehension.quality.options.QualityOptions` states them.
+
+**Measured once per distinct grasp.**  The measures are a pure function of the contacts'
+object-frame points and normals, the centre, the radius and the options; each process
+keeps the last :data:`MEMO_SIZE` of them keyed by the exact bytes of those inputs, so a
+grasp met again (a batch solving one task many times, ``prehension check`` after
+``solve``) is not measured again, and gets bit for bit the same values.  Any other
+grasp -- one bit apart -- is measured afresh.  The object's own centre and radius (the
+default options) are computed once per object.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
 from ..errors import PrehensionError
+from ..frozen import cached_per_value
 from ..tasks.model import Task
 from .measures import force_closure, hull_measures
 from .options import QualityOptions
@@ -23,6 +33,7 @@ from .wrenches import primitive_wrenches
 
 __all__ = ["GraspQuality", "grasp_quality", "contacts_quality", "configuration_quality", "contact_quality", "QUALITY_KEYS"]
 
+MEMO_SIZE = 4096  # distinct grasps whose measures a process keeps (a few hundred bytes each)
 QUALITY_KEYS = ("force_closure", "epsilon", "volume", "closure_margin", "center_mm", "radius_mm", "options")
 
 
@@ -72,12 +83,27 @@ class GraspQuality:
 def contact_quality(points_mm, inward_normals, center_mm, radius_mm: float, options: QualityOptions = QualityOptions()) -> GraspQuality:
     """The quality of contacts at ``points_mm (C, 3)`` pushing along ``inward_normals (C, 3)``
     (object frame), torques about ``center_mm (3,)`` scaled by ``radius_mm``."""
-    W = primitive_wrenches(points_mm, inward_normals, center_mm, radius_mm, options).reshape(-1, 6)
+    def exact(x) -> bytes:
+        return np.ascontiguousarray(x, dtype=float).tobytes()
+
+    return _measured(exact(points_mm), exact(inward_normals), exact(center_mm), float(radius_mm), options)
+
+
+def clear_memo() -> None:
+    """Forget every grasp measured so far (benchmarks timing the measures; nothing else needs it)."""
+    _measured.cache_clear()
+
+
+@lru_cache(maxsize=MEMO_SIZE)
+def _measured(points: bytes, inward: bytes, center: bytes, radius_mm: float, options: QualityOptions) -> GraspQuality:
+    """:func:`contact_quality` of float64 inputs given by their bytes (the memo's key)."""
+    p, n, c = (np.frombuffer(b, dtype=float) for b in (points, inward, center))
+    W = primitive_wrenches(p.reshape(-1, 3), n.reshape(-1, 3), c, radius_mm, options).reshape(-1, 6)
     closure = force_closure(W)
     distance, volume = hull_measures(W)
     epsilon = max(distance, 0.0) if closure.force_closure else 0.0
-    centre = tuple(float(x) for x in np.asarray(center_mm, dtype=float))
-    return GraspQuality(closure.force_closure, epsilon, volume, closure.margin, centre, float(radius_mm), options)
+    centre = tuple(float(x) for x in c)
+    return GraspQuality(closure.force_closure, epsilon, volume, closure.margin, centre, radius_mm, options)
 
 
 def grasp_quality(task: Task, solution, options: QualityOptions = QualityOptions()) -> GraspQuality:
@@ -117,7 +143,16 @@ def configuration_quality(task: Task, config, options: QualityOptions = QualityO
 
 def _reference(task: Task, options: QualityOptions) -> tuple[np.ndarray, float]:
     """The centre and radius: as stated in ``options``, else the object's own."""
+    if options.center_mm is None and options.radius_mm is None:
+        centre, radius = _own_reference(task.object)
+        return centre.copy(), radius
     centre = np.asarray(options.center_mm, float) if options.center_mm is not None else object_center(task.object)
     if options.radius_mm is not None:
         return centre, options.radius_mm
     return object_reference(task.object, centre)
+
+
+@cached_per_value
+def _own_reference(obj) -> tuple[np.ndarray, float]:
+    """The object's own centre and radius (:func:`object_reference` about :func:`object_center`), once per object."""
+    return object_reference(obj, object_center(obj))

@@ -247,9 +247,10 @@ def contact_residuals(task: Task, pose: HandPose, T_palm_object, params) -> dict
         ``object_point``, ``object_normal`` (B, C, 3).
     """
     T = np.asarray(T_palm_object, dtype=float).reshape(-1, 4, 4)
-    hand_regions, object_regions, links = _contact_sides(task)
-    h_pt, h_n, h_out = evaluate_regions(hand_regions, [hp for hp, _ in params])
-    o_pt, o_n, o_out = evaluate_regions(object_regions, [op for _, op in params])
+    regions, links = _contact_sides(task)
+    C = len(links)  # the hand's regions, then the object's: one call evaluates both sides
+    pts, nrms, out = evaluate_regions(regions, [hp for hp, _ in params] + [op for _, op in params])
+    h_pt, h_n, h_out, o_pt, o_n, o_out = pts[:, :C], nrms[:, :C], out[:, :C], pts[:, C:], nrms[:, C:], out[:, C:]
     R, r = pose.R_palm_link[:, links], pose.r_palm_link[:, links]  # (B, C, 3, 3), (B, C, 3)
     R_o = T[:, None, :3, :3]
     res = {
@@ -267,13 +268,13 @@ def contact_residuals(task: Task, pose: HandPose, T_palm_object, params) -> dict
 
 
 @cached_per_value
-def _contact_sides(task: Task) -> tuple[tuple, tuple, np.ndarray]:
-    """Per contact: the hand's region, the object's region, the index of the hand region's
-    link (C,) -- the same for every configuration of a task."""
+def _contact_sides(task: Task) -> tuple[tuple, np.ndarray]:
+    """The regions of the ``C`` contacts, the hand's then the object's (2C,), and the index
+    of each hand region's link (C,) -- the same for every configuration of a task."""
     hregs = [task.hand_region(c) for c in task.contacts]
     links = np.array([task.hand.link_index(h.link) for h in hregs], dtype=np.intp)
     links.setflags(write=False)
-    return tuple(h.region for h in hregs), tuple(task.object_region(c) for c in task.contacts), links
+    return tuple(h.region for h in hregs) + tuple(task.object_region(c) for c in task.contacts), links
 
 
 def limit_violations(hand, q) -> np.ndarray:

@@ -43,7 +43,7 @@ ControlNet = Annotated[list[Annotated[list[Vec3], Field(min_length=1)]], Field(m
 class _Spec(BaseModel):
     """Base of every schema mapping: unknown keys are errors that list the allowed ones."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", defer_build=True)
 
     @model_validator(mode="before")
     @classmethod
