@@ -25,6 +25,7 @@ solver's system); the table says whether the configuration at ``t*`` collides.
     python benchmarks/frontier.py --families lid sa-pinch --time-limit 60
     python benchmarks/frontier.py --frontier-only       # only t* of every family
     python benchmarks/frontier.py --families lid tuning --offsets 1 2 --max-boxes 40   # a box budget, no time cap
+    python benchmarks/frontier.py --families lid --offsets 1.5 2 --pair-test 200000   # the pair test alone
 
 One process, BLAS and numba pinned to one thread (the targets of issue 15 are on one core).
 At the end a Markdown table of every run is printed (for benchmarks/README.md).
@@ -55,6 +56,7 @@ from prehension.hands.kinematics import forward_kinematics
 from prehension.hands.model import Hand, HandRegion
 from prehension.objects.model import GraspObject
 from prehension.results import Status, make_solution
+from prehension.solvers.complete.congruence import congruence_test
 from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
 from prehension.solvers.local import LocalOptions, solve_local
 from prehension.solvers.local.solver import refine_local
@@ -417,6 +419,28 @@ def run_family(console: Console, family: Family, frontier: Frontier, limit: floa
     return rows
 
 
+def run_pair_tests(console: Console, family: Family, frontier: Frontier, offsets, budget: int) -> list[dict]:
+    """The pose-free pair test alone (``congruence_test``, ``budget`` boxes) at ``t* + delta``:
+    proved or not, its boxes and CPU seconds (load-independent counts, one thread)."""
+    table = Table(title=f"{family.name}: the pair test alone, {budget} boxes (t* = {frontier.t_mm:.3f} mm)")
+    for col in ("t - t* [mm]", "outcome", "boxes", "CPU [s]"):
+        table.add_column(col, justify="right" if col != "outcome" else "left")
+    rows = []
+    for delta in offsets:
+        started = time.process_time()
+        proof = congruence_test(family.task_at(frontier.t_mm + delta), max_boxes=budget)
+        seconds = time.process_time() - started
+        stopped = ", ".join(sorted({o.stopped for _, o in proof.outcomes if o.stopped}))
+        outcome = "proved" if proof.proved else f"not proved ({stopped or 'no pair'})"
+        table.add_row(f"{delta:+g}", outcome, str(proof.boxes), f"{seconds:.1f}")
+        rows.append({"family": family.name, "t_star": frontier.t_mm, "delta": delta, "status": outcome,
+                     "boxes": proof.boxes, "lps": "-", "seconds": seconds, "miss": "-"})  # fmt: skip
+        if delta < 0 and proof.proved:
+            console.print(f"[red]FALSE PROOF: {family.name} at t* {delta:+g} mm is feasible[/red]")
+    console.print(table)
+    return rows
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--families", nargs="*", help="lid scalpel tuning sa-pinch allegro-pinch (default: all)")
@@ -426,6 +450,8 @@ def main() -> None:
     parser.add_argument("--max-boxes", type=int, help="box budget per complete run (then no time limit unless "
                         "--time-limit is given): the same search on a loaded machine")
     parser.add_argument("--frontier-only", action="store_true", help="only find t* of each family")
+    parser.add_argument("--pair-test", type=int, metavar="BOXES", help="run the pose-free pair test alone with this "
+                        "box budget instead of the complete solver (its time is CPU seconds)")
     parser.add_argument("--frontiers", type=Path, help="JSON file of t* per family: read when present, else written")
     args = parser.parse_args()
     defaults = QUICK if args.quick else {"families": None, "offsets": list(OFFSETS_MM), "time_limit": 300.0}
@@ -451,11 +477,13 @@ def main() -> None:
         console.print(f"{family.name}: t* = {frontier.t_mm:.3f} mm ({frontier.seconds:.1f} s)")
         summary.add_row(family.name, f"{frontier.t_mm:.3f}", str(frontier.starts), f"{frontier.seconds:.1f}",
                         "yes" if frontier.collides else "no")  # fmt: skip
-        if not args.frontier_only:
+        if args.pair_test and not args.frontier_only:
+            all_rows += run_pair_tests(console, family, frontier, args.offsets, args.pair_test)
+        elif not args.frontier_only:
             limit = None if args.time_limit == float("inf") else args.time_limit
             all_rows += run_family(console, family, frontier, limit, args.offsets, args.max_boxes)
     console.print(summary)
-    false = [r for r in all_rows if r["delta"] < 0 and r["status"] == Status.INFEASIBLE]
+    false = [r for r in all_rows if r["delta"] < 0 and r["status"] in (Status.INFEASIBLE, "proved")]
     console.print(f"false 'infeasible' below t*: {len(false)}")
     if all_rows:
         print(_markdown(all_rows))

@@ -55,6 +55,36 @@ def test_products_of_affine_forms_contain_the_products(seed):
     assert np.all(np.abs(value - s.c) <= af.spread(s) * (1 + 1e-9) + 1e-9)
 
 
+@pytest.mark.parametrize("seed", range(10))
+def test_the_dot_product_form_contains_the_products_at_the_corners_and_lies_in_the_product_bound(seed):
+    rng = np.random.default_rng(100 + seed)
+    B, K = 64, 6
+    u, w = _random_form(rng, B, K), _random_form(rng, B, K)
+    s = af.dot(u, w)
+    for _ in range(20):  # corners of the eps box, where the quadratic terms are extreme, and inside
+        eps = rng.choice([-1.0, 1.0], size=(B, K)) if _ % 2 else rng.uniform(-1, 1, (B, K))
+        uu, ww = _sample(rng, u, eps), _sample(rng, w, eps)
+        assert _contains(s, np.einsum("bi,bi->b", uu, ww), eps)
+    # inside the enclosure of the product bound (|u_c| rho_w + |w_c| rho_u + (sum|U| + rho_u)(sum|W| + rho_w))
+    c_old = np.einsum("bi,bi->b", u.c, w.c)
+    su, sw = np.linalg.norm(u.A, axis=1).sum(axis=1), np.linalg.norm(w.A, axis=1).sum(axis=1)
+    rho_old = (np.linalg.norm(u.c, axis=1) * w.rho + np.linalg.norm(w.c, axis=1) * u.rho
+               + (su + u.rho) * (sw + w.rho))  # fmt: skip
+    assert np.all(np.abs(s.c - c_old) + s.rho <= rho_old * (1 + 1e-12) + 1e-9)
+
+
+def test_the_dot_product_form_is_exact_for_forms_varying_in_orthogonal_directions():
+    """u = (1 + 2 eps_0, 1, 0) and w = (1, 1 + 3 eps_1, 0): u . w = 2 + 2 eps_0 + 3 eps_1 exactly
+    (the product bound would add a remainder of 2 * 3 = 6)."""
+    A_u, A_w = np.zeros((1, 3, 2)), np.zeros((1, 3, 2))
+    A_u[0, 0, 0], A_w[0, 1, 1] = 2.0, 3.0
+    u = af.Form(np.array([[1.0, 1.0, 0.0]]), A_u, np.zeros(1))
+    w = af.Form(np.array([[1.0, 1.0, 0.0]]), A_w, np.zeros(1))
+    s = af.dot(u, w)
+    assert s.rho[0] == 0.0 and s.c[0] == 2.0
+    np.testing.assert_allclose(s.A[0], [2.0, 3.0])
+
+
 def test_contraction_keeps_every_zero_of_the_form():
     rng = np.random.default_rng(0)
     for _ in range(200):

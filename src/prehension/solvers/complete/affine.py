@@ -18,8 +18,17 @@ terms, which go to the remainder:
     + \mathcal{B}\big(|u_c| \rho_w + |w_c| \rho_u + (\textstyle\sum_k |U_k| + \rho_u)
     (\sum_k |W_k| + \rho_w)\big),
 
-and likewise for the cross product.  Shapes: vectors ``c (B, 3)``, ``A (B, 3, K)``,
-``rho (B,)``; scalars ``c (B,)``, ``A (B, K)``, ``rho (B,)``.
+and likewise for the cross product.  For the dot product the quadratic term
+``sum_kl (U_k . W_l) eps_k eps_l`` is bounded term by term (:func:`_quadratic`) instead of
+by the product of the two sums above: ``eps_k^2`` lies in ``[0, 1]``, so a diagonal term
+``a_k eps_k^2`` (``a_k = U_k . W_k``) is ``a_k / 2 +- |a_k| / 2`` (half of it moves the
+centre), and each pair ``k < l`` contributes ``|U_k . W_l + U_l . W_k|``, never more than
+``|U_k| |W_l| + |U_l| |W_k|``: the enclosure lies inside the product bound's, and is
+narrower where the two forms vary along different dimensions or directions (the pair
+test's distance equation and cone conditions: 11-14% fewer boxes on the lid at t* + 1.5
+and + 2 mm; the cross product keeps the product bound, where the same refinement costs
+more than it saves).  Shapes: vectors ``c (B, 3)``, ``A (B, 3, K)``, ``rho (B,)``;
+scalars ``c (B,)``, ``A (B, K)``, ``rho (B,)``.
 """
 
 from __future__ import annotations
@@ -54,18 +63,31 @@ def _spread_vector(f: Form) -> np.ndarray:
 def dot(u: Form, w: Form) -> Form:
     c = np.einsum("bi,bi->b", u.c, w.c)
     A = np.einsum("bi,bik->bk", u.c, w.A) + np.einsum("bi,bik->bk", w.c, u.A)
-    return Form(c, A, _product_remainder(u, w))
+    shift, radius = _quadratic(u.A, w.A)
+    return Form(c + shift, A, _product_remainder(u, w) + radius)
 
 
 def cross(u: Form, w: Form) -> Form:
     c = np.cross(u.c, w.c)
     A = np.cross(u.c[:, :, None], w.A, axis=1) + np.cross(u.A, w.c[:, :, None], axis=1)
-    return Form(c, A, _product_remainder(u, w))
+    return Form(c, A, _product_remainder(u, w) + _spread_vector(u) * _spread_vector(w))
+
+
+def _quadratic(u_A: np.ndarray, w_A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Centre shift and radius ``(B,), (B,)`` of ``(sum_k U_k eps_k) . (sum_l W_l eps_l)`` over
+    ``eps in [-1, 1]^K`` (``u_A, w_A (B, 3, K)``): ``sum_k a_k eps_k^2 + sum_{k<l} b_kl eps_k eps_l``
+    with ``a_k = U_k . W_k`` in ``a_k / 2 +- |a_k| / 2`` and ``b_kl = U_k . W_l + U_l . W_k``."""
+    pairs = np.matmul(u_A.transpose(0, 2, 1), w_A)  # (B, K, K): U_k . W_l
+    diagonal = np.einsum("bkk->bk", pairs)  # (B, K)
+    both = np.abs(pairs + pairs.transpose(0, 2, 1)).sum(axis=(1, 2))  # every k != l twice, the diagonal as 2 |a_k|
+    return 0.5 * diagonal.sum(axis=1), 0.5 * both - 0.5 * np.abs(diagonal).sum(axis=1)
 
 
 def _product_remainder(u: Form, w: Form) -> np.ndarray:
+    """The remainder of ``u * w`` but for the product of the linear parts (:func:`_quadratic`, or
+    ``sum|U_k| sum|W_k|``): ``|u_c| rho_w + |w_c| rho_u + rho_u sum|W_k| + rho_w sum|U_k| + rho_u rho_w``."""
     nu, nw = np.linalg.norm(u.c, axis=1), np.linalg.norm(w.c, axis=1)
-    return nu * w.rho + nw * u.rho + (_spread_vector(u) + u.rho) * (_spread_vector(w) + w.rho)
+    return nu * w.rho + nw * u.rho + u.rho * _spread_vector(w) + w.rho * _spread_vector(u) + u.rho * w.rho
 
 
 def sub(u: Form, w: Form) -> Form:
