@@ -156,11 +156,14 @@ def bernstein_derivative(degree: int, t: np.ndarray, order: int = 1) -> np.ndarr
     return scale * (lower @ diff)
 
 
+@lru_cache(maxsize=None)
 def _sum_index_tensor(p: int, q: int) -> np.ndarray:
-    """One-hot tensor ``E[i, j, i + j] = 1``, shape ``(p+1, q+1, p+q+1)``."""
+    """One-hot tensor ``E[i, j, i + j] = 1``, shape ``(p+1, q+1, p+q+1)`` (cached; read-only:
+    every patch check of a task file asks for the same few degrees)."""
     e = np.zeros((p + 1, q + 1, p + q + 1))
     i, j = np.meshgrid(np.arange(p + 1), np.arange(q + 1), indexing="ij")
     e[i, j, i + j] = 1.0
+    e.setflags(write=False)
     return e
 
 
