@@ -12,8 +12,9 @@ are those of :func:`prehension.tasks.object_collision._kept_pieces`: the parts o
 segment outside the ball of radius ``r + rho`` around each contact point of the capsule's
 link (``rho`` the contact's pad radius).  So ``max(0, -value)`` is exactly the depth the
 one residual function reports for that capsule (:func:`~prehension.objects.distance.capsule_depths`:
-the exact segment distance when the piece is outside the solid, else the deepest of
-samples ``step`` mm apart), and the kernel and the residual function agree on what counts.
+the exact segment distance when the piece is outside the solid, else the sampled minimum,
+within ``max(step / 2, depth / 8)``), and the kernel and the residual function agree on
+what counts.
 
 **Its gradient.**  With the closest pair ``(p, s)`` -- ``p`` on the segment (fixed on the
 link), ``s`` on the surface (fixed on the object) -- and ``n`` the outward unit normal
