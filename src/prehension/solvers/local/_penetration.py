@@ -192,20 +192,23 @@ def _penetration_row(ws, data, s, outward, row):
 
 
 @njit(cache=True)
-def object_rows(ws, data, margin, row0, max_rows):
+def object_rows(ws, data, margin, row0, max_rows, every):
     """Rows ``value - margin`` of the checked capsules whose value (see the module
     docstring) is below ``margin`` [mm], into ``ws.M``, ``ws.g`` from ``row0``, at most
     ``max_rows``; ``(rows written, smallest value seen)``, a capsule farther than the margin
     counted as ``margin`` (its distance is searched only up to there).  The capsules must be placed
     (:func:`._model.place_capsules`) and the contact points ``ws.ph`` current.  ``row0`` and
     ``max_rows`` are int64: callers pass ``np.int64(0)``, never a literal ``0``, so that the
-    function compiles once (see :mod:`._jit`)."""
+    function compiles once (see :mod:`._jit`).  ``every`` (``np.bool_``): the idle fingers'
+    capsules too, at their idle angles (rows in the object pose's columns only): what
+    :func:`._kernel.iterate_seeing` keeps clear, so that the idle fingers need no settling
+    out of a palm that approached the object."""
     obj = ws.obj
     nrows, vmin = 0, 1e300
     if not obj.active:
         return 0, vmin
     for s in range(ws.hand.cap_link.shape[0]):
-        if not obj.checked[s] or _far_from_object(ws, s, margin):
+        if not (obj.checked[s] or every) or _far_from_object(ws, s, margin):
             continue
         value, gap = _capsule_value(ws, s, ws.oseg[5:7], margin)
         vmin = min(vmin, value)
