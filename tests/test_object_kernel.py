@@ -229,7 +229,7 @@ def test_segment_min_sd_is_within_its_tolerance_of_the_least_signed_distance(nam
         a = rng.uniform(lo, hi)
         b = a + rng.uniform(-40, 40, 3)
         pair = np.empty((2, 3))
-        got = segment_min_sd(distance.arrays, a, b, 0.25, pair, np.inf)
+        got = segment_min_sd(distance.arrays, a, b, 0.25, pair, np.inf, REL_TOL)
         length = np.linalg.norm(b - a)
         fine = distance.signed_distance(a + np.linspace(0.0, 1.0, int(length / 0.01) + 2)[:, None] * (b - a))
         coarse = distance.signed_distance(a + np.linspace(0.0, 1.0, int(length / 0.25 + 0.5) + 2)[:, None] * (b - a))

@@ -565,15 +565,18 @@ def segment_distances(m, starts, ends):
 
 
 _COARSE = 32  # the first samples at most 32 steps apart (8 mm); intervals are then bisected where needed
-REL_TOL = 0.125  # beyond step / 2, the tolerance grows with the depth: 1/8 of how far below the surface
+REL_TOL = 0.125  # the kernel's rows: beyond step / 2, a tolerance of 1/8 of how far below the surface
 
 
 @njit(cache=True)
-def _sampled_min_sd(m, p0, p1, step, pair):
+def _sampled_min_sd(m, p0, p1, step, pair, rel):
     """The smallest signed distance over segment ``p0``-``p1`` (3,) [mm], to within
-    ``max(step / 2, REL_TOL * depth)`` (``depth = -min sd`` below the surface): a value
+    ``max(step / 2, rel * depth)`` (``depth = -min sd`` below the surface): a value
     ``v`` of ``sd`` at a point of the segment (that point and its closest surface point in
-    ``pair (2, 3)``) with ``min sd <= v <= min sd + max(step / 2, REL_TOL * max(0, -v))``.
+    ``pair (2, 3)``) with ``min sd <= v <= min sd + max(step / 2, rel * max(0, -v))``.
+    The residual function passes ``rel = 0`` (within ``step / 2``: its depths may read at
+    most ``step / 2`` low, which the complete solver's prune relies on); the local
+    kernel's rows :data:`REL_TOL`.
 
     ``sd`` is 1-Lipschitz along the segment, so on an interval of length ``l`` between two
     measured values ``va``, ``vb`` it is at least ``(va + vb - l) / 2``.  Samples at most
@@ -585,7 +588,7 @@ def _sampled_min_sd(m, p0, p1, step, pair):
     (``|sd|`` is 1-Lipschitz too).  The tolerance that grows with the depth bounds the work
     on a segment deep inside and parallel to the surface (where ``sd`` is flat and no
     bound prunes): a link 20 mm inside is 20 mm inside to within 2.5 mm, which is all that
-    the repair's rows and the residual function's failing depth need."""
+    the kernel's rows need."""
     length = np.sqrt((p1[0] - p0[0]) ** 2 + (p1[1] - p0[1]) ** 2 + (p1[2] - p0[2]) ** 2)
     n = max(int(np.ceil(length / (_COARSE * step))), 1)
     todo = np.empty((n + 64, 4))  # (t0, t1, sd(t0), sd(t1)); depth first: n + levels of bisection
@@ -608,7 +611,7 @@ def _sampled_min_sd(m, p0, p1, step, pair):
         top -= 1
         ta, tb, va, vb = todo[top, 0], todo[top, 1], todo[top, 2], todo[top, 3]
         span = (tb - ta) * length
-        tol = max(0.5 * step, -REL_TOL * best)
+        tol = max(0.5 * step, -rel * best)
         if span <= step or 0.5 * (va + vb - span) + tol + slack >= best or top + 2 > todo.shape[0]:
             continue  # cannot be lower than the best by more than the tolerance
         tm = 0.5 * (ta + tb)
@@ -625,7 +628,7 @@ def _sampled_min_sd(m, p0, p1, step, pair):
 
 
 @njit(cache=True)
-def segment_min_sd(m, p0, p1, step, pair, bound):
+def segment_min_sd(m, p0, p1, step, pair, bound, rel):
     """The smallest signed distance over segment ``p0``-``p1`` (3,) to the surface [mm], and
     where: ``pair[0]`` on the segment, ``pair[1]`` the closest surface point (2, 3); for a
     segment outside the surface and farther than ``bound`` [mm], ``bound`` (and no pair):
@@ -633,13 +636,13 @@ def segment_min_sd(m, p0, p1, step, pair, bound):
 
     Exact (the closed-form segment distance) for a segment wholly outside; for a segment
     that meets the surface or lies inside, the sampled minimum of :func:`_sampled_min_sd`
-    (within ``max(step / 2, REL_TOL * depth)`` of the true value, from above), and at most
+    (within ``max(step / 2, rel * depth)`` of the true value, from above), and at most
     0 (such a segment has a point on or inside the surface, which the samples may miss)."""
     d = segment_closest_within(m, p0, p1, pair[0], pair[1], bound)
     near = d + np.sqrt(_dist_sq(p0, pair[0])) if d < bound else np.inf  # p0 is no farther
     if _wholly_outside(m, p0, d, near):  # exact (or the bound)
         return d
-    return min(_sampled_min_sd(m, p0, p1, step, pair), 0.0)
+    return min(_sampled_min_sd(m, p0, p1, step, pair, rel), 0.0)
 
 
 @njit(cache=True)
@@ -675,8 +678,8 @@ def _outside_root_box(m, p):
 def capsule_depths(m, starts, ends, radius, step, cap):
     """Penetration depth of capsules (segments ``starts``-``ends`` (N, 3), ``radius`` (N,)),
     (N,) [mm]: ``max(0, r - min sd)`` over the segment (:func:`segment_min_sd`: exact for
-    a segment outside the surface; for one reaching in, sampled, within
-    ``max(step / 2, REL_TOL * (depth - r))`` of the true depth, from below).
+    a segment outside the surface; for one reaching in, sampled, within ``step / 2`` of
+    the true depth, from below).
 
     ``cap`` [mm] (``inf`` for every depth): where a depth is known to exceed ``cap`` without
     sampling, a lower bound above ``cap`` is returned instead of the depth (a segment that
@@ -696,7 +699,7 @@ def capsule_depths(m, starts, ends, radius, step, cap):
         elif radius[i] + d > cap:  # touching or inside: at least r (+ d when wholly inside)
             out[i] = radius[i] + d
         else:  # as segment_min_sd, without its closest pair
-            out[i] = radius[i] - min(_sampled_min_sd(m, starts[i], ends[i], step, pair), 0.0)
+            out[i] = radius[i] - min(_sampled_min_sd(m, starts[i], ends[i], step, pair, 0.0), 0.0)
     return out
 
 

@@ -14,8 +14,8 @@ surface (:meth:`~prehension.objects.distance.MeshDistance.segment_distance`), so
 0.5 mm tolerance is judged without sampling.  A segment that reaches inside is already
 deeper than ``r``; its depth below the surface is then sampled
 (:func:`~prehension.objects.distance._sampled_min_sd`: ``sd`` being 1-Lipschitz, within
-``max(0.125 mm, 1/8 of that depth)`` of the true value, from below: what a report of a
-failing configuration needs, at a fraction of the queries of samples every 0.25 mm).
+0.125 mm of the true value, from below, as samples 0.25 mm apart would be, measuring
+only where the minimum could be).
 
 **The touching pads are excepted.**  A link that makes a contact touches the object there
 by design, and its capsules (coarser than its pad) may reach the surface near the

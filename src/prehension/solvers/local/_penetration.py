@@ -12,9 +12,11 @@ are those of :func:`prehension.tasks.object_collision._kept_pieces`: the parts o
 segment outside the ball of radius ``r + rho`` around each contact point of the capsule's
 link (``rho`` the contact's pad radius).  So ``max(0, -value)`` is exactly the depth the
 one residual function reports for that capsule (:func:`~prehension.objects.distance.capsule_depths`:
-the exact segment distance when the piece is outside the solid, else the sampled minimum,
-within ``max(step / 2, depth / 8)``), and the kernel and the residual function agree on
-what counts.
+the exact segment distance when the piece is outside the solid, else the sampled minimum:
+within ``step / 2`` there, within ``max(step / 2, depth / 8)`` here
+(:data:`~prehension.objects.distance.REL_TOL`: the rows need no more), and the kernel and
+the residual function agree on what counts (a piece reaching in is deeper than its
+radius for both).
 
 **Its gradient.**  With the closest pair ``(p, s)`` -- ``p`` on the segment (fixed on the
 link), ``s`` on the surface (fixed on the object) -- and ``n`` the outward unit normal
@@ -33,7 +35,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ...objects.distance import MeshArrays, empty_mesh_arrays, segment_min_sd
+from ...objects.distance import REL_TOL, MeshArrays, empty_mesh_arrays, segment_min_sd
 from ._jit import njit
 from ._linalg import cross, mat_vec
 
@@ -126,7 +128,7 @@ def _capsule_value(ws, s, best, reach):
     for k in range(_cut(ws, s, ws.cut)):
         _piece_end(ws, s, ws.cut[0, k, 0], oseg[0])
         _piece_end(ws, s, ws.cut[0, k, 1], oseg[1])
-        sd = segment_min_sd(obj.mesh, oseg[0], oseg[1], obj.step, oseg[2:4], ws.hand.cap_radius[s] + reach)
+        sd = segment_min_sd(obj.mesh, oseg[0], oseg[1], obj.step, oseg[2:4], ws.hand.cap_radius[s] + reach, REL_TOL)
         if sd - ws.hand.cap_radius[s] >= reach:
             value = min(value, reach)  # no row: farther than the reach
             continue
