@@ -13,7 +13,7 @@ from scipy.spatial.transform import Rotation
 from prehension.hands.collision import collision_pairs
 from prehension.hands.kinematics import forward_kinematics
 from prehension.results import make_solution
-from prehension.solvers.local import LocalOptions, solve_local
+from prehension.solvers.local import LocalOptions, solve_local, solve_local_batch
 from prehension.solvers.local import _kernel as K
 from prehension.solvers.local._layout import S_K, S_X
 from prehension.solvers.local.problems import group_from_tasks
@@ -155,7 +155,14 @@ def test_kernel_and_residual_function_agree_on_the_depth(name, seed):
         points.append((p_palm - t) @ R)
     assert len(pad_exclusions(task, points)) == len(task.contacts)
     depths = link_penetrations(task, pose, T, points, moving_links(task))
-    assert max(0.0, -vmin) == pytest.approx(max(depths.values()), abs=1e-9)
+    # the same function on the same pieces (their ends rounded differently): the sampled
+    # minimum of a piece reaching in is adaptive, so the two may measure different points,
+    # each within the tolerance of the true depth (both far above the 0.5 mm the check allows)
+    from prehension.objects.distance import REL_TOL
+
+    depth = max(depths.values())
+    assert depth > 1.0
+    assert max(0.0, -vmin) == pytest.approx(depth, abs=2 * max(0.125, REL_TOL * depth))
 
 
 def _capsule_samples_depth(task, config, contact_points_object, n=41):
@@ -207,8 +214,12 @@ def _hand_points_object(task, config):
 
 
 @pytest.mark.parametrize("name", ["teapot-service", "guitar-tuning"])
-def test_segment_min_sd_equals_the_smallest_of_every_sample(name):
-    from prehension.objects.distance import segment_min_sd
+def test_segment_min_sd_is_within_its_tolerance_of_the_least_signed_distance(name):
+    """Outside: the exact distance.  Reaching in: the signed distance at a point of the
+    segment (the pair), never below the true minimum (dense samples 0.01 mm apart, less
+    their own 0.005 mm), never above it by more than ``max(step / 2, REL_TOL * depth)``,
+    nor above the minimum of samples ``step`` apart by more than that."""
+    from prehension.objects.distance import REL_TOL, segment_min_sd
 
     distance = load_builtin_task(name).object.distance
     lo, hi = distance.arrays.node_lo[0], distance.arrays.node_hi[0]
@@ -218,16 +229,34 @@ def test_segment_min_sd_equals_the_smallest_of_every_sample(name):
         a = rng.uniform(lo, hi)
         b = a + rng.uniform(-40, 40, 3)
         pair = np.empty((2, 3))
-        got = segment_min_sd(distance.arrays, a, b, 0.25, pair, np.inf)
-        k = int(np.linalg.norm(b - a) / 0.25 + 0.5) + 2
-        samples = a + np.linspace(0.0, 1.0, k)[:, None] * (b - a)
-        sd = distance.signed_distance(samples)
+        got = segment_min_sd(distance.arrays, a, b, 0.25, pair, np.inf, REL_TOL)
+        length = np.linalg.norm(b - a)
+        fine = distance.signed_distance(a + np.linspace(0.0, 1.0, int(length / 0.01) + 2)[:, None] * (b - a))
+        coarse = distance.signed_distance(a + np.linspace(0.0, 1.0, int(length / 0.25 + 0.5) + 2)[:, None] * (b - a))
         d = distance.segment_distance(a[None], b[None])[0]
-        if d > 0 and sd[0] > 0:
+        if d > 0 and fine[0] > 0:
             assert got == pytest.approx(d, abs=1e-12)  # outside: the exact distance
             continue
         inside += 1
-        assert got == pytest.approx(sd.min(), abs=1e-9)  # every sample's minimum, though most were not measured
-        assert np.linalg.norm(pair[0] - samples[np.argmin(sd)]) < 1e-9
-        assert distance.signed_distance(pair[0][None])[0] == pytest.approx(got, abs=1e-9)
+        tol = max(0.125, REL_TOL * max(0.0, -got))
+        assert fine.min() - 0.005 - 1e-9 <= got <= fine.min() + tol + 1e-9
+        assert got <= coarse.min() + tol + 1e-9
+        assert got <= 0.0
+        if got < 0.0:  # a measured point: the pair is that point and its closest surface point
+            assert distance.signed_distance(pair[0][None])[0] == pytest.approx(got, abs=1e-9)
+            assert np.linalg.norm(pair[0] - a - np.dot(pair[0] - a, b - a) / length**2 * (b - a)) < 1e-9  # on the segment
     assert inside >= 20
+
+
+def test_a_start_through_the_object_is_solved_again_seeing_it():
+    """guitar-holding's first sequence poses end with links through the guitar's neck; such
+    a state starts again with the object's rows in its iterations (``iterate_seeing``), and
+    an early pose gives the strict answer (repairing those solutions in place took 13
+    poses: the repairs of the first twelve failed after 30 steps each).  Without the object's
+    rows (``check_collisions=False``) the first pose's local solution is through the neck."""
+    task = load_builtin_task("guitar-holding")
+    record = solve_local_batch([task], LocalOptions(), None, [0])[0]
+    assert record.success and record.solved_with_pose <= 4
+    assert record.to_result(task, LocalOptions()).status == "solved"
+    blind = solve_local_batch([task], dataclasses.replace(LocalOptions(), check_collisions=False, i_max=1), None, [0])[0]
+    assert blind.tolerance is None and blind.collision_rejections == 1  # its answer fails the object check

@@ -564,69 +564,85 @@ def segment_distances(m, starts, ends):
     return out
 
 
-_COARSE = 8  # every 8th sample first; the others only where they could be lower
+_COARSE = 32  # the first samples at most 32 steps apart (8 mm); intervals are then bisected where needed
+REL_TOL = 0.125  # the kernel's rows: beyond step / 2, a tolerance of 1/8 of how far below the surface
 
 
 @njit(cache=True)
-def _sample(p0, p1, j, k, out):
-    for i in range(3):
-        out[i] = p0[i] + (j / (k - 1)) * (p1[i] - p0[i])
+def _sampled_min_sd(m, p0, p1, step, pair, rel):
+    """The smallest signed distance over segment ``p0``-``p1`` (3,) [mm], to within
+    ``max(step / 2, rel * depth)`` (``depth = -min sd`` below the surface): a value
+    ``v`` of ``sd`` at a point of the segment (that point and its closest surface point in
+    ``pair (2, 3)``) with ``min sd <= v <= min sd + max(step / 2, rel * max(0, -v))``.
+    The residual function passes ``rel = 0`` (within ``step / 2``: its depths may read at
+    most ``step / 2`` low, which the complete solver's prune relies on); the local
+    kernel's rows :data:`REL_TOL`.
 
-
-@njit(cache=True)
-def _sampled_min_sd(m, p0, p1, k, pair):
-    """The smallest signed distance over the ``k`` evenly spaced points of ``p0``-``p1``,
-    exactly as if every point were measured, but measuring only those that could be lower
-    than the best so far: every ``_COARSE``-th point first, then a point between two
-    measured ones only where ``sd`` being 1-Lipschitz allows it to be lower.  Each search
-    starts from the bound the nearest measured point gives (``|sd|`` is 1-Lipschitz too)."""
-    h = np.sqrt((p1[0] - p0[0]) ** 2 + (p1[1] - p0[1]) ** 2 + (p1[2] - p0[2]) ** 2) / (k - 1)
-    marks = np.arange(0, k + _COARSE - 1, _COARSE)
-    marks[-1] = k - 1
-    sd = np.empty(marks.shape[0])
+    ``sd`` is 1-Lipschitz along the segment, so on an interval of length ``l`` between two
+    measured values ``va``, ``vb`` it is at least ``(va + vb - l) / 2``.  Samples at most
+    ``_COARSE * step`` apart first; then an interval is bisected (depth first) only while
+    that bound is more than the tolerance below the best value so far; an interval no
+    longer than ``step`` never is (its bound is within ``step / 2`` of its ends).  So a
+    segment that dips into the surface is measured where it could be deepest, not every
+    ``step`` along it; each search starts from the bound the nearer measured end gives
+    (``|sd|`` is 1-Lipschitz too).  The tolerance that grows with the depth bounds the work
+    on a segment deep inside and parallel to the surface (where ``sd`` is flat and no
+    bound prunes): a link 20 mm inside is 20 mm inside to within 2.5 mm, which is all that
+    the kernel's rows need."""
+    length = np.sqrt((p1[0] - p0[0]) ** 2 + (p1[1] - p0[1]) ** 2 + (p1[2] - p0[2]) ** 2)
+    n = max(int(np.ceil(length / (_COARSE * step))), 1)
+    todo = np.empty((n + 64, 4))  # (t0, t1, sd(t0), sd(t1)); depth first: n + levels of bisection
     p, q = np.empty(3), np.empty(3)
-    best = np.inf
-    for a in range(marks.shape[0]):
-        _sample(p0, p1, marks[a], k, p)
-        near = abs(sd[a - 1]) + (marks[a] - marks[a - 1]) * h if a > 0 else np.inf  # 1-Lipschitz
-        sd[a] = _signed_distance(m, p, q, near)
-        if sd[a] < best:
-            best = sd[a]
+    best, top, v_prev = np.inf, 0, 0.0
+    for i in range(n + 1):
+        t = i / n
+        _lerp(p0, p1, t, p)
+        v = _signed_distance(m, p, q, abs(v_prev) + length / n if i > 0 else np.inf)
+        if v < best:
+            best = v
             pair[0] = p
             pair[1] = q
-    slack = 1e-9 * (1.0 + h * k)
-    for a in range(marks.shape[0] - 1):
-        j0, j1 = marks[a], marks[a + 1]
-        for j in range(j0 + 1, j1):
-            if max(sd[a] - (j - j0) * h, sd[a + 1] - (j1 - j) * h) - slack >= best:
-                continue  # cannot be lower than the best
-            _sample(p0, p1, j, k, p)
-            v = _signed_distance(m, p, q, min(abs(sd[a]) + (j - j0) * h, abs(sd[a + 1]) + (j1 - j) * h))
-            if v < best:
-                best = v
-                pair[0] = p
-                pair[1] = q
+        if i > 0:
+            todo[top, 0], todo[top, 1], todo[top, 2], todo[top, 3] = (i - 1) / n, t, v_prev, v
+            top += 1
+        v_prev = v
+    slack = 1e-9 * (1.0 + length)
+    while top > 0:
+        top -= 1
+        ta, tb, va, vb = todo[top, 0], todo[top, 1], todo[top, 2], todo[top, 3]
+        span = (tb - ta) * length
+        tol = max(0.5 * step, -rel * best)
+        if span <= step or 0.5 * (va + vb - span) + tol + slack >= best or top + 2 > todo.shape[0]:
+            continue  # cannot be lower than the best by more than the tolerance
+        tm = 0.5 * (ta + tb)
+        _lerp(p0, p1, tm, p)
+        vm = _signed_distance(m, p, q, min(abs(va), abs(vb)) + 0.5 * span)
+        if vm < best:
+            best = vm
+            pair[0] = p
+            pair[1] = q
+        todo[top, 0], todo[top, 1], todo[top, 2], todo[top, 3] = ta, tm, va, vm
+        todo[top + 1, 0], todo[top + 1, 1], todo[top + 1, 2], todo[top + 1, 3] = tm, tb, vm, vb
+        top += 2
     return best
 
 
 @njit(cache=True)
-def segment_min_sd(m, p0, p1, step, pair, bound):
+def segment_min_sd(m, p0, p1, step, pair, bound, rel):
     """The smallest signed distance over segment ``p0``-``p1`` (3,) to the surface [mm], and
     where: ``pair[0]`` on the segment, ``pair[1]`` the closest surface point (2, 3); for a
     segment outside the surface and farther than ``bound`` [mm], ``bound`` (and no pair):
     the search then visits only the boxes within ``bound``.
 
     Exact (the closed-form segment distance) for a segment wholly outside; for a segment
-    that meets the surface or lies inside, the smallest over ``round(length / step) + 2``
-    evenly spaced points (spacing below ``step``, so within ``step / 2`` of the true value,
-    ``sd`` being 1-Lipschitz; the count rounded to the nearest, so that a capsule of a round
-    length does not flip between two counts as it moves), and at most 0 (such a segment
-    has a point on or inside the surface, which the samples may miss)."""
+    that meets the surface or lies inside, the sampled minimum of :func:`_sampled_min_sd`
+    (within ``max(step / 2, rel * depth)`` of the true value, from above), and at most
+    0 (such a segment has a point on or inside the surface, which the samples may miss)."""
     d = segment_closest_within(m, p0, p1, pair[0], pair[1], bound)
     near = d + np.sqrt(_dist_sq(p0, pair[0])) if d < bound else np.inf  # p0 is no farther
     if _wholly_outside(m, p0, d, near):  # exact (or the bound)
         return d
-    return min(_sampled_min_sd(m, p0, p1, _sample_count(p0, p1, step), pair), 0.0)
+    return min(_sampled_min_sd(m, p0, p1, step, pair, rel), 0.0)
 
 
 @njit(cache=True)
@@ -659,18 +675,11 @@ def _outside_root_box(m, p):
 
 
 @njit(cache=True)
-def _sample_count(p0, p1, step):
-    """``round(length / step) + 2``: points at most ``step`` apart, the count rounded to the
-    nearest so that a segment of a round length does not flip between two counts."""
-    length = np.sqrt((p1[0] - p0[0]) ** 2 + (p1[1] - p0[1]) ** 2 + (p1[2] - p0[2]) ** 2)
-    return int(length / step + 0.5) + 2
-
-
-@njit(cache=True)
 def capsule_depths(m, starts, ends, radius, step, cap):
     """Penetration depth of capsules (segments ``starts``-``ends`` (N, 3), ``radius`` (N,)),
     (N,) [mm]: ``max(0, r - min sd)`` over the segment (:func:`segment_min_sd`: exact for
-    a segment outside the surface, sampled every ``step`` mm or less for one reaching in).
+    a segment outside the surface; for one reaching in, sampled, within ``step / 2`` of
+    the true depth, from below).
 
     ``cap`` [mm] (``inf`` for every depth): where a depth is known to exceed ``cap`` without
     sampling, a lower bound above ``cap`` is returned instead of the depth (a segment that
@@ -690,8 +699,7 @@ def capsule_depths(m, starts, ends, radius, step, cap):
         elif radius[i] + d > cap:  # touching or inside: at least r (+ d when wholly inside)
             out[i] = radius[i] + d
         else:  # as segment_min_sd, without its closest pair
-            k = _sample_count(starts[i], ends[i], step)
-            out[i] = radius[i] - min(_sampled_min_sd(m, starts[i], ends[i], k, pair), 0.0)
+            out[i] = radius[i] - min(_sampled_min_sd(m, starts[i], ends[i], step, pair, 0.0), 0.0)
     return out
 
 

@@ -12,8 +12,10 @@ with ``sd`` the signed distance to the surface (negative inside).  It is compute
 where it matters: a segment that stays outside has ``min sd`` = its exact distance to the
 surface (:meth:`~prehension.objects.distance.MeshDistance.segment_distance`), so the
 0.5 mm tolerance is judged without sampling.  A segment that reaches inside is already
-deeper than ``r``; its depth below the surface is then the largest ``-sd`` over points
-at most 0.25 mm apart (within 0.125 mm of the true value, ``sd`` being 1-Lipschitz).
+deeper than ``r``; its depth below the surface is then sampled
+(:func:`~prehension.objects.distance._sampled_min_sd`: ``sd`` being 1-Lipschitz, within
+0.125 mm of the true value, from below, as samples 0.25 mm apart would be, measuring
+only where the minimum could be).
 
 **The touching pads are excepted.**  A link that makes a contact touches the object there
 by design, and its capsules (coarser than its pad) may reach the surface near the

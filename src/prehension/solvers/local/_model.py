@@ -265,7 +265,7 @@ def inequality_rows(ws, data, margin, row0, max_rows):
     are excepted from the object's rows)."""
     place_capsules(ws)
     n_self, v_self = self_collision_rows(ws, margin, row0, max_rows)
-    n_obj, v_obj = object_rows(ws, data, margin, row0 + n_self, max_rows - n_self)
+    n_obj, v_obj = object_rows(ws, data, margin, row0 + n_self, max_rows - n_self, np.bool_(False))
     return n_self + n_obj, min(v_self, v_obj)
 
 

@@ -12,8 +12,11 @@ are those of :func:`prehension.tasks.object_collision._kept_pieces`: the parts o
 segment outside the ball of radius ``r + rho`` around each contact point of the capsule's
 link (``rho`` the contact's pad radius).  So ``max(0, -value)`` is exactly the depth the
 one residual function reports for that capsule (:func:`~prehension.objects.distance.capsule_depths`:
-the exact segment distance when the piece is outside the solid, else the deepest of
-samples ``step`` mm apart), and the kernel and the residual function agree on what counts.
+the exact segment distance when the piece is outside the solid, else the sampled minimum:
+within ``step / 2`` there, within ``max(step / 2, depth / 8)`` here
+(:data:`~prehension.objects.distance.REL_TOL`: the rows need no more), and the kernel and
+the residual function agree on what counts (a piece reaching in is deeper than its
+radius for both).
 
 **Its gradient.**  With the closest pair ``(p, s)`` -- ``p`` on the segment (fixed on the
 link), ``s`` on the surface (fixed on the object) -- and ``n`` the outward unit normal
@@ -32,7 +35,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ...objects.distance import MeshArrays, empty_mesh_arrays, segment_min_sd
+from ...objects.distance import REL_TOL, MeshArrays, empty_mesh_arrays, segment_min_sd
 from ._jit import njit
 from ._linalg import cross, mat_vec
 
@@ -125,7 +128,7 @@ def _capsule_value(ws, s, best, reach):
     for k in range(_cut(ws, s, ws.cut)):
         _piece_end(ws, s, ws.cut[0, k, 0], oseg[0])
         _piece_end(ws, s, ws.cut[0, k, 1], oseg[1])
-        sd = segment_min_sd(obj.mesh, oseg[0], oseg[1], obj.step, oseg[2:4], ws.hand.cap_radius[s] + reach)
+        sd = segment_min_sd(obj.mesh, oseg[0], oseg[1], obj.step, oseg[2:4], ws.hand.cap_radius[s] + reach, REL_TOL)
         if sd - ws.hand.cap_radius[s] >= reach:
             value = min(value, reach)  # no row: farther than the reach
             continue
@@ -191,20 +194,23 @@ def _penetration_row(ws, data, s, outward, row):
 
 
 @njit(cache=True)
-def object_rows(ws, data, margin, row0, max_rows):
+def object_rows(ws, data, margin, row0, max_rows, every):
     """Rows ``value - margin`` of the checked capsules whose value (see the module
     docstring) is below ``margin`` [mm], into ``ws.M``, ``ws.g`` from ``row0``, at most
     ``max_rows``; ``(rows written, smallest value seen)``, a capsule farther than the margin
     counted as ``margin`` (its distance is searched only up to there).  The capsules must be placed
     (:func:`._model.place_capsules`) and the contact points ``ws.ph`` current.  ``row0`` and
     ``max_rows`` are int64: callers pass ``np.int64(0)``, never a literal ``0``, so that the
-    function compiles once (see :mod:`._jit`)."""
+    function compiles once (see :mod:`._jit`).  ``every`` (``np.bool_``): the idle fingers'
+    capsules too, at their idle angles (rows in the object pose's columns only): what
+    :func:`._kernel.iterate_seeing` keeps clear, so that the idle fingers need no settling
+    out of a palm that approached the object."""
     obj = ws.obj
     nrows, vmin = 0, 1e300
     if not obj.active:
         return 0, vmin
     for s in range(ws.hand.cap_link.shape[0]):
-        if not obj.checked[s] or _far_from_object(ws, s, margin):
+        if not (obj.checked[s] or every) or _far_from_object(ws, s, margin):
             continue
         value, gap = _capsule_value(ws, s, ws.oseg[5:7], margin)
         vmin = min(vmin, value)
