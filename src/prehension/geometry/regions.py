@@ -330,9 +330,9 @@ def _stacked(regions: tuple) -> _Stacked:
 
 def _caps_checked(st: _Stacked, params: list, points, normals, violation) -> None:
     """:meth:`SphereCap.evaluate_checked` of the stacked caps, written into columns ``st.caps``."""
-    ag = np.stack([_params(p, 2) for p in params], axis=1)  # (B, Cc, 2)
-    ca, sa = np.cos(ag[..., 0:1]), np.sin(ag[..., 0:1])
-    cg, sg = np.cos(ag[..., 1:2]), np.sin(ag[..., 1:2])
+    ag = np.concatenate([_params(p, 2) for p in params], axis=1)  # (B, 2 Cc): (B, Cc, 2) flat
+    cos, sin = np.cos(ag).reshape(ag.shape[0], -1, 2), np.sin(ag).reshape(ag.shape[0], -1, 2)
+    ca, sa, cg, sg = cos[..., 0:1], sin[..., 0:1], cos[..., 1:2], sin[..., 1:2]
     n = cg * ca * st.m - cg * sa * st.e2 + sg * st.e1  # (B, Cc, 3), as SphereCap.normals
     points[:, st.caps] = st.center + st.radius * n
     normals[:, st.caps] = n

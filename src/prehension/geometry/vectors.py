@@ -34,12 +34,11 @@ def unit3(value, what: str, error: type[PrehensionError] = InvalidGeometry) -> n
 
 def cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Cross products of ``(..., 3)`` vectors (broadcast), the same bits as ``np.cross``
-    (the same products and differences) without its generic axis handling: several
-    times faster on the small arrays of one configuration."""
-    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
-    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape), dtype=np.result_type(a, b))
-    out[..., 0] = a1 * b2 - a2 * b1
-    out[..., 1] = a2 * b0 - a0 * b2
-    out[..., 2] = a0 * b1 - a1 * b0
-    return out
+    (the same products and differences: component ``i`` is
+    ``a[i+1] b[i+2] - a[i+2] b[i+1]``, indices mod 3) without its generic axis handling:
+    several times faster on the small arrays of one configuration."""
+    return a[..., _NEXT] * b[..., _AFTER] - a[..., _AFTER] * b[..., _NEXT]
+
+
+_NEXT = np.array([1, 2, 0])  # i + 1 (mod 3) per component i
+_AFTER = np.array([2, 0, 1])  # i + 2 (mod 3)

@@ -201,15 +201,28 @@ class Configuration:
     contact_params: tuple[tuple[np.ndarray, np.ndarray], ...] | None = None
 
     def __post_init__(self):
+        quick = _quick_arrays(self.joint_angles, self.T_palm_object, self.contact_params)
+        if quick is None:  # something is off: the checks one by one say what
+            self._check_slowly()
+            return
+        q, T, pairs = quick
+        if not _rigid(T):
+            raise InvalidConfiguration(_NOT_RIGID)
+        object.__setattr__(self, "joint_angles", q)
+        object.__setattr__(self, "T_palm_object", T)
+        if pairs is not None:
+            object.__setattr__(self, "contact_params", pairs)
+
+    def _check_slowly(self) -> None:
+        """Each array checked and converted in turn: the first problem raises, by name."""
         q = np.asarray(self.joint_angles, dtype=float)
         if q.ndim != 1 or not np.isfinite(q).all():
             raise InvalidConfiguration(f"joint_angles must be a 1-D array of finite angles [rad], got shape {q.shape}")
         T = np.asarray(self.T_palm_object, dtype=float)
         if T.shape != (4, 4) or not np.isfinite(T).all():
             raise InvalidConfiguration(f"T_palm_object must be a finite 4x4 transform, got shape {T.shape}")
-        R = T[:3, :3]
-        if not _close(R.T @ R, _EYE3, 1e-6) or _det3(R) < 0 or not _close(T[3], _LAST_ROW, 1e-8):
-            raise InvalidConfiguration("T_palm_object must be a rigid transform (rotation block orthonormal, det +1, last row 0 0 0 1)")
+        if not _rigid(T):
+            raise InvalidConfiguration(_NOT_RIGID)
         object.__setattr__(self, "joint_angles", q)
         object.__setattr__(self, "T_palm_object", T)
         if self.contact_params is not None:
@@ -234,6 +247,46 @@ class Configuration:
                 raise InvalidConfiguration(
                     f"contact {c.name!r}: expected {kh} hand and {ko} object parameters, got {h.size} and {o.size}"
                 )
+
+
+_NOT_RIGID = "T_palm_object must be a rigid transform (rotation block orthonormal, det +1, last row 0 0 0 1)"
+_FLOAT = np.dtype(float)
+
+
+def _rigid(T: np.ndarray) -> bool:
+    R = T[:3, :3]
+    return _close(R.T @ R, _EYE3, 1e-6) and _det3(R) >= 0 and _close(T[3], _LAST_ROW, 1e-8)
+
+
+def _floats(values) -> np.ndarray:
+    """``np.asarray(values, dtype=float)``: the array itself when it is one already."""
+    return values if type(values) is np.ndarray and values.dtype == _FLOAT else np.asarray(values, dtype=float)
+
+
+def _quick_arrays(joint_angles, T_palm_object, contact_params):
+    """``(q, T, pairs)`` as :meth:`Configuration._check_slowly` makes them when every
+    shape is right and every number finite (one finiteness test for all of them), else
+    ``None`` (nothing raised here: the slow checks name the problem, in their order)."""
+    try:
+        q, T = _floats(joint_angles), _floats(T_palm_object)
+        if q.ndim != 1 or T.shape != (4, 4):
+            return None
+        parts, pairs = [q, T.ravel()], None
+        if contact_params is not None:
+            if not isinstance(contact_params, (tuple, list)):  # e.g. an iterator: read once, slowly
+                return None
+            pairs = []
+            for h, o in contact_params:
+                h, o = _floats(h), _floats(o)
+                if h.ndim > 1 or o.ndim > 1:
+                    return None
+                h, o = (h if h.ndim else h[None]), (o if o.ndim else o[None])
+                pairs.append((h, o))
+                parts += (h, o)
+            pairs = tuple(pairs)
+    except (TypeError, ValueError):
+        return None
+    return (q, T, pairs) if np.isfinite(np.concatenate(parts)).all() else None
 
 
 def _pair(i: int, pair) -> tuple[np.ndarray, np.ndarray]:

@@ -252,12 +252,12 @@ def contact_residuals(task: Task, pose: HandPose, T_palm_object, params) -> dict
     pts, nrms, out = evaluate_regions(regions, [hp for hp, _ in params] + [op for _, op in params])
     h_pt, h_n, h_out, o_pt, o_n, o_out = pts[:, :C], nrms[:, :C], out[:, :C], pts[:, C:], nrms[:, C:], out[:, C:]
     R, r = pose.R_palm_link[:, links], pose.r_palm_link[:, links]  # (B, C, 3, 3), (B, C, 3)
-    R_o = T[:, None, :3, :3]
+    R_o = T[:, :3, :3]  # (B, 3, 3): one rotation for every contact (einsum broadcasts it, the same sums)
     res = {
         "hand_point": np.einsum("bcij,bcj->bci", R, h_pt) + r,
         "hand_normal": np.einsum("bcij,bcj->bci", R, h_n),
-        "object_point": np.einsum("bcij,bcj->bci", np.broadcast_to(R_o, R.shape), o_pt) + T[:, None, :3, 3],
-        "object_normal": np.einsum("bcij,bcj->bci", np.broadcast_to(R_o, R.shape), o_n),
+        "object_point": np.einsum("bij,bcj->bci", R_o, o_pt) + T[:, None, :3, 3],
+        "object_normal": np.einsum("bij,bcj->bci", R_o, o_n),
         "hand_region": h_out,
         "object_region": o_out,
     }
@@ -337,39 +337,79 @@ def _evaluate(task: Task, config: Configuration, tolerances: Tolerances, pose: H
         params = locate_contact_params(task, pose, config.T_palm_object)
     batch_params = [(h[None], o[None]) for h, o in params]
     res = contact_residuals(task, pose, T, batch_params)
-    blocks = (
-        _contact_checks(task, res, tolerances),
-        _joint_checks(task, config.joint_angles, tolerances),
-        _collision_checks(task, pose, tolerances),
-        _object_collision_checks(task, pose, config.T_palm_object, res["hand_point"][0], tolerances),
-    )
+    q = config.joint_angles
+    clearance, pair_names = capsule_clearances(task.hand, pose)
+    kinds, names, units, tols = _fixed_columns(task, pair_names, tolerances)
+    values = np.concatenate((
+        _contact_values(res), np.degrees(limit_violations(task.hand, q)[0]),
+        np.degrees(coupling_violations(task.hand, q)[0]), _link_pair_depths(clearance[0], pair_names),
+    )).tolist()  # fmt: skip
+    obj = _object_collision_checks(task, pose, config.T_palm_object, res["hand_point"][0], tolerances)
+    if obj[0]:  # a solid that collides: its checks last
+        kinds, names, units, tols = kinds + obj[0], names + obj[1], units + obj[3], tols + obj[4]
+        values += obj[2]
+    hp, hn, op, on = res["hand_point"][0], res["hand_normal"][0], res["object_point"][0], res["object_normal"][0]
+    dist, ang = res["distance_mm"][0].tolist(), res["normal_angle_deg"][0].tolist()
     states = tuple(
-        ContactState(
-            c.name, params[i][0], params[i][1],
-            res["hand_point"][0, i], res["hand_normal"][0, i], res["object_point"][0, i], res["object_normal"][0, i],
-            float(res["distance_mm"][0, i]), float(res["normal_angle_deg"][0, i]),
-        )  # fmt: skip
+        ContactState(c.name, params[i][0], params[i][1], hp[i], hn[i], op[i], on[i], dist[i], ang[i])
         for i, c in enumerate(task.contacts)
     )
-    columns = [sum((blk[k] for blk in blocks), ()) for k in (0, 1, 3)]
-    values = [v for blk in blocks for v in blk[2]]
-    tols = [t for blk in blocks for t in blk[4]]
-    return ResidualReport._from_floats(columns[0], columns[1], values, columns[2], tols, states)  # floats: see the blocks
+    return ResidualReport._from_floats(kinds, names, values, units, list(tols), states)  # floats: see _fixed_columns
 
 
-# Each block of checks is ``(kinds, names, values, units, tolerances)``: tuples of str and
-# lists of Python floats (values) and tuples of Python floats (tolerances), one entry per
-# check (see ResidualReport.from_columns).
+# The checks of a configuration, in order: per contact its distance [mm], normal angle
+# [deg], hand and object region; per dof its limit [deg], per coupling [deg]; per pair of
+# links with capsules their deepest penetration [mm]; per link with capsules its depth in
+# the object [mm] when the object collides (:func:`_object_collision_checks`).  Every
+# column but the values depends only on the task (and the tolerances): built once.
 _CONTACT_KINDS = ("contact_distance", "contact_normal", "hand_region", "object_region")
 
 
-def _contact_checks(task, res, tol) -> tuple:
-    """Per contact, in order: distance [mm], normal angle [deg], hand and object region."""
+def _fixed_columns(task: Task, pair_names: tuple, tolerances: Tolerances) -> tuple:
+    """``(kinds, names, units, tolerances)`` of the contact, joint and collision checks of
+    ``task`` (tuples: str each, Python floats), built once per task and tolerances (the
+    capsule pairs' ``pair_names`` are the hand's one tuple, checked by identity)."""
+    per_task = _columns_per_task(task)
+    held = per_task.get(tolerances)
+    if held is None or held[0] is not pair_names:
+        held = per_task[tolerances] = (pair_names, _build_columns(task, pair_names, tolerances))
+    return held[1]
+
+
+@cached_per_value
+def _columns_per_task(task: Task) -> dict:
+    """Tolerances -> ``(pair_names, columns)`` of :func:`_fixed_columns`, per task."""
+    return {}
+
+
+def _build_columns(task: Task, pair_names: tuple, tol: Tolerances) -> tuple:
+    """The columns of :func:`_fixed_columns`."""
     C = len(task.contacts)
-    values = np.stack([res[k][0] for k in ("distance_mm", "normal_angle_deg", "hand_region", "object_region")], axis=1)
-    names, units = _contact_labels(task)
-    tols = (float(tol.contact_mm), float(tol.normal_deg), float(tol.region), float(tol.region)) * C
-    return _CONTACT_KINDS * C, names, values.ravel().tolist(), units, tols
+    contact_names, contact_units = _contact_labels(task)
+    hand = task.hand
+    n, m = hand.n_dof, len(hand.couplings)
+    labels = _link_pairs(pair_names)[0]
+    k = len(labels)
+    kinds = _CONTACT_KINDS * C + ("joint_limit",) * n + ("coupling",) * m + ("collision",) * k
+    names = contact_names + _joint_labels(hand) + labels
+    units = contact_units + ("deg",) * (n + m) + ("mm",) * k
+    tols = ((float(tol.contact_mm), float(tol.normal_deg), float(tol.region), float(tol.region)) * C
+            + (float(tol.limit_deg),) * n + (float(tol.coupling_deg),) * m + (float(tol.penetration_mm),) * k)  # fmt: skip
+    return kinds, names, units, tols
+
+
+def _contact_values(res) -> np.ndarray:
+    """Per contact, in order: distance [mm], normal angle [deg], hand and object region, (4 C,)."""
+    return np.stack([res[k][0] for k in ("distance_mm", "normal_angle_deg", "hand_region", "object_region")], axis=1).ravel()
+
+
+def _link_pair_depths(clearance: np.ndarray, pair_names: tuple) -> np.ndarray:
+    """Per pair of links (:func:`_link_pairs` order): the deepest penetration of their capsule pairs [mm]."""
+    labels, group, starts = _link_pairs(pair_names)
+    depth = np.zeros(len(labels))
+    if group.size:  # the pairs of one pair of links are contiguous (collision_pairs sorts them)
+        depth[group[starts]] = np.maximum.reduceat(np.maximum(-clearance, 0.0), starts)
+    return depth
 
 
 @cached_per_value
@@ -384,31 +424,10 @@ def _unit(region) -> str:
     return {"sphere_cap": "deg", "bezier": "param"}.get(region.kind, "-")
 
 
-def _joint_checks(task, q, tol) -> tuple:
-    hand = task.hand
-    lim = np.degrees(limit_violations(hand, q)[0])
-    cpl = np.degrees(coupling_violations(hand, q)[0])
-    n, m = len(lim), len(cpl)
-    names = _joint_labels(hand)
-    return (("joint_limit",) * n + ("coupling",) * m, names, lim.tolist() + cpl.tolist(), ("deg",) * (n + m),
-            (float(tol.limit_deg),) * n + (float(tol.coupling_deg),) * m)  # fmt: skip
-
-
 @cached_per_value
 def _joint_labels(hand) -> tuple[str, ...]:
     """The names of a hand's limit and coupling checks."""
     return tuple(hand.dof_names) + tuple(f"{c.dof}={c.source}" for c in hand.couplings)
-
-
-def _collision_checks(task, pose, tol) -> tuple:
-    """One check per pair of links: the deepest penetration of their capsule pairs [mm]."""
-    clearance, names = capsule_clearances(task.hand, pose)
-    labels, group, starts = _link_pairs(names)
-    depth = np.zeros(len(labels))
-    if group.size:  # the pairs of one pair of links are contiguous (collision_pairs sorts them)
-        depth[group[starts]] = np.maximum.reduceat(np.maximum(-clearance[0], 0.0), starts)
-    n = len(labels)
-    return ("collision",) * n, labels, depth.tolist(), ("mm",) * n, (float(tol.penetration_mm),) * n
 
 
 @lru_cache(maxsize=64)

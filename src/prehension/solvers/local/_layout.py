@@ -221,8 +221,21 @@ class Group:
     def params_of(self, x: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
         """Per contact ``(hand params (S, k_h), object params (S, k_o))``."""
         x = np.atleast_2d(x)
-        spans = self.layout.sides[:, :, [S_X, S_K]].tolist()  # per contact [[h0, hk], [o0, ok]]
+        spans = _spans(self.layout)  # per contact [[h0, hk], [o0, ok]]
         return [(x[:, h0 : h0 + hk].copy(), x[:, o0 : o0 + ok].copy()) for (h0, hk), (o0, ok) in spans]
+
+
+_SPANS: dict = {}  # id(layout) -> (layout, spans): a layout serves every group of its structure
+
+
+def _spans(layout: Layout) -> list:
+    """``layout.sides[:, :, [S_X, S_K]].tolist()``, once per layout."""
+    hit = _SPANS.get(id(layout))
+    if hit is None or hit[0] is not layout:
+        if len(_SPANS) > 256:
+            _SPANS.clear()
+        hit = _SPANS[id(layout)] = (layout, layout.sides[:, :, [S_X, S_K]].tolist())
+    return hit[1]
 
 
 # -- building a group --------------------------------------------------------------------------

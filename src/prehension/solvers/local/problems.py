@@ -292,8 +292,9 @@ def _task_row(task: Task) -> np.ndarray:
         blocks += [RG.pack(task.hand_region(c).region), RG.pack(oreg)]
         refs.append(RG.reference_point(oreg))
     refs = np.array(refs)
-    piv = refs.mean(axis=0)
-    return np.concatenate(blocks + [piv, [np.max(np.linalg.norm(refs - piv, axis=1))]])
+    piv = np.add.reduce(refs, axis=0) / len(refs)  # refs.mean(axis=0): the same sum and division
+    gap = refs - piv
+    return np.concatenate(blocks + [piv, [np.sqrt(np.add.reduce(gap * gap, axis=1)).max()]])  # max |refs - piv|
 
 
 def object_arrays(task: Task) -> ObjectArrays:
@@ -330,7 +331,7 @@ def group_from_tasks(tasks, joint_scale_mm: float = 40.0) -> Group:
     template = _TEMPLATES.get(shape)
     if template is not None and template.hand is first.hand:
         _TEMPLATES.move_to_end(shape)
-        return replace(template.with_data(rows), obj=object_arrays(first))
+        return replace(template, pdata=np.ascontiguousarray(rows, dtype=float), obj=object_arrays(first))  # with_data
     group = build_group(
         first.hand, first.active_mask, first.idle_vector, [c.name for c in first.contacts],
         [(first.hand_region(c).link, first.hand_region(c).region) for c in first.contacts],

@@ -34,6 +34,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from ...errors import InvalidTask
+from ...frozen import cached_per_value
 from ...geometry.rotations import angle_between
 from ...hands.collision import max_penetration
 from ...hands.kinematics import HandPose, forward_kinematics
@@ -345,13 +346,14 @@ class _Tally:
     n_dof: int
 
     def __post_init__(self):
-        P, z = self.P, np.zeros
-        self.solved_with, self.tried, self.polish = z(P, np.int64), z(P, np.int64), z(P, np.int64)
-        self.rejected, self.level, self.retries = z(P, np.int64), z(P, np.int64), z(P, np.int64)
-        self.iters = z((P, self.imax), np.int64)
-        self.q, self.T, self.x = z((P, self.n_dof)), z((P, 4, 4)), z((P, self.nx))
-        self.d, self.a = z(P), z(P)
-        self.miss, self.miss_d, self.miss_a = np.full(P, np.inf), np.full(P, np.nan), np.full(P, np.nan)
+        P = self.P
+        counts = np.zeros((6, P), np.int64)  # one allocation per dtype, rows as views
+        self.solved_with, self.tried, self.polish, self.rejected, self.level, self.retries = counts
+        self.iters = np.zeros((P, self.imax), np.int64)
+        self.q, self.T, self.x = np.zeros((P, self.n_dof)), np.zeros((P, 4, 4)), np.zeros((P, self.nx))
+        self.d, self.a, self.miss, self.miss_d, self.miss_a = np.zeros((5, P))
+        self.miss[:] = np.inf
+        self.miss_d[:] = self.miss_a[:] = np.nan
         self.verified: list = [None] * P  # strict solutions already made by make_solution
 
     def closest_miss(self, pi, lev, dmax, amax):
@@ -388,9 +390,9 @@ def _starts(group: Group, sequence: InitialPoseSequence, wave: int, todo: np.nda
     S = len(todo)
     if options.initial == "sequence" and wave >= len(sequence):
         return _place_poses(group, extra.names, np.array([extra.pose(group, p, wave - len(sequence)) for p in todo]))
-    if options.initial == "sequence":
-        lam = np.repeat(sequence.lambdas[wave : wave + 1], S, axis=0)
-    elif isinstance(rng, list):  # one generator per problem: its draws do not depend on the batch
+    if options.initial == "sequence":  # the same row for every problem: placed once per group shape and wave
+        return np.repeat(_sequence_start(group, sequence, wave), S, axis=0)
+    if isinstance(rng, list):  # one generator per problem: its draws do not depend on the batch
         lam = np.array([rng[p].uniform(0.0, 1.0, 2) for p in todo]).reshape(S, 2)
     else:
         lam = rng.uniform(0.0, 1.0, (S, 2))
@@ -414,6 +416,28 @@ class _RandomPoses:
             seed = seed.pose_seed if isinstance(seed, _OwnGenerator) else seed
             self.names, self._poses[p] = sample_poses(self.hand, self.count, np.random.default_rng([seed, key]))
         return self._poses[p][k]
+
+
+def _sequence_start(group: Group, sequence: InitialPoseSequence, wave: int) -> np.ndarray:
+    """``_place_poses`` of the sequence's pose ``wave`` for one problem, (1, nx), read-only;
+    kept per sequence for the group's default unknowns and pose names (eq. 11 and the
+    placing are element by element: a row does not depend on the others)."""
+    held = _starts_of(sequence)
+    key = (id(group.x_default), id(group.pose_names), wave)
+    hit = held.get(key)
+    if hit is None or hit[0] is not group.x_default or hit[1] is not group.pose_names:
+        if len(held) > 256:
+            held.clear()
+        row = _place_poses(group, sequence.names, sequence.poses(sequence.lambdas[wave : wave + 1]))
+        row.setflags(write=False)
+        hit = held[key] = (group.x_default, group.pose_names, row)
+    return hit[2]
+
+
+@cached_per_value
+def _starts_of(sequence: InitialPoseSequence) -> dict:
+    """``(id x_default, id pose_names, wave) -> (x_default, pose_names, row)`` of :func:`_sequence_start`."""
+    return {}
 
 
 def _place_poses(group: Group, names, poses: np.ndarray) -> np.ndarray:
