@@ -57,7 +57,7 @@ from ...hands.reach import PairKinematics, pair_kinematics, span_bound_mm
 from ...tasks.model import Task
 from . import affine as af
 
-__all__ = ["NEAR_SPAN_MM", "OUT_OF_SPAN_BOXES", "object_distance_floor", "CongruenceResult", "PairProblem", "PairOutcome", "pair_problem", "prove_pair_infeasible", "prove_out_of_span",
+__all__ = ["MATCHING_BOXES", "NEAR_SPAN_MM", "OUT_OF_SPAN_BOXES", "object_distance_floor", "CongruenceResult", "PairProblem", "PairOutcome", "pair_problem", "prove_pair_infeasible", "prove_out_of_span",
            "object_distance_range", "congruence_test"]
 
 _REL_PAD = 1e-9
@@ -79,6 +79,13 @@ OUT_OF_SPAN_BOXES = 100_000
 #: interval bounds of the dihedral angles are too loose to prune (the lid at t* + 2 mm: every
 #: box it pruned varied by under 0.036 |d|), and it costs as much as the other conditions.
 TWIST_RELATIVE_SPREAD = 0.05
+
+
+#: At most this many boxes (both sides) of the pair test by matching ranges (:mod:`.matching`)
+#: per pair: on a pair that can be made, its boxes survive on both sides and matching them
+#: costs more than linearly (guitar-holding, 100,000 boxes: 26 s more than the product test's);
+#: the lid needs 21,166 at t* + 1 mm and 27,782 at t* + 0.5 mm.
+MATCHING_BOXES = 40_000
 
 
 # -- region kinds: second-derivative bounds -------------------------------------------------------
@@ -676,13 +683,13 @@ def congruence_test(task: Task, *, max_boxes: int = 200_000, time_limit_s: float
 
 def _matching_then_product(pp: PairProblem, max_boxes: int, time_limit_s: float | None, floor_mm: float) -> PairOutcome:
     """The pair test by matching ranges (:func:`.matching.prove_pair_by_matching`) with half of
-    the budget and time, then, without a proof, the product test with the rest; the boxes
+    the budget (at most :data:`MATCHING_BOXES`) and of the time, then, without a proof, the product test with the rest; the boxes
     of both are counted."""
     from .matching import prove_pair_by_matching  # matching builds on this module's forms
 
     started = time.perf_counter()
     half_time = None if time_limit_s is None else 0.5 * time_limit_s
-    first = prove_pair_by_matching(pp, max_boxes=max(1, max_boxes // 2), time_limit_s=half_time)
+    first = prove_pair_by_matching(pp, max_boxes=max(1, min(max_boxes // 2, MATCHING_BOXES)), time_limit_s=half_time)
     if first.proved:
         return first
     rest = None if time_limit_s is None else max(time_limit_s - (time.perf_counter() - started), 0.0)
