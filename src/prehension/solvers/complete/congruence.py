@@ -655,7 +655,7 @@ def congruence_test(task: Task, *, max_boxes: int = 200_000, time_limit_s: float
     """The pair test on every pair of contacts (until one is proved infeasible): first the
     object side against the hand's span (:func:`prove_out_of_span`, at most
     :data:`OUT_OF_SPAN_BOXES` boxes, not counted in ``max_boxes``), then, without a proof,
-    the test by matching ranges (:mod:`.matching`, half of the pair's budget) and the
+    the test by matching ranges (:mod:`.matching`, a quarter of the pair's budget) and the
     product test (:func:`prove_pair_infeasible`, the rest); the box budget ``max_boxes`` and the time limit are
     shared evenly by the pairs."""
     pairs = [(a, b) for a in range(len(task.contacts)) for b in range(a + 1, len(task.contacts))]
@@ -682,14 +682,15 @@ def congruence_test(task: Task, *, max_boxes: int = 200_000, time_limit_s: float
 
 
 def _matching_then_product(pp: PairProblem, max_boxes: int, time_limit_s: float | None, floor_mm: float) -> PairOutcome:
-    """The pair test by matching ranges (:func:`.matching.prove_pair_by_matching`) with half of
-    the budget (at most :data:`MATCHING_BOXES`) and of the time, then, without a proof, the product test with the rest; the boxes
+    """The pair test by matching ranges (:func:`.matching.prove_pair_by_matching`) with a quarter
+    of the budget (at most :data:`MATCHING_BOXES`; its boxes cost more on small budgets:
+    guitar-holding's first pair test) and half of the time, then, without a proof, the product test with the rest; the boxes
     of both are counted."""
     from .matching import prove_pair_by_matching  # matching builds on this module's forms
 
     started = time.perf_counter()
     half_time = None if time_limit_s is None else 0.5 * time_limit_s
-    first = prove_pair_by_matching(pp, max_boxes=max(1, min(max_boxes // 2, MATCHING_BOXES)), time_limit_s=half_time)
+    first = prove_pair_by_matching(pp, max_boxes=max(1, min(max_boxes // 4, MATCHING_BOXES)), time_limit_s=half_time)
     if first.proved:
         return first
     rest = None if time_limit_s is None else max(time_limit_s - (time.perf_counter() - started), 0.0)
