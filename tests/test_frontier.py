@@ -82,3 +82,14 @@ def test_the_span_test_proves_a_task_past_the_distance_limit_and_never_one_just_
     assert prove_out_of_span(pair_problem(family.task_at(found.t_mm + 1.0), 0, 1), hand).proved
     for eps_mm in (0.001, 0.05):
         assert not prove_out_of_span(pair_problem(family.task_at(found.t_mm - eps_mm), 0, 1), hand).proved
+
+
+def test_the_lid_a_millimetre_past_its_frontier_is_proved_by_matching_ranges(frontier_module):
+    """The teapot lid's knob moved to ``t* + 1 mm`` (``t*`` = 163.911 mm, benchmarks/README.md):
+    the pair test by matching ranges proves it (the product search does not in 2 M boxes)."""
+    from prehension.solvers.complete.congruence import pair_problem
+    from prehension.solvers.complete.matching import prove_pair_by_matching
+
+    family = frontier_module.families(["lid"])[0]
+    outcome = prove_pair_by_matching(pair_problem(family.task_at(163.911 + 1.0), 0, 1), max_boxes=40_000)
+    assert outcome.proved and outcome.boxes < 30_000

@@ -57,7 +57,7 @@ from ...hands.reach import PairKinematics, pair_kinematics, span_bound_mm
 from ...tasks.model import Task
 from . import affine as af
 
-__all__ = ["NEAR_SPAN_MM", "OUT_OF_SPAN_BOXES", "object_distance_floor", "CongruenceResult", "PairProblem", "PairOutcome", "pair_problem", "prove_pair_infeasible", "prove_out_of_span",
+__all__ = ["MATCHING_BOXES", "NEAR_SPAN_MM", "OUT_OF_SPAN_BOXES", "object_distance_floor", "CongruenceResult", "PairProblem", "PairOutcome", "pair_problem", "prove_pair_infeasible", "prove_out_of_span",
            "object_distance_range", "congruence_test"]
 
 _REL_PAD = 1e-9
@@ -79,6 +79,13 @@ OUT_OF_SPAN_BOXES = 100_000
 #: interval bounds of the dihedral angles are too loose to prune (the lid at t* + 2 mm: every
 #: box it pruned varied by under 0.036 |d|), and it costs as much as the other conditions.
 TWIST_RELATIVE_SPREAD = 0.05
+
+
+#: At most this many boxes (both sides) of the pair test by matching ranges (:mod:`.matching`)
+#: per pair: on a pair that can be made, its boxes survive on both sides and matching them
+#: costs more than linearly (guitar-holding, 100,000 boxes: 26 s more than the product test's);
+#: the lid needs 21,166 at t* + 1 mm and 27,782 at t* + 0.5 mm.
+MATCHING_BOXES = 40_000
 
 
 # -- region kinds: second-derivative bounds -------------------------------------------------------
@@ -648,8 +655,8 @@ def congruence_test(task: Task, *, max_boxes: int = 200_000, time_limit_s: float
     """The pair test on every pair of contacts (until one is proved infeasible): first the
     object side against the hand's span (:func:`prove_out_of_span`, at most
     :data:`OUT_OF_SPAN_BOXES` boxes, not counted in ``max_boxes``), then, without a proof,
-    the full test
-    (:func:`prove_pair_infeasible`); the box budget ``max_boxes`` and the time limit are
+    the test by matching ranges (:mod:`.matching`, a quarter of the pair's budget) and the
+    product test (:func:`prove_pair_infeasible`, the rest); the box budget ``max_boxes`` and the time limit are
     shared evenly by the pairs."""
     pairs = [(a, b) for a in range(len(task.contacts)) for b in range(a + 1, len(task.contacts))]
     share = max(1, max_boxes // max(1, len(pairs)))
@@ -667,8 +674,25 @@ def congruence_test(task: Task, *, max_boxes: int = 200_000, time_limit_s: float
             # the floor prunes only when the fingertips must be held wide apart (it costs a
             # second evaluation of the kinematics per box)
             floor = floor if floor > 0.5 * pair_span_mm(pp, task.hand) else 0.0
-            outcome = prove_pair_infeasible(pp, max_boxes=share, time_limit_s=seconds, distance_floor_mm=floor)
+            outcome = _matching_then_product(pp, share, seconds, floor)
         outcomes.append(((a, b), outcome))
         if outcome.proved:
             return CongruenceResult(True, (a, b), tuple(outcomes))
     return CongruenceResult(False, None, tuple(outcomes))
+
+
+def _matching_then_product(pp: PairProblem, max_boxes: int, time_limit_s: float | None, floor_mm: float) -> PairOutcome:
+    """The pair test by matching ranges (:func:`.matching.prove_pair_by_matching`) with a quarter
+    of the budget (at most :data:`MATCHING_BOXES`; its boxes cost more on small budgets:
+    guitar-holding's first pair test) and half of the time, then, without a proof, the product test with the rest; the boxes
+    of both are counted."""
+    from .matching import prove_pair_by_matching  # matching builds on this module's forms
+
+    started = time.perf_counter()
+    half_time = None if time_limit_s is None else 0.5 * time_limit_s
+    first = prove_pair_by_matching(pp, max_boxes=max(1, min(max_boxes // 4, MATCHING_BOXES)), time_limit_s=half_time)
+    if first.proved:
+        return first
+    rest = None if time_limit_s is None else max(time_limit_s - (time.perf_counter() - started), 0.0)
+    second = prove_pair_infeasible(pp, max_boxes=max(1, max_boxes - first.boxes), time_limit_s=rest, distance_floor_mm=floor_mm)
+    return PairOutcome(second.proved, first.boxes + second.boxes, time.perf_counter() - started, second.stopped, second.witness)

@@ -1,0 +1,94 @@
+"""The pair test by matching ranges (solvers/complete/matching.py): each side's ranges contain
+the invariants' values, boxes around a known solution always match, forward-built pairs are
+never proved infeasible, and a pair past reach is proved."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from prehension.solvers.complete import congruence as cg
+from prehension.solvers.complete import matching as mt
+from test_congruence import _pair_problems, _pinch_task, _true_values
+
+
+def _invariants(d, v_a, v_b):
+    """Exact ``(distance, angle_a, angle_b, between, dihedral)`` of rows of ``d, v_a, v_b (B, 3)``."""
+    length = np.linalg.norm(d, axis=1)
+    u = d / length[:, None]
+    angle = [np.arccos(np.clip(np.einsum("bi,bi->b", u, v), -1, 1)) for v in (v_a, v_b)]
+    between = np.arccos(np.clip(np.einsum("bi,bi->b", v_a, v_b), -1, 1))
+    s = length * np.einsum("bi,bi->b", d, np.cross(v_a, v_b))
+    c = np.einsum("bi,bi->b", np.cross(d, v_a), np.cross(d, v_b))
+    return length, angle, between, np.arctan2(s, c)
+
+
+def _random_boxes(rng, lower, upper, B, around=None):
+    width = (upper - lower) * 10.0 ** rng.uniform(-6, 0, (B, 1))
+    if around is None:
+        lo = lower + rng.uniform(0, 1, (B, len(lower))) * (upper - lower - width)
+    else:
+        lo = np.maximum(lower, around - rng.uniform(0, 1, (B, len(lower))) * width)
+    hi = np.minimum(upper, lo + width)
+    return lo, hi if around is None else np.maximum(hi, around)
+
+
+def _inside(value, rng_lo, rng_hi, slack=1e-9):
+    return np.all((value >= rng_lo - slack) & (value <= rng_hi + slack))
+
+
+def _on_circle(value, lo, hi, known):
+    """``value`` within ``[lo, hi]`` up to a turn, where ``known``."""
+    shifted = lo + np.mod(value - lo + 1e-9, 2 * np.pi) - 1e-9
+    return np.all(~known | (shifted <= hi + 1e-9))
+
+
+@pytest.mark.parametrize("case", range(5))
+def test_both_sides_ranges_contain_the_invariants_on_random_boxes(case):
+    """Seeded random boxes of each side (from the whole domain down to 1e-6 of it), 10 points
+    each: every invariant's value lies in its range."""
+    task, _ = _pair_problems()[case]
+    pp = cg.pair_problem(task, 0, 1)
+    rng = np.random.default_rng(40 + case)
+    B, sa, so = 200, pp.slices[0], slice(pp.slices[1].start, pp.n_dims)
+    h_lo, h_hi = _random_boxes(rng, pp.lower[sa], pp.upper[sa], B)
+    o_lo, o_hi = _random_boxes(rng, pp.lower[so], pp.upper[so], B)
+    hand, _ = mt.hand_ranges(pp, h_lo, h_hi)
+    obj, _ = mt.object_ranges(pp, o_lo, o_hi)
+    for _ in range(10):
+        z = np.empty((B, pp.n_dims))
+        z[:, sa] = h_lo + rng.uniform(0, 1, h_lo.shape) * (h_hi - h_lo)
+        z[:, so] = o_lo + rng.uniform(0, 1, o_lo.shape) * (o_hi - o_lo)
+        d_h, m_a, m_b, d_o, n_a, n_b = _true_values(pp, z)
+        for ranges, values in ((hand, _invariants(d_h, m_a, m_b)), (obj, _invariants(d_o, n_a, n_b))):
+            length, angle, between, dihedral = values
+            assert _inside(length, *ranges.distance, slack=1e-9 * length.max())
+            for s in (0, 1):
+                assert _inside(angle[s], *ranges.angle[s], slack=1e-7)
+                assert _inside(np.cos(angle[s]), *ranges.axial[s])
+            assert _inside(between, *ranges.between, slack=1e-7)
+            assert _on_circle(dihedral, *ranges.dihedral)
+
+
+@pytest.mark.parametrize("case", [2, 3, 4])
+def test_boxes_around_a_known_solution_always_match(case):
+    """Forward-built tasks: every hand box holding the solution's angles matches every object
+    box holding its parameters, whatever their sizes (no solution is ever lost)."""
+    task, config = _pair_problems()[case]
+    pp = cg.pair_problem(task, 0, 1)
+    sa, so = pp.slices[0], slice(pp.slices[1].start, pp.n_dims)
+    z = np.concatenate([config.joint_angles[pp.kin.problem.sources]] + [np.atleast_1d(config.contact_params[i][1]) for i in (0, 1)])
+    rng = np.random.default_rng(case)
+    hand, _ = mt.hand_ranges(pp, *_random_boxes(rng, pp.lower[sa], pp.upper[sa], 150, around=z[sa]))
+    obj, _ = mt.object_ranges(pp, *_random_boxes(rng, pp.lower[so], pp.upper[so], 150, around=z[so]))
+    assert mt.compatible(hand, obj, mt._betas(pp)).all()
+
+
+def test_forward_built_pairs_are_never_proved_infeasible_by_matching():
+    for task, _ in _pair_problems()[2:]:
+        assert not mt.prove_pair_by_matching(cg.pair_problem(task, 0, 1), max_boxes=3000).proved
+
+
+def test_a_pinch_past_reach_is_proved_by_matching_and_one_within_it_is_not():
+    assert mt.prove_pair_by_matching(cg.pair_problem(_pinch_task(400.0), 0, 1), max_boxes=3000).proved
+    assert not mt.prove_pair_by_matching(cg.pair_problem(_pinch_task(60.0), 0, 1), max_boxes=3000).proved
