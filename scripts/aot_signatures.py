@@ -129,7 +129,8 @@ def sources(entries: dict) -> tuple[str, ...]:
     out = subprocess.run([sys.executable, "-c", code, str(build), *{k.split(":")[0] for k in entries}], capture_output=True, text=True,
                          check=True).stdout  # fmt: skip
     pkg = ROOT / "src" / "prehension"
-    return tuple(sorted({Path(f).resolve().relative_to(pkg).as_posix() for f in out.split()} | {"_aot_signatures.py"}))
+    files = {Path(f).resolve().relative_to(pkg).as_posix() for f in out.split()}
+    return tuple(sorted(files - {"_compiled.py"} | {"_aot_signatures.py"}))  # _compiled: chooses, is not compiled
 
 
 def array_arguments(sig) -> tuple:

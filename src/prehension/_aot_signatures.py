@@ -30,7 +30,6 @@ ARRAY_ARGUMENTS = {
 
 SOURCES = (
     "_aot_signatures.py",
-    "_compiled.py",
     "errors.py",
     "frozen.py",
     "geometry/bezier.py",

@@ -125,16 +125,23 @@ class _Checked:
     __slots__ = ("key", "function", "arrays", "jit")
 
     def __init__(self, key: str, function, arrays: tuple, jit):
-        self.key, self.function, self.arrays, self.jit = key, function, arrays, jit
+        import numpy as np
+
+        self.key, self.function, self.jit = key, function, jit
+        self.arrays = tuple((path, np.dtype(dtype), ndim) for path, dtype, ndim in arrays)
 
     def mismatch(self, args) -> str | None:
         """Why ``args`` do not fit the compiled signature, or None when they do."""
         for path, dtype, ndim in self.arrays:
-            value = args
-            for i in path:
+            value = args[path[0]]
+            for i in path[1:]:
                 value = value[i]
-            if (getattr(value, "dtype", None) != dtype or value.ndim != ndim
-                    or not value.flags.c_contiguous or not value.flags.writeable):  # fmt: skip
+            try:
+                flags = value.flags
+                fits = value.dtype == dtype and value.ndim == ndim and flags.c_contiguous and flags.writeable
+            except AttributeError:  # not an array
+                fits = False
+            if not fits:
                 got = f"{getattr(value, 'dtype', type(value).__name__)}{f' {value.ndim}-d' if hasattr(value, 'ndim') else ''}"
                 return f"argument {'.'.join(map(str, path))} is not a writable C-contiguous {ndim}-d {dtype} array: {got}"
         return None
