@@ -204,6 +204,7 @@ def current() -> str:
 
 
 def main() -> None:
+    os.environ["PREHENSION_AOT"] = "0"  # the JIT's signatures: the installed extension must not serve the calls
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--check", action="store_true", help="compare with the committed file instead of writing")
     args = parser.parse_args()
