@@ -2,6 +2,11 @@
 
     python benchmarks/first_run.py                  # numba's default optimisation level
     python benchmarks/first_run.py --opt 3 1 0      # one row per NUMBA_OPT level
+    python benchmarks/first_run.py --kernels aot jit  # the installed ahead-of-time kernels, then the JIT
+
+``--kernels aot`` (the default) uses the ahead-of-time compiled kernels when a fresh
+extension is installed (``prehension._compiled``; the row says whether it was), ``jit``
+forces numba's JIT (``PREHENSION_AOT=0``) -- the first run of an install without them.
 
 Each row runs in a fresh process with an EMPTY numba cache (a temporary ``NUMBA_CACHE_DIR``;
 nobody else's cache is touched), BLAS pinned to one thread:
@@ -55,16 +60,18 @@ solve_local(task)
 tt = []
 for _ in range(5):
     a = time.process_time(); solve_local(task); tt.append(time.process_time() - a)
-print(json.dumps(dict(exit=code, first_cpu=first_cpu, first_wall=first_wall, single_ms=1e3 * float(np.median(ts)),
+from prehension._compiled import aot_available
+print(json.dumps(dict(aot=aot_available(), exit=code, first_cpu=first_cpu, first_wall=first_wall, single_ms=1e3 * float(np.median(ts)),
                       batch_ms=batch, teapot_ms=1e3 * float(np.median(tt)))))
 """
 
 
-def measure(opt: str | None) -> dict:
+def measure(opt: str | None, kernels: str = "aot") -> dict:
     with tempfile.TemporaryDirectory() as cache:
         env = {**os.environ, "NUMBA_CACHE_DIR": cache, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1",
                "MKL_NUM_THREADS": "1"}  # fmt: skip
         env.pop("NUMBA_OPT", None)
+        env["PREHENSION_AOT"] = "0" if kernels == "jit" else "1"
         if opt is not None:
             env["NUMBA_OPT"] = opt
         proc = subprocess.run([sys.executable, "-c", _CHILD, cache], capture_output=True, text=True, env=env)
@@ -76,13 +83,17 @@ def measure(opt: str | None) -> dict:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--opt", nargs="*", default=[None], help="NUMBA_OPT levels, one row each (default: numba's)")
+    parser.add_argument("--kernels", nargs="*", default=["aot"], choices=["aot", "jit"],
+                        help="aot: the installed ahead-of-time kernels (when fresh), jit: numba's JIT; one row each")
     args = parser.parse_args()
-    print("| NUMBA_OPT | exit | first run CPU s | first run wall s | solve_local ms (median) | batch ms/problem | teapot solve_local ms |")
-    print("| --- | ---: | ---: | ---: | ---: | ---: | ---: |")
-    for opt in args.opt:
-        r = measure(opt)
-        print(f"| {opt or 'default (3)'} | {r['exit']} | {r['first_cpu']:.1f} | {r['first_wall']:.1f} | {r['single_ms']:.2f} "
-              f"| {r['batch_ms']:.3f} | {r['teapot_ms']:.1f} |", flush=True)
+    print("| kernels | NUMBA_OPT | exit | first run CPU s | first run wall s | solve_local ms (median) | batch ms/problem | teapot solve_local ms |")
+    print("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |")
+    for kernels in args.kernels:
+        for opt in args.opt:
+            r = measure(opt, kernels)
+            label = "ahead of time" if r["aot"] else ("JIT" if kernels == "jit" else "JIT (no fresh extension)")
+            print(f"| {label} | {opt or 'default (3)'} | {r['exit']} | {r['first_cpu']:.1f} | {r['first_wall']:.1f} | {r['single_ms']:.2f} "
+                  f"| {r['batch_ms']:.3f} | {r['teapot_ms']:.1f} |", flush=True)
 
 
 if __name__ == "__main__":

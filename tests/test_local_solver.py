@@ -491,9 +491,16 @@ def test_compile_pending_tells_a_first_run_from_a_cached_one(tmp_path):
     assert warm_up() >= 0.0
     assert compile_pending() is False  # compiled or loaded in this process
     code = "from prehension.solvers.local import compile_pending; print(compile_pending())"
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}  # an empty cache: a fresh install
+    # an empty cache: a fresh install without the ahead-of-time kernels (PREHENSION_AOT=0 ignores them)
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path), "PREHENSION_AOT": "0"}
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
     assert out.stdout.strip() == "True", out.stderr
+    from prehension._compiled import aot_available
+
+    if aot_available():  # a fresh install with them compiles nothing: no COMPILING_MESSAGE
+        env["PREHENSION_AOT"] = "1"
+        out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
+        assert out.stdout.strip() == "False", out.stderr
 
 
 # Each kernel function compiled once: a constant argument (``0``, ``True``) is typed by numba
@@ -528,12 +535,18 @@ def test_the_kernel_compiles_each_function_for_one_signature():
 
     if not HAVE_NUMBA:
         pytest.skip("numba is not installed: nothing is compiled")
-    solve_local(load_builtin_task("teapot-lid-lifting"))  # compiles (or loads) the kernel with the object's rows
-    task = load_builtin_task("teapot-service")
-    task.object.distance.capsule_depth(np.zeros((1, 3)), np.ones((1, 3)), np.full(1, 5.0))
-    radius = np.full(1, 5.0)
-    radius.flags.writeable = False  # a read-only radius is copied: one signature for every caller
-    task.object.distance.capsule_depth(np.zeros((1, 3)), np.ones((1, 3)), radius)
+    import prehension._compiled
+
+    aot = prehension._compiled.use_aot(False)  # the JIT's signatures, not the installed ahead-of-time kernels
+    try:
+        solve_local(load_builtin_task("teapot-lid-lifting"))  # compiles (or loads) the kernel with the object's rows
+        task = load_builtin_task("teapot-service")
+        task.object.distance.capsule_depth(np.zeros((1, 3)), np.ones((1, 3)), np.full(1, 5.0))
+        radius = np.full(1, 5.0)
+        radius.flags.writeable = False  # a read-only radius is copied: one signature for every caller
+        task.object.distance.capsule_depth(np.zeros((1, 3)), np.ones((1, 3)), radius)
+    finally:
+        prehension._compiled.use_aot(aot)
     more, missing, checked = {}, [], 0
     for module, names in _ONE_SIGNATURE.items():
         mod = importlib.import_module(f"prehension.solvers.local.{module}")

@@ -11,6 +11,8 @@ import math
 
 import numpy as np
 
+from .._compiled import aot
+
 try:  # numba is a dependency; without it the same code runs as (slow) Python.
     from numba import njit
 except ImportError:  # pragma: no cover - exercised only where numba is missing
@@ -84,7 +86,7 @@ def max_depths(R, r, pairs, stop_at_first: bool) -> np.ndarray:
         stop_at_first: stop at the first penetrating pair of a configuration (its depth
             is then only a lower bound of the largest; enough to tell "collides").
     """
-    return _max_depths(R, r, pairs.link, pairs.a, pairs.b, pairs.radius, pairs.first, pairs.second,
+    return aot(_max_depths)(R, r, pairs.link, pairs.a, pairs.b, pairs.radius, pairs.first, pairs.second,
                        pairs.group_start, pairs.link_centre, pairs.link_radius, stop_at_first)  # fmt: skip
 
 

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._compiled import aot
 from ..frozen import cached_per_value
 from .kinematics import HandPose
 from .model import Hand
@@ -149,7 +150,7 @@ def capsule_clearances(hand: Hand, pose: HandPose) -> tuple[np.ndarray, tuple[tu
     r = pose.r_palm_link[:, pairs.link]  # (B, S, 3)
     a = np.ascontiguousarray(np.einsum("bsij,sj->bsi", R, pairs.a) + r)  # (B, S, 3) segment starts, palm frame
     b = np.ascontiguousarray(np.einsum("bsij,sj->bsi", R, pairs.b) + r)
-    return _clearances(a, b, pairs.radius, pairs.first, pairs.second), pairs.names
+    return aot(_clearances)(a, b, pairs.radius, pairs.first, pairs.second), pairs.names
 
 
 try:  # numba is a dependency; without it the same loop runs as (slow) Python

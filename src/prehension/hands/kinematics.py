@@ -23,6 +23,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .._compiled import aot
 from ..errors import InvalidConfiguration
 from ..frozen import cached_per_value
 from ..geometry.rotations import skew
@@ -206,7 +207,7 @@ def forward_kinematics(hand: Hand, q) -> HandPose:
     R[:, 0] = np.eye(3)
     axis = np.zeros((B, hand.n_dof, 3))
     origin = np.zeros((B, hand.n_dof, 3))
-    _fk_loop(q, _chain_arrays(hand), R, r, axis, origin)
+    aot(_fk_loop)(q, _chain_arrays(hand), R, r, axis, origin)
     return HandPose(R, r, axis, origin)
 
 

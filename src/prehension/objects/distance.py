@@ -27,6 +27,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .._compiled import aot
+
 try:  # numba is a dependency; without it the same code runs as (slow) Python
     from numba import njit
 except ImportError:  # pragma: no cover
@@ -733,7 +735,7 @@ class MeshDistance:
         closest surface points (N, 3)."""
         p = np.ascontiguousarray(np.asarray(points, dtype=float).reshape(-1, 3))
         q = np.empty_like(p)
-        d = signed_distances(self.arrays, p, q)
+        d = aot(signed_distances)(self.arrays, p, q)
         return (d, q) if closest else d
 
     def segment_distance(self, starts, ends) -> np.ndarray:
@@ -759,7 +761,7 @@ class MeshDistance:
         a = np.ascontiguousarray(np.asarray(starts, dtype=float).reshape(-1, 3))
         b = np.ascontiguousarray(np.asarray(ends, dtype=float).reshape(-1, 3))
         r = np.array(radius, dtype=float).reshape(-1)  # a writable copy: one compiled signature for every caller
-        return capsule_depths(self.arrays, a, b, r, float(step), float(cap))
+        return aot(capsule_depths)(self.arrays, a, b, r, float(step), float(cap))
 
     def closest_faces(self, points) -> np.ndarray:
         """Index (in the original mesh) of the face closest to each point, (N,)."""

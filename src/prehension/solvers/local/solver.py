@@ -33,6 +33,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from ..._compiled import aot
 from ...errors import InvalidTask
 from ...frozen import cached_per_value
 from ...geometry.rotations import angle_between
@@ -331,7 +332,7 @@ def run_kernel(group: Group, problem: np.ndarray, x0: np.ndarray, options: Local
     """Run the kernel on states ``(problem[s], x0[s])`` of a group -> :class:`._kernel.Outputs`."""
     out = K.Outputs.allocate(len(problem), group.nx)
     if len(problem):
-        K.run_states(np.asarray(problem, dtype=np.int64), np.ascontiguousarray(x0, dtype=float), group.pdata,
+        aot(K.run_states)(np.asarray(problem, dtype=np.int64), np.ascontiguousarray(x0, dtype=float), group.pdata,
                      group.arrays, group.layout, options.kernel_options(), group.obj, out)  # fmt: skip
     return out
 

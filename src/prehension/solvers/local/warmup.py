@@ -30,10 +30,12 @@ def _entry_points():
 
 
 def compile_pending() -> bool:
-    """True when no usable compiled kernel is cached on disk (the next solve compiles)."""
+    """True when the next solve compiles: no fresh ahead-of-time kernels are installed
+    (:mod:`prehension._compiled`) and no usable compiled kernel is cached on disk."""
+    from ..._compiled import aot_available
     from ._jit import HAVE_NUMBA
 
-    if not HAVE_NUMBA:
+    if not HAVE_NUMBA or aot_available():  # the installed ahead-of-time kernels run at once
         return False
     try:
         for dispatcher in _entry_points():

@@ -1,0 +1,201 @@
+"""The ahead-of-time compiled entry points (prehension._compiled, _aot_build, _aot_signatures).
+
+What the JIT sees at the Python call sites must be what the signatures module records (so the
+install-time build compiles the functions that run); every Python call of a compiled function
+goes through ``aot()``; the extension, when installed and fresh, gives the JIT's answers bit for
+bit; a missing or stale extension falls back to the JIT; the CLI announces a compilation only
+when one will happen.
+"""
+
+from __future__ import annotations
+
+import cProfile
+import importlib
+import pstats
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import prehension._compiled as C
+from prehension._aot_signatures import ARRAY_ARGUMENTS, ENTRY_POINTS, SOURCES
+from prehension.solvers.local import random_point_problems, solve_local, solve_local_batch
+from prehension.solvers.local import _kernel as K
+from prehension.solvers.local._jit import HAVE_NUMBA
+from prehension.tasks.library import builtin_task_names, load_builtin_task
+
+ROOT = Path(__file__).resolve().parents[1]
+needs_numba = pytest.mark.skipif(not HAVE_NUMBA, reason="numba is not installed: nothing is compiled")
+needs_aot = pytest.mark.skipif(not C.aot_available(), reason="no fresh ahead-of-time extension installed")
+
+
+@pytest.fixture
+def jit_only():
+    previous = C.use_aot(False)
+    yield
+    C.use_aot(previous)
+
+
+def _workload():
+    task = load_builtin_task("teapot-lid-lifting")
+    solve_local(task)
+    solve_local_batch(random_point_problems(3, seed=2))
+    task.object.distance.signed_distance(np.zeros((2, 3)))
+    from prehension.hands.collision import capsule_clearances
+    from prehension.hands.kinematics import forward_kinematics
+
+    capsule_clearances(task.hand, forward_kinematics(task.hand, np.zeros(task.hand.n_dof)))
+
+
+def _dispatchers() -> dict:
+    from numba.core.dispatcher import Dispatcher
+
+    found = {}
+    for name, module in list(sys.modules.items()):
+        if name.startswith("prehension"):
+            for value in vars(module).values():
+                if isinstance(value, Dispatcher) and value.py_func.__module__ == name:
+                    code = value.py_func.__code__
+                    found[(code.co_filename, code.co_firstlineno, code.co_name)] = f"{name}:{value.py_func.__qualname__}"
+    return found
+
+
+@needs_numba
+def test_the_call_sites_pass_what_the_signatures_module_records(monkeypatch):
+    """Every compiled function Python calls is an entry point, called through aot(), with the
+    argument types recorded for the ahead-of-time build (else: python scripts/aot_signatures.py)."""
+    from numba import typeof
+
+    from prehension._aot_signatures import signatures
+
+    seen: dict[str, set] = {}
+    choose = C._choose
+
+    def recording(function):
+        chosen, py = choose(function), getattr(function, "py_func", function)
+        key = f"{py.__module__}:{py.__qualname__}"
+
+        def call(*args):
+            seen.setdefault(key, set()).add(tuple(typeof(a) for a in args))
+            return chosen(*args)
+
+        return call
+
+    monkeypatch.setattr(C, "_choose", recording)
+    monkeypatch.setattr(C, "_CHOSEN", {})
+    profile = cProfile.Profile()
+    profile.enable()
+    _workload()
+    profile.disable()
+    direct = {_dispatchers().get(frame) for frame in pstats.Stats(profile).stats} - {None}
+    expected = signatures()
+    assert set(ENTRY_POINTS) == set(expected) == set(ARRAY_ARGUMENTS)
+    assert direct <= set(seen), f"compiled functions called from Python without aot(): {direct - set(seen)}"
+    assert set(seen) <= set(ENTRY_POINTS), f"not in the signatures module: {set(seen) - set(ENTRY_POINTS)}"
+    for key, types in seen.items():
+        assert types == {tuple(expected[key].args)}, f"{key}: the call sites pass {types}, recorded {expected[key].args}"
+
+
+def test_the_sources_list_is_what_the_build_imports():
+    """SOURCES (hashed into the extension) names every file the kernels' modules import."""
+    code = (
+        "import sys, runpy; ns = runpy.run_path(sys.argv[1]); ns['load_kernel_modules'](); "
+        "print('\\n'.join(m.__file__ for n, m in list(sys.modules.items()) "
+        "if n.startswith('prehension.') and getattr(m, '__file__', None)))"
+    )
+    build = ROOT / "src" / "prehension" / "_aot_build.py"
+    if not build.exists():
+        pytest.skip("not a source checkout")
+    out = subprocess.run([sys.executable, "-c", code, str(build)], capture_output=True, text=True, check=True).stdout
+    package = build.parent
+    imported = {Path(f).resolve().relative_to(package).as_posix() for f in out.split()}
+    assert imported - {"_compiled.py"} | {"_aot_signatures.py"} == set(SOURCES)  # _compiled chooses, is not compiled
+
+
+def test_a_missing_extension_falls_back_to_the_jit(monkeypatch):
+    def missing(name):
+        raise ImportError(name)
+
+    C._module.cache_clear()
+    monkeypatch.setattr(importlib, "import_module", missing)
+    monkeypatch.setattr(C, "_CHOSEN", {})
+    try:
+        assert not C.aot_available()
+        assert C.aot(K.run_states) is K.run_states
+    finally:
+        monkeypatch.undo()
+        C._module.cache_clear()
+
+
+def test_a_stale_extension_falls_back_to_the_jit(monkeypatch):
+    """An edited checkout (sources no longer hashing to the extension's marker) never runs it."""
+    C._module.cache_clear()
+    monkeypatch.setattr(C, "source_hash", lambda: "0" * 24)
+    monkeypatch.setattr(C, "_CHOSEN", {})
+    try:
+        assert not C.aot_available()
+        assert C.aot(K.run_states) is K.run_states
+        from prehension.solvers.local.warmup import compile_pending
+
+        compile_pending()  # says what numba's cache says, not "nothing to compile"
+    finally:
+        monkeypatch.undo()
+        C._module.cache_clear()
+
+
+@needs_aot
+def test_a_fresh_extension_serves_every_entry_point_and_nothing_compiles():
+    from prehension.solvers.local.warmup import compile_pending
+
+    module = C._module()
+    for key in ENTRY_POINTS:
+        assert hasattr(module, C.export_name(key)), key
+    assert C.aot(K.run_states) is not K.run_states
+    assert not compile_pending()  # no COMPILING_MESSAGE: nothing will compile
+
+
+@needs_aot
+def test_a_call_off_the_compiled_signature_goes_to_the_jit_not_misread():
+    from prehension.hands.kinematics import _chain_arrays, _fk_loop, forward_kinematics
+    from prehension.hands.sa_hand import schunk_sa_hand
+
+    hand = schunk_sa_hand()
+    q = np.random.default_rng(0).uniform(-0.5, 0.5, (2, hand.n_dof))
+    checked = C.aot(_fk_loop)
+    R, r = np.zeros((2, len(hand.links), 3, 3)), np.zeros((2, len(hand.links), 3))
+    axis, origin = np.zeros((2, hand.n_dof, 3)), np.zeros((2, hand.n_dof, 3))
+    assert checked.mismatch((q, _chain_arrays(hand), R, r, axis, origin)) is None
+    assert "argument 0 is not a writable C-contiguous 2-d float64 array: float64 2-d" in checked.mismatch(
+        (np.asfortranarray(q), _chain_arrays(hand), R, r, axis, origin))
+    assert "int64 2-d" in checked.mismatch((q.astype(np.int64), _chain_arrays(hand), R, r, axis, origin))
+    frozen = q.copy()
+    frozen.flags.writeable = False  # another numba type: the JIT serves it
+    a, b = forward_kinematics(hand, q), forward_kinematics(hand, frozen)
+    assert np.array_equal(a.R_palm_link, b.R_palm_link) and np.array_equal(a.r_palm_link, b.r_palm_link)
+
+
+def _answers():
+    out = []
+    for name in builtin_task_names():
+        result = solve_local(load_builtin_task(name))
+        out.append((name, str(result.status), [(dict(s.joint_angles), s.T_palm_object.tobytes()) for s in result.solutions]))
+    batch = solve_local_batch(random_point_problems(30, seed=3))
+    for record in batch.records:
+        out.append({k: (v.tobytes() if isinstance(v, np.ndarray) else v) for k, v in vars(record).items()
+                    if isinstance(v, (np.ndarray, int, str)) or (isinstance(v, float) and k != "seconds")})  # fmt: skip
+    return out
+
+
+@needs_aot
+def test_the_extension_gives_the_jits_answers_bit_for_bit():
+    """Built for the installing machine's CPU (PREHENSION_AOT_CPU=host), the extension computes
+    what the JIT computes, to the bit: the nine built-ins and 30 random point problems."""
+    ahead = _answers()
+    previous = C.use_aot(False)
+    try:
+        jit = _answers()
+    finally:
+        C.use_aot(previous)
+    assert ahead == jit
