@@ -55,24 +55,11 @@ def run_workloads() -> cProfile.Profile:
     return profile
 
 
-def dispatchers() -> dict:
-    """(file, line, name) of every loaded prehension dispatcher's code -> (key, dispatcher)."""
-    from numba.core.dispatcher import Dispatcher
-
-    found = {}
-    for name, module in list(sys.modules.items()):
-        if name.startswith("prehension"):
-            for value in vars(module).values():
-                if isinstance(value, Dispatcher) and value.py_func.__module__ == name:
-                    code = value.py_func.__code__
-                    key = f"{name}:{value.py_func.__qualname__}"
-                    found[(code.co_filename, code.co_firstlineno, code.co_name)] = (key, value)
-    return found
-
-
 def entry_points(profile: cProfile.Profile) -> dict:
     """key -> numba signature (return type included) of every entry point called."""
-    known = dispatchers()
+    from prehension._compiled import loaded_dispatchers
+
+    known = loaded_dispatchers()
     entries = {}
     for frame in pstats.Stats(profile).stats:
         if frame in known:

@@ -49,19 +49,6 @@ def _workload():
     capsule_clearances(task.hand, forward_kinematics(task.hand, np.zeros(task.hand.n_dof)))
 
 
-def _dispatchers() -> dict:
-    from numba.core.dispatcher import Dispatcher
-
-    found = {}
-    for name, module in list(sys.modules.items()):
-        if name.startswith("prehension"):
-            for value in vars(module).values():
-                if isinstance(value, Dispatcher) and value.py_func.__module__ == name:
-                    code = value.py_func.__code__
-                    found[(code.co_filename, code.co_firstlineno, code.co_name)] = f"{name}:{value.py_func.__qualname__}"
-    return found
-
-
 @needs_numba
 def test_the_call_sites_pass_what_the_signatures_module_records(monkeypatch):
     """Every compiled function Python calls is an entry point, called through aot(), with the
@@ -89,7 +76,7 @@ def test_the_call_sites_pass_what_the_signatures_module_records(monkeypatch):
     profile.enable()
     _workload()
     profile.disable()
-    direct = {_dispatchers().get(frame) for frame in pstats.Stats(profile).stats} - {None}
+    direct = {C.loaded_dispatchers().get(frame, (None,))[0] for frame in pstats.Stats(profile).stats} - {None}
     expected = signatures()
     assert set(ENTRY_POINTS) == set(expected) == set(ARRAY_ARGUMENTS)
     assert direct <= set(seen), f"compiled functions called from Python without aot(): {direct - set(seen)}"

@@ -250,7 +250,7 @@ def test_segment_min_sd_is_within_its_tolerance_of_the_least_signed_distance(nam
 
 def test_a_start_through_the_object_is_solved_again_seeing_it():
     """guitar-holding's first sequence poses end with links through the guitar's neck; such
-    a state starts again with the object's rows in its iterations (``iterate_seeing``), and
+    a state starts again with the object's rows in its iterations (``iterate`` with ``seeing``), and
     an early pose gives the strict answer (repairing those solutions in place took 13
     poses: the repairs of the first twelve failed after 30 steps each).  Without the object's
     rows (``check_collisions=False``) the first pose's local solution is through the neck."""

@@ -38,7 +38,7 @@ import os
 from functools import lru_cache
 from pathlib import Path
 
-__all__ = ["aot", "aot_available", "use_aot", "source_hash", "export_name", "STAMP_PREFIX", "EXTENSION"]
+__all__ = ["aot", "aot_available", "use_aot", "source_hash", "export_name", "loaded_dispatchers", "STAMP_PREFIX", "EXTENSION"]
 
 EXTENSION = "prehension._aot"
 STAMP_PREFIX = "source_"
@@ -150,3 +150,22 @@ class _Checked:
         if self.mismatch(args) is not None:
             return self.jit(*args)
         return self.function(*args)
+
+
+def loaded_dispatchers() -> dict:
+    """Every numba dispatcher defined in a loaded ``prehension`` module, keyed by its code's
+    ``(file, first line, name)`` (as cProfile names a call): ``(module:qualname, dispatcher)``.
+    For :mod:`scripts/aot_signatures.py` and the tests that find Python's calls of compiled
+    functions."""
+    import sys
+
+    from numba.core.dispatcher import Dispatcher
+
+    found = {}
+    for name, module in list(sys.modules.items()):
+        if name.startswith("prehension"):
+            for value in vars(module).values():
+                if isinstance(value, Dispatcher) and value.py_func.__module__ == name:
+                    code = value.py_func.__code__
+                    found[(code.co_filename, code.co_firstlineno, code.co_name)] = (f"{name}:{value.py_func.__qualname__}", value)
+    return found

@@ -39,8 +39,8 @@ import numpy as np
 
 from ...geometry.regions import SphereCap
 from . import affine as af
-from .congruence import (PairOutcome, PairProblem, _axial, _dihedral, _half_width_upper, _hand_forms, _interval,
-                         _length, _object_forms, _vector_spread)  # fmt: skip
+from .congruence import (PairOutcome, PairProblem, _axial, _dihedral, _half_width_upper, _halves, _hand_forms,
+                         _interval, _length, _object_forms, _vector_spread)  # fmt: skip
 
 __all__ = ["MAX_PAIRS", "SideRanges", "hand_ranges", "object_ranges", "compatible", "prove_pair_by_matching"]
 
@@ -196,16 +196,6 @@ def _any_match(hand: SideRanges, obj: SideRanges, betas, chunk_pairs: int = 2_00
         h_any[rows] = ok.any(axis=1)
         o_any[cand] |= ok.any(axis=0)
     return h_any, o_any
-
-
-def _halves(lo: np.ndarray, hi: np.ndarray, score: np.ndarray, scale: np.ndarray):
-    rel = (hi - lo) / scale
-    k = np.argmax(np.where(rel > 1e-12, score + 1e-9 * rel, -1.0), axis=1)
-    rows = np.arange(len(lo))
-    mid = 0.5 * (lo[rows, k] + hi[rows, k])
-    left_hi, right_lo = hi.copy(), lo.copy()
-    left_hi[rows, k], right_lo[rows, k] = mid, mid
-    return np.concatenate([lo, right_lo]), np.concatenate([left_hi, hi])
 
 
 def prove_pair_by_matching(pp: PairProblem, *, max_boxes: int = 200_000, time_limit_s: float | None = None,

@@ -351,10 +351,24 @@ def start(x0, ws, data):
 
 
 @njit(cache=True)
-def iterate(ws, data):
-    """Damped steps until the contacts are within ``d_min``: ``(code, iterations)``."""
+def iterate(ws, data, seeing):
+    """Damped steps until the contacts are within ``d_min``: ``(code, iterations)``.
+
+    With ``seeing``, the inequality rows of :func:`_seeing_rows` (capsule pairs, and
+    capsules against the object, the idle fingers' too, closer than the margin) are stacked
+    under the contact rows at every step: the hand approaches the contacts around the
+    object instead of through it; ``WITHIN_DMIN`` then says nothing of the clearance (the
+    caller checks it).
+
+    Seeing is run from the start again when the plain iterations' local solution went
+    through the object (:func:`_seeing_again`): repairing that one is a search for another
+    basin (a link through a guitar's neck stays through it under small steps), which costs
+    tens of repair steps and mostly fails; approaching with the object in view ends clear
+    far more often.  Each seeing step pays the rows' mesh queries, so the plain iterations
+    stay the first try."""
     lay, opt = ws.lay, ws.opt
     C = lay.sides.shape[0]
+    n = 6 * C
     stall = 0
     for k in range(opt.k_max + 1):
         contact_rows(ws, data, np.bool_(True))
@@ -367,9 +381,16 @@ def iterate(ws, data):
         if k == opt.k_max:
             break
         copy(ws.f, ws.f_prev)
-        if not _step(ws, data, opt.damping_sq, opt.active_set):
+        if seeing:
+            copy(ws.J, ws.M[:n])
+            copy(ws.f, ws.g[:n])
+            ok = _repair_step(ws, n + _seeing_rows(ws, data, n), opt.damping_sq)
+        else:
+            ok = _step(ws, data, opt.damping_sq, opt.active_set)
+            if ok:
+                _limit_step(ws.dx, ws.col_scale, opt.alpha, opt.max_step)
+        if not ok:
             return SINGULAR, k + 1
-        _limit_step(ws.dx, ws.col_scale, opt.alpha, opt.max_step)
         move(ws, data)
         pose_hand(ws)
     return K_MAX, opt.k_max
@@ -403,51 +424,12 @@ def polish(ws, data):
 
 @njit(cache=True)
 def _seeing_rows(ws, data, row0):
-    """The inequality rows of :func:`iterate_seeing` from ``row0``: capsule pairs, and every
+    """The inequality rows of :func:`iterate` with ``seeing`` from ``row0``: capsule pairs, and every
     capsule against the object, the idle fingers' included; the number written."""
     margin = ws.opt.collision_margin
     place_capsules(ws)
     n_self = self_collision_rows(ws, margin, row0, np.int64(MAX_INEQUALITY_ROWS))[0]
     return n_self + object_rows(ws, data, margin, row0 + n_self, MAX_INEQUALITY_ROWS - n_self, np.bool_(True))[0]
-
-
-@njit(cache=True)
-def iterate_seeing(ws, data):
-    """As :func:`iterate`, with the inequality rows of :func:`_seeing_rows` (capsule pairs,
-    and capsules against the object, the idle fingers' too, closer than the margin)
-    stacked under the contact rows at every step: the hand approaches the contacts around
-    the object instead of through it.  ``(code, iterations)``; ``WITHIN_DMIN`` once the contacts are within
-    ``d_min``, whatever the clearance (the caller checks it).
-
-    Run from the start again when the plain iterations' local solution went through the
-    object (:func:`solve_state`): repairing that one is a search for another basin (a link
-    through a guitar's neck stays through it under small steps), which costs tens of
-    repair steps and mostly fails; approaching with the object in view ends clear far
-    more often.  Each step pays the rows' mesh queries, so the plain iterations stay the
-    first try."""
-    lay, opt = ws.lay, ws.opt
-    C = lay.sides.shape[0]
-    n = 6 * C
-    stall = 0
-    for k in range(opt.k_max + 1):
-        contact_rows(ws, data, np.bool_(True))
-        if ws.err[0] < opt.d_min and ws.err[1] < opt.d_min:
-            return WITHIN_DMIN, k
-        if k > 0:
-            stall = stall + 1 if _motion(ws.f, ws.f_prev, C) < opt.s_min else 0
-            if stall >= opt.n_stall:
-                return STALLED, k
-        if k == opt.k_max:
-            break
-        copy(ws.f, ws.f_prev)
-        copy(ws.J, ws.M[:n])
-        copy(ws.f, ws.g[:n])
-        rows = _seeing_rows(ws, data, n)
-        if not _repair_step(ws, n + rows, opt.damping_sq):
-            return SINGULAR, k + 1
-        move(ws, data)
-        pose_hand(ws)
-    return K_MAX, opt.k_max
 
 
 @njit(cache=True)
@@ -550,11 +532,11 @@ def repair(ws, data, rows0, cmin0):
 
 @njit(cache=True)
 def _seeing_again(x0, ws, data, k, n_pol):
-    """From the start ``x0`` again with :func:`iterate_seeing`, then polished; ``(code,
+    """From the start ``x0`` again with :func:`iterate` with ``seeing``, then polished; ``(code,
     iterations, polish iterations, inequality rows, smallest value)``, the counts added to
     ``k`` and ``n_pol``; the rows are written after the contact rows (:func:`first_inequality_rows`)."""
     start(x0, ws, data)
-    code, k2 = iterate_seeing(ws, data)
+    code, k2 = iterate(ws, data, np.bool_(True))
     if code != WITHIN_DMIN:
         return code, k + k2, n_pol, 0, -1.0
     if ws.opt.n_polish > 0:
@@ -569,7 +551,7 @@ def solve_state(x0, ws, data):
     """Every phase for one state: ``(code, iterations, polish iterations, repair iterations)``."""
     opt = ws.opt
     start(x0, ws, data)
-    code, k = iterate(ws, data)
+    code, k = iterate(ws, data, np.bool_(False))
     if code != WITHIN_DMIN:
         return code, k, 0, 0
     n_pol = n_rep = 0

@@ -203,7 +203,7 @@ def object_rows(ws, data, margin, row0, max_rows, every):
     ``max_rows`` are int64: callers pass ``np.int64(0)``, never a literal ``0``, so that the
     function compiles once (see :mod:`._jit`).  ``every`` (``np.bool_``): the idle fingers'
     capsules too, at their idle angles (rows in the object pose's columns only): what
-    :func:`._kernel.iterate_seeing` keeps clear, so that the idle fingers need no settling
+    :func:`._kernel.iterate` (seeing) keeps clear, so that the idle fingers need no settling
     out of a palm that approached the object."""
     obj = ws.obj
     nrows, vmin = 0, 1e300
