@@ -13,7 +13,7 @@ import weakref
 from collections.abc import Mapping
 from typing import Callable, Iterator, TypeVar
 
-__all__ = ["FrozenMap", "cached_per_value"]
+__all__ = ["FrozenMap", "IdentityCache", "cached_per_value"]
 
 K = TypeVar("K")
 V = TypeVar("V")
@@ -65,3 +65,26 @@ def cached_per_value(build: Callable[[K], R]) -> Callable[[K], R]:
             return result
 
     return get
+
+
+class IdentityCache:
+    """Values built once per tuple of objects taken by identity, for objects that cannot be
+    weakly referenced (numba's named-tuple bundles, arrays), at most ``maxsize`` entries
+    (all dropped when full).  An entry holds its objects, so their ids are not reused while
+    it lives; nothing is written onto them."""
+
+    def __init__(self, maxsize: int = 256):
+        self.maxsize = maxsize
+        self._held: dict = {}
+
+    def get(self, objects: tuple, extra, build: Callable[[], R]) -> R:
+        """The value of ``(objects, extra)`` (``extra`` hashable, compared by value), made by
+        ``build()`` the first time."""
+        key = (tuple(map(id, objects)), extra)
+        hit = self._held.get(key)
+        if hit is None:
+            if len(self._held) >= self.maxsize:
+                self._held.clear()
+            hit = self._held[key] = (objects, build())
+        return hit[1]
+

@@ -36,9 +36,7 @@ from . import _regions as RG
 from ._jit import HAVE_NUMBA, njit
 from ._layout import S_KIND, S_OFF, S_X
 from ._linalg import copy, dls_again, dls_dense, fill, refresh_column
-from ._model import (
-    contact_rows, inequality_rows, initial_pose, move, place_capsules, pose_hand, project_all, self_collision_rows,
-)
+from ._model import contact_rows, inequality_rows, initial_pose, move, place_capsules, pose_hand, project_all
 from ._penetration import object_rows
 
 __all__ = ["Options", "Workspace", "Outputs", "MESSAGES", "run_states", "residual_at", "penetration_at", "LOCAL_SOLUTIONS"]
@@ -354,8 +352,8 @@ def start(x0, ws, data):
 def iterate(ws, data, seeing):
     """Damped steps until the contacts are within ``d_min``: ``(code, iterations)``.
 
-    With ``seeing``, the inequality rows of :func:`_seeing_rows` (capsule pairs, and
-    capsules against the object, the idle fingers' too, closer than the margin) are stacked
+    With ``seeing``, the inequality rows (:func:`._model.inequality_rows`: capsule pairs,
+    and capsules against the object, the idle fingers' too, closer than the margin) are stacked
     under the contact rows at every step: the hand approaches the contacts around the
     object instead of through it; ``WITHIN_DMIN`` then says nothing of the clearance (the
     caller checks it).
@@ -384,7 +382,8 @@ def iterate(ws, data, seeing):
         if seeing:
             copy(ws.J, ws.M[:n])
             copy(ws.f, ws.g[:n])
-            ok = _repair_step(ws, n + _seeing_rows(ws, data, n), opt.damping_sq)
+            rows = inequality_rows(ws, data, opt.collision_margin, n, np.int64(MAX_INEQUALITY_ROWS), np.bool_(True))[0]
+            ok = _repair_step(ws, n + rows, opt.damping_sq)
         else:
             ok = _step(ws, data, opt.damping_sq, opt.active_set)
             if ok:
@@ -423,19 +422,9 @@ def polish(ws, data):
 
 
 @njit(cache=True)
-def _seeing_rows(ws, data, row0):
-    """The inequality rows of :func:`iterate` with ``seeing`` from ``row0``: capsule pairs, and every
-    capsule against the object, the idle fingers' included; the number written."""
-    margin = ws.opt.collision_margin
-    place_capsules(ws)
-    n_self = self_collision_rows(ws, margin, row0, np.int64(MAX_INEQUALITY_ROWS))[0]
-    return n_self + object_rows(ws, data, margin, row0 + n_self, MAX_INEQUALITY_ROWS - n_self, np.bool_(True))[0]
-
-
-@njit(cache=True)
 def clearance(ws, data):
     """Smallest inequality value of the state (negative: in collision) [mm]."""
-    return inequality_rows(ws, data, ws.opt.collision_margin, np.int64(0), np.int64(0))[1]
+    return inequality_rows(ws, data, ws.opt.collision_margin, np.int64(0), np.int64(0), np.bool_(False))[1]
 
 
 @njit(cache=True)
@@ -480,7 +469,8 @@ def _polished_clear(ws, data):
 def first_inequality_rows(ws, data):
     """The inequality rows of the state, written after its contact rows (where the repair's
     first step reads them): ``(rows, smallest value)``, as :func:`clearance` judges it."""
-    return inequality_rows(ws, data, ws.opt.collision_margin, np.int64(6 * ws.lay.sides.shape[0]), np.int64(MAX_INEQUALITY_ROWS))
+    return inequality_rows(ws, data, ws.opt.collision_margin, np.int64(6 * ws.lay.sides.shape[0]), np.int64(MAX_INEQUALITY_ROWS),
+                           np.bool_(False))
 
 
 @njit(cache=True)
@@ -502,7 +492,7 @@ def repair(ws, data, rows0, cmin0):
         if rk == 0:
             rows, cmin = rows0, cmin0
         else:
-            rows, cmin = inequality_rows(ws, data, opt.collision_margin, n, np.int64(MAX_INEQUALITY_ROWS))
+            rows, cmin = inequality_rows(ws, data, opt.collision_margin, n, np.int64(MAX_INEQUALITY_ROWS), np.bool_(False))
         strict = max(ws.err[0], ws.err[1]) <= opt.polish_tol
         within = ws.err[0] < opt.d_min and ws.err[1] < opt.d_min
         if (cmin >= 0.0 and strict) or rk == opt.n_repair:

@@ -27,7 +27,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ...errors import InvalidTask
-from ...frozen import cached_per_value
+from ...frozen import IdentityCache, cached_per_value
 from ...geometry.regions import Region, SphereCap
 from ...hands.collision import collision_pairs
 from ...hands.model import Hand
@@ -225,17 +225,12 @@ class Group:
         return [(x[:, h0 : h0 + hk].copy(), x[:, o0 : o0 + ok].copy()) for (h0, hk), (o0, ok) in spans]
 
 
-_SPANS: dict = {}  # id(layout) -> (layout, spans): a layout serves every group of its structure
+_SPANS = IdentityCache()  # a layout serves every group of its structure
 
 
 def _spans(layout: Layout) -> list:
     """``layout.sides[:, :, [S_X, S_K]].tolist()``, once per layout."""
-    hit = _SPANS.get(id(layout))
-    if hit is None or hit[0] is not layout:
-        if len(_SPANS) > 256:
-            _SPANS.clear()
-        hit = _SPANS[id(layout)] = (layout, layout.sides[:, :, [S_X, S_K]].tolist())
-    return hit[1]
+    return _SPANS.get((layout,), None, lambda: layout.sides[:, :, [S_X, S_K]].tolist())
 
 
 # -- building a group --------------------------------------------------------------------------

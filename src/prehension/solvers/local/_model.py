@@ -258,14 +258,15 @@ def self_collision_rows(ws, margin, row0, max_rows):
 
 
 @njit(cache=True)
-def inequality_rows(ws, data, margin, row0, max_rows):
+def inequality_rows(ws, data, margin, row0, max_rows, every):
     """Every inequality row ``value - margin`` (wanted >= 0) closer than ``margin``, into
     ``ws.M``/``ws.g`` from ``row0``; see the module docstring.  Returns ``(rows written,
     smallest value seen)``.  The contact rows must be current (the pads of the contacts
-    are excepted from the object's rows)."""
+    are excepted from the object's rows).  ``every`` (``np.bool_``): the idle fingers'
+    capsules against the object too (:func:`._penetration.object_rows`)."""
     place_capsules(ws)
     n_self, v_self = self_collision_rows(ws, margin, row0, max_rows)
-    n_obj, v_obj = object_rows(ws, data, margin, row0 + n_self, max_rows - n_self, np.bool_(False))
+    n_obj, v_obj = object_rows(ws, data, margin, row0 + n_self, max_rows - n_self, every)
     return n_self + n_obj, min(v_self, v_obj)
 
 

@@ -35,7 +35,7 @@ import numpy as np
 
 from ..._compiled import aot
 from ...errors import InvalidTask
-from ...frozen import cached_per_value
+from ...frozen import IdentityCache, cached_per_value
 from ...geometry.rotations import angle_between
 from ...hands.collision import max_penetration
 from ...hands.kinematics import HandPose, forward_kinematics
@@ -423,22 +423,19 @@ def _sequence_start(group: Group, sequence: InitialPoseSequence, wave: int) -> n
     """``_place_poses`` of the sequence's pose ``wave`` for one problem, (1, nx), read-only;
     kept per sequence for the group's default unknowns and pose names (eq. 11 and the
     placing are element by element: a row does not depend on the others)."""
-    held = _starts_of(sequence)
-    key = (id(group.x_default), id(group.pose_names), wave)
-    hit = held.get(key)
-    if hit is None or hit[0] is not group.x_default or hit[1] is not group.pose_names:
-        if len(held) > 256:
-            held.clear()
+
+    def place():
         row = _place_poses(group, sequence.names, sequence.poses(sequence.lambdas[wave : wave + 1]))
         row.setflags(write=False)
-        hit = held[key] = (group.x_default, group.pose_names, row)
-    return hit[2]
+        return row
+
+    return _starts_of(sequence).get((group.x_default, group.pose_names), wave, place)
 
 
 @cached_per_value
-def _starts_of(sequence: InitialPoseSequence) -> dict:
-    """``(id x_default, id pose_names, wave) -> (x_default, pose_names, row)`` of :func:`_sequence_start`."""
-    return {}
+def _starts_of(sequence: InitialPoseSequence) -> IdentityCache:
+    """The rows of :func:`_sequence_start` of one sequence, by group defaults and wave."""
+    return IdentityCache()
 
 
 def _place_poses(group: Group, names, poses: np.ndarray) -> np.ndarray:
