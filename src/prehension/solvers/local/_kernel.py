@@ -55,6 +55,7 @@ MESSAGES = {
 LOCAL_SOLUTIONS = (STRICT, WITHIN_DMIN)
 MAX_INEQUALITY_ROWS = 32  # self-collision pairs first, then the object's capsules
 BEST, REPAIRED = 0, 1  # slots of the workspace's saved states
+REPAIR_PATIENCE, REPAIR_GAIN = 6, 0.05  # a repair in collision ends after 6 steps without a clearance 0.05 mm better than its best
 
 
 class Options(NamedTuple):
@@ -484,6 +485,7 @@ def repair(ws, data, rows0, cmin0):
     opt = ws.opt
     n = 6 * ws.lay.sides.shape[0]
     prev, slow, cmin, rk, n_pol = 1e300, 0, -1.0, 0, 0
+    best_c, stuck = -1e300, 0
     strict = within = False
     for rk in range(opt.n_repair + 1):
         contact_rows(ws, data, np.bool_(True))
@@ -497,6 +499,9 @@ def repair(ws, data, rows0, cmin0):
         within = ws.err[0] < opt.d_min and ws.err[1] < opt.d_min
         if (cmin >= 0.0 and strict) or rk == opt.n_repair:
             break
+        best_c, stuck = (cmin, 0) if cmin > best_c + REPAIR_GAIN else (best_c, stuck + 1)
+        if cmin < 0.0 and stuck >= REPAIR_PATIENCE:
+            break  # hopeless: no clearer for REPAIR_PATIENCE steps (a link held through the object)
         err = max(ws.err[0], ws.err[1]) / opt.polish_tol
         if cmin < 0.0:  # judge convergence only once clear
             prev, slow = 1e300, 0
@@ -558,7 +563,7 @@ def solve_state(x0, ws, data):
         code, k, n_pol, rows, cmin = _seeing_again(x0, ws, data, k, n_pol)
         if code != WITHIN_DMIN and code != STRICT:
             return COLLIDING, k, n_pol, 0
-        if cmin >= 0.0:
+        if cmin >= 0.0 and code == STRICT:
             return code, k, n_pol, 0
     code, n_rep, more = repair(ws, data, rows, cmin)
     n_pol += more
