@@ -682,37 +682,36 @@ class _Parser:
         return first, second
 
     def joint_revolute(self, line: int) -> WorldJoint:
-        link1, p1, a1 = self.pair()
-        link2, p2, a2 = self.pair()
-        self.two_links(link1, link2, line)
-        ranges: tuple[tuple[float, float], ...] = ()
-        vectors: tuple[Vec3, ...] = ()
-        if self.accept_word("range"):
-            ranges = (self.interval(),)
-            self.accept_word("reference")
-            vectors = self.refs(p1, p2)
-        elif self.accept_word("reference"):
-            vectors = self.refs(p1, p2)
-        avoid, weight = self.avoid()
-        return WorldJoint("revolute", line, link1, link2, p1, p2, a1, a2, ranges, vectors,
-                          avoid_limits=avoid, avoid_limits_weight=weight)
+        return self.axis_joint("revolute", line)
 
     def joint_universal(self, line: int) -> WorldJoint:
+        return self.axis_joint("universal", line)
+
+    def axis_joint(self, kind: str, line: int) -> WorldJoint:
+        """A revolute (one axis) or universal (two axes) joint: two ``link point axis``
+        triples, then optionally ``range [lo, hi] [reference] ref1 ref2`` (revolute) or
+        ``range [lo1, hi1] ref1 [lo2, hi2] ref2`` (universal), or ``reference ref1 ref2``,
+        then ``avoid limits [weight]``."""
         link1, p1, a1 = self.pair()
         link2, p2, a2 = self.pair()
         self.two_links(link1, link2, line)
         ranges: tuple[tuple[float, float], ...] = ()
         vectors: tuple[Vec3, ...] = ()
         if self.accept_word("range"):
-            range1 = self.interval()
-            ref1 = self.displacement(p1, "the first reference vector")
-            range2 = self.interval()
-            ref2 = self.displacement(p2, "the second reference vector")
-            ranges, vectors = (range1, range2), (ref1, ref2)
+            if kind == "revolute":
+                ranges = (self.interval(),)
+                self.accept_word("reference")
+                vectors = self.refs(p1, p2)
+            else:
+                range1 = self.interval()
+                ref1 = self.displacement(p1, "the first reference vector")
+                range2 = self.interval()
+                ref2 = self.displacement(p2, "the second reference vector")
+                ranges, vectors = (range1, range2), (ref1, ref2)
         elif self.accept_word("reference"):
             vectors = self.refs(p1, p2)
         avoid, weight = self.avoid()
-        return WorldJoint("universal", line, link1, link2, p1, p2, a1, a2, ranges, vectors,
+        return WorldJoint(kind, line, link1, link2, p1, p2, a1, a2, ranges, vectors,
                           avoid_limits=avoid, avoid_limits_weight=weight)
 
     def joint_spherical(self, line: int) -> WorldJoint:
