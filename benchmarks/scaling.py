@@ -5,6 +5,7 @@ other parallel searches, on local clusters of 1 and 2 worker processes.
     python benchmarks/scaling.py --quick          # smaller sizes, one repeat, no cold compile
     python benchmarks/scaling.py --batch-only     # the batch tables only
     python benchmarks/scaling.py --stages-only    # one process only: per task, per stage, the client alone
+    python benchmarks/scaling.py --per-builtin 8  # only: each built-in task's solve, 8 copies in one batch
 
 **Batch** (issue 16): the built-in tasks, ``--tasks`` of them (the nine, repeated, each with
 its own id), method ``local``:
@@ -31,6 +32,12 @@ complete solver's box search and the off-line sequence search, each inline and o
 workers; then the local solver with several chunk sizes.
 
 Cluster start-up and a warm-up in every process are not in the times (but in table 5).
+
+**Per built-in** (``--per-builtin N``, alone): each built-in task ``N`` times in one
+``solve_local_batch`` call (one process, warm), the solve's CPU per copy and the
+re-verification's (``LocalRecord.to_result``: the one residual function, idle fingers
+settled), and how many copies were solved strictly: which tasks the batch's solve stage
+spends its time on.
 """
 
 from __future__ import annotations
@@ -370,6 +377,34 @@ def fresh_worker_table(entries: list[dict], cold: bool) -> Table:
 
 
 # -- the solvers on the cluster (issue 6) ------------------------------------------------------------
+def per_builtin_table(copies: int) -> Table:
+    """Each built-in task ``copies`` times in one ``solve_local_batch`` call: CPU ms per copy
+    of the solve and of the re-verification, and the copies solved strictly."""
+    from prehension.results import Status
+    from prehension.solvers.local import LocalOptions, solve_local_batch
+    from prehension.tasks.library import builtin_task_names, load_builtin_task
+
+    names = builtin_task_names()
+    tasks = [load_builtin_task(n) for n in names]
+    opt = LocalOptions()
+    solve_local_batch(tasks, opt, None, list(range(len(tasks))))  # warm: compiled code, geometry caches
+    table = Table(title=f"Each built-in task {copies} times in one solve_local_batch call (CPU ms per copy)")
+    for column in ("task", "solve", "verify", "solved"):
+        table.add_column(column, justify="left" if column == "task" else "right")
+    solve_ms, verify_ms = [], []
+    for name, task in zip(names, tasks):
+        a = time.process_time()
+        found = solve_local_batch([task] * copies, opt, None, list(range(copies)))
+        b = time.process_time()
+        results = [r.to_result(task, opt, 0.0, {}) for r in found]
+        c = time.process_time()
+        solve_ms.append((b - a) / copies * 1e3)
+        verify_ms.append((c - b) / copies * 1e3)
+        table.add_row(name, f"{solve_ms[-1]:.2f}", f"{verify_ms[-1]:.2f}", f"{sum(r.status == Status.SOLVED for r in results)}/{copies}")
+    table.add_row("mean", f"{np.mean(solve_ms):.2f}", f"{np.mean(verify_ms):.2f}", "", end_section=True)
+    return table
+
+
 def solvers_tables(args, clients) -> list[Table]:
     from _scaling_solvers import chunk_sweep, run_all
 
@@ -392,6 +427,7 @@ def main() -> None:
     parser.add_argument("--hard-mm", type=float, default=165.0, help="solvers: how far the knob's back face moves")
     parser.add_argument("--chunks", type=int, nargs="+", default=(100, 250, 1000, 2500), help="solvers: chunk sizes")
     parser.add_argument("--offline", type=int, nargs=3, default=(300, 6, 2), metavar=("M", "N", "IMAX"))
+    parser.add_argument("--per-builtin", type=int, metavar="N", help="only: each built-in task N times in one batch solve")
     parser.add_argument("--quick", action="store_true", help="360 tasks, one repeat, no cold compile, smaller solver runs")
     args = parser.parse_args()
     if args.quick:
@@ -400,6 +436,10 @@ def main() -> None:
     console = Console(width=170)
     started = time.perf_counter()
     console.print(f"load average at the start {os.getloadavg()[0]:.1f} ({os.cpu_count()} cores)")
+    if args.per_builtin:
+        console.print(per_builtin_table(args.per_builtin))
+        console.print(f"load average at the end {os.getloadavg()[0]:.1f}")
+        return
     _warm_worker()
     with tempfile.TemporaryDirectory() as folder:
         folder = Path(folder)

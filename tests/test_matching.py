@@ -92,3 +92,53 @@ def test_forward_built_pairs_are_never_proved_infeasible_by_matching():
 def test_a_pinch_past_reach_is_proved_by_matching_and_one_within_it_is_not():
     assert mt.prove_pair_by_matching(cg.pair_problem(_pinch_task(400.0), 0, 1), max_boxes=3000).proved
     assert not mt.prove_pair_by_matching(cg.pair_problem(_pinch_task(60.0), 0, 1), max_boxes=3000).proved
+
+
+@pytest.mark.parametrize("case", range(5))
+def test_contraction_keeps_every_point_of_the_hull(case):
+    """Seeded random boxes of each side narrowed to a hull (:func:`contract_to`): every sampled
+    point of the box whose invariants lie in the hull stays in the narrowed box; the hull is
+    that of three of the samples, so some points always qualify."""
+    task, _ = _pair_problems()[case]
+    pp = cg.pair_problem(task, 0, 1)
+    rng = np.random.default_rng(70 + case)
+    sa, so = pp.slices[0], slice(pp.slices[1].start, pp.n_dims)
+    checked = 0
+    for hand, dims in ((True, sa), (False, so)):
+        lo, hi = _random_boxes(rng, pp.lower[dims], pp.upper[dims], 40)
+        for b in range(len(lo)):
+            z = np.repeat(pp.lower[None], 12, axis=0)
+            z[:, dims] = lo[b] + rng.uniform(0, 1, (12, hi.shape[1])) * (hi[b] - lo[b])
+            d_h, m_a, m_b, d_o, n_a, n_b = _true_values(pp, z)
+            length, angle, _, _ = _invariants(d_h, m_a, m_b) if hand else _invariants(d_o, n_a, n_b)
+            pick = slice(0, 3)
+            hull = mt.Hull((length[pick].min(), length[pick].max()),
+                           tuple((angle[s][pick].min(), angle[s][pick].max()) for s in (0, 1)))
+            new_lo, new_hi = mt.contract_to(pp, lo[b:b + 1], hi[b:b + 1], hull, hand=hand)
+            inside = (length >= hull.distance[0]) & (length <= hull.distance[1])
+            for s in (0, 1):
+                inside &= (angle[s] >= hull.angle[s][0]) & (angle[s] <= hull.angle[s][1])
+            pts = z[inside][:, dims]
+            checked += len(pts)
+            slack = 1e-12 * (1.0 + np.abs(pts))
+            assert np.all((pts >= new_lo - slack) & (pts <= new_hi + slack))
+    assert checked >= 3 * 80
+
+
+def test_contraction_narrows_a_box_far_from_the_hull():
+    """A hull of distances the hand cannot reach empties every box; a hull at the solution of a
+    forward-built task keeps its angles and parameters."""
+    task, config = _pair_problems()[2]
+    pp = cg.pair_problem(task, 0, 1)
+    sa, so = pp.slices[0], slice(pp.slices[1].start, pp.n_dims)
+    far = mt.Hull((1e4, 2e4), ((0.0, np.pi), (0.0, np.pi)))
+    lo, hi = mt.contract_to(pp, pp.lower[None, sa], pp.upper[None, sa], far, hand=True)
+    assert np.any(lo > hi)
+    z = np.concatenate([config.joint_angles[pp.kin.problem.sources]] + [np.atleast_1d(config.contact_params[i][1]) for i in (0, 1)])
+    d_h, m_a, m_b, d_o, n_a, n_b = _true_values(pp, z[None])
+    for hand, dims, values in ((True, sa, (d_o, n_a, n_b)), (False, so, (d_h, m_a, m_b))):
+        length, angle, _, _ = _invariants(*values)  # the other side's invariants, widened by beta
+        betas = mt._betas(pp)
+        hull = mt.Hull((length[0], length[0]), tuple((max(angle[s][0] - betas[s], 0.0), min(angle[s][0] + betas[s], np.pi)) for s in (0, 1)))
+        new_lo, new_hi = mt.contract_to(pp, pp.lower[None, dims], pp.upper[None, dims], hull, hand=hand)
+        assert np.all((z[dims] >= new_lo[0] - 1e-9) & (z[dims] <= new_hi[0] + 1e-9))

@@ -48,8 +48,9 @@ The box is pruned when, for some probe,
 
     \\mathrm{sd}(\\mathrm{centre}(B)) + \\mathrm{halfdiag}(B) + e < r - \\mathrm{tol} - \\mathrm{margin},
 
-``margin`` = :data:`SAMPLE_MM` / 2 (the residual function samples a segment that reaches
-inside every 0.25 mm, so its depth may read up to 0.125 mm low) + :data:`FLOAT_MARGIN_MM`
+``margin`` = :data:`SAMPLE_MM` / 2 (the residual function finds the depth of a segment that
+reaches inside by Lipschitz bisection to within 0.125 mm, as samples 0.25 mm apart would,
+so it may read up to 0.125 mm low) + :data:`FLOAT_MARGIN_MM`
 (the distance structure is exact up to rounding).
 
 **The touching pads.**  The residual function skips the part of a contact link's capsule

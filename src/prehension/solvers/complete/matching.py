@@ -24,8 +24,9 @@ two boxes, but the subdivisions add up instead of multiplying: the hand side is 
 over its angles only and the object side over its parameters only.
 
 :func:`prove_pair_by_matching` alternates: match, drop the boxes of either side that no box
-of the other side matches, split the survivors of one side (the side with fewer boxes,
-through the dimension that moves its invariants most).  No hand box left: the pair,
+of the other side matches, narrow the survivors of one side to the hull of the other side's
+ranges (:func:`contract_to`), split them (the side with fewer boxes, through the dimension
+that moves its invariants most).  No hand box left: the pair,
 hence the task, cannot be made (for any number of contacts).  Rounding: every range is
 widened outwards (relative 1e-9 on lengths and cosines, 1e-7 rad on the angle tests).
 """
@@ -42,7 +43,8 @@ from . import affine as af
 from .congruence import (PairOutcome, PairProblem, _axial, _dihedral, _half_width_upper, _halves, _hand_forms,
                          _interval, _length, _object_forms, _vector_spread)  # fmt: skip
 
-__all__ = ["MAX_PAIRS", "SideRanges", "hand_ranges", "object_ranges", "compatible", "prove_pair_by_matching"]
+__all__ = ["MAX_PAIRS", "SideRanges", "Hull", "hand_ranges", "object_ranges", "compatible", "hull_of", "contract_to",
+           "prove_pair_by_matching"]
 
 _REL_PAD = 1e-9
 _ANGLE_PAD = 1e-7  # [rad]
@@ -130,6 +132,66 @@ def object_ranges(pp: PairProblem, lo: np.ndarray, hi: np.ndarray) -> tuple[Side
     zc, half = 0.5 * (full_lo + full_hi), 0.5 * (full_hi - full_lo)
     d, h_a, h_b = _object_forms(pp, zc, half)
     return _ranges(d, h_a, h_b), _scores(pp, (d, h_a, h_b), full_lo, full_hi, dims)
+
+
+@dataclass(frozen=True)
+class Hull:
+    """What a box of one side must reach for some box of the other side to match it: the
+    distance ``|d|`` [mm] in ``distance`` and, per side ``i``, the angle between ``d`` and
+    the axis (normal) of side ``i`` [rad] in ``angle[i]`` (the other side's angle widened by
+    the cap's half angle ``beta_i``)."""
+
+    distance: tuple[float, float]
+    angle: tuple[tuple[float, float], tuple[float, float]]
+
+
+def hull_of(ranges: SideRanges, betas: tuple[float, float]) -> Hull:
+    """The hull of one side's ranges over all its boxes, as a target for the other side
+    (``ranges`` must hold at least one box)."""
+    angle = tuple((max(float(ranges.angle[s][0].min()) - betas[s] - _ANGLE_PAD, 0.0),
+                   min(float(ranges.angle[s][1].max()) + betas[s] + _ANGLE_PAD, np.pi)) for s in (0, 1))  # fmt: skip
+    return Hull((float(ranges.distance[0].min()), float(ranges.distance[1].max())), angle)
+
+
+def contract_to(pp: PairProblem, lo: np.ndarray, hi: np.ndarray, hull: Hull, *, hand: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Narrow boxes ``(B, k)`` of one side (the hand's angles when ``hand``, else the object
+    regions' parameters) to the points whose ``|d|^2`` lies in ``hull.distance`` squared and
+    whose ``v_i . d`` lies in ``|d| cos(hull.angle[i])`` (both bounds of ``|d|`` taken), by
+    the linear contraction of the affine forms (:func:`.affine.contract_equal`, twice).
+    Returns the narrowed boxes; an empty one has some ``lo > hi``.
+
+    Sound: a grasp's point of this side lies, at every round of
+    :func:`prove_pair_by_matching`, in a box matched by a box of the other side holding the
+    grasp's other point, whose invariants equal this point's (distance) or lie within
+    ``beta_i`` of them (angles): inside the hull.  Rounding: the targets are widened by
+    1e-9 relative and the narrowed bounds outwards by 1e-12 relative.
+    """
+    dims = pp.slices[0] if hand else slice(pp.slices[1].start, pp.n_dims)
+    full_lo, full_hi = _full(pp, lo, hi, dims)
+    zc, half = 0.5 * (full_lo + full_hi), 0.5 * (full_hi - full_lo)
+    if hand:
+        d, (v_a, v_b) = _hand_forms(pp, zc, half)
+    else:
+        d, v_a, v_b = _object_forms(pp, zc, half)
+    d0, d1 = hull.distance
+    conditions = [_within(af.dot(d, d), d0 * d0, d1 * d1)]
+    for v, (a0, a1) in zip((v_a, v_b), hull.angle):
+        c_lo, c_hi = np.cos(a1), np.cos(a0)  # v . d / |d| in [c_lo, c_hi], |d| in [d0, d1]
+        conditions.append(_within(af.dot(d, v), min(d0 * c_lo, d1 * c_lo), max(d0 * c_hi, d1 * c_hi)))
+    eps_lo, eps_hi = -np.ones_like(full_lo), np.ones_like(full_lo)
+    for _ in range(2):
+        for g, pad in conditions:
+            af.contract_equal(g, pad, eps_lo, eps_hi)
+    new_lo = np.maximum(full_lo, zc + half * eps_lo - 1e-12 * np.abs(zc))[:, dims]
+    new_hi = np.minimum(full_hi, zc + half * eps_hi + 1e-12 * np.abs(zc))[:, dims]
+    return new_lo, new_hi
+
+
+def _within(f: af.Form, lower: float, upper: float) -> tuple[af.Form, np.ndarray]:
+    """``f in [lower, upper]`` as ``|f - mid| <= pad`` (pad widened for rounding)."""
+    mid, rad = 0.5 * (lower + upper), 0.5 * (upper - lower)
+    scale = np.abs(f.c) + af.spread(f) + abs(mid)
+    return af.Form(f.c - mid, f.A, f.rho), rad + _REL_PAD * scale + _REL_PAD
 
 
 def _scores(pp: PairProblem, forms, lo: np.ndarray, hi: np.ndarray, dims: slice) -> np.ndarray:
@@ -233,10 +295,19 @@ def prove_pair_by_matching(pp: PairProblem, *, max_boxes: int = 200_000, time_li
         if boxes + more > max_boxes or pairs > max_pairs or (time_limit_s is not None and time.perf_counter() - started > time_limit_s):
             return PairOutcome(False, boxes, time.perf_counter() - started, "budget")
         if split_hand:
+            h_lo, h_hi, h_score = _narrowed(pp, h_lo, h_hi, h_score, hull_of(o_rng, betas), hand=True)
             h_lo, h_hi = _halves(h_lo, h_hi, h_score, h_scale)
             h_rng, h_score = hand_ranges(pp, h_lo, h_hi)
             boxes += len(h_lo)
         else:
+            o_lo, o_hi, o_score = _narrowed(pp, o_lo, o_hi, o_score, hull_of(h_rng, betas), hand=False)
             o_lo, o_hi = _halves(o_lo, o_hi, o_score, o_scale)
             o_rng, o_score = object_ranges(pp, o_lo, o_hi)
             boxes += len(o_lo)
+
+
+def _narrowed(pp: PairProblem, lo: np.ndarray, hi: np.ndarray, score: np.ndarray, hull: Hull, *, hand: bool):
+    """The boxes narrowed by :func:`contract_to` (emptied ones dropped) with their scores."""
+    lo, hi = contract_to(pp, lo, hi, hull, hand=hand)
+    keep = (lo <= hi).all(axis=1)
+    return lo[keep], hi[keep], score[keep]
