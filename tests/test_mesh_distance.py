@@ -134,3 +134,45 @@ def test_mesh_distance_pickles():
     box = trimesh.creation.box(extents=(20.0, 20.0, 20.0))
     md = pickle.loads(pickle.dumps(MeshDistance(box.vertices, box.faces)))
     assert md.signed_distance([[0, 0, 20]])[0] == pytest.approx(10.0)
+
+
+@requires_objects
+def test_the_signed_distance_grid_is_within_its_spacing_of_the_exact_value(bunny, rng):
+    """Trilinear on the grid: a convex combination of the cell's corner values, each within
+    its distance from the point (sd is 1-Lipschitz), so within h sqrt(3) of the exact value;
+    each node read holds the exact value at the node, whatever order the nodes were read in."""
+    from prehension.objects.distance import grid_sd, grid_segment_min_sd, in_grid, new_sd_grid
+
+    mesh, md = bunny
+    m = md.arrays
+    g = new_sd_grid(m)
+    lo, hi = m.node_lo[0] - 15, m.node_hi[0] + 15
+    pts = rng.uniform(lo, hi, size=(300, 3))
+    grad = np.zeros(3)
+    assert all(in_grid(g, p) for p in pts)
+    approx = np.array([grid_sd(m, g, p, grad) for p in pts])
+    exact = md.signed_distance(pts)
+    assert np.all(np.abs(approx - exact) <= g.h * np.sqrt(3) + 1e-4)
+    assert ((approx < 0) & (exact < -g.h * np.sqrt(3))).sum() > 10  # points well inside, read as inside
+    filled = np.argwhere(~np.isnan(g.val))
+    nodes = g.lo + g.h * filled[rng.choice(len(filled), 50, replace=False)]
+    at = [tuple(((n - g.lo) / g.h).round().astype(int)) for n in nodes]
+    np.testing.assert_allclose([g.val[a] for a in at], md.signed_distance(nodes), atol=1e-4)  # float32 storage
+    assert not in_grid(g, m.node_hi[0] + 30.0)
+    pair = np.zeros((2, 3))
+    p0, p1 = pts[0], pts[0] + np.array([30.0, 0.0, 0.0])
+    v = grid_segment_min_sd(m, g, p0, p1, pair)
+    samples = np.array([grid_sd(m, g, p0 + t * (p1 - p0), grad) for t in np.linspace(0, 1, 31)])
+    assert v <= samples.min() + 1e-12  # at least the samples' minimum (its samples are finer)
+    assert abs(np.linalg.norm(pair[0] - pair[1]) - max(abs(v), 1e-6)) < 1e-9
+
+
+def test_a_mesh_distance_keeps_one_grid_and_does_not_pickle_it():
+    from prehension.objects.distance import MeshDistance
+
+    v = np.array([[0, 0, 0], [10, 0, 0], [0, 10, 0], [0, 0, 10]], float)
+    f = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+    md = MeshDistance(v, f)
+    assert md.sd_grid() is md.sd_grid()
+    assert md.sd_grid().val.dtype == np.float32 and np.isnan(md.sd_grid().val).all()
+    assert "_sd_grid" not in pickle.loads(pickle.dumps(md)).__dict__

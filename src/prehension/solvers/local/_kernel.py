@@ -55,6 +55,10 @@ MESSAGES = {
 LOCAL_SOLUTIONS = (STRICT, WITHIN_DMIN)
 MAX_INEQUALITY_ROWS = 32  # self-collision pairs first, then the object's capsules
 BEST, REPAIRED = 0, 1  # slots of the workspace's saved states
+REPAIR_PATIENCE, REPAIR_GAIN = 6, 0.05  # a repair in collision ends after 6 steps without a clearance 0.05 mm better than its best
+# a seeing run in collision ends (STALLED) after SEEING_PATIENCE steps in which neither its worst
+# depth rose by REPAIR_GAIN [mm] above its best nor its contact error fell below SEEING_RATIO times its best
+SEEING_PATIENCE, SEEING_RATIO = 8, 0.98
 
 
 class Options(NamedTuple):
@@ -363,11 +367,15 @@ def iterate(ws, data, seeing):
     basin (a link through a guitar's neck stays through it under small steps), which costs
     tens of repair steps and mostly fails; approaching with the object in view ends clear
     far more often.  Each seeing step pays the rows' mesh queries, so the plain iterations
-    stay the first try."""
+    stay the first try, and a seeing run still in collision that got neither clearer nor
+    closer for ``SEEING_PATIENCE`` steps ends ``STALLED`` (a hopeless run costs a few steps,
+    not ``k_max``; another start follows)."""
     lay, opt = ws.lay, ws.opt
     C = lay.sides.shape[0]
     n = 6 * C
-    stall = 0
+    stall = stuck = 0
+    best_c = best_e = 1e300
+    best_c = -best_c
     for k in range(opt.k_max + 1):
         contact_rows(ws, data, np.bool_(True))
         if ws.err[0] < opt.d_min and ws.err[1] < opt.d_min:
@@ -382,7 +390,12 @@ def iterate(ws, data, seeing):
         if seeing:
             copy(ws.J, ws.M[:n])
             copy(ws.f, ws.g[:n])
-            rows = inequality_rows(ws, data, opt.collision_margin, n, np.int64(MAX_INEQUALITY_ROWS), np.bool_(True))[0]
+            rows, cmin = inequality_rows(ws, data, opt.collision_margin, n, np.int64(MAX_INEQUALITY_ROWS), np.bool_(True))
+            e = max(ws.err[0], ws.err[1])
+            stuck = 0 if (cmin > best_c + REPAIR_GAIN or e < SEEING_RATIO * best_e) else stuck + 1
+            best_c, best_e = max(best_c, cmin), min(best_e, e)
+            if cmin < 0.0 and stuck >= SEEING_PATIENCE:
+                return STALLED, k  # hopeless: neither clearer nor closer for SEEING_PATIENCE steps
             ok = _repair_step(ws, n + rows, opt.damping_sq)
         else:
             ok = _step(ws, data, opt.damping_sq, opt.active_set)
@@ -484,6 +497,7 @@ def repair(ws, data, rows0, cmin0):
     opt = ws.opt
     n = 6 * ws.lay.sides.shape[0]
     prev, slow, cmin, rk, n_pol = 1e300, 0, -1.0, 0, 0
+    best_c, stuck = -1e300, 0
     strict = within = False
     for rk in range(opt.n_repair + 1):
         contact_rows(ws, data, np.bool_(True))
@@ -497,6 +511,9 @@ def repair(ws, data, rows0, cmin0):
         within = ws.err[0] < opt.d_min and ws.err[1] < opt.d_min
         if (cmin >= 0.0 and strict) or rk == opt.n_repair:
             break
+        best_c, stuck = (cmin, 0) if cmin > best_c + REPAIR_GAIN else (best_c, stuck + 1)
+        if cmin < 0.0 and stuck >= REPAIR_PATIENCE:
+            break  # hopeless: no clearer for REPAIR_PATIENCE steps (a link held through the object)
         err = max(ws.err[0], ws.err[1]) / opt.polish_tol
         if cmin < 0.0:  # judge convergence only once clear
             prev, slow = 1e300, 0
@@ -558,7 +575,7 @@ def solve_state(x0, ws, data):
         code, k, n_pol, rows, cmin = _seeing_again(x0, ws, data, k, n_pol)
         if code != WITHIN_DMIN and code != STRICT:
             return COLLIDING, k, n_pol, 0
-        if cmin >= 0.0:
+        if cmin >= 0.0 and code == STRICT:
             return code, k, n_pol, 0
     code, n_rep, more = repair(ws, data, rows, cmin)
     n_pol += more

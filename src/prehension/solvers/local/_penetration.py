@@ -35,7 +35,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ...objects.distance import REL_TOL, MeshArrays, empty_mesh_arrays, segment_min_sd
+from ...objects.distance import REL_TOL, MeshArrays, SdGrid, in_grid, empty_mesh_arrays, empty_sd_grid, grid_segment_min_sd, segment_min_sd
 from ._jit import njit
 from ._linalg import cross, mat_vec
 
@@ -50,7 +50,9 @@ class ObjectArrays(NamedTuple):
     (n_caps,) bool: the capsules checked (links that move with the task); ``pad`` (C,)
     each contact's pad radius [mm]; ``step``: spacing of the depth samples of a piece
     that reaches inside [mm] (the residual function's
-    :data:`~prehension.tasks.object_collision.SAMPLE_MM`).
+    :data:`~prehension.tasks.object_collision.SAMPLE_MM`); ``grid``: the mesh's lazily
+    filled signed-distance grid (:class:`~prehension.objects.distance.SdGrid`), which the
+    seeing iterations' rows read instead of the exact queries.
     """
 
     mesh: MeshArrays
@@ -58,11 +60,12 @@ class ObjectArrays(NamedTuple):
     checked: np.ndarray
     pad: np.ndarray
     step: float
+    grid: SdGrid
 
 
 def no_object(n_contacts: int = 0) -> ObjectArrays:
     """An inactive :class:`ObjectArrays` (same numba type): no rows are made."""
-    return ObjectArrays(empty_mesh_arrays(), False, np.zeros(0, dtype=np.bool_), np.zeros(n_contacts), 0.25)
+    return ObjectArrays(empty_mesh_arrays(), False, np.zeros(0, dtype=np.bool_), np.zeros(n_contacts), 0.25, empty_sd_grid())
 
 
 NO_OBJECT = no_object()
@@ -118,17 +121,21 @@ def _piece_end(ws, s, u, out):
 
 
 @njit(cache=True)
-def _capsule_value(ws, s, best, reach):
+def _capsule_value(ws, s, best, reach, coarse):
     """Capsule ``s``'s value ``min (sd - r)`` over its kept pieces [mm] (``1e300`` when
     the pads cover it; at least ``reach`` is all that is known of a capsule whose value is
     at least ``reach``), with the worst piece's pair (object frame) in ``best (2, 3)`` and
-    that pair's distance [mm] (0: no direction) second."""
+    that pair's distance [mm] (0: no direction) second.  ``coarse``: a piece inside the
+    grid's box is measured on the grid (:func:`~prehension.objects.distance.grid_segment_min_sd`)."""
     obj, oseg = ws.obj, ws.oseg
     value = 1e300
     for k in range(_cut(ws, s, ws.cut)):
         _piece_end(ws, s, ws.cut[0, k, 0], oseg[0])
         _piece_end(ws, s, ws.cut[0, k, 1], oseg[1])
-        sd = segment_min_sd(obj.mesh, oseg[0], oseg[1], obj.step, oseg[2:4], ws.hand.cap_radius[s] + reach, REL_TOL)
+        if coarse and in_grid(obj.grid, oseg[0]) and in_grid(obj.grid, oseg[1]):
+            sd = grid_segment_min_sd(obj.mesh, obj.grid, oseg[0], oseg[1], oseg[2:4])
+        else:
+            sd = segment_min_sd(obj.mesh, oseg[0], oseg[1], obj.step, oseg[2:4], ws.hand.cap_radius[s] + reach, REL_TOL)
         if sd - ws.hand.cap_radius[s] >= reach:
             value = min(value, reach)  # no row: farther than the reach
             continue
@@ -201,10 +208,12 @@ def object_rows(ws, data, margin, row0, max_rows, every):
     counted as ``margin`` (its distance is searched only up to there).  The capsules must be placed
     (:func:`._model.place_capsules`) and the contact points ``ws.ph`` current.  ``row0`` and
     ``max_rows`` are int64: callers pass ``np.int64(0)``, never a literal ``0``, so that the
-    function compiles once (see :mod:`._jit`).  ``every`` (``np.bool_``): the idle fingers'
-    capsules too, at their idle angles (rows in the object pose's columns only): what
-    :func:`._kernel.iterate` (seeing) keeps clear, so that the idle fingers need no settling
-    out of a palm that approached the object."""
+    function compiles once (see :mod:`._jit`).  ``every`` (``np.bool_``): the rows of
+    :func:`._kernel.iterate`'s seeing steps: the idle fingers' capsules too, at their idle
+    angles (rows in the object pose's columns only), so that the idle fingers need no
+    settling out of a palm that approached the object; and values read on the mesh's
+    signed-distance grid (``obj.grid``: cheap, approximate -- these rows only steer the
+    iterations; the seeing answer's clearance is then measured exactly)."""
     obj = ws.obj
     nrows, vmin = 0, 1e300
     if not obj.active:
@@ -212,7 +221,7 @@ def object_rows(ws, data, margin, row0, max_rows, every):
     for s in range(ws.hand.cap_link.shape[0]):
         if not (obj.checked[s] or every) or _far_from_object(ws, s, margin):
             continue
-        value, gap = _capsule_value(ws, s, ws.oseg[5:7], margin)
+        value, gap = _capsule_value(ws, s, ws.oseg[5:7], margin, every)
         vmin = min(vmin, value)
         if value < margin and nrows < max_rows and gap > 1e-9:
             _penetration_row(ws, data, s, 1.0 if value + ws.hand.cap_radius[s] >= 0.0 else -1.0, row0 + nrows)

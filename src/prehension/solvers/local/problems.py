@@ -309,7 +309,8 @@ def object_arrays(task: Task) -> ObjectArrays:
         return NO_OBJECT
     checked = np.isin(collision_pairs(task.hand).link, moving_links(task))
     pads = np.array([pad_radius(task, task.hand_region(c)) for c in task.contacts], dtype=float)
-    return ObjectArrays(task.object.distance.arrays, True, checked.astype(np.bool_), pads, float(SAMPLE_MM))
+    distance = task.object.distance
+    return ObjectArrays(distance.arrays, True, checked.astype(np.bool_), pads, float(SAMPLE_MM), distance.sd_grid())
 
 
 def group_from_tasks(tasks, joint_scale_mm: float = 40.0) -> Group:
