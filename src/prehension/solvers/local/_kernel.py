@@ -56,9 +56,6 @@ LOCAL_SOLUTIONS = (STRICT, WITHIN_DMIN)
 MAX_INEQUALITY_ROWS = 32  # self-collision pairs first, then the object's capsules
 BEST, REPAIRED = 0, 1  # slots of the workspace's saved states
 REPAIR_PATIENCE, REPAIR_GAIN = 6, 0.05  # a repair in collision ends after 6 steps without a clearance 0.05 mm better than its best
-# a seeing run in collision ends (STALLED) after SEEING_PATIENCE steps in which neither its worst
-# depth rose by REPAIR_GAIN [mm] above its best nor its contact error fell below SEEING_RATIO times its best
-SEEING_PATIENCE, SEEING_RATIO = 8, 0.98
 
 
 class Options(NamedTuple):
@@ -367,15 +364,11 @@ def iterate(ws, data, seeing):
     basin (a link through a guitar's neck stays through it under small steps), which costs
     tens of repair steps and mostly fails; approaching with the object in view ends clear
     far more often.  Each seeing step pays the rows' mesh queries, so the plain iterations
-    stay the first try, and a seeing run still in collision that got neither clearer nor
-    closer for ``SEEING_PATIENCE`` steps ends ``STALLED`` (a hopeless run costs a few steps,
-    not ``k_max``; another start follows)."""
+    stay the first try."""
     lay, opt = ws.lay, ws.opt
     C = lay.sides.shape[0]
     n = 6 * C
-    stall = stuck = 0
-    best_c = best_e = 1e300
-    best_c = -best_c
+    stall = 0
     for k in range(opt.k_max + 1):
         contact_rows(ws, data, np.bool_(True))
         if ws.err[0] < opt.d_min and ws.err[1] < opt.d_min:
@@ -390,12 +383,7 @@ def iterate(ws, data, seeing):
         if seeing:
             copy(ws.J, ws.M[:n])
             copy(ws.f, ws.g[:n])
-            rows, cmin = inequality_rows(ws, data, opt.collision_margin, n, np.int64(MAX_INEQUALITY_ROWS), np.bool_(True))
-            e = max(ws.err[0], ws.err[1])
-            stuck = 0 if (cmin > best_c + REPAIR_GAIN or e < SEEING_RATIO * best_e) else stuck + 1
-            best_c, best_e = max(best_c, cmin), min(best_e, e)
-            if cmin < 0.0 and stuck >= SEEING_PATIENCE:
-                return STALLED, k  # hopeless: neither clearer nor closer for SEEING_PATIENCE steps
+            rows = inequality_rows(ws, data, opt.collision_margin, n, np.int64(MAX_INEQUALITY_ROWS), np.bool_(True))[0]
             ok = _repair_step(ws, n + rows, opt.damping_sq)
         else:
             ok = _step(ws, data, opt.damping_sq, opt.active_set)
