@@ -162,8 +162,14 @@ def test_the_signed_distance_grid_is_within_its_spacing_of_the_exact_value(bunny
     pair = np.zeros((2, 3))
     p0, p1 = pts[0], pts[0] + np.array([30.0, 0.0, 0.0])
     v = grid_segment_min_sd(m, g, p0, p1, pair)
-    samples = np.array([grid_sd(m, g, p0 + t * (p1 - p0), grad) for t in np.linspace(0, 1, 31)])
-    assert v <= samples.min() + 1e-12  # at least the samples' minimum (its samples are finer)
+    n = int(np.ceil(2.0 * 30.0 / g.h))  # its samples: at most half a spacing apart
+    own = np.array([grid_sd(m, g, p0 + t * (p1 - p0), grad) for t in np.linspace(0, 1, n + 1)])
+    assert v == pytest.approx(own.min(), abs=1e-12)
+    # the trilinear function's slope is at most sqrt(3) (1-Lipschitz node values), and every
+    # point of the segment lies within h/4 of a sample: dense samples are no lower than that
+    ts = np.union1d(np.linspace(0, 1, 301), np.linspace(0, 1, n + 1))  # the samples among them
+    dense = np.array([grid_sd(m, g, p0 + t * (p1 - p0), grad) for t in ts])
+    assert dense.min() <= v + 1e-12 and v <= dense.min() + np.sqrt(3) * g.h / 4 + 1e-9
     assert abs(np.linalg.norm(pair[0] - pair[1]) - max(abs(v), 1e-6)) < 1e-9
 
 
