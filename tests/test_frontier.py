@@ -93,3 +93,44 @@ def test_the_lid_a_millimetre_past_its_frontier_is_proved_by_matching_ranges(fro
     family = frontier_module.families(["lid"])[0]
     outcome = prove_pair_by_matching(pair_problem(family.task_at(163.911 + 1.0), 0, 1), max_boxes=40_000)
     assert outcome.proved and outcome.boxes < 30_000
+
+
+@pytest.fixture(scope="module")
+def tuning(frontier_module):
+    family = frontier_module.families(["tuning"])[0]
+    return family, frontier_module.find_frontier(family, seeds=1)
+
+
+def test_guitar_tuning_a_millimetre_past_its_frontier_is_proved_by_matching_ranges(tuning):
+    """guitar-tuning's key (biquadratic patches, normals within 17 degrees of the line between
+    the fingertips) at ``t* + 1 mm``: the hand stage against the object side's extremes leaves
+    only configurations near the hand's widest, and the matching (twist included) proves it;
+    before the extremes and the patches' local remainders, 200,000 boxes did not."""
+    from prehension.solvers.complete.congruence import pair_problem
+    from prehension.solvers.complete.matching import prove_pair_by_matching
+
+    family, found = tuning
+    assert abs(found.t_mm - 174.660) < 0.01  # benchmarks/README.md
+    outcome = prove_pair_by_matching(pair_problem(family.task_at(found.t_mm + 1.0), 0, 1), max_boxes=40_000)
+    assert outcome.proved
+
+
+@pytest.mark.parametrize("eps_mm", [0.01, 0.05])
+def test_guitar_tuning_just_inside_its_frontier_is_never_proved(frontier_module, tuning, eps_mm):
+    """Soundness where the new pruning acts: the task at ``t* - eps`` has a known strict solution
+    (checked), the hand stage keeps its angles, and the pair test by matching does not prove
+    the pair infeasible."""
+    from prehension.solvers.complete import matching as mt
+    from prehension.solvers.complete.congruence import pair_problem
+
+    family, found = tuning
+    task = family.task_at(found.t_mm - eps_mm)
+    witness = frontier_module.solution_at(family, found.configuration, found.t_mm, found.t_mm - eps_mm)
+    assert witness is not None and make_solution(task, witness, NO_SELF_COLLISION) is not None
+    pp = pair_problem(task, 0, 1)
+    z = witness.joint_angles[pp.kin.problem.sources]
+    tight, _ = mt.object_extremes(pp)
+    proved, lo, hi, _ = mt.hand_against(pp, tight, max_boxes=10_000)
+    assert not proved
+    assert any(((lo[i] - 1e-9 <= z) & (z <= hi[i] + 1e-9)).all() for i in range(len(lo)))
+    assert not mt.prove_pair_by_matching(pp, max_boxes=20_000).proved

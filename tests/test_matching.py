@@ -142,3 +142,68 @@ def test_contraction_narrows_a_box_far_from_the_hull():
         hull = mt.Hull((length[0], length[0]), tuple((max(angle[s][0] - betas[s], 0.0), min(angle[s][0] + betas[s], np.pi)) for s in (0, 1)))
         new_lo, new_hi = mt.contract_to(pp, pp.lower[None, dims], pp.upper[None, dims], hull, hand=hand)
         assert np.all((z[dims] >= new_lo[0] - 1e-9) & (z[dims] <= new_hi[0] + 1e-9))
+
+
+@pytest.mark.parametrize("case", range(5))
+def test_the_object_sides_extremes_contain_every_sampled_value(case):
+    """:func:`object_extremes` (small budgets, so its searches stop early as well as on
+    convergence): the invariants at 2,000 seeded points of the regions' parameters lie in its
+    single row of ranges, and so in any box's ranges clipped to it (:func:`clip_to`)."""
+    task, _ = _pair_problems()[case]
+    pp = cg.pair_problem(task, 0, 1)
+    rng = np.random.default_rng(90 + case)
+    so = slice(pp.slices[1].start, pp.n_dims)
+    tight, boxes = mt.object_extremes(pp, max_boxes=200)
+    assert boxes >= 1
+    z = np.repeat(pp.lower[None], 2000, axis=0)
+    z[:, so] = pp.lower[so] + rng.uniform(0, 1, (2000, so.stop - so.start)) * (pp.upper[so] - pp.lower[so])
+    _, _, _, d_o, n_a, n_b = _true_values(pp, z)
+    length, angle, between, _ = _invariants(d_o, n_a, n_b)
+    clipped = mt.clip_to(mt.object_ranges(pp, z[:, so], z[:, so])[0], tight)
+    for ranges in (tight, clipped):
+        assert _inside(length, *ranges.distance, slack=1e-9 * length.max())
+        for s in (0, 1):
+            assert _inside(angle[s], *ranges.angle[s], slack=1e-7)
+            assert _inside(np.cos(angle[s]), *ranges.axial[s])
+        assert _inside(between, *ranges.between, slack=1e-7)
+
+
+@pytest.mark.parametrize("case", [2, 3, 4])
+def test_the_hand_stage_keeps_a_known_solution(case):
+    """Forward-built tasks: the hand boxes left by :func:`hand_against` (against the object
+    side's extremes) hold the solution's angles; the stage never proves them infeasible."""
+    task, config = _pair_problems()[case]
+    pp = cg.pair_problem(task, 0, 1)
+    z = config.joint_angles[pp.kin.problem.sources]
+    tight, _ = mt.object_extremes(pp, max_boxes=300)
+    proved, lo, hi, boxes = mt.hand_against(pp, tight, max_boxes=2000)
+    assert not proved and 1 <= boxes <= 2000
+    slack = 1e-9 * (1.0 + np.abs(z))
+    assert np.any(np.all((lo <= z + slack) & (z - slack <= hi), axis=1))
+
+
+@pytest.mark.parametrize("case", [1, 4])
+def test_a_patchs_local_remainders_bound_its_taylor_remainder(case):
+    """``congruence._local_patch_remainders``: on seeded random sub-boxes (the whole patch down
+    to 1e-4 of it), a point and unit normal at 50 sampled parameters each differ from the
+    first-order Taylor form at the box's centre by at most the bound, and the bound is never
+    looser than the whole patch's (``region_curvature``)."""
+    task, _ = _pair_problems()[case]
+    pp = cg.pair_problem(task, 0, 1)
+    rng = np.random.default_rng(110 + case)
+    patches = [side for side in (0, 1) if hasattr(pp.objects[side][0], "patch")]
+    assert patches  # both cases have Bézier regions on the object
+    for side in patches:
+        region, (m_point, m_normal) = pp.objects[side]
+        lo, hi = _random_boxes(rng, np.zeros(2), np.ones(2), 60)
+        r_point, r_normal = cg._local_patch_remainders(region.patch, lo, hi)
+        reach = 0.5 * (hi - lo).sum(axis=1)
+        assert np.all(r_point <= 0.5 * m_point * reach**2 * (1 + 1e-6) + 1e-12)
+        for b in range(len(lo)):
+            c, h = 0.5 * (lo[b] + hi[b]), 0.5 * (hi[b] - lo[b])
+            o, nu = region.evaluate(c[None])
+            do, dnu = region.jacobian(c[None])
+            t = rng.uniform(-1, 1, (50, 2)) * h
+            O, N = region.evaluate(c + t)
+            assert np.all(np.linalg.norm(O - o - t @ do[0].T, axis=1) <= r_point[b] * (1 + 1e-6) + 1e-12)
+            assert np.all(np.linalg.norm(N - nu - t @ dnu[0].T, axis=1) <= r_normal[b] * (1 + 1e-6) + 1e-12)

@@ -63,6 +63,7 @@ __all__ = [
     "bernstein",
     "bernstein_derivative",
     "subdivision_matrix",
+    "subdivide_nets",
     "BezierPatch",
     "PatchDerivatives",
     "ensure_regular",
@@ -231,7 +232,7 @@ def _cross_nets(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return summed / np.multiply.outer(_binomials(ma + mb), _binomials(na + nb))[..., None]
 
 
-def _subdivide_nets(net: np.ndarray, boxes: np.ndarray) -> np.ndarray:
+def subdivide_nets(net: np.ndarray, boxes: np.ndarray) -> np.ndarray:
     """Control nets of one patch restricted to a batch of parameter boxes.
 
     Args:
@@ -243,7 +244,8 @@ def _subdivide_nets(net: np.ndarray, boxes: np.ndarray) -> np.ndarray:
     """
     su = subdivision_matrix(net.shape[0] - 1, boxes[:, 0], boxes[:, 1])
     sv = subdivision_matrix(net.shape[1] - 1, boxes[:, 2], boxes[:, 3])
-    return np.einsum("kai,kbj,ijd->kabd", su, sv, net)
+    rows = (su @ net.reshape(net.shape[0], -1)).reshape(len(boxes), su.shape[1], net.shape[1], net.shape[2])
+    return sv[:, None] @ rows  # two matrix products: several times faster than one einsum
 
 
 def _unit(x: np.ndarray) -> np.ndarray:
@@ -437,7 +439,7 @@ class BezierPatch:
         box = np.array([[u0, u1, v0, v1]], dtype=np.float64)
         if not np.all(np.isfinite(box)):
             raise InvalidGeometry(f"subdivision bounds must be finite, got {box[0].tolist()}")
-        return BezierPatch(_subdivide_nets(self.control_points, box)[0])
+        return BezierPatch(subdivide_nets(self.control_points, box)[0])
 
     def transformed(self, R: np.ndarray, t: np.ndarray) -> BezierPatch:
         """The patch mapped by ``x -> R x + t`` (exact: affine maps act on control points).
@@ -581,7 +583,7 @@ def _certified_boxes(net: np.ndarray, boxes: np.ndarray, centres: np.ndarray, ma
     Returns:
         Boolean mask, shape ``(K,)``: True where the box is certified.
     """
-    sub = _subdivide_nets(net, boxes).reshape(len(boxes), -1, 3)
+    sub = subdivide_nets(net, boxes).reshape(len(boxes), -1, 3)
     w_centre = _unit(centres)
     ok = np.all(np.einsum("kpd,kd->kp", sub, w_centre) > margin, axis=1)
     w_mean = _unit(_unit(sub).mean(axis=1))
