@@ -59,7 +59,7 @@ from ...hands.reach import PairKinematics, pair_kinematics, span_bound_mm
 from ...tasks.model import Task
 from . import affine as af
 
-__all__ = ["MATCHING_BOXES", "NEAR_SPAN_MM", "OUT_OF_SPAN_BOXES", "object_distance_floor", "CongruenceResult", "PairProblem", "PairOutcome", "pair_problem", "prove_pair_infeasible", "prove_out_of_span",
+__all__ = ["MATCHING_BOXES", "NEAR_SPAN_MM", "OUT_OF_SPAN_BOXES", "best_first_max", "object_distance_floor", "CongruenceResult", "PairProblem", "PairOutcome", "pair_problem", "prove_pair_infeasible", "prove_out_of_span",
            "object_distance_range", "congruence_test"]
 
 _REL_PAD = 1e-9
@@ -622,32 +622,47 @@ def object_distance_floor(pp: PairProblem, *, tol_mm: float = 0.01, max_boxes: i
     the object regions' parameters (:func:`object_distance_range`), the smallest distance
     met at a box centre (``best >= `` the true minimum ``>= floor``) and the boxes used.
 
-    Best-first branch and bound over the object dimensions only (at most four): boxes with
-    the smallest lower bound are split (widest relative dimension) until ``best - floor <=
-    tol_mm`` or ``max_boxes`` (the floor is then looser, never invalid).  Given the hand's
-    span ``span_mm``, a tenth of the gap between ``best`` and the span is tolerated as
-    well (a floor far below the span proves nothing and prunes little).
+    Best-first branch and bound over the object dimensions only (at most four,
+    :func:`best_first_max`) until ``best - floor <= tol_mm`` or ``max_boxes`` (the floor is
+    then looser, never invalid).  Given the hand's span ``span_mm``, a tenth of the gap
+    between ``best`` and the span is tolerated as well (a floor far below the span proves
+    nothing and prunes little).
     """
+    def tol(best: float) -> float:  # best: minus the smallest distance met
+        return tol_mm if span_mm is None else max(tol_mm, 0.1 * (span_mm + best))
+
+    bound, best, boxes = best_first_max(pp, lambda lo, hi: -object_distance_range(pp, lo, hi)[0], tol, max_boxes, batch)
+    return max(-bound, 0.0) * (1.0 - _REL_PAD) - _REL_PAD, -best, boxes
+
+
+def best_first_max(pp: PairProblem, upper_of, tol_of, max_boxes: int, batch: int = 64) -> tuple[float, float, int]:
+    """``(bound, best, boxes)`` of the largest value of a function of the object regions'
+    parameters: ``upper_of(lo, hi)`` gives upper bounds ``(B,)`` over boxes of the pair's
+    full dimensions (only the object dimensions vary; on point boxes, the values).  Best-first:
+    the ``batch`` boxes of largest bound are split through their widest relative object
+    dimension until ``bound - best <= tol_of(best)`` (``best``: the largest value met at a
+    box centre, ``<=`` the true maximum ``<= bound``) or ``max_boxes``: the bound is then
+    looser, never invalid.  Boxes whose bound is within the tolerance of ``best`` stay open
+    (their bounds still count) without being split."""
     dims = np.arange(pp.slices[1].start, pp.n_dims)
     scale = np.maximum(pp.upper - pp.lower, 1e-12)
     heap: list = []
-    best, boxes, counter = np.inf, 0, 0
+    best, boxes, counter = -np.inf, 0, 0
     lo, hi = pp.lower[None].copy(), pp.upper[None].copy()
     while True:
         boxes += len(lo)
-        lower, _ = object_distance_range(pp, lo, hi)
-        centre, _ = object_distance_range(pp, 0.5 * (lo + hi), 0.5 * (lo + hi))
-        best = min(best, float(centre.min()))
-        for value, a, b in zip(lower, lo, hi):
-            heapq.heappush(heap, (float(value), counter, a, b))
+        upper = upper_of(lo, hi)
+        centre = 0.5 * (lo + hi)
+        best = max(best, float(upper_of(centre, centre).max()))
+        for value, a, b in zip(upper, lo, hi):
+            heapq.heappush(heap, (-float(value), counter, a, b))
             counter += 1
-        floor = heap[0][0]
-        tol = tol_mm if span_mm is None else max(tol_mm, 0.1 * (span_mm - best))
-        if best - floor <= tol or not dims.size or boxes >= max_boxes:
-            return max(floor, 0.0) * (1.0 - _REL_PAD) - _REL_PAD, best, boxes
+        bound, tol = -heap[0][0], tol_of(best)
+        if bound - best <= tol or not dims.size or boxes >= max_boxes:
+            return bound, best, boxes
         popped = [heapq.heappop(heap) for _ in range(min(batch, len(heap)))]
-        take = [t for t in popped if t[0] < best - tol] or popped[:1]
-        for t in popped[len(take):]:  # the others stay open: their bounds still count for the floor
+        take = [t for t in popped if -t[0] > best + tol] or popped[:1]
+        for t in popped[len(take):]:  # the others stay open: their bounds still count
             heapq.heappush(heap, t)
         lo, hi = _halves_widest(np.array([t[2] for t in take]), np.array([t[3] for t in take]), dims, scale)
 

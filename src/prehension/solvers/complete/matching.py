@@ -33,7 +33,6 @@ widened outwards (relative 1e-9 on lengths and cosines, 1e-7 rad on the angle te
 
 from __future__ import annotations
 
-import heapq
 import time
 from dataclasses import dataclass
 
@@ -42,7 +41,7 @@ import numpy as np
 from ...geometry.regions import SphereCap
 from . import affine as af
 from .congruence import (PairOutcome, PairProblem, _axial, _dihedral, _half_width_upper, _halves, _hand_forms,
-                         _interval, _length, _object_forms, _vector_spread)  # fmt: skip
+                         _interval, _length, _object_forms, _vector_spread, best_first_max)  # fmt: skip
 
 __all__ = ["EXTREME_BOXES", "EXTREME_TOL", "EXTREMES_FROM", "MAX_PAIRS", "SideRanges", "Hull", "hand_ranges", "object_ranges", "compatible",
            "hull_of", "contract_to", "object_extremes", "clip_to", "hand_against", "prove_pair_by_matching"]
@@ -312,41 +311,18 @@ EXTREMES_FROM = 20_000
 EXTREME_TOL = (0.01, 1e-3)
 
 
-def _extreme(pp: PairProblem, pick, sense: float, tol: float, max_boxes: int, batch: int = 64) -> tuple[float, int]:
+def _extreme(pp: PairProblem, pick, sense: float, tol: float, max_boxes: int) -> tuple[float, int]:
     """``(bound, boxes)``: a proven bound of the largest (``sense`` +1) or smallest (-1) value of
-    one object-side invariant over the regions' parameters; ``pick(SideRanges)`` gives its
-    ``(lower, upper)`` per box.  Best-first: the boxes with the most extreme bound are split
-    (widest relative dimension) until the bound is within ``tol`` of the best value met at a
-    box centre, or ``max_boxes`` (the bound is then looser, never invalid)."""
+    one object-side invariant over the regions' parameters (:func:`.congruence.best_first_max`);
+    ``pick(SideRanges)`` gives its ``(lower, upper)`` per box."""
     dims = slice(pp.slices[1].start, pp.n_dims)
-    scale = np.maximum(pp.upper[dims] - pp.lower[dims], 1e-12)
-    lo, hi = pp.lower[None, dims].copy(), pp.upper[None, dims].copy()
-    heap: list = []
-    best, boxes, counter = -np.inf, 0, 0
-    while True:
-        boxes += len(lo)
-        bounds = pick(object_ranges(pp, lo, hi, dihedral=False)[0])
-        centre = 0.5 * (lo + hi)
-        at_centre = pick(object_ranges(pp, centre, centre, dihedral=False)[0])
-        value = bounds[1] if sense > 0 else -bounds[0]
-        best = max(best, float((at_centre[1] if sense > 0 else -at_centre[0]).max()))
-        for v, a, b in zip(value, lo, hi):
-            heapq.heappush(heap, (-float(v), counter, a, b))
-            counter += 1
-        bound = -heap[0][0]
-        if bound - best <= tol or boxes >= max_boxes:
-            return sense * bound, boxes
-        popped = [heapq.heappop(heap) for _ in range(min(batch, len(heap)))]
-        take = [t for t in popped if -t[0] > best + tol] or popped[:1]
-        for t in popped[len(take):]:  # the others stay open: their bounds still count
-            heapq.heappush(heap, t)
-        L, H = np.array([t[2] for t in take]), np.array([t[3] for t in take])
-        k = np.argmax((H - L) / scale, axis=1)
-        rows = np.arange(len(L))
-        mid = 0.5 * (L[rows, k] + H[rows, k])
-        left_hi, right_lo = H.copy(), L.copy()
-        left_hi[rows, k], right_lo[rows, k] = mid, mid
-        lo, hi = np.concatenate([L, right_lo]), np.concatenate([left_hi, H])
+
+    def upper_of(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        ranges = pick(object_ranges(pp, lo[:, dims], hi[:, dims], dihedral=False)[0])
+        return ranges[1] if sense > 0.0 else -ranges[0]
+
+    bound, _, boxes = best_first_max(pp, upper_of, lambda best: tol, max_boxes)
+    return sense * bound, boxes
 
 
 #: The extremes :func:`object_extremes` searches: the distance's floor (the hand must reach
