@@ -27,8 +27,13 @@ over its angles only and the object side over its parameters only.
 of the other side matches, narrow the survivors of one side to the hull of the other side's
 ranges (:func:`contract_to`), split them (the side with fewer boxes, through the dimension
 that moves its invariants most).  No hand box left: the pair,
-hence the task, cannot be made (for any number of contacts).  Rounding: every range is
-widened outwards (relative 1e-9 on lengths and cosines, 1e-7 rad on the angle tests).
+hence the task, cannot be made (for any number of contacts).  With a budget from
+:data:`EXTREMES_FROM`, it first bounds the object side's invariants over its whole domain
+(:func:`object_extremes`, best-first searches of four dimensions at most), searches the hand
+side alone against that one row of ranges (:func:`hand_against`), and clips every object
+box's ranges to it (:func:`clip_to`).  Angles near 0 and pi are bounded through their sine
+(:func:`_sharper`).  Rounding: every range is widened outwards (relative 1e-9 on lengths,
+sines and cosines, 1e-7 rad on the angle tests).
 """
 
 from __future__ import annotations
@@ -43,8 +48,9 @@ from . import affine as af
 from .congruence import (PairOutcome, PairProblem, _axial, _dihedral, _half_width_upper, _halves, _hand_forms,
                          _interval, _length, _object_forms, _vector_spread, best_first_max)  # fmt: skip
 
-__all__ = ["EXTREME_BOXES", "EXTREME_TOL", "EXTREMES_FROM", "MAX_PAIRS", "SideRanges", "Hull", "hand_ranges", "object_ranges", "compatible",
-           "hull_of", "contract_to", "object_extremes", "clip_to", "hand_against", "prove_pair_by_matching"]
+__all__ = ["EXTREME_BOXES", "EXTREME_TOL", "EXTREMES_FROM", "MAX_PAIRS", "SideRanges", "Hull", "hand_ranges",
+           "object_ranges", "compatible", "hull_of", "contract_to", "object_extremes", "clip_to", "hand_against",
+           "prove_pair_by_matching"]
 
 _REL_PAD = 1e-9
 _ANGLE_PAD = 1e-7  # [rad]
@@ -338,14 +344,15 @@ def object_extremes(pp: PairProblem, *, max_boxes: int = EXTREME_BOXES, tol: tup
                     distance_floor_mm: float | None = None) -> tuple[SideRanges, int]:  # fmt: skip
     """One row of ranges holding the object side's invariants over the *whole* parameter
     domain -- distance, each side's angle of ``d`` with the normal, the angle between the
-    normals -- the ends in :data:`_SEARCHED` bounded by their own search (:func:`_extreme`, ``max_boxes`` each,
-    within ``tol`` = (mm, rad) of the extreme), and the boxes used.  ``distance_floor_mm``: a
-    proven floor of the distance already at hand (:func:`.congruence.object_distance_floor`),
-    used instead of searching it again.  Tighter by far than one
-    box's ranges: the affine enclosure's quadratic remainder shrinks only with the boxes,
-    and the extremes need small boxes only near where they are met (guitar-tuning's key at
-    t* + 2 mm: distance floor 210.5639 mm in ~8,000 boxes, true 210.5640; the one-box
-    enclosure of the whole domain is ~380 mm wide).  The dihedral angle is left unknown."""
+    normals -- and the boxes used.  The ends in :data:`_SEARCHED` are bounded by their own
+    search (:func:`_extreme`, ``max_boxes`` each, within ``tol`` = (mm, rad) of the
+    extreme), the others by one box.  ``distance_floor_mm``: a proven floor of the distance
+    already at hand (:func:`.congruence.object_distance_floor`), used instead of searching
+    it again.  Tighter by far than one box's ranges: the affine enclosure's quadratic
+    remainder shrinks only with the boxes, and the extremes need small boxes only near
+    where they are met (guitar-tuning's key at t* + 2 mm: distance floor 210.5639 mm in
+    ~8,000 boxes, true 210.5640; the one-box enclosure of the whole domain is ~380 mm
+    wide).  The dihedral angle is left unknown."""
     dims = slice(pp.slices[1].start, pp.n_dims)
     root = object_ranges(pp, pp.lower[None, dims], pp.upper[None, dims])[0]
     found: dict = {}
