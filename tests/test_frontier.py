@@ -134,3 +134,13 @@ def test_guitar_tuning_just_inside_its_frontier_is_never_proved(frontier_module,
     assert not proved
     assert any(((lo[i] - 1e-9 <= z) & (z <= hi[i] + 1e-9)).all() for i in range(len(lo)))
     assert not mt.prove_pair_by_matching(pp, max_boxes=20_000).proved
+
+
+def test_guitar_tuning_a_millimetre_past_its_frontier_is_certified_at_the_first_box(tuning):
+    """The complete search: the pair is near the reach frontier (its object side's floor within
+    ``NEAR_FRONTIER_MM`` of the hand's span), so the first pair test gives the matching its
+    whole budget and certifies the task before a second box is processed."""
+    family, found = tuning
+    result = solve_complete(family.task_at(found.t_mm + 1.0), BranchAndPruneOptions(max_boxes=2))
+    assert result.status == Status.INFEASIBLE
+    assert "cannot be made together" in result.message

@@ -59,7 +59,7 @@ from ...hands.reach import PairKinematics, pair_kinematics, span_bound_mm
 from ...tasks.model import Task
 from . import affine as af
 
-__all__ = ["MATCHING_BOXES", "NEAR_SPAN_MM", "OUT_OF_SPAN_BOXES", "best_first_max", "object_distance_floor", "CongruenceResult", "PairProblem", "PairOutcome", "pair_problem", "prove_pair_infeasible", "prove_out_of_span",
+__all__ = ["MATCHING_BOXES", "NEAR_FRONTIER_MM", "NEAR_SPAN_MM", "OUT_OF_SPAN_BOXES", "best_first_max", "object_distance_floor", "CongruenceResult", "PairProblem", "PairOutcome", "pair_problem", "prove_pair_infeasible", "prove_out_of_span",
            "object_distance_range", "congruence_test"]
 
 _REL_PAD = 1e-9
@@ -82,6 +82,14 @@ OUT_OF_SPAN_BOXES = 100_000
 #: box it pruned varied by under 0.036 |d|), and it costs as much as the other conditions.
 TWIST_RELATIVE_SPREAD = 0.05
 
+
+#: A pair whose object side's floor of the fingertip centres' distance comes within this of
+#: the hand's span [mm] is near the reach frontier: the matching gets the pair's whole budget
+#: (at most :data:`MATCHING_BOXES`) instead of a quarter, so that the search's first pair
+#: test (20,000 boxes) runs its extremes and hand stage (``matching.EXTREMES_FROM``) and
+#: decides the frontier families at the first box instead of the sixteenth.  No pair of the
+#: built-in tasks comes within 32 mm (their floors are 0-128 mm, their spans 150-241 mm).
+NEAR_FRONTIER_MM = 10.0
 
 #: At most this many boxes (both sides) of the pair test by matching ranges (:mod:`.matching`)
 #: per pair: on a pair that can be made, its boxes survive on both sides and matching them
@@ -731,7 +739,8 @@ def congruence_test(task: Task, *, max_boxes: int = 200_000, time_limit_s: float
     """The pair test on every pair of contacts (until one is proved infeasible): first the
     object side against the hand's span (:func:`prove_out_of_span`, at most
     :data:`OUT_OF_SPAN_BOXES` boxes, not counted in ``max_boxes``), then, without a proof,
-    the test by matching ranges (:mod:`.matching`, a quarter of the pair's budget) and the
+    the test by matching ranges (:mod:`.matching`, a quarter of the pair's budget, all of it
+    near the reach frontier: :data:`NEAR_FRONTIER_MM`) and the
     product test (:func:`prove_pair_infeasible`, the rest); the box budget ``max_boxes`` and the time limit are
     shared evenly by the pairs."""
     pairs = [(a, b) for a in range(len(task.contacts)) for b in range(a + 1, len(task.contacts))]
@@ -757,14 +766,17 @@ def congruence_test(task: Task, *, max_boxes: int = 200_000, time_limit_s: float
 def _matching_then_product(pp: PairProblem, max_boxes: int, time_limit_s: float | None, floor_mm: float,
                            span_mm: float) -> PairOutcome:  # fmt: skip
     """The pair test by matching ranges (:func:`.matching.prove_pair_by_matching`) with a quarter
-    of the budget (at most :data:`MATCHING_BOXES`; its boxes cost more on small budgets:
+    of the budget, all of it near the reach frontier (:data:`NEAR_FRONTIER_MM`; at most
+    :data:`MATCHING_BOXES`; its boxes cost more on small budgets:
     guitar-holding's first pair test) and half of the time, then, without a proof, the product test with the rest; the boxes
     of both are counted."""
     from .matching import prove_pair_by_matching  # matching builds on this module's forms
 
     started = time.perf_counter()
     half_time = None if time_limit_s is None else 0.5 * time_limit_s
-    first = prove_pair_by_matching(pp, max_boxes=max(1, min(max_boxes // 4, MATCHING_BOXES)), time_limit_s=half_time,
+    near = span_mm - floor_mm <= NEAR_FRONTIER_MM  # the matching decides such pairs: give it all
+    share = max_boxes if near else max_boxes // 4
+    first = prove_pair_by_matching(pp, max_boxes=max(1, min(share, MATCHING_BOXES)), time_limit_s=half_time,
                                    distance_floor_mm=floor_mm)  # fmt: skip
     if first.proved:
         return first
