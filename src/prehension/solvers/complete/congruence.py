@@ -103,6 +103,11 @@ def _net_max(net: np.ndarray) -> float:
     return float(np.linalg.norm(net.reshape(-1, 3), axis=1).max(initial=0.0))
 
 
+def _nets_max(nets: np.ndarray) -> np.ndarray:
+    """:func:`_net_max` of each of a batch of nets ``(B, ..., 3)`` ``(B,)``."""
+    return np.linalg.norm(nets.reshape(len(nets), -1, 3), axis=2).max(axis=1, initial=0.0)
+
+
 def _hodograph(net: np.ndarray, axis: int) -> np.ndarray:
     """Control net of the derivative of a Bézier patch along ``axis`` (zeros for degree 0)."""
     deg = net.shape[axis] - 1
@@ -155,20 +160,19 @@ def _local_patch_remainders(patch, lo: np.ndarray, hi: np.ndarray) -> tuple[np.n
     boxes = np.stack([lo[:, 0], hi[:, 0], lo[:, 1], hi[:, 1]], axis=1)
     P = subdivide_nets(patch.control_points, boxes)  # (B, m+1, n+1, 3)
     Q = subdivide_nets(_normal_net(patch), boxes)
-    norm = lambda net: np.linalg.norm(net.reshape(len(net), -1, 3), axis=2).max(axis=1, initial=0.0)  # noqa: E731
-    hod = lambda net, axis: (net.shape[axis] - 1) * np.diff(net, axis=axis) if net.shape[axis] > 1 else np.zeros_like(net)  # noqa: E731
+    # the nets are (B, m+1, n+1, 3): u along axis 1, v along axis 2
     pairs = ((1, 1), (1, 2), (2, 2))
     weight = (1.0, 2.0, 1.0)  # uu, uv + vu, vv
-    r_point = sum(w * norm(hod(hod(P, i), j)) for w, (i, j) in zip(weight, pairs)) / 8.0
+    r_point = sum(w * _nets_max(_hodograph(_hodograph(P, i), j)) for w, (i, j) in zip(weight, pairs)) / 8.0
     mean = Q.reshape(len(Q), -1, 3).mean(axis=1)
     e = mean / np.maximum(np.linalg.norm(mean, axis=1, keepdims=True), 1e-300)
     s = np.einsum("bkd,bd->bk", Q.reshape(len(Q), -1, 3), e).min(axis=1)
     if not np.all(s > 0.0):
         return None
-    g1 = {1: norm(hod(Q, 1)), 2: norm(hod(Q, 2))}
+    g1 = {1: _nets_max(_hodograph(Q, 1)), 2: _nets_max(_hodograph(Q, 2))}
     r_normal = 0.0
     for w, (i, j) in zip(weight, pairs):
-        across = norm(hod(hod(Q, i), j)) / s + 2.0 * g1[i] * g1[j] / s**2
+        across = _nets_max(_hodograph(_hodograph(Q, i), j)) / s + 2.0 * g1[i] * g1[j] / s**2
         r_normal = r_normal + w * np.hypot(across, g1[i] * g1[j] / s**2)
     r_normal = r_normal / 8.0
     pad = 1.0 + 1e-9
