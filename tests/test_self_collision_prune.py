@@ -9,9 +9,8 @@ import json
 
 import numpy as np
 import pytest
-from scipy.spatial.transform import Rotation
 
-from fk_tasks import build_fk_case
+from fk_tasks import box_around, build_fk_case, perturbed, search_path
 from prehension.geometry.regions import PointRegion
 from prehension.hands.collision import capsule_clearances, collision_pairs
 from prehension.hands.kinematics import forward_kinematics
@@ -21,7 +20,7 @@ from prehension.solvers.complete.search import BranchAndPruneOptions, process_bo
 from prehension.solvers.complete.self_collision import pair_distance_bounds, self_collision_pairs, self_collision_prune
 from prehension.system.embedding import embed
 from prehension.system.formulation import build_system
-from prehension.tasks.model import Configuration, Contact, Task
+from prehension.tasks.model import Contact, Task
 from prehension.tasks.residuals import Tolerances, evaluate
 from prehension.verify import verify_result_file
 
@@ -44,22 +43,6 @@ def _segment_distances(form, config) -> np.ndarray:
 def _self_collides(task, config) -> float:
     """The residual function's deepest self-penetration [mm] of ``config``."""
     return max((c.value for c in evaluate(task, config).checks if c.kind == "collision"), default=0.0)
-
-
-def _perturbed(rng, config, size):
-    q = config.joint_angles + size * rng.normal(size=config.joint_angles.shape)
-    T = config.T_palm_object.copy()
-    T[:3, :3] = T[:3, :3] @ Rotation.from_rotvec(size * rng.normal(size=3)).as_matrix()
-    T[:3, 3] += 100.0 * size * rng.normal(size=3)
-    return Configuration(q, T, config.contact_params)
-
-
-def _box_around(rng, form, points, scale):
-    s = form.system
-    width = s.upper - s.lower
-    lower = np.maximum(s.lower, points.min(axis=0) - scale * rng.uniform(0, 1, s.n) * width)
-    upper = np.minimum(s.upper, points.max(axis=0) + scale * rng.uniform(0, 1, s.n) * width)
-    return lower, upper
 
 
 @pytest.fixture(scope="module")
@@ -87,8 +70,8 @@ def test_the_bounds_hold_every_configuration_of_seeded_random_boxes(cases):
     for task, config, form in cases:
         for _ in range(4):
             size = 10.0 ** rng.uniform(-4, -0.5)
-            configs = [config] + [_perturbed(rng, config, size) for _ in range(3)]
-            lower, upper = _box_around(rng, form, np.array([embed(form, c) for c in configs]), 10.0 ** rng.uniform(-6, -1))
+            configs = [config] + [perturbed(rng, config, size) for _ in range(3)]
+            lower, upper = box_around(rng, form, np.array([embed(form, c) for c in configs]), 10.0 ** rng.uniform(-6, -1))
             bounds = pair_distance_bounds(form, lower, upper)
             for c in configs:
                 assert np.all(bounds >= _segment_distances(form, c) - 1e-9), task.name
@@ -106,7 +89,7 @@ def test_the_bounds_through_the_contacts_hold_the_solution_and_are_tighter(cases
         x = embed(form, config)
         true = _segment_distances(form, config)
         for _ in range(4):
-            lower, upper = _box_around(rng, form, x[None], 10.0 ** rng.uniform(-7, -0.3))
+            lower, upper = box_around(rng, form, x[None], 10.0 ** rng.uniform(-7, -0.3))
             through = pair_distance_bounds(form, lower, upper, TOLS)
             assert np.all(through >= true - 1e-9), task.name
             chain = pair_distance_bounds(form, lower, upper)
@@ -128,21 +111,14 @@ def test_a_box_holding_a_self_collision_free_solution_is_never_pruned(cases):
             continue
         x = embed(form, config)
         boxes = [(x, x), (form.system.lower, form.system.upper)]
-        boxes += [_box_around(rng, form, x[None], 10.0 ** rng.uniform(-9, 0)) for _ in range(10)]
+        boxes += [box_around(rng, form, x[None], 10.0 ** rng.uniform(-9, 0)) for _ in range(10)]
         for lower, upper in boxes:
             assert self_collision_prune(form, lower, upper, TOLS) is None, task.name
         tried += 1
     assert tried >= 8
     task, config, form = next(c for c in cases if _self_collides(c[0], c[1]) == 0.0 and len(c[0].contacts) == 2)
-    x = embed(form, config)
-    options = BranchAndPruneOptions(all_solutions=True, sigma=0.3)  # split without verifying
-    lower, upper = form.system.lower.copy(), form.system.upper.copy()
-    for depth in range(4):
-        out = process_box(form, lower, upper, depth, options)
+    for out in search_path(form, embed(form, config)):
         assert not out.by_self_collision
-        if out.kind != "split":
-            break
-        lower, upper = next((lo, hi) for lo, hi in out.children if np.all(lo <= x + 1e-9) and np.all(x <= hi + 1e-9))
 
 
 def test_boxes_whose_configurations_all_collide_are_pruned(cases):
@@ -162,7 +138,7 @@ def test_boxes_whose_configurations_all_collide_are_pruned(cases):
         if deepest > 0.01:
             assert proof is not None, task.name
         if deepest > 1.0:
-            lower, upper = _box_around(rng, form, x[None], 1e-5)
+            lower, upper = box_around(rng, form, x[None], 1e-5)
             assert self_collision_prune(form, lower, upper, TOLS) is not None, task.name
     assert fired >= 3
 
