@@ -27,6 +27,23 @@ solver's system); the table says whether the configuration at ``t*`` collides.
     python benchmarks/frontier.py --families lid tuning --offsets 1 2 --max-boxes 40   # a box budget, no time cap
     python benchmarks/frontier.py --families lid --offsets 1.5 2 --pair-test 200000   # the pair test alone
 
+**Random families (issue 32)**: ``--random K --seed S`` draws K families instead of the named
+ones -- a task of the CuikSuite world files (../shared/cuik-ijrr, read at run time), a
+built-in task, or two fingertips (SA hand, or the Allegro URDF's caps) on planar patches
+picked on opposed faces of a ../shared/objects mesh; one object region (any contact) first
+scaled (x0.6-1.4) or turned (up to 30 deg) about its centre, or left as it is, then moved
+along a random direction leading away from the other regions (``u . e >= 0.3``).  Family
+``i`` of seed ``S`` comes from its own generator, so ``--families 0,3`` draws the same tasks
+as the whole run; a draw whose ``t*`` configuration collides with the hand itself, or
+without a strict solution at ``t* - 0.05 mm``, is drawn again.  Offsets -0.5, +0.5, +1, +2,
++4 mm; each frontier and run is appended to ``--out`` (JSONL) as it ends and not repeated
+when the file already holds it (same tag: the git commit by default), so a long run can be
+split and resumed; ``--report`` prints the distribution of the file alone.
+
+    python benchmarks/frontier.py --random 20 --seed 1 --out s1.jsonl                 # 300 s per run
+    python benchmarks/frontier.py --random 20 --seed 1 --out s1.jsonl --families 0,1 --offsets 1 2 --time-limit 60
+    python benchmarks/frontier.py --random 20 --seed 1 --out s1.jsonl --report        # the distribution so far
+
 One process, BLAS and numba pinned to one thread (the targets of issue 15 are on one core).
 At the end a Markdown table of every run is printed (for benchmarks/README.md).
 """
@@ -687,7 +704,7 @@ def run_random(console: Console, args) -> list[dict]:
                       "boxes": s["boxes"], "lps": s["lps"], "seconds": result.seconds, "load": load,
                       "pair_test": s.get("pair_test"), "self_collision_pruned": s.get("self_collision_pruned", 0),
                       "miss": None if best is None else [best["contact_mm"], best["normal_deg"]],
-                      "message": result.message, "commit": _git_head()}  # fmt: skip
+                      "message": result.message, "commit": args.commit}  # fmt: skip
             records.append(record)
             _append(args.out, record)
             flag = "  [red]FALSE INFEASIBLE[/red]" if delta < 0 and result.status == Status.INFEASIBLE else ""
@@ -750,7 +767,8 @@ def _family_table(records: list[dict], runs: list[dict]) -> Table:
         cells = []
         for d in deltas:
             r = [r for r in runs if r["index"] == f["index"] and r["seed"] == f["seed"] and r["delta"] == d]
-            cells.append(f"{r[-1]['status'][:5]} {r[-1]['seconds']:.0f} s" if r else "")
+            short = {Status.SOLVED: "solved", Status.INFEASIBLE: "certified", Status.GAVE_UP: "undecided"}
+            cells.append(f"{short.get(r[-1]['status'], r[-1]['status'])} {r[-1]['seconds']:.0f} s" if r else "")
         table.add_row(f["name"], f"{f['t_star']:.3f}", f["described"], *cells)
     return table
 
@@ -817,7 +835,8 @@ def main() -> None:
 
 def main_random(args) -> None:
     """``--random K --seed S``: draw, run (or only report) and print the distribution."""
-    args.tag = args.tag or _git_head()
+    args.commit = _git_head()  # of the code this process loaded (runs record it)
+    args.tag = args.tag or args.commit
     args.indices = None
     if args.families:
         args.indices = sorted({int(i) for item in args.families for i in item.split(",") if i.strip()})
