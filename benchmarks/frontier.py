@@ -27,6 +27,23 @@ solver's system); the table says whether the configuration at ``t*`` collides.
     python benchmarks/frontier.py --families lid tuning --offsets 1 2 --max-boxes 40   # a box budget, no time cap
     python benchmarks/frontier.py --families lid --offsets 1.5 2 --pair-test 200000   # the pair test alone
 
+**Random families (issue 32)**: ``--random K --seed S`` draws K families instead of the named
+ones -- a task of the CuikSuite world files (../shared/cuik-ijrr, read at run time), a
+built-in task, or two fingertips (SA hand, or the Allegro URDF's caps) on planar patches
+picked on opposed faces of a ../shared/objects mesh; one object region (any contact) first
+scaled (x0.6-1.4) or turned (up to 30 deg) about its centre, or left as it is, then moved
+along a random direction leading away from the other regions (``u . e >= 0.3``).  Family
+``i`` of seed ``S`` comes from its own generator, so ``--families 0,3`` draws the same tasks
+as the whole run; a draw whose ``t*`` configuration collides with the hand itself, or
+without a strict solution at ``t* - 0.05 mm``, is drawn again.  Offsets -0.5, +0.5, +1, +2,
++4 mm; each frontier and run is appended to ``--out`` (JSONL) as it ends and not repeated
+when the file already holds it (same tag: the git commit by default), so a long run can be
+split and resumed; ``--report`` prints the distribution of the file alone.
+
+    python benchmarks/frontier.py --random 20 --seed 1 --out s1.jsonl                 # 300 s per run
+    python benchmarks/frontier.py --random 20 --seed 1 --out s1.jsonl --families 0,1 --offsets 1 2 --time-limit 60
+    python benchmarks/frontier.py --random 20 --seed 1 --out s1.jsonl --report        # the distribution so far
+
 One process, BLAS and numba pinned to one thread (the targets of issue 15 are on one core).
 At the end a Markdown table of every run is printed (for benchmarks/README.md).
 """
@@ -164,6 +181,173 @@ def urdf_pinch_family() -> Family:
     hand = hand_from_urdf(HANDS / "allegro_hand" / "allegro_hand_right.urdf")
     hand = hand.with_regions(fingertip_caps(hand))
     return pinch_family("allegro-pinch", hand, "thumb_cap", "index_cap", ("thumb", "index"), 40.0)
+
+
+# -- random families (issue 32) ----------------------------------------------------------
+CUIK = Path(__file__).resolve().parents[2] / "shared" / "cuik-ijrr"
+OBJECTS = Path(__file__).resolve().parents[2] / "shared" / "objects"
+MESHES = (("bunny.obj", 100.0),) + tuple((f"random/{i:03d}.obj", 10.0) for i in range(5))
+SOURCES = ("world", "builtin", "mesh")
+GRIP_MM = (25.0, 95.0)  # widths of opposed faces a mesh family's pinch is drawn across
+TURN_DEG = 30.0  # largest turn of the moved region's variant
+SCALE = (0.6, 1.4)  # range of the moved region's scale factor
+
+
+def _unit_vector(rng) -> np.ndarray:
+    v = rng.normal(size=3)
+    return v / np.linalg.norm(v)
+
+
+def _transformed_region(region, M: np.ndarray, centre: np.ndarray):
+    """``region`` mapped by ``x -> centre + M (x - centre)``, ``M`` a rotation times a
+    positive scale (normals turn with the rotation; a point's and a cap's too)."""
+    shift = centre - M @ centre
+    if isinstance(region, BezierRegion):
+        return BezierRegion(region.patch.transformed(M, shift))
+    turn = M / np.cbrt(np.linalg.det(M))
+    if isinstance(region, PointRegion):
+        return PointRegion(M @ region.point + shift, turn @ region.normal)
+    return SphereCap(M @ region.center + shift, region.radius * np.cbrt(np.linalg.det(M)), turn @ region.axis,
+                     region.half_angle)  # fmt: skip
+
+
+def _random_family(name: str, task: Task, moved: int, rng) -> tuple[Family, str]:
+    """``task`` with the object region of contact ``moved`` first scaled or turned (a third
+    of the draws each; the rest as it is) about its centre, then moved along a random
+    direction ``u`` that leads away from the other regions (``u . e >= 0.3``, ``e`` the unit
+    vector from the other regions' mean centre to this one's): not only the centre line."""
+    contact = task.contacts[moved]
+    region = task.object_region(contact)
+    centre = _region_centre(region)
+    others = np.mean([_region_centre(task.object_region(c)) for i, c in enumerate(task.contacts) if i != moved], axis=0)
+    e = (centre - others) / np.linalg.norm(centre - others)
+    kind = rng.integers(3)
+    if kind == 0:
+        factor = float(rng.uniform(*SCALE))
+        M, what = factor * np.eye(3), f"scaled x{factor:.2f}"
+    elif kind == 1:
+        angle = float(rng.uniform(-TURN_DEG, TURN_DEG))
+        M, what = Rotation.from_rotvec(np.radians(angle) * _unit_vector(rng)).as_matrix(), f"turned {angle:+.0f} deg"
+    else:
+        M, what = np.eye(3), "as is"
+    regions = dict(task.object.regions)
+    regions[contact.object_region] = _transformed_region(region, M, centre)
+    base = replace(task, object=replace(task.object, regions=regions, solid=None))
+    while True:
+        u = _unit_vector(rng)
+        if u @ e >= 0.3:
+            break
+    described = f"{contact.object_region} ({contact.hand_region}) {what}, moved along ({u[0]:+.2f}, {u[1]:+.2f}, {u[2]:+.2f})"
+    return Family(name, base, moved, u), described
+
+
+def _world_task(rng) -> Task:
+    from prehension.tasks.cuik_import import import_world
+
+    paths = sorted(CUIK.glob("*/*/*.world"))
+    return import_world(paths[rng.integers(len(paths))])
+
+
+def _builtin_task(rng) -> Task:
+    from prehension.tasks.library import builtin_task_names
+
+    names = builtin_task_names()
+    return load_builtin_task(names[rng.integers(len(names))])
+
+
+def _mesh_task(rng) -> Task:
+    """Two fingertips (the thumb's and another finger's, of the SA hand or the Allegro
+    URDF's caps) on planar patches picked on opposed faces of a shared mesh, 25-95 mm apart
+    across the object (``region_from_mesh``, degree 1, inside one face)."""
+    from prehension.objects.distance import MeshDistance
+    from prehension.objects.mesh_io import load_mesh
+    from prehension.objects.pick import region_from_mesh
+
+    file, scale = MESHES[rng.integers(len(MESHES))]
+    mesh = load_mesh(OBJECTS / file, scale)
+    distance = MeshDistance(mesh.vertices, mesh.faces)
+    tri = mesh.vertices[mesh.faces]
+    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    area = 0.5 * np.linalg.norm(cross, axis=1)
+    normal = cross / (2.0 * area[:, None])
+    side = [np.linalg.norm(tri[:, (i + 1) % 3] - tri[:, (i + 2) % 3], axis=1) for i in range(3)]
+    incentre = sum(side[i][:, None] * tri[:, i] for i in range(3)) / sum(side)[:, None]
+    inradius = 2.0 * area / sum(side)
+    outer = (distance.signed_distance(incentre + 1.5 * normal) > 0) & (distance.signed_distance(incentre - 0.3 * normal) < 0)
+    big = np.flatnonzero((inradius >= 1.5) & outer)
+    pairs = [(i, j) for i in big for j in big
+             if normal[i] @ normal[j] < -0.7 and GRIP_MM[0] <= np.linalg.norm(incentre[j] - incentre[i]) <= GRIP_MM[1]
+             and -normal[i] @ (incentre[j] - incentre[i]) / np.linalg.norm(incentre[j] - incentre[i]) > 0.6]  # fmt: skip
+    if not pairs:
+        raise RuntimeError(f"no opposed faces on {file}")
+    i, j = pairs[rng.integers(len(pairs))]
+    patch = lambda f: region_from_mesh(mesh, at=incentre[f], radius=min(0.8 * inradius[f], 6.0), degree=1,  # noqa: E731
+                                       distance=distance).region  # fmt: skip
+    if rng.integers(2) == 0:
+        hand, thumb, finger = load_builtin_task("guitar-tuning").hand, "thumb_tip", ("index", "middle", "ring")[rng.integers(3)]
+        region = f"{finger}_tip"
+    else:
+        from prehension.hands.urdf import hand_from_urdf
+
+        hand = hand_from_urdf(HANDS / "allegro_hand" / "allegro_hand_right.urdf")
+        hand = hand.with_regions(fingertip_caps(hand))
+        fingers = [f.name for f in hand.fingers if f.name != "thumb"]
+        thumb, finger = "thumb_cap", fingers[rng.integers(len(fingers))]
+        region = f"{finger}_cap"
+    obj = GraspObject(Path(file).stem, {"thumb_side": patch(i), "finger_side": patch(j)})
+    contacts = (Contact(thumb, "thumb_side"), Contact(region, "finger_side"))
+    return Task(f"{Path(file).stem}-{finger}", hand, obj, contacts, _coupled_closure(hand, ("thumb", finger)))
+
+
+@dataclass(frozen=True)
+class RandomFamily:
+    """Family ``index`` of the draw ``seed`` (its ``attempt``), what it is, and its frontier."""
+
+    seed: int
+    index: int
+    attempt: int
+    family: Family
+    described: str
+    frontier: Frontier
+    refused: tuple[str, ...] = ()  # why earlier attempts were drawn again
+
+
+def _draw(seed: int, index: int, attempt: int) -> tuple[Family, str]:
+    """Attempt ``attempt`` at family ``index`` of the draw ``seed`` (cheap, deterministic:
+    its own generator ``default_rng([seed, index, attempt])``): the family and what it is."""
+    rng = np.random.default_rng([seed, index, attempt])
+    source = SOURCES[rng.integers(len(SOURCES))]
+    task = {"world": _world_task, "builtin": _builtin_task, "mesh": _mesh_task}[source](rng)
+    moved = int(rng.integers(len(task.contacts)))
+    family, described = _random_family(f"s{seed}-{index}", task, moved, rng)
+    return family, f"{source} {task.name} ({len(task.contacts)} contacts): {described}"
+
+
+def draw_family(seed: int, index: int, *, attempts: int = 12, seeds: int = 3) -> RandomFamily:
+    """Family ``index`` of the seeded draw ``seed`` with its frontier ``t*`` (see
+    :func:`_random_family`), any one of them drawable alone (:func:`_draw`).  A draw is
+    taken again (next attempt) when it has no frontier this script can vouch for with a
+    strict solution: the local solver does not solve it at ``t = 0``, it is still solved
+    480 mm out, the configuration at ``t*`` collides with the hand itself (a task just
+    inside might then be infeasible for that reason, and "solved below ``t*``" could not be
+    asked of the solver), or there is no strict solution at ``t* - 0.05 mm``."""
+    failures = []
+    for attempt in range(attempts):
+        try:
+            family, described = _draw(seed, index, attempt)
+            frontier = find_frontier(family, seeds=seeds)
+        except (RuntimeError, PrehensionError, np.linalg.LinAlgError, ValueError) as exc:
+            failures.append(f"attempt {attempt}: {exc}")
+            continue
+        if frontier.collides:
+            failures.append(f"attempt {attempt}: the configuration at t* = {frontier.t_mm:.1f} mm collides")
+            continue
+        inside = solution_at(family, frontier.configuration, frontier.t_mm, frontier.t_mm - 0.05)
+        if inside is None or make_solution(family.task_at(frontier.t_mm - 0.05), inside) is None:
+            failures.append(f"attempt {attempt}: no strict solution at t* - 0.05 mm")
+            continue
+        return RandomFamily(seed, index, attempt, family, described, frontier, tuple(failures))
+    raise RuntimeError(f"family {index} of seed {seed}: no usable draw in {attempts} attempts ({'; '.join(failures)})")
 
 
 def families(names: list[str] | None = None) -> list[Family]:
@@ -314,15 +498,18 @@ def _local_solutions(family: Family, t: float, seeds: int) -> list[Configuration
     return [r.solutions[0].configuration() for r in results if r.solutions]
 
 
-def _scan(family: Family, seeds: int, step_mm: float = 16.0, resolution_mm: float = 0.5):
+def _scan(family: Family, seeds: int, step_mm: float = 16.0, resolution_mm: float = 0.5, max_mm: float = 480.0):
     """The largest offset (to ``resolution_mm``) at which the local solver solves the task,
-    and its solutions there: steps of ``step_mm`` outwards, then bisection."""
+    and its solutions there: steps of ``step_mm`` outwards, then bisection (a family still
+    solved at ``max_mm`` is refused)."""
     lo, starts = 0.0, _local_solutions(family, 0.0, seeds)
     if not starts:
         raise RuntimeError(f"{family.name}: the local solver does not solve the task at t = 0")
     hi = step_mm
     while (found := _local_solutions(family, hi, seeds)):
         lo, starts, hi = hi, found, hi + step_mm
+        if lo > max_mm:
+            raise RuntimeError(f"{family.name}: still solved at t = {lo:g} mm")
     while hi - lo > resolution_mm:
         mid = 0.5 * (lo + hi)
         found = _local_solutions(family, mid, seeds)
@@ -441,9 +628,155 @@ def run_pair_tests(console: Console, family: Family, frontier: Frontier, offsets
     return rows
 
 
+# -- random families: runs appended to a JSONL file, and their distribution ---------------
+RANDOM_OFFSETS_MM = (-0.5, 0.5, 1.0, 2.0, 4.0)
+
+
+def _git_head() -> str:
+    import subprocess
+
+    try:
+        out = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=Path(__file__).parent, capture_output=True,
+                             text=True, timeout=10)  # fmt: skip
+        return out.stdout.strip() or "unknown"
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+
+
+def _read_jsonl(path: Path | None) -> list[dict]:
+    if path is None or not path.is_file():
+        return []
+    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+
+
+def _append(path: Path | None, record: dict) -> None:
+    if path is not None:
+        with path.open("a") as f:
+            f.write(json.dumps(record) + "\n")
+
+
+def _random_frontier(console: Console, seed: int, index: int, records: list[dict], out: Path | None):
+    """``(family, described, t*)`` of family ``index`` of the draw ``seed``: from a frontier
+    record of ``records`` when there is one (the family is drawn again, cheaply, from its
+    attempt), else found now and appended to ``out``."""
+    known = [r for r in records if r["kind"] == "frontier" and r["seed"] == seed and r["index"] == index]
+    if known:
+        r = known[-1]
+        family, described = _draw(seed, index, r["attempt"])
+        return family, described, r["t_star"]
+    found = draw_family(seed, index)
+    f = found.frontier
+    record = {"kind": "frontier", "seed": seed, "index": index, "attempt": found.attempt, "name": found.family.name,
+              "described": found.described, "t_star": f.t_mm, "starts": f.starts, "seconds": f.seconds,
+              "refused": list(found.refused)}  # fmt: skip
+    records.append(record)
+    _append(out, record)
+    console.print(f"{found.family.name}: t* = {f.t_mm:.3f} mm ({f.seconds:.1f} s, attempt {found.attempt}): {found.described}")
+    return found.family, found.described, f.t_mm
+
+
+def run_random(console: Console, args) -> list[dict]:
+    """The random families of ``args.random`` / ``args.seed`` (only ``args.indices`` when
+    given) at ``args.offsets``; each run appended to ``args.out`` as it ends, and skipped
+    when ``args.out`` already holds it (same family, offset, limits and ``args.tag``)."""
+    records = _read_jsonl(args.out)
+    indices = args.indices if args.indices is not None else list(range(args.random))
+    for index in indices:
+        try:
+            family, described, t_star = _random_frontier(console, args.seed, index, records, args.out)
+        except RuntimeError as exc:
+            console.print(f"[red]{exc}[/red]")
+            continue
+        if args.frontier_only:
+            continue
+        for delta in args.offsets:
+            key = {"seed": args.seed, "index": index, "delta": delta, "time_limit": args.time_limit,
+                   "max_boxes": args.max_boxes, "tag": args.tag}  # fmt: skip
+            if any(r["kind"] == "run" and all(r.get(k) == v for k, v in key.items()) for r in records):
+                continue
+            task = family.task_at(t_star + delta)
+            load = os.getloadavg()[0]
+            limit = None if args.time_limit == float("inf") else args.time_limit
+            result = solve_complete(task, BranchAndPruneOptions(time_limit_s=limit, max_boxes=args.max_boxes))
+            s = result.stats
+            best = s.get("best_residual")
+            record = {"kind": "run", **key, "name": family.name, "t_star": t_star, "status": str(result.status),
+                      "boxes": s["boxes"], "lps": s["lps"], "seconds": result.seconds, "load": load,
+                      "pair_test": s.get("pair_test"), "self_collision_pruned": s.get("self_collision_pruned", 0),
+                      "miss": None if best is None else [best["contact_mm"], best["normal_deg"]],
+                      "message": result.message, "commit": args.commit}  # fmt: skip
+            records.append(record)
+            _append(args.out, record)
+            flag = "  [red]FALSE INFEASIBLE[/red]" if delta < 0 and result.status == Status.INFEASIBLE else ""
+            console.print(f"{family.name} t*{delta:+g} mm: {result.status}, {s['boxes']} boxes, {s['lps']} LPs, "
+                          f"{result.seconds:.1f} s (load {load:.1f}){flag}")  # fmt: skip
+    return [r for r in records if r["kind"] == "run" and r["seed"] == args.seed and r.get("tag") == args.tag
+            and (args.indices is None or r["index"] in indices)]  # fmt: skip
+
+
+def distribution(runs: list[dict]) -> Table:
+    """Per offset: certified (infeasible) / solved / undecided, times and boxes (median, max),
+    and false "infeasible" below ``t*`` (each run is its last record)."""
+    last = {(r["seed"], r["index"], r["delta"]): r for r in runs}
+    table = Table(title=f"{len({k[:2] for k in last})} random families: the complete search at t* + delta")
+    for col in ("t - t* [mm]", "runs", "certified", "solved", "undecided", "false infeasible", "time median / max [s]",
+                "boxes median / max", "load median"):  # fmt: skip
+        table.add_column(col, justify="right")
+    for delta in sorted({k[2] for k in last}):
+        rows = [r for k, r in last.items() if k[2] == delta]
+        count = lambda status: sum(r["status"] == status for r in rows)  # noqa: E731
+        false = count(Status.INFEASIBLE) if delta < 0 else 0
+        t = [r["seconds"] for r in rows]
+        b = [r["boxes"] for r in rows]
+        table.add_row(f"{delta:+g}", str(len(rows)), str(count(Status.INFEASIBLE)), str(count(Status.SOLVED)),
+                      str(count(Status.GAVE_UP)), str(false), f"{np.median(t):.1f} / {max(t):.1f}",
+                      f"{np.median(b):.0f} / {max(b)}", f"{np.median([r['load'] for r in rows]):.1f}")  # fmt: skip
+    return table
+
+
+def targets(runs: list[dict]) -> list[str]:
+    """The issue's targets on these runs: ``+1 mm`` certified within 300 s on at least 19 of
+    20 (the same share), ``+2 mm`` within 60 s on all, ``-0.5 mm`` solved on all, no false
+    "infeasible"."""
+    last = {(r["seed"], r["index"], r["delta"]): r for r in runs}
+
+    def share(delta, ok):
+        rows = [r for k, r in last.items() if k[2] == delta]
+        return sum(ok(r) for r in rows), len(rows)
+
+    lines = []
+    for delta, what, ok in ((1.0, "certified within 300 s", lambda r: r["status"] == Status.INFEASIBLE and r["seconds"] <= 300),
+                            (2.0, "certified within 60 s", lambda r: r["status"] == Status.INFEASIBLE and r["seconds"] <= 60),
+                            (-0.5, "solved", lambda r: r["status"] == Status.SOLVED)):  # fmt: skip
+        k, n = share(delta, ok)
+        if n:
+            lines.append(f"t* {delta:+g} mm {what}: {k} of {n}")
+    false = [f"{r['name']} {r['delta']:+g}" for r in last.values() if r["delta"] < 0 and r["status"] == Status.INFEASIBLE]
+    lines.append(f"false 'infeasible' below t*: {len(false)}{' (' + ', '.join(false) + ')' if false else ''}")
+    return lines
+
+
+def _family_table(records: list[dict], runs: list[dict]) -> Table:
+    table = Table(title="The families (t* by offset maximisation; a strict solution at t* - 0.05 mm)")
+    for col in ("family", "t* [mm]", "what", *(f"{d:+g}" for d in sorted({r['delta'] for r in runs}))):
+        table.add_column(col)
+    deltas = sorted({r["delta"] for r in runs})
+    for f in records:
+        if f["kind"] != "frontier" or not any(r["index"] == f["index"] and r["seed"] == f["seed"] for r in runs):
+            continue
+        cells = []
+        for d in deltas:
+            r = [r for r in runs if r["index"] == f["index"] and r["seed"] == f["seed"] and r["delta"] == d]
+            short = {Status.SOLVED: "solved", Status.INFEASIBLE: "certified", Status.GAVE_UP: "undecided"}
+            cells.append(f"{short.get(r[-1]['status'], r[-1]['status'])} {r[-1]['seconds']:.0f} s" if r else "")
+        table.add_row(f["name"], f"{f['t_star']:.3f}", f["described"], *cells)
+    return table
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--families", nargs="*", help="lid scalpel tuning sa-pinch allegro-pinch (default: all)")
+    parser.add_argument("--families", nargs="*", help="lid scalpel tuning sa-pinch allegro-pinch (default: all); "
+                        "with --random, indices of the draw (0,3,7)")
     parser.add_argument("--time-limit", type=float, help="seconds per complete run (default 300; --quick: 30)")
     parser.add_argument("--offsets", type=float, nargs="*", help="t - t* [mm] to run (default -1 -0.5 0.5 1 2 4)")
     parser.add_argument("--quick", action="store_true", help="lid, scalpel, sa-pinch at -0.5, +2, +4 mm, 30 s per run")
@@ -453,7 +786,18 @@ def main() -> None:
     parser.add_argument("--pair-test", type=int, metavar="BOXES", help="run the pose-free pair test alone with this "
                         "box budget instead of the complete solver (its time is CPU seconds)")
     parser.add_argument("--frontiers", type=Path, help="JSON file of t* per family: read when present, else written")
+    parser.add_argument("--random", type=int, metavar="K", help="K random families of the draw --seed instead of the "
+                        "named ones (--families then takes indices, e.g. 0,3,7); offsets -0.5 0.5 1 2 4 by default")
+    parser.add_argument("--seed", type=int, default=1, help="the draw of --random (default 1)")
+    parser.add_argument("--out", type=Path, help="--random: JSONL file of frontiers and runs; read first (a family's "
+                        "t* and runs already there are not repeated), every result appended as it ends")
+    parser.add_argument("--tag", help="--random: a label kept with each run (default: the git commit); runs of "
+                        "another tag are neither skipped nor summed")
+    parser.add_argument("--report", action="store_true", help="--random: only print the distribution of --out")
     args = parser.parse_args()
+    if args.random is not None:
+        main_random(args)
+        return
     defaults = QUICK if args.quick else {"families": None, "offsets": list(OFFSETS_MM), "time_limit": 300.0}
     if args.max_boxes is not None and args.time_limit is None:
         defaults = {**defaults, "time_limit": float("inf")}
@@ -487,6 +831,33 @@ def main() -> None:
     console.print(f"false 'infeasible' below t*: {len(false)}")
     if all_rows:
         print(_markdown(all_rows))
+
+
+def main_random(args) -> None:
+    """``--random K --seed S``: draw, run (or only report) and print the distribution."""
+    args.commit = _git_head()  # of the code this process loaded (runs record it)
+    args.tag = args.tag or args.commit
+    args.indices = None
+    if args.families:
+        args.indices = sorted({int(i) for item in args.families for i in item.split(",") if i.strip()})
+    args.offsets = list(RANDOM_OFFSETS_MM) if args.offsets is None else args.offsets
+    if args.time_limit is None:
+        args.time_limit = float("inf") if args.max_boxes is not None else 300.0
+    console = Console(width=200)
+    if args.report:
+        records = _read_jsonl(args.out)
+        runs = [r for r in records if r["kind"] == "run" and r["seed"] == args.seed and r.get("tag") == args.tag
+                and (args.indices is None or r["index"] in args.indices) and r["index"] < args.random]  # fmt: skip
+    else:
+        runs = run_random(console, args)
+        records = _read_jsonl(args.out) if args.out else []
+    if not runs:
+        console.print(f"no runs of seed {args.seed} (tag {args.tag})")
+        return
+    console.print(_family_table(records, runs))
+    console.print(distribution(runs))
+    for line in targets(runs):
+        console.print(line)
 
 
 def _markdown(rows: list[dict]) -> str:

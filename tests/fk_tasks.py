@@ -190,3 +190,38 @@ def build_fk_case(
     task = Task("fk", hand, GraspObject("fk-object", obj_regions), tuple(contacts), fingers)
     config = Configuration(q, T, tuple(params))
     return FKCase(task, config, fingers, regions, kinds, np.array(points), np.array(normals))
+
+
+# -- boxes of the complete solver around known configurations ---------------------------
+def perturbed(rng, config: Configuration, size: float) -> Configuration:
+    """The configuration with every joint angle and the object pose moved a little."""
+    q = config.joint_angles + size * rng.normal(size=config.joint_angles.shape)
+    T = config.T_palm_object.copy()
+    T[:3, :3] = T[:3, :3] @ Rotation.from_rotvec(size * rng.normal(size=3)).as_matrix()
+    T[:3, 3] += 100.0 * size * rng.normal(size=3)
+    return Configuration(q, T, config.contact_params)
+
+
+def box_around(rng, form, points, scale):
+    """A random box of the system holding every one of ``points`` (S, n), grown by up to
+    ``scale`` of each variable's initial width on either side."""
+    s = form.system
+    width = s.upper - s.lower
+    lower = np.maximum(s.lower, points.min(axis=0) - scale * rng.uniform(0, 1, s.n) * width)
+    upper = np.minimum(s.upper, points.max(axis=0) + scale * rng.uniform(0, 1, s.n) * width)
+    return lower, upper
+
+
+def search_path(form, x, depth: int = 4):
+    """The boxes the search processes on its way down to the system point ``x`` (split
+    without verifying, ``sigma`` 0.3), each :class:`BoxOutcome`, the child holding ``x`` next."""
+    from prehension.solvers.complete.search import BranchAndPruneOptions, process_box
+
+    options = BranchAndPruneOptions(all_solutions=True, sigma=0.3)
+    lower, upper = form.system.lower.copy(), form.system.upper.copy()
+    for d in range(depth):
+        out = process_box(form, lower, upper, d, options)
+        yield out
+        if out.kind != "split":
+            return
+        lower, upper = next((lo, hi) for lo, hi in out.children if np.all(lo <= x + 1e-9) and np.all(x <= hi + 1e-9))

@@ -7,9 +7,8 @@ import json
 
 import numpy as np
 import pytest
-from scipy.spatial.transform import Rotation
 
-from fk_tasks import build_fk_case
+from fk_tasks import box_around, build_fk_case, perturbed, search_path
 from tiny_tasks import pit_task
 from prehension.errors import InvalidObject
 from prehension.geometry.regions import SphereCap
@@ -19,11 +18,11 @@ from prehension.objects.model import GraspObject
 from prehension.objects.solid import PrimitiveSolid
 from prehension.results import Status, write_result
 from prehension.solvers.complete.collision import collision_probes, collision_prune, probe_enclosures
-from prehension.solvers.complete.search import BranchAndPruneOptions, process_box, solve_complete
+from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
 from prehension.system.embedding import embed
 from prehension.system.formulation import build_system
 from prehension.tasks.idle import settle_idle_fingers
-from prehension.tasks.model import Configuration, Task
+from prehension.tasks.model import Task
 from prehension.tasks.object_collision import link_penetrations
 from prehension.tasks.residuals import Tolerances, evaluate
 from prehension.verify import verify_result_file
@@ -59,16 +58,6 @@ def _penetration_free(task, config) -> bool:
     return all(c.ok for c in evaluate(task, config).checks if c.kind == "object_collision")
 
 
-def _box_around(rng, form, points, scale):
-    """A random box of the system holding every one of ``points`` (S, n), grown by up to
-    ``scale`` of each variable's initial width on either side."""
-    s = form.system
-    width = s.upper - s.lower
-    lower = np.maximum(s.lower, points.min(axis=0) - scale * rng.uniform(0, 1, s.n) * width)
-    upper = np.minimum(s.upper, points.max(axis=0) + scale * rng.uniform(0, 1, s.n) * width)
-    return lower, upper
-
-
 def _probe_points_in_object(task, probes, config) -> np.ndarray:
     """(K, 3) every probe's point for one configuration, object frame, by forward kinematics."""
     pose = forward_kinematics(task.hand, config.joint_angles)
@@ -77,15 +66,6 @@ def _probe_points_in_object(task, probes, config) -> np.ndarray:
     p_palm = np.einsum("kij,kj->ki", R, probes.point_in_link) + r  # (K, 3)
     T = config.T_palm_object
     return (p_palm - T[:3, 3]) @ T[:3, :3]
-
-
-def _perturbed(rng, config, size):
-    """The configuration with every joint angle and the object pose moved a little."""
-    q = config.joint_angles + size * rng.normal(size=config.joint_angles.shape)
-    T = config.T_palm_object.copy()
-    T[:3, :3] = T[:3, :3] @ Rotation.from_rotvec(size * rng.normal(size=3)).as_matrix()
-    T[:3, 3] += 100.0 * size * rng.normal(size=3)
-    return Configuration(q, T, config.contact_params)
 
 
 # seeds whose configuration is penetration-free (5), then some whose is not (4)
@@ -111,9 +91,9 @@ def test_enclosures_hold_the_link_points_of_every_configuration_in_the_box(spher
         assert probes is not None and probes.size > 20
         for _ in range(6):
             size = 10.0 ** rng.uniform(-4, -0.5)
-            configs = [config] + [_perturbed(rng, config, size) for _ in range(4)]
+            configs = [config] + [perturbed(rng, config, size) for _ in range(4)]
             points = np.array([embed(form, c) for c in configs])
-            lower, upper = _box_around(rng, form, points, 10.0 ** rng.uniform(-6, -0.5))
+            lower, upper = box_around(rng, form, points, 10.0 ** rng.uniform(-6, -0.5))
             lo, hi = probe_enclosures(probes, lower, upper)
             for c in configs:
                 p = _probe_points_in_object(task, probes, c)
@@ -136,7 +116,7 @@ def test_enclosures_through_the_contacts_hold_every_solution_and_are_tighter(sph
         x = embed(form, config)
         p = _probe_points_in_object(task, probes, config)
         for _ in range(8):
-            lower, upper = _box_around(rng, form, x[None], 10.0 ** rng.uniform(-7, -0.5))
+            lower, upper = box_around(rng, form, x[None], 10.0 ** rng.uniform(-7, -0.5))
             lo, hi = probe_enclosures(probes, lower, upper, form, TOLS)
             outside = np.linalg.norm(np.maximum(lo - p, 0.0) + np.maximum(p - hi, 0.0), axis=1)
             assert np.all(outside <= probes.extra + 1e-9), (task.name, probes.link[int(np.argmax(outside - probes.extra))])
@@ -173,7 +153,7 @@ def test_the_prune_never_discards_a_box_holding_a_penetration_free_solution(sphe
         form = build_system(task)
         x = embed(form, config)
         boxes = [(x, x), (form.system.lower, form.system.upper)]
-        boxes += [_box_around(rng, form, x[None], 10.0 ** rng.uniform(-9, 0)) for _ in range(12)]
+        boxes += [box_around(rng, form, x[None], 10.0 ** rng.uniform(-9, 0)) for _ in range(12)]
         for lower, upper in boxes:
             assert collision_prune(form, lower, upper, TOLS) is None
         tried += 1
@@ -199,15 +179,8 @@ def test_search_path_to_a_known_solution_is_never_cut_by_collision(sphere_cases)
     task, config = sphere_cases[1]  # two contacts, penetration-free
     assert _penetration_free(task, config)
     form = build_system(task)
-    x = embed(form, config)
-    options = BranchAndPruneOptions(all_solutions=True, sigma=0.3)  # split without verifying
-    lower, upper = form.system.lower.copy(), form.system.upper.copy()
-    for depth in range(4):
-        out = process_box(form, lower, upper, depth, options)
+    for out in search_path(form, embed(form, config)):
         assert not out.by_collision
-        if out.kind != "split":
-            break
-        lower, upper = next((lo, hi) for lo, hi in out.children if np.all(lo <= x + 1e-9) and np.all(x <= hi + 1e-9))
 
 
 # -- a task whose only contact configurations pass through the object -------------------

@@ -15,6 +15,7 @@ import importlib.util
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from prehension.results import Status, make_solution
@@ -144,3 +145,35 @@ def test_guitar_tuning_a_millimetre_past_its_frontier_is_certified_at_the_first_
     result = solve_complete(family.task_at(found.t_mm + 1.0), BranchAndPruneOptions(max_boxes=2))
     assert result.status == Status.INFEASIBLE
     assert "cannot be made together" in result.message
+
+
+# -- random families (issue 32) -----------------------------------------------------------
+RANDOM_FAMILIES = ((1, 0), (1, 1), (2, 0))  # (seed, index) of frontier.py --random: ~15-50 s each (load 10)
+
+
+@pytest.mark.parametrize("seed,index", RANDOM_FAMILIES)
+def test_random_families_just_inside_their_frontier_are_never_called_infeasible(frontier_module, seed, index):
+    """Families of ``frontier.py --random`` (a 4-contact task with its palm region moved, a
+    2-fingertip one along a random direction...): ``t*`` has a strict solution (self-collision
+    included: the draw refuses families whose frontier configuration collides), so has the
+    task at ``t* - 0.01 mm`` (checked), and the complete search with both collision prunes must
+    not call it infeasible; whatever it returns is a strict solution of the task."""
+    found = frontier_module.draw_family(seed, index, seeds=1)
+    family, t = found.family, found.frontier.t_mm - 0.01
+    task = family.task_at(t)
+    witness = frontier_module.solution_at(family, found.frontier.configuration, found.frontier.t_mm, t)
+    assert witness is not None and make_solution(task, witness) is not None  # feasible, no self-collision
+    result = solve_complete(task, BranchAndPruneOptions(max_boxes=3))
+    assert result.status in (Status.SOLVED, Status.GAVE_UP), result.message
+    for solution in result.solutions:
+        assert make_solution(result.task, solution.configuration()) is not None
+
+
+def test_random_families_are_drawn_alike_alone_and_in_a_run(frontier_module):
+    """A family of a draw depends on its seed, index and attempt only (``--families i,j``
+    draws the same tasks as the whole run), and the draws differ."""
+    a, described = frontier_module._draw(1, 3, 0)
+    b, again = frontier_module._draw(1, 3, 0)
+    c, other = frontier_module._draw(1, 4, 0)
+    assert described == again and described != other
+    assert np.allclose(a.u, b.u) and abs(a.u @ c.u) < 1.0 - 1e-9

@@ -300,7 +300,9 @@ def _reprove(task: Task, data: dict, reprove: bool, time_limit_s) -> tuple[Solve
         same = again.stats.get("boxes") == stats.get("boxes")
         note = "same count" if same else f"the file says {stats.get('boxes')}: other options or another version"
         by_collision = again.stats.get("collision_pruned", 0)
+        by_self = again.stats.get("self_collision_pruned", 0)
         how = f", {by_collision} of them for hand-object collision: no penetration-free solution" if by_collision else ""
+        how += f", {by_self} of them for self-collision: no self-collision-free solution" if by_self else ""
         return again, [Finding("infeasibility re-proved", True, f"all {again.stats['boxes']} boxes pruned again{how} ({note})")]
     if again.status == Status.SOLVED:
         return again, [Finding("infeasibility", False, "FALSE: the complete solver finds a verified solution of the embedded task")]

@@ -12,7 +12,8 @@ Depth-first order stops at the first verified solution; breadth-first collects e
 solution box (``all_solutions``).  When every box is pruned the answer is **infeasible**,
 with the numbers of boxes and linear programs as its certificate -- for an object that
 collides, "no penetration-free solution" when the collision prune discarded any box
-(``stats["collision_pruned"]``).
+(``stats["collision_pruned"]``), and "no self-collision-free solution" when the
+self-collision prune did (:mod:`.self_collision`, ``stats["self_collision_pruned"]``).
 
 Boxes are independent, so :func:`solve_complete` can process them on any
 ``concurrent.futures.Executor`` (a process pool, a Dask cluster's executor): workers
@@ -43,6 +44,7 @@ from ...system.embedding import configuration_from_point, embed
 from ...system.formulation import Formulation, build_system
 from .checkpoint import SearchState, load_state, save_state, search_fingerprint
 from .collision import collision_prune
+from .self_collision import self_collision_prune
 from .congruence import congruence_test
 from .contract import contract
 from .shrink import ShrinkOptions, shrink_box
@@ -94,6 +96,10 @@ class BranchAndPruneOptions:
             configuration in it puts a link deeper into the object than
             ``tolerances.object_penetration_mm`` (:mod:`.collision`; only for an object
             that collides).  ``False``: such boxes are searched until ``sigma``.
+        self_collision_prune: discard a box when an enclosure proves that every
+            solution in it has two capsules of the hand deeper into each other than
+            ``tolerances.penetration_mm`` (:mod:`.self_collision`).  ``False``: such
+            boxes are searched until ``sigma``.
     """
 
     sigma: float = 0.1
@@ -107,6 +113,7 @@ class BranchAndPruneOptions:
     tolerances: Tolerances = field(default_factory=Tolerances)
     pair_test_boxes: int = 200_000
     collision_prune: bool = True
+    self_collision_prune: bool = True
 
     def __post_init__(self):
         if not 0.0 < self.sigma < 1.0:
@@ -132,6 +139,7 @@ class BoxOutcome:
     children: tuple[tuple[np.ndarray, np.ndarray], ...] = ()
     best: tuple = (float("inf"), float("inf"))  # (contact_mm, normal_deg) the verification came closest to
     by_collision: bool = False  # "empty" because every configuration in it penetrates the object
+    by_self_collision: bool = False  # "empty" because every solution in it collides with the hand itself
 
 
 def _scaled_widths(form: Formulation, lower, upper) -> np.ndarray:
@@ -185,6 +193,8 @@ def process_box(form: Formulation, lower, upper, depth: int, options: BranchAndP
         return BoxOutcome("empty", lower, upper, depth, 0)
     if _penetrates(form, lower, upper, options):
         return BoxOutcome("empty", lower, upper, depth, 0, by_collision=True)
+    if _self_collides(form, lower, upper, options):
+        return BoxOutcome("empty", lower, upper, depth, 0, by_self_collision=True)
     best = (float("inf"), float("inf"))
     if not options.all_solutions:
         solution, best = _verify(form, lower, upper, options)
@@ -197,6 +207,8 @@ def process_box(form: Formulation, lower, upper, depth: int, options: BranchAndP
     lo, hi = shrunk.lower, shrunk.upper
     if _penetrates(form, lo, hi, options):
         return BoxOutcome("empty", lo, hi, depth, shrunk.n_lps, best=best, by_collision=True)
+    if _self_collides(form, lo, hi, options):
+        return BoxOutcome("empty", lo, hi, depth, shrunk.n_lps, best=best, by_self_collision=True)
     widths = _scaled_widths(form, lo, hi)
     if widths.max() < options.sigma:
         if options.all_solutions:
@@ -218,6 +230,13 @@ def _penetrates(form: Formulation, lower, upper, options: BranchAndPruneOptions)
     return collision_prune(form, lower, upper, options.tolerances) is not None
 
 
+def _self_collides(form: Formulation, lower, upper, options: BranchAndPruneOptions) -> bool:
+    """Whether every solution of the box collides with the hand itself (:mod:`.self_collision`)."""
+    if not options.self_collision_prune:
+        return False
+    return self_collision_prune(form, lower, upper, options.tolerances) is not None
+
+
 def _inside(form: Formulation, solution: Solution, lower, upper) -> bool:
     """Whether a solution's base coordinates lie in the box (to rounding)."""
     x = embed(form, solution.configuration())
@@ -233,6 +252,7 @@ def _record(state: SearchState, out: BoxOutcome, options: BranchAndPruneOptions)
     state.best = min(state.best, out.best, key=lambda b: max(b))
     state.max_depth = max(state.max_depth, out.depth)
     state.collision_pruned += out.by_collision
+    state.self_collision_pruned += out.by_self_collision
     if out.kind == "solution":
         state.solutions.append(out.solution)
     elif out.kind == "small":
@@ -432,19 +452,33 @@ def _result(task, form, state: SearchState, options, started: float, stop: str, 
         msg = (f"infeasible: contacts {task.contacts[a].name} and {task.contacts[b].name} cannot be made together "
                f"whatever the object's pose (pair test: {state.pair_test.boxes} boxes pruned, after {state.boxes} "
                f"box(es) and {state.lps} LPs of the search)")  # fmt: skip
-    elif state.collision_pruned:
+    elif state.collision_pruned or state.self_collision_pruned:
         status = Status.INFEASIBLE
-        msg = (f"infeasible: no penetration-free solution: all {state.boxes} boxes pruned, {state.collision_pruned} "
-               f"of them because every configuration in them puts the hand into the object ({state.lps} linear programs)")  # fmt: skip
+        msg = _collision_message(state)
     else:
         status = Status.INFEASIBLE
         msg = f"infeasible: all {state.boxes} boxes pruned ({state.lps} linear programs)"
     stats["open_box_solutions"] = len(in_open)
     stats["collision_pruned"] = state.collision_pruned
+    stats["self_collision_pruned"] = state.self_collision_pruned
     if state.pair_test is not None:
         stats["pair_test"] = {"proved": state.pair_test.proved, "boxes": state.pair_test.boxes,
                               "pair": list(state.pair_test.pair) if state.pair_test.pair else None}  # fmt: skip
     return SolveResult(task, "complete", status, msg, tuple(state.solutions) + in_open, seconds, stats, small)
+
+
+def _collision_message(state: SearchState) -> str:
+    """The certificate of a search that pruned boxes for collision: with the object ("no
+    penetration-free solution"), with the hand itself ("no self-collision-free solution"),
+    or both ("no collision-free solution")."""
+    why = []
+    if state.collision_pruned:
+        why.append(f"{state.collision_pruned} of them because every configuration in them puts the hand into the object")
+    if state.self_collision_pruned:
+        why.append(f"{state.self_collision_pruned} of them because every solution in them has the hand collide with itself")
+    what = {(True, False): "penetration-free", (False, True): "self-collision-free"}.get(
+        (bool(state.collision_pruned), bool(state.self_collision_pruned)), "collision-free")
+    return f"infeasible: no {what} solution: all {state.boxes} boxes pruned, {', '.join(why)} ({state.lps} linear programs)"
 
 
 def _options_dict(options: BranchAndPruneOptions) -> dict:
