@@ -1,24 +1,23 @@
 """Shapes of hand files -> collision capsules, and surface points for fingertip fits.
 
-Capsules stay *inside* the shapes they stand for, so that self-collision checks do not
-report contacts the real shapes do not make (all in the shape's own frame, mm):
+Capsules **enclose** the shapes they stand for, so that a capsule clear of the object or
+of another link proves the link clear (all in the shape's own frame, mm; what they miss
+and how far they stick out is measured by :mod:`prehension.hands.enclosure`):
 
 - sphere: the sphere itself (a capsule with ``a == b``);
 - capsule: itself;
-- cylinder (along z): the largest capsule about the axis that fits inside, radius
-  ``min(r, L/2)``, segment half-length ``L/2 - radius`` (a flat disc becomes the
-  inscribed sphere);
+- cylinder (along z): the capsule of least volume along the axis holding both rims
+  (a flat disc becomes the sphere through them);
 - box with sides ``long >= mid >= short``: ``n = ceil(mid/short)`` (at most 8) parallel
-  capsules of radius ``short/2`` along the long side (half-length ``long/2 - short/2``),
-  spread evenly across the mid side; their union lies inside the box and fills it but for
-  its rounded edges (and gaps in plates thinner than ``mid/8``);
-- ellipsoid: a capsule along its long axis that stays inside (:func:`ellipsoid_capsule`);
-- mesh: one capsule along the principal axis (PCA) of the vertices, radius the 90th
-  percentile of the vertices' distances to that axis, segment shortened by the radius at
-  each end of the vertices' extent.  An approximation meant for self-collision checks.
+  capsules along the long side, each the least-volume capsule holding one slab
+  ``long x mid/n x short`` (its corners);
+- ellipsoid: a capsule along its long axis holding dense surface samples, grown by
+  their spacing (:func:`ellipsoid_capsule`);
+- mesh: the least-volume capsule found over 306 axes that holds every vertex
+  (:func:`mesh_capsule`; a capsule is convex, so it holds the mesh).
 
 :func:`surface_points` samples the surface of any shape (the vertices of a mesh), for
-the fingertip fits of :mod:`prehension.hands.fingertips`.
+the fingertip fits of :mod:`prehension.hands.fingertips` and the enclosure measures.
 """
 
 from __future__ import annotations
