@@ -135,6 +135,21 @@ def _other_regions(hand) -> Table | None:
     return table
 
 
+def _collision_table(hand) -> Table:
+    """Per link: its capsules, and how they stand for its shapes (what they miss, how far
+    they stick out; :attr:`~prehension.hands.model.Link.fit`)."""
+    table = Table(title="Collision capsules (per link: what they miss of its shapes, how far they stick out)",
+                  title_justify="left")  # fmt: skip
+    for col in ("link", "capsules", "radii mm", "fitted to", "misses mm", "sticks out mm"):
+        table.add_column(col, overflow="fold")
+    for link in hand.links:
+        radii = ", ".join(f"{c.radius:.3g}" for c in link.collision[:4]) + (" ..." if len(link.collision) > 4 else "")
+        fit = link.fit
+        rest = ("given as is", "-", "-") if fit is None else (fit.geometry, f"{fit.miss_mm:.2f}", f"{fit.stick_out_mm:.2f}")
+        table.add_row(link.name, str(len(link.collision)), radii or "-", *rest)
+    return table
+
+
 def show_hand(hand, console: Console) -> int:
     """``prehension show HAND``: palm, fingers and fingertips, joints, notes (frames among them)."""
     where = f" from {hand.source.path}" if hand.source is not None else ""
@@ -142,6 +157,7 @@ def show_hand(hand, console: Console) -> int:
                   f"{hand.n_dof} joint angles, {len(hand.couplings)} couplings")  # fmt: skip
     console.print(_fingers_table(hand))
     console.print(_joints_table(hand))
+    console.print(_collision_table(hand))
     others = _other_regions(hand)
     if others is not None:
         console.print(others)

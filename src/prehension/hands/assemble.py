@@ -19,8 +19,9 @@
    of an unsupported type below the palm is held at its reference position, with a
    warning.  **Couplings** chained through coupled sources are resolved to the
    independent source: ``q_K = m m' q_J + (m o' + o)``.
-5. **Collision capsules** from the collision shapes (:mod:`prehension.hands.shapes`);
-   a shape that cannot be read is skipped with a warning, and a link that has visual
+5. **Collision capsules** enclosing the collision shapes (:mod:`prehension.hands.shapes`),
+   each link with what they miss and how far they stick out (:attr:`Link.fit`,
+   :mod:`prehension.hands.enclosure`); a shape that cannot be read is skipped with a warning, and a link that has visual
    shapes but no collision capsule is named in a warning (it is not checked for
    self-collision).  Link pairs whose capsules overlap at the rest pose (zero angles
    clamped into the limits) are excluded from self-collision checks, with a note.
@@ -42,6 +43,7 @@ import numpy as np
 
 from ..errors import InvalidHand
 from .collision import capsule_clearances
+from .enclosure import link_fit
 from .description import RawHand, RawShape
 from .fingers import CLOSURES, closure, finger_chains, finger_names, make_fingers
 from .fingertips import PadFrame, TipOverride, apply_override, cap_axis, fit_fingertip, pad_frame
@@ -85,25 +87,36 @@ def _survivor_shapes(raw: RawHand, home) -> dict[str, list[RawShape]]:
     return out
 
 
-def _capsules(shapes: list[RawShape], warnings: list[str]) -> list[Capsule]:
-    out = []
+def _capsules(shapes: list[RawShape], warnings: list[str]) -> tuple[list[Capsule], list[RawShape], list[np.ndarray]]:
+    """The capsules of the collision shapes that could be read, those shapes and their
+    surface points (link frame) for :func:`~prehension.hands.enclosure.link_fit`."""
+    out, used, surface = [], [], []
     for s in shapes:
         if s.role != "collision":
             continue
         try:
             out += shape_capsules(s)
+            surface.append(surface_points(s, 2000))
+            used.append(s)
         except (ValueError, OSError) as exc:
             warnings.append(f"warning: {s.what}: {exc}; skipped")
-    return out
+    return out, used, surface
+
+
+def _fit_label(used: list[RawShape]) -> str:
+    kinds = {s.kind == "mesh" for s in used}
+    return "collision mesh" if kinds == {True} else ("collision shapes" if kinds == {False} else "collision meshes and shapes")
 
 
 def _links(names: list[str], shapes: dict[str, list[RawShape]], warnings: list[str]) -> list[Link]:
+    """One link per name, its capsules enclosing its collision shapes, with their fit."""
     links = []
     for n in names:
-        caps = _capsules(shapes.get(n, []), warnings)
+        caps, used, surface = _capsules(shapes.get(n, []), warnings)
         if not caps and shapes.get(n):
             warnings.append(f"warning: link {n!r} has no collision shape: it is not checked for self-collision")
-        links.append(Link(n, tuple(caps)))
+        fit = link_fit(caps, used, surface, _fit_label(used)) if caps else None
+        links.append(Link(n, tuple(caps), fit))
     return links
 
 

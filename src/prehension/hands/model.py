@@ -46,7 +46,7 @@ import numpy as np
 from ..errors import InvalidHand
 from ..geometry.regions import Region
 from ..geometry.vectors import unit3, vec3
-from .provenance import HandSource, TipFit
+from .provenance import HandSource, ShapeFit, TipFit
 
 __all__ = ["Joint", "Coupling", "Capsule", "Link", "Finger", "HandRegion", "NamedFrame", "Hand"]
 
@@ -187,10 +187,16 @@ class Capsule:
 
 @dataclass(frozen=True, eq=False)
 class Link:
-    """A rigid body of the hand with its collision shapes (link frame, mm)."""
+    """A rigid body of the hand with its collision shapes (link frame, mm).
+
+    ``fit`` says how the capsules stand for the link's own geometry
+    (:class:`~prehension.hands.provenance.ShapeFit`: what they miss, how far they stick
+    out); ``None`` when they were given as they are (an inline hand, a link without shapes).
+    """
 
     name: str
     collision: tuple[Capsule, ...] = ()
+    fit: ShapeFit | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "collision", tuple(self.collision))

@@ -6,6 +6,8 @@
   whole hand, and a reader can tell whether the file has changed since.
 * :class:`TipFit`: the report of one fingertip fit (which geometry, how many points, how
   well a sphere fits them), so that a user can judge a fingertip found automatically.
+* :class:`ShapeFit`: how a link's collision capsules stand for its shapes (what they miss,
+  how far they stick out), so that a reader knows which geometry judged a collision.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ from typing import Any, Literal, Mapping
 
 from ..frozen import FrozenMap
 
-__all__ = ["HandSource", "TipFit", "file_sha256"]
+__all__ = ["HandSource", "TipFit", "ShapeFit", "file_sha256"]
 
 HAND_FORMATS = ("urdf", "mjcf")
 
@@ -88,3 +90,23 @@ class TipFit:
             f"fitted to {self.n_points} points of the {self.geometry}: rms {self.rms_mm:.2f} mm, "
             f"max {self.max_mm:.2f} mm{over}"
         )
+
+
+@dataclass(frozen=True)
+class ShapeFit:
+    """How a link's collision capsules stand for the link's own shapes (link frame, mm).
+
+    Attributes:
+        geometry: what the capsules were fitted to (``"collision mesh"``, ``"collision
+            shapes"``, ``"published mesh"``...).
+        miss_mm: largest distance of the link's surface outside every capsule (0: the
+            capsules enclose the link).
+        stick_out_mm: largest distance of the capsules' outer surface from the link.
+    """
+
+    geometry: str
+    miss_mm: float
+    stick_out_mm: float
+
+    def describe(self) -> str:
+        return f"{self.geometry}: misses {self.miss_mm:.2f} mm, sticks out {self.stick_out_mm:.2f} mm"

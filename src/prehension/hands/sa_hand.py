@@ -32,9 +32,13 @@ half-angle of 60 deg (the files use 60 or 90 deg depending on the task).  The pa
 is a sphere cap of radius 13 mm whose surface touches the palm's front face (x = 20.55 mm)
 at (20.55, -0.053, 117.348), axis +x, half-angle 60 deg, as in the teapot files.
 
-Collision shapes are capsules slightly inside the published link meshes (radius 10-12 mm
-for the phalanges, 20 mm for the palm slabs): a capsule only approximates a phalanx, and we
-prefer missing a grazing contact to rejecting valid grasps.
+Collision shapes are capsules inside the published link meshes (the CuikSuite bodies
+``p1``-``p4``, ``b2``, ``b4``, ``p0thumb``, ``palmSAH``, ``acs*palm``; radius 10-12 mm for the
+phalanges, 20 mm for the palm slabs).  Measured against those meshes (each link's
+:attr:`~prehension.hands.model.Link.fit`, re-measured by ``tests/test_sa_geometry.py``
+from ``../shared/cuik-ijrr/bodies``), they miss up to 10.5 mm of a distal phalanx, 10 mm of
+a middle one, 16 mm of a proximal one, 24 mm of the thumb base and 48 mm of the palm:
+a clear capsule does not prove a clear link (issue 26 item 2, open: see docs/hands.md).
 """
 
 from __future__ import annotations
@@ -43,8 +47,9 @@ import numpy as np
 
 from ..geometry.regions import SphereCap
 from .model import Capsule, Coupling, Finger, Hand, HandRegion, Joint, Link
+from .provenance import ShapeFit
 
-__all__ = ["schunk_sa_hand", "SA_FINGER_BASES", "SA_TIP_RADIUS_MM", "SA_TIP_CENTER_MM", "SA_TIP_AXIS"]
+__all__ = ["schunk_sa_hand", "SA_LINK_FITS", "SA_FINGER_BASES", "SA_TIP_RADIUS_MM", "SA_TIP_CENTER_MM", "SA_TIP_AXIS"]
 
 DEG = np.pi / 180.0
 
@@ -118,11 +123,23 @@ def _revolute(name, parent, child, length) -> Joint:
     )  # fmt: skip
 
 
+# How the capsules stand for the published meshes (misses, sticks out) [mm]: measured by
+# tests/test_sa_geometry.py (hands/enclosure.py, mesh distances to the nearest vertex).
+_PUBLISHED = "published mesh (CuikSuite bodies)"
+SA_LINK_FITS = {
+    "palm": ShapeFit(_PUBLISHED, 48.31, 16.5),
+    "thumb_base": ShapeFit(_PUBLISHED, 24.39, 22.83),
+    "proximal": ShapeFit(_PUBLISHED, 16.17, 0.0),
+    "middle": ShapeFit(_PUBLISHED, 9.95, 0.0),
+    "distal": ShapeFit(_PUBLISHED, 10.54, 0.0),
+}
+
+
 def _phalanx_links(finger: str) -> list[Link]:
     return [
-        Link(f"{finger}_proximal", (Capsule((8, 0, 0), (60, 0, 0), 12.0),)),
-        Link(f"{finger}_middle", (Capsule((4, 0, 0), (26, 0, 0), 11.0),)),
-        Link(f"{finger}_distal", (Capsule((3, 0, 0), (20, 0, 0), 10.0),)),
+        Link(f"{finger}_proximal", (Capsule((8, 0, 0), (60, 0, 0), 12.0),), SA_LINK_FITS["proximal"]),
+        Link(f"{finger}_middle", (Capsule((4, 0, 0), (26, 0, 0), 11.0),), SA_LINK_FITS["middle"]),
+        Link(f"{finger}_distal", (Capsule((3, 0, 0), (20, 0, 0), 10.0),), SA_LINK_FITS["distal"]),
     ]
 
 
@@ -144,7 +161,7 @@ def _thumb_base_joint() -> Joint:
 
 def _palm_link() -> Link:
     slabs = tuple(Capsule((-2, -45, z), (-2, 45, z), 20.0) for z in (15.0, 55.0, 95.0))
-    return Link("palm", slabs)
+    return Link("palm", slabs, SA_LINK_FITS["palm"])
 
 
 def _tip_region(finger: str) -> HandRegion:
@@ -161,7 +178,7 @@ def schunk_sa_hand() -> Hand:
         links += _phalanx_links(finger)
         joints += _finger_joints(finger, "palm", centre, (1.0, 0.0, 0.0), ref)
         fingers.append(Finger(finger, tuple(l.name for l in links[-3:])))
-    links.append(Link("thumb_base", (Capsule((10, 0, -25), (90, 4, -78), 14.0),)))
+    links.append(Link("thumb_base", (Capsule((10, 0, -25), (90, 4, -78), 14.0),), SA_LINK_FITS["thumb_base"]))
     links += _phalanx_links("thumb")
     joints.append(_thumb_base_joint())
     joints += _finger_joints("thumb", "thumb_base", THUMB_U_CENTER_MM, THUMB_U_AXIS, THUMB_U_REF)
