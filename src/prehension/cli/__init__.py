@@ -88,8 +88,12 @@ def main(argv: list[str] | None = None) -> int:
     from .tables import cmd_show, cmd_tasks
     from .view import cmd_render, cmd_view
 
+    import sys
+
+    from .args import join_negative_values
+
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(join_negative_values(list(sys.argv[1:] if argv is None else argv)))
     console = Console(highlight=False, quiet=bool(getattr(args, "quiet", False)))
     commands = {
         "tasks": cmd_tasks, "show": cmd_show, "import-cuik": cmd_import, "solve": cmd_solve,
