@@ -259,13 +259,18 @@ def _local_batch(chunk: _Chunk, todo, sequence) -> list | None:
         chunk.spent("solve", started)
         return None
     share = chunk.spent("solve", started) / len(todo)
-    return [(record, share, batch.sequence) for record in batch]
+    return [(record, share) for record in batch]
 
 
 def _verified(record, task, sequence, share: float):
     """The record as a verified result, as :func:`~prehension.solvers.local.solve_local` makes
-    it; ``sequence``: the one the local solver used (``None``: its time ran out first)."""
+    it.  A record the time limit stopped does not ask for its hand's default sequence (which
+    the local solver may not have finished drawing: drawing it here would take the time again)."""
+    from ..solvers.local import default_sequence
+
     started = time.perf_counter()
+    if sequence is None and record.time_limit_s is None:
+        sequence = default_sequence(task.hand)  # made (and kept) by the local solver's call
     origin = sequence.meta.get("origin", sequence.hand) if sequence is not None else None
     result = record.to_result(task, _local_options(), 0.0, {"sequence": origin})
     return replace(result, seconds=share + time.perf_counter() - started)
@@ -308,10 +313,10 @@ def _solve_local_first(chunk: _Chunk, todo) -> None:
             for entry, loaded, seconds in group:
                 _solve_alone(chunk, entry, loaded, seconds)
             continue
-        for (entry, loaded, seconds), (record, share, used) in zip(group, solved):
+        for (entry, loaded, seconds), (record, share) in zip(group, solved):
             started = _clock()
             try:
-                result = _verified(record, loaded.task, used, share)
+                result = _verified(record, loaded.task, sequence, share)
             except Exception as exc:
                 chunk.fail(entry, exc, seconds + share + chunk.spent("solve", started))
                 continue
