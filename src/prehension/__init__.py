@@ -16,6 +16,7 @@ from .errors import (
     InvalidObject,
     InvalidTask,
     PrehensionError,
+    SamplingError,
     WorldFileError,
 )
 
@@ -58,7 +59,7 @@ __all__ = [
     "__version__",
     # errors
     "PrehensionError", "InvalidGeometry", "DegeneratePatch", "InvalidHand", "InvalidObject",
-    "InvalidTask", "InvalidConfiguration", "WorldFileError",
+    "InvalidTask", "InvalidConfiguration", "WorldFileError", "SamplingError",
     # geometry and regions
     "BezierPatch", "Region", "BezierRegion", "SphereCap", "PointRegion",
     # hands

@@ -26,7 +26,7 @@ def solve_task(task: Task, method: str, seed: int, time_limit_s: float | None, b
 
     complete = BranchAndPruneOptions(time_limit_s=time_limit_s)
     if best is None:
-        return solve(task, method, complete_options=complete, seed=seed, sequence=sequence)
+        return solve(task, method, complete_options=complete, seed=seed, sequence=sequence, time_limit_s=time_limit_s)
     from .best import solve_best
 
     return solve_best(task, replace(best, time_limit_s=time_limit_s), method, seed=seed, complete_options=complete,

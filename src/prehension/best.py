@@ -139,7 +139,8 @@ def _local_phase(task: Task, options: BestOptions, seed: int, deadline: float | 
     starts (each met the strict tolerances in the solver's own checks): ``[(config, source)]``."""
     from .solvers.local import LocalOptions, refine_local, solve_local
 
-    first = solve_local(task, LocalOptions(), sequence, seed=seed).solutions
+    left = None if deadline is None else max(deadline - time.perf_counter(), 1e-3)
+    first = solve_local(task, LocalOptions(time_limit_s=left), sequence, seed=seed).solutions
     found = [(s.configuration(), "local solver (off-line sequence)") for s in first]
     rng = np.random.default_rng(seed)
     starts = random_starts(task, options.starts, rng)

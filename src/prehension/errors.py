@@ -13,6 +13,7 @@ __all__ = [
     "InvalidGeometry",
     "DegeneratePatch",
     "InvalidHand",
+    "SamplingError",
     "InvalidObject",
     "InvalidTask",
     "InvalidConfiguration",
@@ -34,6 +35,11 @@ class DegeneratePatch(InvalidGeometry):
 
 class InvalidHand(PrehensionError):
     """A hand model is inconsistent (unknown link, bad joint, bad coupling...)."""
+
+
+class SamplingError(InvalidHand):
+    """A random draw a hand cannot give: e.g. joint vectors free of self-collision that
+    almost never occur; the message names the hand and what was tried."""
 
 
 class InvalidObject(PrehensionError):

@@ -14,6 +14,7 @@ proves it infeasible.
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import replace
 from typing import Callable, Literal
@@ -38,8 +39,14 @@ def solve(
     resume: bool = False,
     progress: Callable[[dict], None] | None = None,
     sequence=None,
+    time_limit_s: float | None = None,
 ) -> SolveResult:
     """Solve ``task`` with the chosen method (see the module docstring).
+
+    ``time_limit_s``: the whole run's limit [s] (``None``: none but the options' own).  The
+    local solver stops at it (:attr:`LocalOptions.time_limit_s`), and the complete solver
+    gets what is left (at most its own ``time_limit_s``); when nothing is left the answer
+    is the local solver's ``gave_up``, saying so.
 
     ``sequence``: the local solver's initial poses (an
     :class:`~prehension.solvers.local.InitialPoseSequence`, e.g. from ``prehension
@@ -55,21 +62,27 @@ def solve(
     if sequence is not None:
         check_sequence(sequence, task.hand)
     started = time.perf_counter()
+    if time_limit_s is not None and not time_limit_s > 0:
+        raise PrehensionError(f"time_limit_s must be a number of seconds > 0 or None, got {time_limit_s!r}")
     if method in ("auto", "local"):
         if progress is not None:
             progress({"stage": "local solver"})
-        local = _solve_local(task, local_options, seed, sequence)
+        local = _solve_local(task, local_options, seed, sequence, time_limit_s)
         if local.success or method == "local":
             return local
     from .solvers.complete.search import BranchAndPruneOptions, solve_complete
 
-    if progress is not None:
-        progress({"stage": "complete solver"})
     if callable(complete_options):
         complete_options = complete_options()
+    complete_options = _within(complete_options or BranchAndPruneOptions(), time_limit_s, started, method == "complete")
+    if complete_options is None and method == "auto":
+        note = f"{local.message}; the time limit ({time_limit_s:g} s) was reached before the complete solver could start"
+        return replace(local, message=note, seconds=time.perf_counter() - started)
+    if progress is not None:
+        progress({"stage": "complete solver"})
     result = solve_complete(
-        task, complete_options or BranchAndPruneOptions(), executor=executor, workers=workers,
-        checkpoint=checkpoint, resume=resume, progress=progress,
+        task, complete_options, executor=executor, workers=workers, checkpoint=checkpoint, resume=resume,
+        progress=progress,
     )  # fmt: skip
     if method == "auto":
         seconds = time.perf_counter() - started
@@ -82,10 +95,27 @@ def solve(
     return result
 
 
-def _solve_local(task: Task, options, seed: int, sequence=None) -> SolveResult:
+def _solve_local(task: Task, options, seed: int, sequence=None, time_limit_s: float | None = None) -> SolveResult:
     from .solvers.local import LocalOptions, solve_local
 
-    return solve_local(task, options or LocalOptions(), sequence, seed=seed)
+    options = options or LocalOptions()
+    if time_limit_s is not None and (options.time_limit_s is None or options.time_limit_s > time_limit_s):
+        options = replace(options, time_limit_s=float(time_limit_s))
+    return solve_local(task, options, sequence, seed=seed)
+
+
+def _within(options, time_limit_s: float | None, started: float, alone: bool = False):
+    """The complete solver's options with at most the time left of ``time_limit_s``
+    (``None`` when none is left after the local solver; ``alone``: it runs anyway)."""
+    if time_limit_s is None:
+        return options
+    left = time_limit_s - (time.perf_counter() - started)
+    if left <= 0 and not alone:
+        return None
+    left = max(math.floor(left * 100) / 100, 1e-3)  # in messages: "time limit (4.21 s) reached"
+    if options.time_limit_s is not None and options.time_limit_s <= left:
+        return options
+    return replace(options, time_limit_s=left)
 
 
 def check_sequence(sequence, hand) -> None:

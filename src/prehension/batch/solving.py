@@ -48,7 +48,10 @@ class BatchOptions:
     Attributes:
         method: ``"auto"`` (local, then complete), ``"local"`` or ``"complete"``.
         seed: base seed; task ``id`` is solved with ``task_seed(seed, id)``.
-        time_limit_s: complete solver: give up on a task after this long [s].
+        time_limit_s: give up on a task after this long [s]: the local solver's call on a
+            chunk stops after this long times its tasks, and a task the local solver did not
+            solve gets what is left of its own limit for ``auto`` (its share of that call
+            deducted; nothing left: its record is the local solver's ``gave_up``).
         chunk_size: tasks per Dask task (default: see :meth:`chunk_size_for`).
         retry_gave_up: solve again the tasks whose record says ``gave_up``.
         max_tasks: solve at most this many tasks in this run (then stop; re-run to go on).
@@ -221,15 +224,17 @@ def _load(chunk: _Chunk, entries) -> list[tuple[Mapping, Any, float]]:
     return out
 
 
-def _solve_alone(chunk: _Chunk, entry, loaded, seconds: float) -> None:
+def _solve_alone(chunk: _Chunk, entry, loaded, seconds: float, time_limit_s: float | None = None) -> None:
     """One task as ``prehension solve`` (or ``solve --best N``) solves it: the complete
-    solver, ``best``, or a fallback (:func:`prehension.batch_extras.solve_task`)."""
+    solver, ``best``, or a fallback (:func:`prehension.batch_extras.solve_task`), within
+    ``time_limit_s`` (default: the batch's)."""
     from ..batch_extras import solve_task
 
     options = chunk.options
     started = _clock()
+    limit = options.time_limit_s if time_limit_s is None else time_limit_s
     try:
-        result = solve_task(loaded.task, options.method, chunk.seed(entry), options.time_limit_s, options.best,
+        result = solve_task(loaded.task, options.method, chunk.seed(entry), limit, options.best,
                             chunk.sequence(loaded.task.hand.name))  # fmt: skip
     except Exception as exc:
         chunk.fail(entry, exc, seconds + chunk.spent("solve", started))
@@ -245,7 +250,10 @@ def _local_batch(chunk: _Chunk, todo, sequence) -> list | None:
 
     started = _clock()
     try:
-        batch = solve_local_batch([loaded.task for _, loaded, _ in todo], _local_options(), sequence,
+        options = _local_options()
+        if chunk.options.time_limit_s is not None:
+            options = replace(options, time_limit_s=chunk.options.time_limit_s * len(todo))
+        batch = solve_local_batch([loaded.task for _, loaded, _ in todo], options, sequence,
                                   [chunk.seed(entry) for entry, _, _ in todo])  # fmt: skip
     except Exception:
         chunk.spent("solve", started)
@@ -255,12 +263,16 @@ def _local_batch(chunk: _Chunk, todo, sequence) -> list | None:
 
 
 def _verified(record, task, sequence, share: float):
-    """The record as a verified result, as :func:`~prehension.solvers.local.solve_local` makes it."""
+    """The record as a verified result, as :func:`~prehension.solvers.local.solve_local` makes
+    it.  A record the time limit stopped does not ask for its hand's default sequence (which
+    the local solver may not have finished drawing: drawing it here would take the time again)."""
     from ..solvers.local import default_sequence
 
     started = time.perf_counter()
-    sequence = sequence if sequence is not None else default_sequence(task.hand)
-    result = record.to_result(task, _local_options(), 0.0, {"sequence": sequence.meta.get("origin", sequence.hand)})
+    if sequence is None and record.time_limit_s is None:
+        sequence = default_sequence(task.hand)  # made (and kept) by the local solver's call
+    origin = sequence.meta.get("origin", sequence.hand) if sequence is not None else None
+    result = record.to_result(task, _local_options(), 0.0, {"sequence": origin})
     return replace(result, seconds=share + time.perf_counter() - started)
 
 
@@ -309,8 +321,9 @@ def _solve_local_first(chunk: _Chunk, todo) -> None:
                 chunk.fail(entry, exc, seconds + share + chunk.spent("solve", started))
                 continue
             spent = seconds + share + chunk.spent("solve", started)
-            if chunk.options.method == "auto" and not result.success:
-                _solve_alone(chunk, entry, loaded, spent)  # solve(auto) runs the local solver first: same answer
+            left = None if chunk.options.time_limit_s is None else chunk.options.time_limit_s - share
+            if chunk.options.method == "auto" and not result.success and (left is None or left > 0):
+                _solve_alone(chunk, entry, loaded, spent, left)  # solve(auto) runs the local solver first: same answer
             else:
                 chunk.add(entry, loaded, result, spent)
 

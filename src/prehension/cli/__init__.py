@@ -13,6 +13,7 @@ from pathlib import Path
 from rich.console import Console
 from rich.markup import escape
 
+from ..deadline import TimeLimitReached
 from ..errors import PrehensionError
 from . import batch, check, hands, offline, region, simulate, solve, view
 from .codes import EXIT_APPROXIMATE, EXIT_BAD_INPUT, EXIT_CHECK_FAILED, EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK
@@ -87,8 +88,12 @@ def main(argv: list[str] | None = None) -> int:
     from .tables import cmd_show, cmd_tasks
     from .view import cmd_render, cmd_view
 
+    import sys
+
+    from .args import join_negative_values
+
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(join_negative_values(list(sys.argv[1:] if argv is None else argv)))
     console = Console(highlight=False, quiet=bool(getattr(args, "quiet", False)))
     commands = {
         "tasks": cmd_tasks, "show": cmd_show, "import-cuik": cmd_import, "solve": cmd_solve,
@@ -104,6 +109,9 @@ def main(argv: list[str] | None = None) -> int:
     except PrehensionError as exc:
         Console(stderr=True, highlight=False).print(f"[bold red]error:[/] {escape(str(exc))}", markup=True, soft_wrap=True)
         return EXIT_BAD_INPUT
+    except TimeLimitReached as exc:  # a command that can save part of its work says so itself
+        Console(stderr=True, highlight=False).print(f"gave up: {exc}; nothing was written", markup=False, soft_wrap=True)
+        return EXIT_GAVE_UP
     except KeyboardInterrupt:  # what a command saves on Ctrl-C it has saved; say so in one line
         Console(stderr=True, highlight=False).print("interrupted (Ctrl-C); nothing more was written", soft_wrap=True)
         return EXIT_GAVE_UP

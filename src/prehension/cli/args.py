@@ -5,8 +5,9 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 
-__all__ = ["seed", "seconds", "finite", "positive_int", "time_limit", "DEFAULT_TIME_LIMIT_S"]
+__all__ = ["seed", "seconds", "finite", "positive", "positive_int", "time_limit", "DEFAULT_TIME_LIMIT_S", "join_negative_values"]
 
 DEFAULT_TIME_LIMIT_S = 300.0  # prehension solve: every run is bounded unless asked otherwise
 
@@ -24,6 +25,32 @@ def _number(text: str) -> float:
 def finite(text: str) -> float:
     """Any finite number (``4e1`` and ``40`` alike; not nan or inf)."""
     return _number(text)
+
+
+def positive(text: str) -> float:
+    """A finite number > 0 (a length such as ``--radius``)."""
+    value = _number(text)
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"must be a number > 0, got {text!r}")
+    return value
+
+
+_NUMBER_LIST = re.compile(r"^-[0-9.][0-9eE.+\-]*(,\s*[-+]?[0-9.][0-9eE.+\-]*)*$")
+
+
+def join_negative_values(argv: list[str], options: tuple[str, ...] = ("--at",)) -> list[str]:
+    """``--at -30,0,0`` as ``--at=-30,0,0``: argparse would read a value that starts with a
+    minus sign and holds commas as an option."""
+    out: list[str] = []
+    i = 0
+    while i < len(argv):
+        if argv[i] in options and i + 1 < len(argv) and _NUMBER_LIST.match(argv[i + 1]):
+            out.append(f"{argv[i]}={argv[i + 1]}")
+            i += 2
+            continue
+        out.append(argv[i])
+        i += 1
+    return out
 
 
 def seconds(text: str) -> float:

@@ -39,7 +39,7 @@ def add_parser(sub) -> None:
     where.add_argument("--workers", type=types.positive_int, help="size of the local cluster (processes; default: the cores)")
     p.add_argument("--seed", type=types.seed, default=0, help="base seed; each task's seed is derived from it and its id")
     p.add_argument("--time-limit", type=types.seconds, default=types.DEFAULT_TIME_LIMIT_S, metavar="SECONDS",
-                   help=f"complete solver: give up on a task after this long (default {types.DEFAULT_TIME_LIMIT_S:g} s; 0: no limit)")  # fmt: skip
+                   help=f"give up on a task after this long (default {types.DEFAULT_TIME_LIMIT_S:g} s; 0: no limit)")  # fmt: skip
     p.add_argument("--chunk-size", type=types.positive_int, default=None,
                    help="tasks per Dask task (default: local up to 64, four chunks per worker at least; 1 otherwise)")
     p.add_argument("--self-contained", action="store_true",

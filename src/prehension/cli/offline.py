@@ -19,7 +19,7 @@ from rich.table import Table
 
 from ..errors import PrehensionError
 from . import args as types
-from .codes import EXIT_OK
+from .codes import EXIT_GAVE_UP, EXIT_OK
 
 __all__ = ["add_parser", "cmd_offline", "cli_offline", "fingertip_regions"]
 
@@ -38,18 +38,21 @@ def add_parser(sub) -> None:
     where.add_argument("--scheduler", metavar="ADDR", help="a running Dask scheduler, e.g. tcp://host:8786")
     where.add_argument("--workers", type=types.positive_int, default=None, help="local cluster of N processes (default: run inline)")
     off.add_argument("--seed", type=types.seed, default=0, help="random seed (an integer >= 0)")
+    off.add_argument("--time-limit", type=types.seconds, default=0.0, metavar="SECONDS",
+                     help="stop after this long (default 0: no limit); the poses found by then are written, "
+                          "exit code 4")  # fmt: skip
     off.add_argument("--force", action="store_true", help="overwrite the output file if it exists")
 
 
 def cmd_offline(args, console: Console) -> int:
     regions = tuple(r.strip() for r in args.regions.split(",") if r.strip()) if args.regions else None
-    cli_offline(args.hand, args.output, M=args.M, N=args.N, imax=args.imax, workers=args.workers,
-                scheduler=args.scheduler, seed=args.seed, force=args.force, console=console,
-                regions=regions)  # fmt: skip
-    return EXIT_OK
+    seq = cli_offline(args.hand, args.output, M=args.M, N=args.N, imax=args.imax, workers=args.workers,
+                      scheduler=args.scheduler, seed=args.seed, force=args.force, console=console,
+                      regions=regions, time_limit_s=types.time_limit(args.time_limit, "--time-limit"))  # fmt: skip
+    return EXIT_GAVE_UP if seq.meta.get("stopped") else EXIT_OK
 
 
-def _search(hand, regions, M, N, imax, seed, executor, console: Console):
+def _search(hand, regions, M, N, imax, seed, executor, console: Console, time_limit_s=None):
     from ..solvers.local.offline import offline_sequence
 
     with Progress(
@@ -61,7 +64,7 @@ def _search(hand, regions, M, N, imax, seed, executor, console: Console):
         def progress(done, total, message):
             bar.update(task_id, completed=done, total=total, description=f"off-line search, {message}")
 
-        return offline_sequence(hand, M, N, imax, executor, progress, seed, hand_regions=regions)
+        return offline_sequence(hand, M, N, imax, executor, progress, seed, hand_regions=regions, time_limit_s=time_limit_s)
 
 
 def _table(seq, M: int, N: int) -> Table:
@@ -114,10 +117,14 @@ def fingertip_regions(hand) -> tuple[str, ...]:
 
 def cli_offline(hand_name: str, output, *, M: int = 5000, N: int = 30, imax: int = 12, workers: int | None = None,
                 scheduler: str | None = None, seed: int = 0, force: bool = False, console=None,
-                regions: tuple[str, ...] | None = None):  # fmt: skip
+                regions: tuple[str, ...] | None = None, time_limit_s: float | None = None):  # fmt: skip
     """What ``prehension offline HAND`` does: search with a rich progress bar (on a Dask
     cluster when ``scheduler`` or ``workers > 1``), write the file, print the sequence
-    (beside the paper's Table 1 for the SA hand).  Returns the :class:`InitialPoseSequence`."""
+    (beside the paper's Table 1 for the SA hand).  Returns the :class:`InitialPoseSequence`.
+
+    With ``time_limit_s`` the search stops at it: the poses found by then are written (the
+    sequence's ``meta["stopped"]`` says so); none found raises
+    :class:`~prehension.deadline.TimeLimitReached` and writes nothing."""
     from ..parallel import executor_for
     from ..tasks.format.hand_files import resolve_hand
     from .hands import print_hand_warnings
@@ -135,8 +142,11 @@ def cli_offline(hand_name: str, output, *, M: int = 5000, N: int = 30, imax: int
     for r in regions:
         hand.region(r)  # an unknown name: an error listing the hand's regions
     with executor_for(scheduler, workers) as executor:
-        seq = _search(hand, regions, M, N, imax, seed, executor, console)
+        seq = _search(hand, regions, M, N, imax, seed, executor, console, time_limit_s)
     seq.save(output)
     console.print(_table(seq, M, N))
     console.print(f"wrote {output} ({seq.meta['seconds']:.0f} s)")
+    if seq.meta.get("stopped"):
+        Console(stderr=True, highlight=False).print(f"gave up: {seq.meta['stopped']}; the poses found are written",
+                                                     soft_wrap=True, markup=False)  # fmt: skip
     return seq

@@ -7,6 +7,7 @@ from pathlib import Path
 from rich.console import Console
 
 from ..errors import PrehensionError
+from . import args as types
 from .codes import EXIT_OK
 
 
@@ -16,8 +17,11 @@ def add_parser(sub) -> None:
         "region", help="fit a contact region (Bézier patch or point) to a mesh and print it for a task file"
     )
     p.add_argument("mesh", type=Path, help="mesh file (OBJ, STL, PLY, OFF, GLB)")
-    p.add_argument("--at", required=True, metavar="X,Y,Z", help="a point on (or near) the surface, mm in the object frame (after --scale)")
-    p.add_argument("--radius", type=float, metavar="MM", help="fit the surface within this distance of the point [mm] (not with --point)")
+    p.add_argument("--at", required=True, metavar="X,Y,Z",
+                   help="a point on (or near) the surface, mm in the object frame (after --scale); negative values "
+                        "work as they are: --at -30,0,0")  # fmt: skip
+    p.add_argument("--radius", type=types.positive, metavar="MM",
+                   help="fit the surface within this distance of the point [mm] (> 0; not with --point)")  # fmt: skip
     p.add_argument("--degree", type=int, default=2, help="patch degree in u and v, 1..6 (default 2)")
     p.add_argument("--point", action="store_true", help="a point-with-normal region at the surface point instead of a patch")
     units = p.add_mutually_exclusive_group()

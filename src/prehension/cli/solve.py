@@ -182,7 +182,7 @@ def cmd_solve(args, console: Console) -> int:
                 result = solve(
                     task, args.method, complete_options=complete_options, local_options=_local_options(args), seed=args.seed,
                     executor=executor, workers=workers, checkpoint=args.checkpoint, resume=args.resume, progress=update,
-                    sequence=sequence,
+                    sequence=sequence, time_limit_s=time_limit_s,
                 )  # fmt: skip
     backup = _keep_previous(path)
     write_result(result, path, quality)

@@ -37,6 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..deadline import current_deadline, passed
 from ..geometry.rotations import axis_angle_to_matrix
 from .model import Hand, Joint
 
@@ -141,15 +142,17 @@ def max_point_distance(
     *,
     tol_mm: float = 1.0,
     max_boxes: int = 200_000,
+    deadline: float | None = None,
 ) -> SpanBound:
     """A proven upper bound on ``max_q |p_a(q) - p_b(q)|`` over the joint limits.
 
     ``p_a`` is the point ``point_a_mm`` fixed in link ``link_a``; ``p_b`` likewise, or the
     palm origin when ``link_b`` is None.  The bound is within ``tol_mm`` of the maximum
-    unless ``max_boxes`` runs out first (then it is looser, never invalid).
+    unless ``max_boxes`` runs out or ``deadline`` (a :func:`time.perf_counter` instant)
+    passes first (then it is looser, never invalid).
     """
     pair = pair_kinematics(hand, link_a, point_a_mm, link_b, point_b_mm)
-    return _branch_and_bound(pair.problem, pair.difference, tol_mm, max_boxes)
+    return _branch_and_bound(pair.problem, pair.difference, tol_mm, max_boxes, deadline=deadline)
 
 
 @dataclass(frozen=True, eq=False)
@@ -266,7 +269,8 @@ def _chain_point(joints, offsets, point: np.ndarray, q: np.ndarray, n: int):
     return p, J, R, W
 
 
-def _branch_and_bound(problem: _Problem, difference, tol_mm: float, max_boxes: int, batch: int = 256) -> SpanBound:
+def _branch_and_bound(problem: _Problem, difference, tol_mm: float, max_boxes: int, batch: int = 256,
+                      deadline: float | None = None) -> SpanBound:  # fmt: skip
     if problem.sources.size == 0:
         d = float(np.linalg.norm(difference(np.zeros((1, 0)))[0][0]))
         return SpanBound(d * (1 + _ROUNDING) + _ROUNDING, d, 1)
@@ -285,6 +289,10 @@ def _branch_and_bound(problem: _Problem, difference, tol_mm: float, max_boxes: i
         while heap and len(take) < batch and -heap[0][0] > best + tol_mm and boxes < max_boxes:
             take.append(heapq.heappop(heap))
         if not take:
+            break
+        if passed(deadline):  # out of time: the open boxes' bounds still hold (looser, never invalid)
+            heap.extend(take)
+            heapq.heapify(heap)
             break
         lo, hi = _split(problem, *(np.array([t[i] for t in take]) for i in (2, 3, 4)))
         if boxes + len(lo) > max_boxes:  # out of budget: these boxes still count
@@ -338,12 +346,20 @@ def _fingerprint(hand: Hand) -> str:
 
 def span_bound_mm(hand: Hand, link_a: str, point_a_mm, link_b: str | None = None, point_b_mm=None,
                   *, tol_mm: float = 1.0, max_boxes: int = 60_000) -> float:  # fmt: skip
-    """:attr:`SpanBound.upper_mm` of :func:`max_point_distance`, remembered per hand and points."""
+    """:attr:`SpanBound.upper_mm` of :func:`max_point_distance`, remembered per hand and points.
+
+    The search stops at the :func:`~prehension.deadline.current_deadline` (the complete
+    solver's time limit): the looser bound it then returns is not remembered, so a later
+    call with more time gets the tight one."""
     pa = tuple(float(v) for v in np.asarray(point_a_mm, dtype=float))
     pb = None if point_b_mm is None else tuple(float(v) for v in np.asarray(point_b_mm, dtype=float))
     key = (_fingerprint(hand), link_a, pa, link_b, pb, float(tol_mm), int(max_boxes))
-    if key not in _CACHE:
+    if key in _CACHE:
+        return _CACHE[key]
+    deadline = current_deadline()
+    upper = max_point_distance(hand, link_a, pa, link_b, pb, tol_mm=tol_mm, max_boxes=max_boxes, deadline=deadline).upper_mm
+    if not passed(deadline):
         if len(_CACHE) >= _CACHE_SIZE:
             _CACHE.clear()
-        _CACHE[key] = max_point_distance(hand, link_a, pa, link_b, pb, tol_mm=tol_mm, max_boxes=max_boxes).upper_mm
-    return _CACHE[key]
+        _CACHE[key] = upper
+    return upper

@@ -35,6 +35,8 @@ import highspy
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
+from ..lp import quiet_highs
+
 __all__ = ["ClosureTest", "force_closure", "hull_measures", "CLOSURE_TOLERANCE"]
 
 CLOSURE_TOLERANCE = 1e-9  # smallest LP margin t* (a weight) that counts as force closure
@@ -95,8 +97,7 @@ def _positive_combination_margin(W: np.ndarray) -> float:
     lp.a_matrix_.start_ = start
     lp.a_matrix_.index_ = index
     lp.a_matrix_.value_ = value
-    h = highspy.Highs()
-    h.setOptionValue("output_flag", False)
+    h = quiet_highs()
     h.setOptionValue("presolve", "off")  # see the module docstring: twice as fast on this tiny LP
     h.passModel(lp)
     h.run()

@@ -34,6 +34,7 @@ from typing import Callable, Literal
 
 import numpy as np
 
+from ...deadline import deadline_after, scope
 from ...errors import PrehensionError
 from ...results import Solution, SolveResult, Status, make_solution
 from ...tasks.model import Task
@@ -186,6 +187,9 @@ def process_box(form: Formulation, lower, upper, depth: int, options: BranchAndP
     solution set (``all_solutions``), boxes are split down to ``sigma`` and only those
     leaves are verified, by a solution that lies in the leaf itself, so that each
     solution box reports its own solution.
+
+    ``options.time_limit_s`` is, here, the time the search has left (:func:`_box_options`):
+    no LP of the box starts after it (the box is then shrunk less, which is safe).
     """
     lower, upper, empty = contract(form.system, lower, upper, tol=options.shrink.contract_tol,
                                    max_iter=options.shrink.contract_max_iter)  # fmt: skip
@@ -201,7 +205,7 @@ def process_box(form: Formulation, lower, upper, depth: int, options: BranchAndP
         if solution is not None:
             return BoxOutcome("solution", lower, upper, depth, 0, solution, best=best)
     shrink_options = replace(options.shrink, variables=tuple(form.base_indices.tolist()))
-    shrunk = shrink_box(form.system, lower, upper, shrink_options)
+    shrunk = shrink_box(form.system, lower, upper, shrink_options, deadline=deadline_after(options.time_limit_s))
     if shrunk.empty:
         return BoxOutcome("empty", shrunk.lower, shrunk.upper, depth, shrunk.n_lps, best=best)
     lo, hi = shrunk.lower, shrunk.upper
@@ -310,7 +314,8 @@ def solve_complete(
             ``"pair test"`` when the pair test starts (it can take a minute).
     """
     started = time.perf_counter()
-    form = build_system(task)
+    with scope(deadline_after(options.time_limit_s, started)):  # the hand's span bounds stop at it
+        form = build_system(task)
     fingerprint = search_fingerprint(form, options) if checkpoint is not None else {}
     if resume:
         state = load_state(form, options, checkpoint)
@@ -366,9 +371,9 @@ def _run(form, state, options, executor, workers, started, progress) -> str:
                 return reason
             entry = state.open[-1]
             if executor is None:
-                outcome = process_box(form, *entry, options)
+                outcome = process_box(form, *entry, _box_options(options, started))
             else:
-                _submit_ahead(form, state, options, executor, workers, ahead)
+                _submit_ahead(form, state, _box_options(options, started), executor, workers, ahead)
                 outcome = ahead.pop(id(entry)).result()
             state.open.pop()
             _record(state, outcome, options)
@@ -379,6 +384,13 @@ def _run(form, state, options, executor, workers, started, progress) -> str:
     finally:
         for future in ahead.values():
             future.cancel()
+
+
+def _box_options(options: BranchAndPruneOptions, started: float) -> BranchAndPruneOptions:
+    """The options a box is processed with: ``time_limit_s`` is what the search has left."""
+    if options.time_limit_s is None:
+        return options
+    return replace(options, time_limit_s=max(options.time_limit_s - (time.perf_counter() - started), 1e-3))
 
 
 def _pair_test(form: Formulation, state: SearchState, options: BranchAndPruneOptions, started: float,

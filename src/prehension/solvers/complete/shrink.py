@@ -80,6 +80,8 @@ import highspy
 import numpy as np
 import scipy.sparse as sp
 
+from ...deadline import passed
+from ...lp import quiet_highs
 from .contract import contract
 from .relaxations import EPS, TINY, down, relaxation_rows, up
 from ...system.canonical import System
@@ -268,8 +270,7 @@ class _BoxLP:
         self.point: np.ndarray | None = None  # x of the last Optimal LP (approximate)
 
     def _build(self, a, row_lo, row_hi, col_lo, col_hi):
-        h = highspy.Highs()
-        h.setOptionValue("output_flag", False)
+        h = quiet_highs()
         h.setOptionValue("presolve", "off")
         h.setOptionValue("simplex_strategy", 4)  # primal: the basis stays feasible when the cost changes
         h.setOptionValue("simplex_iteration_limit", int(self.options.lp_iteration_limit))
@@ -368,10 +369,12 @@ class _Counters:
     n_failed: int = 0
     n_skipped: int = 0
     unverified: bool = False
+    out_of_time: bool = False
 
 
-def _lp_pass(system: System, lower, upper, options: ShrinkOptions, cnt: _Counters) -> str:
-    """One LP pass in place; returns ``""`` or the reason of emptiness."""
+def _lp_pass(system: System, lower, upper, options: ShrinkOptions, cnt: _Counters, deadline: float | None = None) -> str:
+    """One LP pass in place; returns ``""`` or the reason of emptiness.  Stops early (the box
+    shrunk so far, which is safe) once ``deadline`` passes (``cnt.out_of_time``)."""
     g_rel, h_rel = relaxation_rows(system, lower, upper, midpoint_tangent=options.midpoint_tangent)
     M = sp.vstack([system.A, system.G, g_rel]).tocsr()
     row_lo = np.concatenate([system.b, np.full(len(system.h) + len(h_rel), -np.inf)])
@@ -382,6 +385,9 @@ def _lp_pass(system: System, lower, upper, options: ShrinkOptions, cnt: _Counter
     touched = {1.0: np.zeros(system.n, dtype=bool), -1.0: np.zeros(system.n, dtype=bool)}
     for i in order[~lp.thin[order]]:
         for sense in (1.0, -1.0):
+            if passed(deadline):
+                cnt.out_of_time = True
+                return ""
             if upper[i] - lower[i] <= options.min_width:
                 break
             if touched[sense][i]:
@@ -411,13 +417,16 @@ def _lp_pass(system: System, lower, upper, options: ShrinkOptions, cnt: _Counter
     return ""
 
 
-def shrink_box(system: System, lower, upper, options: ShrinkOptions | None = None) -> ShrinkResult:
+def shrink_box(system: System, lower, upper, options: ShrinkOptions | None = None, *,
+               deadline: float | None = None) -> ShrinkResult:  # fmt: skip
     """Shrink ``[lower, upper]`` around the solutions of ``system`` (never losing one).
 
     Args:
         system: The canonical system of eq. 29.
         lower, upper: The box ``(n,)``, finite, inside ``system``'s initial box.
         options: :class:`ShrinkOptions` (defaults when ``None``).
+        deadline: no LP is started after this :func:`time.perf_counter` instant: the box
+            is returned as shrunk so far (still holding every solution).
 
     Returns:
         :class:`ShrinkResult`.  See the module docstring for the safety rule.
@@ -447,10 +456,10 @@ def shrink_box(system: System, lower, upper, options: ShrinkOptions | None = Non
             if empty:
                 return result(True, "contraction")
         cnt.n_passes += 1
-        reason = _lp_pass(system, lower, upper, options, cnt)
+        reason = _lp_pass(system, lower, upper, options, cnt, deadline)
         if reason:
             return result(True, reason)
         size_after = _box_size(lower, upper, ref, options.size)
-        if cnt.unverified or size_before == 0 or size_after >= options.rho * size_before:
+        if cnt.unverified or cnt.out_of_time or size_before == 0 or size_after >= options.rho * size_before:
             break
     return result(False)

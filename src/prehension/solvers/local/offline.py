@@ -17,6 +17,11 @@ message)`` is called after each chunk, for a progress bar; the command line is
 :mod:`prehension.cli.offline`.  The problems are the
 paper's: four fingertip contacts, points with normals, made by forward kinematics
 (:func:`.problems.random_point_problems`).
+
+With ``time_limit_s`` every step stops at the deadline (the problems' drawing, the grid's
+chunks, each grid point of a chunk): the sequence of the steps finished by then is
+returned, ``meta["stopped"]`` saying why; none finished is
+:class:`~prehension.deadline.TimeLimitReached`.
 """
 
 from __future__ import annotations
@@ -28,6 +33,7 @@ from typing import Callable
 
 import numpy as np
 
+from ...deadline import TimeLimitReached, check_deadline, deadline_after, seconds_left
 from ...errors import PrehensionError
 from ...hands.model import Hand
 from .options import LocalOptions
@@ -83,7 +89,9 @@ def _evaluate_chunk(payload) -> np.ndarray:
     base = InitialPoseSequence.from_dict(payload["sequence"])
     options = replace(payload["options"], i_max=1, initial="sequence")
     counts = np.zeros(len(payload["lambdas"]), dtype=np.int64)
+    deadline = deadline_after(payload.get("seconds_left"))  # measured from the chunk's start
     for g, lam in enumerate(payload["lambdas"]):
+        check_deadline(deadline, "off-line search")
         batch = solve_local_batch(problems, options, base.with_lambdas([lam]))
         counts[g] = int(batch.solved_after[0])
     return counts
@@ -95,7 +103,7 @@ def _executor_workers(executor: Executor) -> int:
     return max(int(workers), 1)
 
 
-def _unsolved_problems(hand, regions, M, base, lambdas, options, rng, max_candidates):
+def _unsolved_problems(hand, regions, M, base, lambdas, options, rng, max_candidates, deadline=None):
     """``M`` random problems that the poses ``lambdas`` do not solve, and the fraction unsolved."""
     from .solver import solve_local_batch
 
@@ -108,10 +116,12 @@ def _unsolved_problems(hand, regions, M, base, lambdas, options, rng, max_candid
                 f"off-line search: fewer than {M} of {n_tried} random problems are left unsolved by "
                 f"{len(lambdas)} initial poses; use a smaller M or a smaller i_max"
             )
-        cand = random_point_problems(batch_size, hand, regions, rng)
+        cand = random_point_problems(batch_size, hand, regions, rng, deadline=deadline)
         n_tried += batch_size
         if lambdas:
-            batch = solve_local_batch(cand, replace(options, i_max=len(lambdas), initial="sequence"), base.with_lambdas(lambdas))
+            run = replace(options, i_max=len(lambdas), initial="sequence", time_limit_s=_left(deadline))
+            batch = solve_local_batch(cand, run, base.with_lambdas(lambdas))
+            check_deadline(deadline, "off-line search")  # a batch cut short says nothing about what it left unsolved
             cand = cand.subset(np.flatnonzero(~batch.success))
         kept_p.append(cand.points)
         kept_n.append(cand.normals)
@@ -122,6 +132,12 @@ def _unsolved_problems(hand, regions, M, base, lambdas, options, rng, max_candid
     points = np.concatenate(kept_p)[:M]
     normals = np.concatenate(kept_n)[:M]
     return points, normals, n_kept / n_tried if lambdas else 1.0
+
+
+def _left(deadline: float | None) -> float | None:
+    """Seconds left until ``deadline`` (at least a millisecond), ``None`` without one."""
+    left = seconds_left(deadline)
+    return None if left is None else max(left, 1e-3)
 
 
 def offline_sequence(
@@ -138,6 +154,7 @@ def offline_sequence(
     hand_regions=SA_FOUR_TIPS,
     chunks_per_step: int | None = None,
     max_candidates: int = 2_000_000,
+    time_limit_s: float | None = None,
 ) -> InitialPoseSequence:
     """Search a sequence of ``imax`` initial poses (sec. 3.2); see the module docstring.
 
@@ -154,6 +171,7 @@ def offline_sequence(
         hand_regions: the contacts of the random problems.
         chunks_per_step: chunks the grid is split into (default: ``4 x`` the executor's
             workers, or 1 inline); the answer does not depend on it.
+        time_limit_s: stop after this long [s] (see the module docstring).
 
     Returns:
         An :class:`InitialPoseSequence` with the lambdas, the success grid of every step
@@ -165,9 +183,10 @@ def offline_sequence(
         if not isinstance(v, (int, np.integer)) or v < lo:
             raise PrehensionError(f"offline_sequence: {name} must be an integer >= {lo}, got {v!r}")
     t0 = time.perf_counter()
+    deadline = deadline_after(time_limit_s, t0)
     hand = schunk_sa_hand() if hand is None else hand
     rng = np.random.default_rng(seed)
-    names, samples = sample_poses(hand, n_samples, rng)
+    names, samples = sample_poses(hand, n_samples, rng, deadline=deadline)
     mean, comps, sig = principal_directions(samples)
     base = InitialPoseSequence(hand.name, names, mean, comps, sig, np.zeros((0, 2)))
     values = grid_values(N)
@@ -180,31 +199,30 @@ def offline_sequence(
     spec = _hand_spec(hand)
     lambdas: list = []
     tables, rates, unsolved_frac = [], [], []
-    for i in range(imax):
-        points, normals, frac = _unsolved_problems(
-            hand, tuple(hand_regions), M, base, lambdas, options, rng, max_candidates
-        )
-        unsolved_frac.append(frac)
-        payload_base = {
-            "hand": spec, "regions": tuple(hand_regions), "points": points, "normals": normals,
-            "sequence": base.to_dict(), "options": options,
-        }  # fmt: skip
-        counts = np.zeros(len(grid), dtype=np.int64)
-        if executor is None:
-            for idx in chunks:
-                counts[idx] = _evaluate_chunk({**payload_base, "lambdas": grid[idx]})
-                done += 1
-                if progress:
-                    progress(done, total, f"pose {i + 1}/{imax}")
-        else:
-            futures = {executor.submit(_evaluate_chunk, {**payload_base, "lambdas": grid[idx]}): idx for idx in chunks}
-            from concurrent.futures import as_completed
+    stopped = ""
 
-            for fut in as_completed(futures):
-                counts[futures[fut]] = fut.result()
-                done += 1
-                if progress:
-                    progress(done, total, f"pose {i + 1}/{imax}")
+    def tick(message: str) -> None:
+        nonlocal done
+        done += 1
+        if progress:
+            progress(done, total, message)
+
+    for i in range(imax):
+        try:
+            points, normals, frac = _unsolved_problems(
+                hand, tuple(hand_regions), M, base, lambdas, options, rng, max_candidates, deadline
+            )
+            payload_base = {
+                "hand": spec, "regions": tuple(hand_regions), "points": points, "normals": normals,
+                "sequence": base.to_dict(), "options": options, "seconds_left": _left(deadline),
+            }  # fmt: skip
+            counts = _step_counts(executor, chunks, grid, payload_base, deadline, lambda: tick(f"pose {i + 1}/{imax}"))
+        except TimeLimitReached:
+            if not lambdas:
+                raise TimeLimitReached(f"off-line search of hand {hand.name!r} (no pose found in {time_limit_s:g} s)") from None
+            stopped = f"time limit ({time_limit_s:g} s) reached after {len(lambdas)} of {imax} poses"
+            break
+        unsolved_frac.append(frac)
         best = int(np.argmax(counts))
         lambdas.append(grid[best].tolist())
         tables.append((counts / M).reshape(N, N))
@@ -222,7 +240,37 @@ def offline_sequence(
         "estimated_cumulative_success": cumulative,
         "options": {k: v for k, v in asdict(options).items() if k != "tolerances"},
     }  # fmt: skip
+    if stopped:
+        meta["stopped"] = stopped
     return base.with_lambdas(np.array(lambdas), tables, **meta)
+
+
+def _step_counts(executor: Executor | None, chunks, grid: np.ndarray, payload_base: dict, deadline,
+                 tick: Callable[[], None]) -> np.ndarray:  # fmt: skip
+    """Problems solved by each grid point's single pose: the chunks inline or on ``executor``,
+    ``tick()`` after each (:class:`TimeLimitReached` at ``deadline``: the chunks still
+    queued are cancelled)."""
+    counts = np.zeros(len(grid), dtype=np.int64)
+    if executor is None:
+        for idx in chunks:
+            check_deadline(deadline, "off-line search")
+            counts[idx] = _evaluate_chunk({**payload_base, "lambdas": grid[idx]})
+            tick()
+        return counts
+    from concurrent.futures import as_completed
+    from concurrent.futures import TimeoutError as FuturesTimeout
+
+    futures = {executor.submit(_evaluate_chunk, {**payload_base, "lambdas": grid[idx]}): idx for idx in chunks}
+    try:
+        for fut in as_completed(futures, timeout=_left(deadline)):
+            counts[futures[fut]] = fut.result()
+            tick()
+    except FuturesTimeout:
+        raise TimeLimitReached("off-line search") from None
+    finally:
+        for fut in futures:
+            fut.cancel()
+    return counts
 
 
 def compare_with_paper(sequence: InitialPoseSequence) -> list[tuple[int, tuple | None, tuple | None]]:

@@ -109,6 +109,10 @@ class LocalOptions:
         tolerances: acceptance tolerances when the strict ones are not met
             (default: derived from ``d_min_mm``, see :attr:`acceptance`).
         cap_margin_rad: sphere-cap parameters are kept this far inside the cone.
+        time_limit_s: stop after this long [s] (``None``: no limit): no new initial pose
+            is started and no more random poses are drawn once it has passed; the
+            problems not solved by then get ``"gave_up"`` with a message that says so.
+            One call's limit, shared by every problem of a batch.
     """
 
     i_max: int = 64
@@ -134,6 +138,7 @@ class LocalOptions:
     collision_margin_mm: float = 0.5
     tolerances: Tolerances | None = field(default=None)
     cap_margin_rad: float = 1e-9
+    time_limit_s: float | None = None
 
     def __post_init__(self):
         def need(cond, msg):
@@ -167,6 +172,9 @@ class LocalOptions:
             v = getattr(self, name)
             need(isinstance(v, (bool, np.bool_)), f"{name} must be True or False, got {v!r}")
         need(self.tolerances is None or isinstance(self.tolerances, Tolerances), "tolerances must be a Tolerances or None")
+        limit = self.time_limit_s
+        need(limit is None or (isinstance(limit, (int, float, np.number)) and not isinstance(limit, bool) and limit > 0
+                               and math.isfinite(limit)), f"time_limit_s must be a number of seconds > 0 or None, got {limit!r}")
 
     @property
     def normal_tolerance_deg(self) -> float:

@@ -22,7 +22,8 @@ from typing import Mapping
 
 import numpy as np
 
-from ...errors import InvalidTask
+from ...deadline import check_deadline
+from ...errors import InvalidTask, SamplingError
 from ...frozen import cached_per_value
 from ...geometry.regions import BezierRegion, PointRegion, SphereCap
 from ...hands.collision import max_penetration
@@ -122,17 +123,45 @@ def _active_mask(hand: Hand, fingers) -> np.ndarray:
     return hand.active_dofs(fingers)  # as Task.active_mask: closed under couplings
 
 
-def random_params(region, rng, n: int) -> np.ndarray:
-    """``n`` random parameter vectors inside a region's domain (caps: inside the cone)."""
+SAMPLING_TRIAL = 10_000  # draws after which an acceptance rate below 1% ends a rejection sampler
+
+
+def sampling_cap(n: int) -> int:
+    """Candidates a rejection sampler draws at most for ``n`` accepted ones: 1000 + 100 n
+    (an acceptance rate below about 1% is refused rather than waited for)."""
+    return 1000 + 100 * int(n)
+
+
+def _hopeless(drawn: int, accepted: int, cap: int) -> bool:
+    """Whether a rejection sampler should stop: its cap is reached, or after
+    :data:`SAMPLING_TRIAL` draws fewer than 1% of them were accepted."""
+    return drawn >= cap or (drawn >= SAMPLING_TRIAL and 100 * accepted < drawn)
+
+
+def random_params(region, rng, n: int, *, deadline: float | None = None) -> np.ndarray:
+    """``n`` random parameter vectors inside a region's domain (caps: inside the cone),
+    drawn by rejection from the parameter box: at most :func:`sampling_cap` draws and
+    until ``deadline`` (:class:`~prehension.deadline.TimeLimitReached`).
+
+    Raises:
+        SamplingError: the domain takes too few of the box's draws (a degenerate region).
+    """
     k = region.n_params
     if k == 0:
         return np.zeros((n, 0))
     if isinstance(region, BezierRegion):
         return rng.uniform(0.0, 1.0, (n, 2))
     lo, hi = region.param_bounds()
-    out = np.empty((0, k))
+    out, drawn = np.empty((0, k)), 0
     while out.shape[0] < n:
+        if _hopeless(drawn, out.shape[0], sampling_cap(n)):
+            raise SamplingError(
+                f"{type(region).__name__} region: only {out.shape[0]} of {drawn} random parameter vectors in its box "
+                f"{np.round(lo, 4).tolist()}..{np.round(hi, 4).tolist()} lie in its domain ({n} wanted); is the region degenerate?"
+            )
+        check_deadline(deadline, f"drawing {n} random parameters of a {type(region).__name__} region")
         cand = rng.uniform(lo, hi, (2 * n + 8, k))
+        drawn += cand.shape[0]
         ok = region.domain_violation(cand) == 0.0
         out = np.concatenate([out, cand[ok]])
     return out[:n]
@@ -166,27 +195,62 @@ def random_rotations(rng, n: int) -> np.ndarray:
     )
 
 
-def random_hand_configurations(hand: Hand, fingers, n: int, rng, collision_free: bool = True) -> np.ndarray:
+def random_hand_configurations(
+    hand: Hand, fingers, n: int, rng, collision_free: bool = True, *, deadline: float | None = None,
+    max_draws: int | None = None, fill: bool = False,
+) -> np.ndarray:
     """``n`` random joint-angle vectors (n, n_dof): moving angles uniform within their limits,
     coupled angles following their source exactly (rejected when that leaves their limits),
-    the others at zero clamped into the limits; without self-collision if asked."""
+    the others at zero clamped into the limits; without self-collision if asked.
+
+    Bounded: at most ``max_draws`` candidates (default :func:`sampling_cap`; fewer when
+    under 1% of the first :data:`SAMPLING_TRIAL` or more are accepted) and until
+    ``deadline`` (a :func:`time.perf_counter` instant; :class:`~prehension.deadline.TimeLimitReached`).
+    With ``fill``, the vectors still missing when the cap is reached are taken from the
+    draws that only self-collide (initial poses of the local solver need not be free of
+    self-collision: every answer is re-verified); without it, or when the limits and
+    couplings themselves reject the draws, that is a :class:`SamplingError`.
+    """
     active = _active_mask(hand, fingers)
     idle = np.clip(0.0, hand.lower, hand.upper)
     coupled = {hand.dof_index(c.dof): c for c in hand.couplings}
-    out = np.empty((0, hand.n_dof))
+    cap = sampling_cap(n) if max_draws is None else int(max_draws)
+    out, colliding = np.empty((0, hand.n_dof)), np.empty((0, hand.n_dof))
+    drawn = in_limits = 0
     while out.shape[0] < n:
-        m = max(64, 2 * (n - out.shape[0]))
+        if _hopeless(drawn, out.shape[0], cap):
+            if fill and out.shape[0] + colliding.shape[0] >= n:
+                return np.concatenate([out, colliding[: n - out.shape[0]]])
+            raise _sampling_error(hand, fingers, n, out.shape[0], drawn, in_limits, collision_free)
+        check_deadline(deadline, f"drawing {n} random joint vectors of hand {hand.name!r}")
+        m = min(max(64, 2 * (n - out.shape[0])), cap - drawn)
         q = rng.uniform(hand.lower, hand.upper, (m, hand.n_dof))
+        drawn += m
         for _ in range(len(coupled) + 1):  # settle chains of couplings
             for d, c in coupled.items():
                 q[:, d] = c.ratio * q[:, hand.dof_index(c.source)] + c.offset
         q = np.where(active, q, idle)
         ok = np.all((q >= hand.lower) & (q <= hand.upper), axis=1)
         q = q[ok]
+        in_limits += len(q)
         if collision_free and len(q):
-            q = q[max_penetration(hand, forward_kinematics(hand, q), stop_at_first=True) <= 0.0]
+            free = max_penetration(hand, forward_kinematics(hand, q), stop_at_first=True) <= 0.0
+            if fill and colliding.shape[0] < n:
+                colliding = np.concatenate([colliding, q[~free][: n - colliding.shape[0]]])
+            q = q[free]
         out = np.concatenate([out, q])
     return out[:n]
+
+
+def _sampling_error(hand: Hand, fingers, n: int, found: int, drawn: int, in_limits: int, collision_free: bool):
+    fingers = ", ".join(fingers) or "none"
+    why = (f"{in_limits} kept their joint limits through the couplings and "
+           f"{found} of those were free of self-collision" if collision_free else f"{in_limits} kept their joint limits through the couplings")  # fmt: skip
+    return SamplingError(
+        f"hand {hand.name!r}: cannot draw {n} random joint vectors (fingers {fingers}"
+        f"{', free of self-collision' if collision_free else ''}): of {drawn} draws uniform within the limits, {why}; "
+        "check the hand's limits, couplings and collision shapes (prehension show HAND)"
+    )
 
 
 def random_point_problems(
@@ -198,6 +262,7 @@ def random_point_problems(
     collision_free: bool = True,
     object_offset_mm: float = 100.0,
     rim_fraction: float | None = None,
+    deadline: float | None = None,
 ) -> PointProblems:
     """``n`` feasible point-contact problems made by forward kinematics (seeded).
 
@@ -212,6 +277,12 @@ def random_point_problems(
         rim_fraction: ``None``: cap parameters uniform in their box, kept inside the cone;
             a number: normals uniform over each cap's area (:func:`cone_params`), that
             share of them exactly on the rim.
+        deadline: stop at this :func:`time.perf_counter` instant
+            (:class:`~prehension.deadline.TimeLimitReached`).
+
+    Raises:
+        SamplingError: the hand almost never gives such configurations (e.g. free of
+            self-collision): see :func:`random_hand_configurations`.
     """
     from ...hands.sa_hand import schunk_sa_hand
 
@@ -222,11 +293,11 @@ def random_point_problems(
     fingers = tuple(
         f.name for f in hand.fingers if f.name in {hand.finger_of_link(h.link) for h in hregs}
     )
-    q = random_hand_configurations(hand, fingers, n, rng, collision_free)
+    q = random_hand_configurations(hand, fingers, n, rng, collision_free, deadline=deadline)
     pose = forward_kinematics(hand, q)
     params = [
         cone_params(h.region, rng, n, rim_fraction)
-        if rim_fraction is not None and isinstance(h.region, SphereCap) else random_params(h.region, rng, n)
+        if rim_fraction is not None and isinstance(h.region, SphereCap) else random_params(h.region, rng, n, deadline=deadline)
         for h in hregs
     ]  # fmt: skip
     R = random_rotations(rng, n)

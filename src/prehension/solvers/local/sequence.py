@@ -180,14 +180,17 @@ def pose_space(hand: Hand, fingers=None) -> tuple[tuple[str, ...], list, list]:
     return names, free, tips
 
 
-def sample_poses(hand: Hand, n: int, rng, fingers=None) -> tuple[tuple[str, ...], np.ndarray]:
-    """``n`` random hand poses without self-collision, as ``(names, (n, D))``."""
+def sample_poses(hand: Hand, n: int, rng, fingers=None, *, deadline: float | None = None) -> tuple[tuple[str, ...], np.ndarray]:
+    """``n`` random hand poses, as ``(names, (n, D))``: without self-collision, unless the
+    hand almost never gives such poses (then the missing ones self-collide: they are
+    starting points; see :func:`.problems.random_hand_configurations` with ``fill``).
+    Stops at ``deadline`` (:class:`~prehension.deadline.TimeLimitReached`)."""
     from .problems import random_hand_configurations, random_params
 
     names, free, tips = pose_space(hand, fingers)
     fingers = [f.name for f in hand.fingers] if fingers is None else list(fingers)
-    q = random_hand_configurations(hand, fingers, n, rng, collision_free=True)
-    cols = [q[:, free]] + [random_params(cap, rng, n) for _, cap in tips]
+    q = random_hand_configurations(hand, fingers, n, rng, collision_free=True, deadline=deadline, fill=True)
+    cols = [q[:, free]] + [random_params(cap, rng, n, deadline=deadline) for _, cap in tips]
     return names, np.concatenate(cols, axis=1)
 
 
@@ -208,8 +211,11 @@ def principal_directions(samples: np.ndarray) -> tuple[np.ndarray, np.ndarray, n
 _DEFAULTS: dict = {}
 
 
-def default_sequence(hand: Hand, n_samples: int = 1000, seed: int = 0) -> InitialPoseSequence:
-    """The shipped sequence of a hand if there is one, else PCA + the paper's lambdas (cached)."""
+def default_sequence(hand: Hand, n_samples: int = 1000, seed: int = 0, *, deadline: float | None = None) -> InitialPoseSequence:
+    """The shipped sequence of a hand if there is one, else PCA + the paper's lambdas (cached).
+
+    The sampling stops at ``deadline`` (:class:`~prehension.deadline.TimeLimitReached`;
+    nothing is cached then, so the sequence never depends on the time it was given)."""
     from ._layout import hand_arrays
 
     key = (hand_arrays(hand)[1], n_samples, seed)
@@ -217,7 +223,7 @@ def default_sequence(hand: Hand, n_samples: int = 1000, seed: int = 0) -> Initia
         return _DEFAULTS[key]
     seq = shipped_sequence(hand)
     if seq is None:
-        names, samples = sample_poses(hand, n_samples, np.random.default_rng(seed))
+        names, samples = sample_poses(hand, n_samples, np.random.default_rng(seed), deadline=deadline)
         mean, comps, sig = principal_directions(samples)
         seq = InitialPoseSequence(
             hand.name, names, mean, comps, sig, PAPER_TABLE1,

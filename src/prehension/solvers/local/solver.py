@@ -34,6 +34,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from ..._compiled import aot
+from ...deadline import TimeLimitReached, deadline_after, seconds_left
 from ...errors import InvalidTask
 from ...frozen import IdentityCache, cached_per_value
 from ...geometry.rotations import angle_between
@@ -91,6 +92,7 @@ class LocalRecord:
     max_normal_deg: float
     i_max: int = 12
     verified: tuple | None = field(default=None, repr=False)  # (task, Solution) checked strictly in the waves
+    time_limit_s: float | None = None  # set when the time limit stopped this problem's search
 
     @property
     def status(self) -> str:
@@ -111,9 +113,10 @@ class LocalRecord:
         if np.isfinite(self.max_distance_mm):
             extra += (f"; the closest came within {self.max_distance_mm:.2g} mm and {self.max_normal_deg:.2g} deg "
                       f"(not a solution: the strict tolerances are 1e-6 mm and 1e-6 deg)")  # fmt: skip
+        limit = f" (stopped by the time limit of {self.time_limit_s:g} s)" if self.time_limit_s is not None else ""
         return (
             f"no solution found after {self.initial_poses_tried} initial poses and {self.iterations} "
-            f"Jacobian iterations{extra}"
+            f"Jacobian iterations{limit}{extra}"
         )
 
     @property
@@ -368,7 +371,7 @@ class _Tally:
         self.solved_with[pi], self.polish[pi], self.level[pi] = wave + 1, out.polish_iterations[sel], lev
         self.q[pi], self.T[pi], self.x[pi], self.d[pi], self.a[pi] = q, T, out.x[sel], dmax, amax
 
-    def record(self, group: Group, p: int, task=None) -> "LocalRecord":
+    def record(self, group: Group, p: int, task=None, time_limit_s: float | None = None) -> "LocalRecord":
         held = self.solved_with[p] > 0
         n = int(self.tried[p])
         params = tuple((h[0], o[0]) for h, o in group.params_of(self.x[p])) if held else None
@@ -380,6 +383,7 @@ class _Tally:
             int(self.polish[p]), int(self.rejected[p]),
             float(self.d[p] if held else self.miss_d[p]), float(self.a[p] if held else self.miss_a[p]), self.imax,
             (task, self.verified[p]) if (task is not None and self.verified[p] is not None) else None,
+            None if held else time_limit_s,
         )  # fmt: skip
 
 
@@ -405,8 +409,9 @@ class _RandomPoses:
     from a generator seeded by ``(seed, the problem's data)``: a problem gets the same
     poses in any batch, so a batch gives what one call per problem gives."""
 
-    def __init__(self, hand, seed, count: int):
+    def __init__(self, hand, seed, count: int, deadline: float | None = None):
         self.hand, self.seed, self.count = hand, seed, count  # seed: one int, or one per problem
+        self.deadline = deadline
         self.names: tuple = ()
         self._poses: dict[int, np.ndarray] = {}
 
@@ -415,7 +420,8 @@ class _RandomPoses:
             key = zlib.crc32(np.ascontiguousarray(group.pdata[p]).tobytes())
             seed = self.seed[p] if isinstance(self.seed, list) else self.seed
             seed = seed.pose_seed if isinstance(seed, _OwnGenerator) else seed
-            self.names, self._poses[p] = sample_poses(self.hand, self.count, np.random.default_rng([seed, key]))
+            self.names, self._poses[p] = sample_poses(self.hand, self.count, np.random.default_rng([seed, key]),
+                                                      deadline=self.deadline)  # fmt: skip
         return self._poses[p][k]
 
 
@@ -497,32 +503,54 @@ def _wave(group, checker, options, tally: _Tally, todo, wave, x0) -> tuple[np.nd
     return done, time.perf_counter() - t1
 
 
-def _solve_group(group: Group, checker, options: LocalOptions, sequence: InitialPoseSequence, rng, t_start, tasks=None):
+def _solve_group(group: Group, checker, options: LocalOptions, sequence: InitialPoseSequence | None, rng, t_start,
+                 tasks=None, deadline: float | None = None):  # fmt: skip
+    """The waves of one group until every problem is done, ``i_max`` poses are tried, or
+    ``deadline`` passes (no sequence: the deadline passed while it was drawn)."""
     P, imax = group.n_problems, options.i_max
     tally = _Tally(P, imax, group.nx, group.hand.n_dof)
     if isinstance(rng, list):
         seeds = [int(r.integers(2**62)) for r in rng]
     else:
         seeds = rng if isinstance(rng, _OwnGenerator) else int(rng.integers(2**62))  # the former draws on use
-    extra = _RandomPoses(group.hand, seeds, max(imax - len(sequence), 0))
+    extra = _RandomPoses(group.hand, seeds, max(imax - len(sequence or ()), 0), deadline)
     wave_seconds = np.zeros(imax)
     todo = np.arange(P)
     kernel_s = check_s = 0.0
-    for i in range(imax):
+    stopped = sequence is None
+    for i in range(0 if stopped else imax):
         if not todo.size:  # every problem done: the later waves take no time
             wave_seconds[i:] = wave_seconds[i - 1] if i else time.perf_counter() - t_start
             break
-        x0 = _starts(group, sequence, i, todo, options, rng, extra)
+        try:
+            if deadline is not None and seconds_left(deadline) <= 0:
+                raise TimeLimitReached("local solver")
+            x0 = _starts(group, sequence, i, todo, options, rng, extra)
+        except TimeLimitReached:
+            stopped = True
+            break
         t0 = time.perf_counter()
         done, dt = _wave(group, checker, options, tally, todo, i, x0)
         check_s += dt
         kernel_s += time.perf_counter() - t0 - dt
         todo = todo[~done]
         wave_seconds[i] = time.perf_counter() - t_start
-    records = [tally.record(group, p, tasks[p] if tasks is not None else None) for p in range(P)]
+    limit = options.time_limit_s if stopped else None
+    records = [tally.record(group, p, tasks[p] if tasks is not None else None, limit) for p in range(P)]
     strict = tally.level == 2
     solved_after = np.cumsum(np.bincount(tally.solved_with[strict], minlength=imax + 1))[1 : imax + 1]
     return records, wave_seconds, solved_after, {"kernel": kernel_s, "checks": check_s}
+
+
+def _sequence_for(hand, sequence, deadline):
+    """``sequence``, else the hand's default; ``None`` when the deadline passed while the
+    default was drawn (its problems then give up, saying so)."""
+    if sequence is not None:
+        return sequence
+    try:
+        return default_sequence(hand, deadline=deadline)
+    except TimeLimitReached:
+        return None
 
 
 def _as_rng(rng, n: int, one_group: bool = False):
@@ -596,16 +624,17 @@ def solve_local_batch(
         the solver does not raise on them.
     """
     t_start = time.perf_counter()
+    deadline = deadline_after(options.time_limit_s, t_start)
     if isinstance(problems, PointProblems):
         rng = _as_rng(rng, len(problems), one_group=True)
         hand = problems.hand
-        sequence = sequence if sequence is not None else default_sequence(hand)
         if len(problems) == 0:
             return LocalBatch([], 0.0, np.zeros(options.i_max), np.zeros(options.i_max, dtype=int), options, sequence)
+        sequence = _sequence_for(hand, sequence, deadline)
         group = problems.group(options.joint_scale_mm)
         points = lambda idx, pose, T, prm: _contact_checks_points(problems, idx, pose, T, prm)  # noqa: E731
         checker = lambda idx, x, R, t: (*_check(group, points, idx, x, R, t, options), [None] * len(idx))  # noqa: E731
-        records, waves, after, timings = _solve_group(group, checker, options, sequence, rng, t_start)
+        records, waves, after, timings = _solve_group(group, checker, options, sequence, rng, t_start, None, deadline)
         return LocalBatch(records, time.perf_counter() - t_start, waves, after, options, sequence, timings)
 
     tasks = list(problems)
@@ -625,11 +654,12 @@ def solve_local_batch(
     seq_used = sequence
     for members in groups.values():
         sub = [tasks[i] for i in members]
-        seq = sequence if sequence is not None else default_sequence(sub[0].hand)
+        seq = _sequence_for(sub[0].hand, sequence, deadline)
         seq_used = seq
         group = group_from_tasks(sub, options.joint_scale_mm)
         checker = lambda idx, x, R, t, g=group, sub=sub: _check_tasks(g, sub, idx, x, R, t, options)  # noqa: E731
-        recs, w, a, tm = _solve_group(group, checker, options, seq, _subset(rng, members), time.perf_counter(), sub)
+        recs, w, a, tm = _solve_group(group, checker, options, seq, _subset(rng, members), time.perf_counter(), sub,
+                                      deadline)  # fmt: skip
         for k, r in zip(members, recs):
             r.index = k
             records[k] = r
