@@ -38,8 +38,17 @@ def solve(
     resume: bool = False,
     progress: Callable[[dict], None] | None = None,
     sequence=None,
+    require: str | None = None,
+    quality=None,
 ) -> SolveResult:
     """Solve ``task`` with the chosen method (see the module docstring).
+
+    ``require="force-closure"``: only a force-closure grasp (friction model ``quality``, a
+    :class:`~prehension.quality.QualityOptions`; default the stored quality's) is an
+    answer.  The local solver's solutions that are not force closure are dropped (``auto``
+    then runs the complete solver, ``local`` gives up); the complete solver searches for
+    force-closure grasps only and proves, when it answers ``infeasible``, that the task
+    has none (:mod:`prehension.solvers.complete.closure`).
 
     ``sequence``: the local solver's initial poses (an
     :class:`~prehension.solvers.local.InitialPoseSequence`, e.g. from ``prehension
@@ -52,6 +61,8 @@ def solve(
     """
     if method not in ("auto", "local", "complete"):
         raise PrehensionError(f"method must be 'auto', 'local' or 'complete', got {method!r}")
+    if require not in (None, "force-closure"):
+        raise PrehensionError(f"require must be 'force-closure' or None (any grasp), got {require!r}")
     if sequence is not None:
         check_sequence(sequence, task.hand)
     started = time.perf_counter()
@@ -59,6 +70,8 @@ def solve(
         if progress is not None:
             progress({"stage": "local solver"})
         local = _solve_local(task, local_options, seed, sequence)
+        if require is not None:
+            local = _meeting(local, quality)
         if local.success or method == "local":
             return local
     from .solvers.complete.search import BranchAndPruneOptions, solve_complete
@@ -67,8 +80,11 @@ def solve(
         progress({"stage": "complete solver"})
     if callable(complete_options):
         complete_options = complete_options()
+    complete_options = complete_options or BranchAndPruneOptions()
+    if require is not None:
+        complete_options = replace(complete_options, require=require, quality=quality or complete_options.quality)
     result = solve_complete(
-        task, complete_options or BranchAndPruneOptions(), executor=executor, workers=workers,
+        task, complete_options, executor=executor, workers=workers,
         checkpoint=checkpoint, resume=resume, progress=progress,
     )  # fmt: skip
     if method == "auto":
@@ -80,6 +96,21 @@ def solve(
         stats = dict(result.stats, local=dict(local.stats))
         result = replace(result, message=note, seconds=seconds, stats=stats)
     return result
+
+
+def _meeting(local: SolveResult, quality) -> SolveResult:
+    """``local`` with only its force-closure solutions; ``gave_up`` when none is left."""
+    from .quality import QualityOptions, grasp_quality
+
+    quality = quality or QualityOptions()
+    kept = tuple(s for s in local.solutions if grasp_quality(local.task, s, quality).force_closure)
+    if len(kept) == len(local.solutions):
+        return local
+    if kept:
+        return replace(local, solutions=kept)
+    dropped = len(local.solutions)
+    return replace(local, status=Status.GAVE_UP, solutions=(),
+                   message=f"{local.message}; none of its {dropped} solution(s) is force closure (required)")  # fmt: skip
 
 
 def _solve_local(task: Task, options, seed: int, sequence=None) -> SolveResult:

@@ -13,7 +13,7 @@ from ..errors import PrehensionError
 from . import args as types
 
 __all__ = [
-    "add_quality_arguments", "add_best_arguments", "add_batch_arguments", "quality_options", "best_options", "batch_extras",
+    "add_quality_arguments", "add_best_arguments", "add_require_argument", "add_batch_arguments", "quality_options", "best_options", "batch_extras",
     "quality_lines", "best_table",
 ]  # fmt: skip
 
@@ -26,6 +26,13 @@ def add_quality_arguments(p) -> None:
     g.add_argument("--cone-edges", type=int, default=None, metavar="M", help="edges of each linearised friction cone (default 8)")
     g.add_argument("--torsion", type=types.finite, default=None, metavar="MM",
                    help="soft fingers: torsional friction [mm] (default 0: hard fingers; a two-finger pinch needs it)")  # fmt: skip
+
+
+def add_require_argument(p) -> None:
+    """``solve --require force-closure``: only a force-closure grasp is an answer."""
+    p.add_argument("--require", choices=("force-closure",), default=None,
+                   help="force-closure: answer only with a force-closure grasp (with --friction/--cone-edges/--torsion), "
+                        "or prove with the complete solver that the regions admit none (docs/quality.md)")  # fmt: skip
 
 
 def add_best_arguments(p) -> None:
@@ -87,7 +94,7 @@ def best_options(args, time_limit_s):
     if args.best is None:
         return None
     for flag, given in (("--all", getattr(args, "all", False)), ("--checkpoint", getattr(args, "checkpoint", None)),
-                        ("--approximate", getattr(args, "approximate", False))):  # fmt: skip
+                        ("--approximate", getattr(args, "approximate", False)), ("--require", getattr(args, "require", None))):  # fmt: skip
         if given:
             raise PrehensionError(f"--best collects its own set of strictly verified solutions; it cannot be combined with {flag}")
     if args.starts < 0:

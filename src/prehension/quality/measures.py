@@ -29,6 +29,8 @@ both are 0 when the wrenches lie in a hyperplane (e.g. every contact on one flat
 
 from __future__ import annotations
 
+import os
+import sys
 from dataclasses import dataclass
 
 import highspy
@@ -95,7 +97,7 @@ def _positive_combination_margin(W: np.ndarray) -> float:
     lp.a_matrix_.start_ = start
     lp.a_matrix_.index_ = index
     lp.a_matrix_.value_ = value
-    h = highspy.Highs()
+    h = _new_highs()
     h.setOptionValue("output_flag", False)
     h.setOptionValue("presolve", "off")  # see the module docstring: twice as fast on this tiny LP
     h.passModel(lp)
@@ -103,6 +105,29 @@ def _positive_combination_margin(W: np.ndarray) -> float:
     if h.getModelStatus() != highspy.HighsModelStatus.kOptimal:
         return 0.0
     return max(float(h.getSolution().col_value[K]), 0.0)
+
+
+_BANNER_SHOWN = False  # HiGHS writes its banner on the first Highs() of a process, at C level, on stdout
+
+
+def _new_highs():
+    """A ``highspy.Highs``; the process's first is made with file descriptor 1 pointed at
+    the null device, so that HiGHS's banner never reaches stdout (which a ``--json`` run
+    keeps for its own output)."""
+    global _BANNER_SHOWN
+    if _BANNER_SHOWN:
+        return highspy.Highs()
+    sys.stdout.flush()
+    saved, null = os.dup(1), os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(null, 1)
+        h = highspy.Highs()
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
+        os.close(null)
+    _BANNER_SHOWN = True
+    return h
 
 
 def hull_measures(wrenches) -> tuple[float, float]:

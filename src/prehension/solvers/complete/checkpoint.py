@@ -56,6 +56,7 @@ class SearchState:
     best: tuple = (float("inf"), float("inf"))  # closest miss (contact_mm, normal_deg) so far
     pair_test: object = None  # the pair test's result once run (.congruence.CongruenceResult)
     collision_pruned: int = 0  # boxes pruned because every configuration in them penetrates the object
+    closure_pruned: int = 0  # boxes pruned because no configuration in them is force closure (require)
 
     def to_json(self) -> dict:
         return {
@@ -64,6 +65,7 @@ class SearchState:
             "lps": self.lps,
             "max_depth": self.max_depth,
             "collision_pruned": self.collision_pruned,
+            "closure_pruned": self.closure_pruned,
             "small": [{"lower": lo.tolist(), "upper": hi.tolist()} for lo, hi in self.small],
             "solutions": [_configuration_to_json(s.configuration()) for s in self.solutions],
         }
@@ -74,6 +76,7 @@ class SearchState:
         open_ = deque((np.array(b["lower"]), np.array(b["upper"]), int(b["depth"])) for b in data["open"])
         state = SearchState(open_, data["boxes"], data["lps"], data["max_depth"])
         state.collision_pruned = int(data.get("collision_pruned", 0))
+        state.closure_pruned = int(data.get("closure_pruned", 0))
         state.small = [(np.array(b["lower"]), np.array(b["upper"])) for b in data["small"]]
         again = (make_solution(task, _configuration_from_json(c), tolerances) for c in data.get("solutions", []))
         state.solutions = [s for s in again if s is not None]

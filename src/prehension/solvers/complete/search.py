@@ -41,7 +41,9 @@ from ..local.options import LocalOptions
 from ..local.solver import refine_local
 from ...system.embedding import configuration_from_point, embed
 from ...system.formulation import Formulation, build_system
+from ...quality import QualityOptions, grasp_quality
 from .checkpoint import SearchState, load_state, save_state, search_fingerprint
+from .closure import closure_prune
 from .collision import collision_prune
 from .congruence import congruence_test
 from .contract import contract
@@ -94,6 +96,12 @@ class BranchAndPruneOptions:
             configuration in it puts a link deeper into the object than
             ``tolerances.object_penetration_mm`` (:mod:`.collision`; only for an object
             that collides).  ``False``: such boxes are searched until ``sigma``.
+        require: ``"force-closure"``: only force-closure grasps count as solutions (with
+            the friction model ``quality``), and a box is discarded when a certificate
+            proves that none of its configurations is force closure (:mod:`.closure`); an
+            ``infeasible`` answer then proves that the task has no force-closure grasp.
+            ``None``: any grasp.
+        quality: the friction model of ``require``.
     """
 
     sigma: float = 0.1
@@ -107,6 +115,8 @@ class BranchAndPruneOptions:
     tolerances: Tolerances = field(default_factory=Tolerances)
     pair_test_boxes: int = 200_000
     collision_prune: bool = True
+    require: Literal["force-closure"] | None = None
+    quality: QualityOptions = field(default_factory=QualityOptions)
 
     def __post_init__(self):
         if not 0.0 < self.sigma < 1.0:
@@ -117,6 +127,10 @@ class BranchAndPruneOptions:
             raise PrehensionError(f"pair_test_boxes must be an integer >= 0, got {self.pair_test_boxes!r}")
         if self.order not in ("depth", "breadth"):
             raise PrehensionError(f"order must be 'depth' or 'breadth', got {self.order!r}")
+        if self.require not in (None, "force-closure"):
+            raise PrehensionError(f"require must be 'force-closure' or None (any grasp), got {self.require!r}")
+        if not isinstance(self.quality, QualityOptions):
+            raise PrehensionError(f"quality must be a QualityOptions, got {type(self.quality).__name__}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -132,6 +146,7 @@ class BoxOutcome:
     children: tuple[tuple[np.ndarray, np.ndarray], ...] = ()
     best: tuple = (float("inf"), float("inf"))  # (contact_mm, normal_deg) the verification came closest to
     by_collision: bool = False  # "empty" because every configuration in it penetrates the object
+    by_closure: bool = False  # "empty" because no configuration in it is force closure (require="force-closure")
 
 
 def _scaled_widths(form: Formulation, lower, upper) -> np.ndarray:
@@ -164,7 +179,7 @@ def _verify(
     for config in reached.configurations:
         if config is not None:
             solution = make_solution(form.task, config, options.tolerances)
-            if solution is not None and (not in_box or _inside(form, solution, lower, upper)):
+            if solution is not None and (not in_box or _inside(form, solution, lower, upper)) and _required(form, solution, options):
                 return solution, reached.best()
     return None, reached.best()
 
@@ -185,6 +200,8 @@ def process_box(form: Formulation, lower, upper, depth: int, options: BranchAndP
         return BoxOutcome("empty", lower, upper, depth, 0)
     if _penetrates(form, lower, upper, options):
         return BoxOutcome("empty", lower, upper, depth, 0, by_collision=True)
+    if _never_closure(form, lower, upper, options):
+        return BoxOutcome("empty", lower, upper, depth, 0, by_closure=True)
     best = (float("inf"), float("inf"))
     if not options.all_solutions:
         solution, best = _verify(form, lower, upper, options)
@@ -197,6 +214,8 @@ def process_box(form: Formulation, lower, upper, depth: int, options: BranchAndP
     lo, hi = shrunk.lower, shrunk.upper
     if _penetrates(form, lo, hi, options):
         return BoxOutcome("empty", lo, hi, depth, shrunk.n_lps, best=best, by_collision=True)
+    if _never_closure(form, lo, hi, options):
+        return BoxOutcome("empty", lo, hi, depth, shrunk.n_lps, best=best, by_closure=True)
     widths = _scaled_widths(form, lo, hi)
     if widths.max() < options.sigma:
         if options.all_solutions:
@@ -218,6 +237,17 @@ def _penetrates(form: Formulation, lower, upper, options: BranchAndPruneOptions)
     return collision_prune(form, lower, upper, options.tolerances) is not None
 
 
+# -- require="force-closure" (kept apart: :mod:`.closure` proves, these two apply it) --------------
+def _never_closure(form: Formulation, lower, upper, options: BranchAndPruneOptions) -> bool:
+    """Whether a certificate proves that no configuration of the box is force closure (:mod:`.closure`)."""
+    return options.require == "force-closure" and closure_prune(form, lower, upper, options.quality) is not None
+
+
+def _required(form: Formulation, solution: Solution, options: BranchAndPruneOptions) -> bool:
+    """Whether a verified solution also meets ``options.require``."""
+    return options.require is None or grasp_quality(form.task, solution, options.quality).force_closure
+
+
 def _inside(form: Formulation, solution: Solution, lower, upper) -> bool:
     """Whether a solution's base coordinates lie in the box (to rounding)."""
     x = embed(form, solution.configuration())
@@ -233,6 +263,7 @@ def _record(state: SearchState, out: BoxOutcome, options: BranchAndPruneOptions)
     state.best = min(state.best, out.best, key=lambda b: max(b))
     state.max_depth = max(state.max_depth, out.depth)
     state.collision_pruned += out.by_collision
+    state.closure_pruned += out.by_closure
     if out.kind == "solution":
         state.solutions.append(out.solution)
     elif out.kind == "small":
@@ -432,6 +463,11 @@ def _result(task, form, state: SearchState, options, started: float, stop: str, 
         msg = (f"infeasible: contacts {task.contacts[a].name} and {task.contacts[b].name} cannot be made together "
                f"whatever the object's pose (pair test: {state.pair_test.boxes} boxes pruned, after {state.boxes} "
                f"box(es) and {state.lps} LPs of the search)")  # fmt: skip
+    elif state.closure_pruned:
+        status = Status.INFEASIBLE
+        msg = (f"infeasible: no force-closure grasp: all {state.boxes} boxes pruned, {state.closure_pruned} of them by a "
+               f"certificate that no configuration in them is force closure ({_friction(options.quality)}; "
+               f"{state.collision_pruned} for hand-object collision, {state.lps} linear programs)")  # fmt: skip
     elif state.collision_pruned:
         status = Status.INFEASIBLE
         msg = (f"infeasible: no penetration-free solution: all {state.boxes} boxes pruned, {state.collision_pruned} "
@@ -441,13 +477,24 @@ def _result(task, form, state: SearchState, options, started: float, stop: str, 
         msg = f"infeasible: all {state.boxes} boxes pruned ({state.lps} linear programs)"
     stats["open_box_solutions"] = len(in_open)
     stats["collision_pruned"] = state.collision_pruned
+    if options.require is not None:
+        stats["closure_pruned"] = state.closure_pruned
     if state.pair_test is not None:
         stats["pair_test"] = {"proved": state.pair_test.proved, "boxes": state.pair_test.boxes,
                               "pair": list(state.pair_test.pair) if state.pair_test.pair else None}  # fmt: skip
     return SolveResult(task, "complete", status, msg, tuple(state.solutions) + in_open, seconds, stats, small)
 
 
+def _friction(quality: QualityOptions) -> str:
+    soft = f", torsion {quality.torsion_mm:g} mm" if quality.torsion_mm else ""
+    return f"friction {quality.friction:g}, {quality.cone_edges} cone edges{soft}"
+
+
 def _options_dict(options: BranchAndPruneOptions) -> dict:
     d = asdict(options)
     d.pop("tolerances", None)
+    if options.require is None:
+        d.pop("quality", None)  # the friction model only matters to the requirement
+    else:
+        d["quality"] = options.quality.to_dict()
     return d
