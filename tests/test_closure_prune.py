@@ -2,12 +2,10 @@
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 import pytest
 
+from box_example import EXAMPLES, box_grasps
 from fk_tasks import build_fk_case
 from prehension.cli import EXIT_INFEASIBLE, EXIT_OK, main
 from prehension.errors import PrehensionError
@@ -20,10 +18,6 @@ from prehension.system.embedding import embed
 from prehension.system.formulation import build_system
 from prehension.verify import verify_result_file
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "quality"
-_spec = importlib.util.spec_from_file_location("box_grasps_closure", EXAMPLES / "box_grasps.py")
-box_grasps = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(box_grasps)
 REQUIRE = BranchAndPruneOptions(require="force-closure")
 MODELS = (QualityOptions(), QualityOptions(friction=0.3, torsion_mm=5.0), QualityOptions(friction=1.0, cone_edges=4))
 

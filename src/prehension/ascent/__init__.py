@@ -7,11 +7,15 @@ regions, the joint angles and the object pose follow.  Each step of the ascent
 
 1. takes the gradient ``g`` of the smooth surrogate :func:`.surrogate.support_surrogate`
    in the object regions' parameters (forward differences);
-2. projects it onto the tangent space of the solution set: ``d = N N^T g``, ``N`` a basis
-   of the null space of the constraints' Jacobian (scaled units, :mod:`.manifold`), the
-   unknowns at a bound that ``g`` pushes outward held;
-3. moves by ``r d / |d|`` (``r`` the trust radius [mm]) and returns onto the set by
-   Gauss-Newton (:meth:`.manifold.GraspChart.project`);
+2. projects it onto the tangent space of the solution set (scaled units, :mod:`.manifold`),
+
+   .. math::
+
+       d = N N^\\top g, \\qquad J N = 0,\\; N^\\top N = I,
+
+   ``J`` the constraints' Jacobian, the unknowns that ``d`` would carry to a bound held;
+3. moves by ``r d / |d|`` (``r`` the trust radius [mm], shortened at a bound) and returns
+   onto the set by Levenberg-Marquardt steps (:meth:`.manifold.GraspChart.project`);
 4. **verifies** the configuration reached with :func:`~prehension.results.make_solution`
    (the one residual function, strict tolerances: contacts, limits, couplings, self- and
    object collision) and measures its *exact* epsilon; the step is accepted only when the

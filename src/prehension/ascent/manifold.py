@@ -22,9 +22,15 @@ radius; steps and null spaces are taken in these units.
 
 :meth:`GraspChart.jacobian` differentiates ``F`` by forward differences in one batched
 call (``1 + n`` configurations: forward kinematics of a few dozen configurations costs
-~50 us); :meth:`GraspChart.project` is Gauss-Newton (minimum-norm steps
-``dz = -J^+ F``) back onto ``F = 0``, the unknowns kept in their bounds.  Whatever it
-reaches is judged by :func:`~prehension.results.make_solution` alone.
+~50 us); :meth:`GraspChart.tangent` projects an ascent direction onto the null space of
+``J``; :meth:`GraspChart.project` returns onto ``F = 0`` by Levenberg-Marquardt steps
+
+.. math::
+
+    (J^\\top J + \\lambda^2 I)\\, \\delta z = -J^\\top F \\quad (\\text{scaled units}),
+
+the unknowns kept in their bounds and the contacts on fingertip caps in their cones.
+Whatever it reaches is judged by :func:`~prehension.results.make_solution` alone.
 """
 
 from __future__ import annotations
@@ -45,11 +51,13 @@ JOINT_SCALE_MM = 40.0  # a radian of joint angle counts as this many mm (the loc
 NORMAL_WEIGHT_MM = 40.0  # w_n: the normal rows' weight [mm]
 _FD_STEP_MM = 1e-6  # forward-difference step, scaled units [mm]
 _CONVERGED_MM = 1e-9  # |F|_inf [mm] at which the projection stops (the strict tolerances: 1e-6 mm, 1e-6 deg ~ 7e-7 mm here)
-_MAX_STEP_MM = 10.0  # longest Gauss-Newton step, scaled units [mm]
-_DAMPING = 0.05  # Levenberg-Marquardt damping of a Gauss-Newton step (scaled units; J's entries are O(1))
-_CONE_WEIGHT_MM = 1e3  # weight of a cap-cone row in a Gauss-Newton step (honoured exactly when consistent)
+_MAX_STEP_MM = 10.0  # longest projection step, scaled units [mm]
+_DAMPING = 0.05  # Levenberg-Marquardt damping of a projection step (scaled units; J's entries are O(1))
+_CONE_WEIGHT_MM = 1e3  # weight of a cap-cone row in a projection step (honoured exactly when consistent)
 _CONE_MARGIN = 1e-9  # a step that meets a cone aims this far inside it (cos units)
-_NEWTON_ITERATIONS = 15  # Gauss-Newton steps of a projection at most
+_NEWTON_ITERATIONS = 15  # Levenberg-Marquardt steps of a projection at most
+_AT_BOUND_MM = 1e-9  # an unknown this close to its bound (scaled mm along a step) is at it
+_NEAR_BOUND = 0.1  # an unknown that a step would carry to its bound within this fraction of it is held
 
 
 @dataclass(frozen=True, eq=False)
@@ -162,12 +170,13 @@ class GraspChart:
         return np.clip(z + d[: self.nz], self.lo, self.hi), self.moved(T, d[None, self.nz :])[0]
 
     def project(self, z: np.ndarray, T: np.ndarray, J: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, bool]:
-        """Gauss-Newton onto ``F = 0`` from ``(z, T)``: ``(z, T, converged)``.
+        """Levenberg-Marquardt steps onto ``F = 0`` from ``(z, T)``: ``(z, T, converged)``.
 
-        Each step is the damped least-squares solution (scaled units, Levenberg-Marquardt
-        with a fixed damping ``_DAMPING``) of ``J dz = -F`` over the unknowns free in it: an unknown the step would carry through a bound is held where
-        it is for that step (decided afresh at every step), and a step longer than
-        ``_MAX_STEP_MM`` is shortened to it.  ``J``: a Jacobian from nearby (the ascent's
+        Each step is the damped least-squares solution (scaled units, fixed damping
+        ``_DAMPING``) of ``J dz = -F`` over the unknowns free in it: an unknown the step
+        would carry through a bound is held where it is for that step (decided afresh at
+        every step), a contact it would carry out of its cap's cone is kept on the cone
+        (``_CONE_MARGIN`` inside), and a step longer than ``_MAX_STEP_MM`` is shortened to it.  ``J``: a Jacobian from nearby (the ascent's
         base point) to start with (chord steps, one residual each, while ``|F|`` falls
         at least by half a step); the Jacobian is recomputed whenever it does not.
         """
@@ -205,26 +214,40 @@ class GraspChart:
         return ds / self.scale
 
     def tangent(self, z: np.ndarray, J: np.ndarray, gradient: np.ndarray, radius_mm: float) -> np.ndarray:
-        """The ascent step of length ``radius_mm`` (scaled units): ``gradient`` (nz + 6,) of
-        an objective, in scaled units, projected onto the null space of ``J`` (the Jacobian
-        at ``z``: first-order moves along the set), every unknown that the step would carry
-        through a bound held where it is and every cap cone it would leave kept at its
-        value (decided again until none is); unscaled, (nz + 6,), zero when no move raises
-        the objective to first order."""
+        """The ascent step, at most ``radius_mm`` long (scaled units): ``gradient`` (nz + 6,)
+        of an objective, in scaled units, projected onto the null space of ``J`` (the
+        Jacobian at ``z``: first-order moves along the set) with every unknown that the
+        direction would carry to its bound within a tenth of the step held where it is
+        (``_NEAR_BOUND``: a step is not spent on a sliver) and every cap cone met that it would leave
+        kept at its value (decided again until none is); then shortened so that no unknown
+        passes its bound and no contact leaves its cap's cone.  Unscaled, (nz + 6,); zero
+        when no move raises the objective to first order."""
         g, Js = gradient / self.scale, J / self.scale  # per mm of scaled unknown
         held, active = np.zeros(self.nz + 6, dtype=bool), np.zeros(len(self.cones), dtype=bool)
-        _, rows = self._cone_rows(z)
-        for _ in range(self.nz + 1):
-            d = np.zeros(self.nz + 6)
-            d[~held] = _null_projection(np.vstack([Js, rows[active]])[:, ~held], g[~held])
-            size = float(np.linalg.norm(d))
+        value, rows = self._cone_rows(z)
+        for _ in range(self.nz + len(self.cones) + 1):
+            u = np.zeros(self.nz + 6)
+            u[~held] = _null_projection(np.vstack([Js, rows[active]])[:, ~held], g[~held])
+            size = float(np.linalg.norm(u))
             if size <= 1e-12 * max(float(np.linalg.norm(g)), 1e-300):
                 return np.zeros(self.nz + 6)
-            out, cut = self._leaves(z, radius_mm * d / size / self.scale)
-            if not np.any(out & ~held) and not np.any(cut & ~active):
+            u /= size  # unit step, scaled units
+            reach = self._reach(z, u[: self.nz] / self.scale[: self.nz])  # mm along u until each unknown meets its bound
+            blocked = np.r_[reach <= _NEAR_BOUND * radius_mm, np.zeros(6, dtype=bool)]
+            leaving = (value <= _AT_BOUND_MM * np.abs(rows @ u)) & (rows @ u < 0)
+            if not np.any(blocked & ~held) and not np.any(leaving & ~active):
                 break
-            held, active = held | out, active | cut
-        return radius_mm * d / size / self.scale
+            held, active = held | blocked, active | leaving
+        length = min(radius_mm, float(np.min(reach, initial=np.inf)))
+        while length > _AT_BOUND_MM and np.any(self._cone_rows(z + length * u[: self.nz] / self.scale[: self.nz])[0] < 0):
+            length *= 0.5  # a cone met on the way: stop short of it
+        return length * u / self.scale
+
+    def _reach(self, z: np.ndarray, dz: np.ndarray) -> np.ndarray:
+        """Per unknown, how far [mm along the step] ``z + l dz`` stays within its bounds (inf when it never leaves)."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            room = np.where(dz > 0, (self.hi - z) / dz, np.where(dz < 0, (self.lo - z) / dz, np.inf))
+        return np.maximum(np.nan_to_num(room, nan=np.inf), 0.0)
 
     def _leaves(self, z: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Which unknowns ``z + d`` carries through a bound ((nz + 6,), the twist never) and
