@@ -132,7 +132,11 @@ def _options_mapping(options) -> dict:
         else:
             flat[prefix[:-1]] = value
 
-    walk("", {k: v for k, v in asdict(options).items() if k not in _STOP_ONLY})
+    values = {k: v for k, v in asdict(options).items() if k not in _STOP_ONLY}
+    if values.get("require") is None:  # no requirement: the fingerprint of a search before it existed
+        values.pop("require", None)
+        values.pop("quality", None)
+    walk("", values)
     return flat
 
 
