@@ -7,10 +7,11 @@ import pytest
 
 from box_example import EXAMPLES, box_grasps
 from fk_tasks import build_fk_case
-from prehension.cli import EXIT_INFEASIBLE, EXIT_OK, main
+from prehension.cli import EXIT_BAD_INPUT, EXIT_INFEASIBLE, EXIT_OK, main
 from prehension.errors import PrehensionError
 from prehension.quality import QualityOptions, configuration_quality, primitive_wrenches, torque_reference
 from prehension.results import Status
+from prehension.solve import solve
 from prehension.solvers.complete.closure import CERTIFICATE_MARGIN, certified_bound, closure_prune, contact_enclosures
 from prehension.solvers.complete.contract import contract
 from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
@@ -147,6 +148,22 @@ def test_a_task_with_a_force_closure_grasp_is_never_proven_infeasible(sa_hand, s
     assert result.status != Status.INFEASIBLE
     for s in result.solutions:
         assert configuration_quality(case.task, s.configuration()).force_closure
+
+
+def test_the_local_solver_cannot_be_asked_for_a_proof(tmp_path, capsys):
+    out = tmp_path / "r.json"
+    assert main(["solve", str(EXAMPLES / "box-one-face.yaml"), "--method", "local", "--require", "force-closure",
+                 "-o", str(out)]) == EXIT_BAD_INPUT  # fmt: skip
+    assert "--require force-closure needs the complete solver" in capsys.readouterr().err and not out.exists()
+
+
+def test_auto_drops_the_local_answers_that_are_not_force_closure():
+    """The one-face task: the local solver finds grasps, none force closure; auto then proves none."""
+    task = box_grasps.one_face_task()
+    assert solve(task, "local").success
+    result = solve(task, "auto", require="force-closure")
+    assert result.status == Status.INFEASIBLE and "no force-closure grasp" in result.message
+    assert solve(task, "local", require="force-closure").status == Status.GAVE_UP
 
 
 def test_the_requirement_is_checked_and_stated():
