@@ -155,3 +155,27 @@ def test_best_of_many_improves_what_it_finds(box):
         assert evaluate(task, s.configuration()).ok
         assert grasp_quality(task, s).epsilon >= up["epsilon_before"]
     assert all(a is None for a in found.stats["best"]["ascent"])
+
+
+def test_on_forward_built_tasks_the_ascent_never_lowers_the_merit_and_returns_verified_grasps(sa_hand):
+    """Seeded forward-built tasks (point, patch and cap regions on the object, fingertip caps
+    and the palm on the hand), hard and soft fingers: what comes back passes the strict
+    residual function and its merit is at least the start's; on several it rises."""
+    from fk_tasks import build_fk_case
+
+    from prehension.results import make_solution
+
+    rose = tried = 0
+    for seed in range(20):
+        case = build_fk_case(sa_hand, np.random.default_rng(seed))
+        grasp = make_solution(case.task, case.config)
+        if grasp is None:  # the forward-built pose collides: not a grasp to start from
+            continue
+        for quality in (QualityOptions(), QualityOptions(torsion_mm=5.0)):
+            up = improve_grasp(case.task, grasp, quality, AscentOptions(steps=4))
+            assert evaluate(case.task, up.solution.configuration()).ok
+            start, end = merit(case.task, grasp, quality), merit(case.task, up.solution, quality)
+            assert end >= start
+            tried += 1
+            rose += end > start
+    assert tried >= 10 and rose >= 5
