@@ -12,7 +12,9 @@ Depth-first order stops at the first verified solution; breadth-first collects e
 solution box (``all_solutions``).  When every box is pruned the answer is **infeasible**,
 with the numbers of boxes and linear programs as its certificate -- for an object that
 collides, "no penetration-free solution" when the collision prune discarded any box
-(``stats["collision_pruned"]``).
+(``stats["collision_pruned"]``).  With ``require="force-closure"`` only force-closure
+solutions count and a box is also discarded when :mod:`.closure` certifies that none of its
+configurations is force closure: "no force-closure grasp" (``stats["closure_pruned"]``).
 
 Boxes are independent, so :func:`solve_complete` can process them on any
 ``concurrent.futures.Executor`` (a process pool, a Dask cluster's executor): workers
