@@ -81,8 +81,11 @@ def _patch(mesh, distance, centre, inradius):
     return region_from_mesh(mesh, at=centre, radius=min(0.8 * inradius, 6.0), degree=1, distance=distance).region
 
 
-def mesh_tasks(rng, per_mesh: int) -> list[tuple[str, Task]]:
-    """``per_mesh`` tasks on each shared mesh (2, 3 or 4 contacts in turn)."""
+def mesh_tasks(rng, per_mesh: int, counts=(2, 3, 4), patch=None) -> list[tuple[str, Task]]:
+    """``per_mesh`` tasks on each shared mesh (``counts`` contacts in turn: 2, 3 or 4);
+    ``patch(mesh, distance, centre, inradius)`` makes each region (default: a planar patch
+    inside the face)."""
+    patch = patch or _patch
     hand = load_builtin_task("guitar-tuning").hand
     out = []
     for file, scale in MESHES:
@@ -98,12 +101,12 @@ def mesh_tasks(rng, per_mesh: int) -> list[tuple[str, Task]]:
                 continue
             used.add(i)
             others = [q for p, q in pairs if p == i and q != j and np.linalg.norm(centre[q] - centre[j]) > 15.0]
-            partners = ([j] + others)[: 1 + made % 3]  # 2, 3, 4 contacts in turn (fewer when the faces run out)
+            partners = ([j] + others)[: counts[made % len(counts)] - 1]  # counts in turn (fewer when the faces run out)
             n_fingers = len(partners)
-            regions = {"thumb_side": _patch(mesh, distance, centre[i], inradius[i])}
+            regions = {"thumb_side": patch(mesh, distance, centre[i], inradius[i])}
             contacts = [Contact("thumb_tip", "thumb_side")]
             for f, face in zip(FINGERS, partners):
-                regions[f"{f}_side"] = _patch(mesh, distance, centre[face], inradius[face])
+                regions[f"{f}_side"] = patch(mesh, distance, centre[face], inradius[face])
                 contacts.append(Contact(f"{f}_tip", f"{f}_side"))
             obj = GraspObject(Path(file).stem, regions, solid=MeshFileSolid(str(path), scale))
             name = f"{Path(file).stem}-{len(contacts)}c-{made}"

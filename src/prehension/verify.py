@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from .atomic import read_json
-from .errors import InvalidTask
+from .errors import InvalidTask, PrehensionError
 from .hands.kinematics import forward_kinematics
 from .results import RESULT_TAG, SolveResult, Status
 from .tasks.model import Configuration, Task
@@ -120,6 +120,7 @@ def verify_result(
         report, found = _solution(task, sol, i, tol)
         reports.append(report)
         findings += found
+    findings += _requirement(task, data, reports)
     reproof = None
     if status == Status.INFEASIBLE and not solutions:
         reproof, found = _reprove(task, data, reprove, time_limit_s)
@@ -284,6 +285,27 @@ def _quality(task: Task, config: Configuration, report: ResidualReport, sol: dic
     return [Finding(f"{label}: quality (force closure, epsilon, volume)", ok, detail)]
 
 
+def _requirement(task: Task, data: dict, reports: list) -> list[Finding]:
+    """A search that required force closure (``stats.options.require``): every solution is
+    force closure with the friction model the search states."""
+    stats = data.get("stats") if isinstance(data.get("stats"), dict) else {}
+    options = stats.get("options") if isinstance(stats.get("options"), dict) else {}
+    if options.get("require") != "force-closure":
+        return []
+    from .quality import QualityOptions, contacts_quality
+
+    try:
+        quality = QualityOptions.from_dict(options.get("quality", {}))
+    except PrehensionError as exc:
+        return [Finding("required force closure", False, f"the stated friction model is malformed: {exc}")]
+    found = []
+    for i, (report, sol) in enumerate(zip(reports, data.get("solutions") or [])):
+        if report is not None:
+            closed = contacts_quality(task, np.array(sol["T_palm_object"], dtype=float), report.contacts, quality).force_closure
+            found.append(Finding(f"solution {i}: force closure (required)", closed, "" if closed else "FALSE: not force closure"))
+    return found
+
+
 # -- infeasible -----------------------------------------------------------------------------
 def _reprove(task: Task, data: dict, reprove: bool, time_limit_s) -> tuple[SolveResult | None, list[Finding]]:
     stats = data.get("stats") if isinstance(data.get("stats"), dict) else {}
@@ -303,6 +325,8 @@ def _reprove(task: Task, data: dict, reprove: bool, time_limit_s) -> tuple[Solve
         by_self = again.stats.get("self_collision_pruned", 0)
         how = f", {by_collision} of them for hand-object collision: no penetration-free solution" if by_collision else ""
         how += f", {by_self} of them for self-collision: no self-collision-free solution" if by_self else ""
+        by_closure = again.stats.get("closure_pruned", 0)
+        how += f", {by_closure} of them by a certificate that none of their configurations is force closure" if by_closure else ""
         return again, [Finding("infeasibility re-proved", True, f"all {again.stats['boxes']} boxes pruned again{how} ({note})")]
     if again.status == Status.SOLVED:
         return again, [Finding("infeasibility", False, "FALSE: the complete solver finds a verified solution of the embedded task")]
@@ -313,11 +337,15 @@ def _search_options(stored, time_limit_s):
     """The stored search options that change the proof (sigma, order...), with the check's time limit."""
     from .solvers.complete.search import BranchAndPruneOptions
 
+    from .quality import QualityOptions
+
     known = {f.name for f in fields(BranchAndPruneOptions)}
     simple = {k: v for k, v in (stored or {}).items() if k in known and isinstance(v, (int, float, str, bool))}
     simple.pop("max_boxes", None)
     simple["time_limit_s"] = time_limit_s
     try:
+        if isinstance((stored or {}).get("quality"), dict):  # the friction model of require="force-closure"
+            simple["quality"] = QualityOptions.from_dict(stored["quality"])
         return BranchAndPruneOptions(**simple)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, PrehensionError):
         return BranchAndPruneOptions(time_limit_s=time_limit_s)

@@ -13,7 +13,7 @@ from ..errors import PrehensionError
 from . import args as types
 
 __all__ = [
-    "add_quality_arguments", "add_best_arguments", "add_batch_arguments", "quality_options", "best_options", "batch_extras",
+    "add_quality_arguments", "add_best_arguments", "add_require_argument", "add_batch_arguments", "quality_options", "best_options", "batch_extras",
     "quality_lines", "best_table",
 ]  # fmt: skip
 
@@ -26,6 +26,13 @@ def add_quality_arguments(p) -> None:
     g.add_argument("--cone-edges", type=int, default=None, metavar="M", help="edges of each linearised friction cone (default 8)")
     g.add_argument("--torsion", type=types.finite, default=None, metavar="MM",
                    help="soft fingers: torsional friction [mm] (default 0: hard fingers; a two-finger pinch needs it)")  # fmt: skip
+
+
+def add_require_argument(p) -> None:
+    """``solve --require force-closure``: only a force-closure grasp is an answer."""
+    p.add_argument("--require", choices=("force-closure",), default=None,
+                   help="force-closure: answer only with a force-closure grasp (with --friction/--cone-edges/--torsion), "
+                        "or prove with the complete solver that the regions admit none (docs/quality.md)")  # fmt: skip
 
 
 def add_best_arguments(p) -> None:
@@ -41,6 +48,9 @@ def add_best_arguments(p) -> None:
                    help="--best: solutions are distinct when some joint angle, or the object's orientation, differs by this much (default 5)")  # fmt: skip
     g.add_argument("--distinct-mm", type=types.finite, default=5.0, metavar="MM",
                    help="--best: ... or the object's position by this much (default 5)")  # fmt: skip
+    g.add_argument("--ascent-steps", type=int, default=20, metavar="K",
+                   help="--best: steps of the quality ascent that moves each grasp along its solution set to a "
+                        "higher epsilon, every step re-verified (default 20; 0: the grasps as found; docs/quality.md)")  # fmt: skip
 
 
 def add_batch_arguments(p) -> None:
@@ -78,22 +88,26 @@ def quality_options(args):
 
 def best_options(args, time_limit_s):
     """The :class:`~prehension.best.BestOptions` of ``--best`` (``None`` without it)."""
+    from ..ascent import AscentOptions
     from ..best import BestOptions
 
     if args.best is None:
         return None
     for flag, given in (("--all", getattr(args, "all", False)), ("--checkpoint", getattr(args, "checkpoint", None)),
-                        ("--approximate", getattr(args, "approximate", False))):  # fmt: skip
+                        ("--approximate", getattr(args, "approximate", False)), ("--require", getattr(args, "require", None))):  # fmt: skip
         if given:
             raise PrehensionError(f"--best collects its own set of strictly verified solutions; it cannot be combined with {flag}")
     if args.starts < 0:
         raise PrehensionError(f"--starts must be an integer >= 0, got {args.starts}")
+    if args.ascent_steps < 0:
+        raise PrehensionError(f"--ascent-steps must be an integer >= 0 (0: no ascent), got {args.ascent_steps}")
     for flag, value in (("--distinct-deg", args.distinct_deg), ("--distinct-mm", args.distinct_mm)):
         if not value > 0:
             raise PrehensionError(f"{flag} must be a positive number, got {value}")
     return BestOptions(
         n=args.best, rank=args.rank, starts=args.starts, joint_deg=args.distinct_deg, position_mm=args.distinct_mm,
         rotation_deg=args.distinct_deg, quality=quality_options(args), time_limit_s=time_limit_s,
+        ascent=AscentOptions(steps=args.ascent_steps) if args.ascent_steps else None,
     )  # fmt: skip
 
 
@@ -115,8 +129,10 @@ def best_table(result) -> Table:
     best = result.stats["best"]
     table = Table(title=f"Best {len(result.solutions)} of {best['candidates']} found ({best['distinct']} distinct), "
                         f"ranked by {best['rank']}", title_justify="left")  # fmt: skip
-    for col in ("#", "force closure", "epsilon", "found by"):
+    for col in ("#", "force closure", "epsilon", "as found", "ascent steps", "found by"):
         table.add_column(col)
-    for i, (closed, eps, source) in enumerate(zip(best["force_closure"], best["epsilon"], best["sources"])):
-        table.add_row(str(i), "yes" if closed else "no", f"{eps:.4g}", source)
+    ascents = best.get("ascent") or [None] * len(best["sources"])
+    for i, (closed, eps, source, up) in enumerate(zip(best["force_closure"], best["epsilon"], best["sources"], ascents)):
+        before, steps = ("-", "-") if up is None else (f"{up['epsilon_before']:.4g}", f"{up['accepted']} of {up['tried']}")
+        table.add_row(str(i), "yes" if closed else "no", f"{eps:.4g}", before, steps, source)
     return table

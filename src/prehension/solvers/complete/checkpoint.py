@@ -57,6 +57,7 @@ class SearchState:
     pair_test: object = None  # the pair test's result once run (.congruence.CongruenceResult)
     collision_pruned: int = 0  # boxes pruned because every configuration in them penetrates the object
     self_collision_pruned: int = 0  # boxes pruned because every solution in them collides with the hand itself
+    closure_pruned: int = 0  # boxes pruned because no configuration in them is force closure (require)
 
     def to_json(self) -> dict:
         return {
@@ -66,6 +67,7 @@ class SearchState:
             "max_depth": self.max_depth,
             "collision_pruned": self.collision_pruned,
             "self_collision_pruned": self.self_collision_pruned,
+            "closure_pruned": self.closure_pruned,
             "small": [{"lower": lo.tolist(), "upper": hi.tolist()} for lo, hi in self.small],
             "solutions": [_configuration_to_json(s.configuration()) for s in self.solutions],
         }
@@ -77,6 +79,7 @@ class SearchState:
         state = SearchState(open_, data["boxes"], data["lps"], data["max_depth"])
         state.collision_pruned = int(data.get("collision_pruned", 0))
         state.self_collision_pruned = int(data.get("self_collision_pruned", 0))
+        state.closure_pruned = int(data.get("closure_pruned", 0))
         state.small = [(np.array(b["lower"]), np.array(b["upper"])) for b in data["small"]]
         again = (make_solution(task, _configuration_from_json(c), tolerances) for c in data.get("solutions", []))
         state.solutions = [s for s in again if s is not None]
@@ -132,7 +135,11 @@ def _options_mapping(options) -> dict:
         else:
             flat[prefix[:-1]] = value
 
-    walk("", {k: v for k, v in asdict(options).items() if k not in _STOP_ONLY})
+    values = {k: v for k, v in asdict(options).items() if k not in _STOP_ONLY}
+    if values.get("require") is None:  # no requirement: the fingerprint of a search before it existed
+        values.pop("require", None)
+        values.pop("quality", None)
+    walk("", values)
     return flat
 
 
