@@ -40,6 +40,7 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
+from prehension.errors import InvalidObject
 from prehension.objects.distance import MeshDistance
 from prehension.objects.mesh_io import load_mesh
 from prehension.objects.model import GraspObject
@@ -107,11 +108,14 @@ def mesh_tasks(rng, per_mesh: int) -> list[tuple[str, Task]]:
             others = [q for p, q in pairs if p == i and q != j and np.linalg.norm(centre[q] - centre[j]) > 15.0]
             partners = ([j] + others)[: 1 + made % 3]  # 2, 3, 4 contacts in turn (fewer when the faces run out)
             n_fingers = len(partners)
-            regions = {"thumb_side": _patch(mesh, distance, centre[i], inradius[i])}
-            contacts = [Contact("thumb_tip", "thumb_side")]
-            for f, face in zip(FINGERS, partners):
-                regions[f"{f}_side"] = _patch(mesh, distance, centre[face], inradius[face])
-                contacts.append(Contact(f"{f}_tip", f"{f}_side"))
+            try:  # a face that another part of the solid covers in part is refused by region_from_mesh
+                regions = {"thumb_side": _patch(mesh, distance, centre[i], inradius[i])}
+                contacts = [Contact("thumb_tip", "thumb_side")]
+                for f, face in zip(FINGERS, partners):
+                    regions[f"{f}_side"] = _patch(mesh, distance, centre[face], inradius[face])
+                    contacts.append(Contact(f"{f}_tip", f"{f}_side"))
+            except InvalidObject:
+                continue
             obj = GraspObject(Path(file).stem, regions, solid=MeshFileSolid(str(path), scale))
             name = f"{Path(file).stem}-{len(contacts)}c-{made}"
             out.append((name, Task(name, hand, obj, tuple(contacts), ("thumb",) + FINGERS[:n_fingers])))
