@@ -186,3 +186,21 @@ def test_reference_vector_not_orthogonal_to_axis_is_refused():
 def test_unsupported_joint_kind_names_the_line():
     with pytest.raises(WorldFileError, match=r"t.world:\d+: .*prismatic.*supported joints: revolute, universal, spherical, in_patch"):
         _import_text(WORLD_HEAD + "prismatic: palm (0,0,0)+(1,0,0) f1 (0,0,0)+(1,0,0)\n")
+
+
+@requires_cuik
+def test_the_objects_body_file_is_its_collision_solid_when_closed_else_the_reason_is_stated():
+    """The scalpel's body file is closed: the imported task collides with it (and keeps it
+    through a task file); the teapot's is open: display only, and the description says
+    why.  Both say what judged the hand."""
+    from prehension.objects.solid import MeshFileSolid
+
+    scalpel = import_world(next(p for p in cuik_worlds() if "scalpel" in str(p)))
+    assert isinstance(scalpel.object.solid, MeshFileSolid) and scalpel.object.collides
+    assert scalpel.object.solid.path.endswith("scalpel.off")
+    assert "object collisions: its body file scalpel.off" in scalpel.description
+    assert "hand collisions: none" in scalpel.description
+    teapot = import_world(next(p for p in cuik_worlds() if "teapot" in str(p)))
+    assert teapot.object.solid is None and not teapot.object.collides and teapot.object.mesh_file.endswith("teapot.off")
+    assert "teapot.off is display only, not a collision solid, because mesh is not watertight (304 edges" in teapot.description
+    assert loads_task(dumps_task(scalpel)).object.collides  # the solid survives a task file

@@ -28,6 +28,13 @@ SA hand does.  Fingers are the chains that leave the ground link, named after th
 link; the fingers taking part are those that carry a contact.  Everything else in a file
 (other joint kinds, a spherical joint that is not a contact, several free bodies) is
 refused with an error naming the line.
+
+The object's body file (``body "file.off"`` of the object link), when it is a closed mesh
+that the contact regions lie on, is its collision solid (mm): the hand may not pass
+through it.  Otherwise (an open mesh, such as the IJRR teapot's, or regions off its
+surface) it is display only, and the task's description says so and why.  The hand's
+link bodies are display shapes: the imported hand has no collision geometry, and the
+description says that too.
 """
 
 from __future__ import annotations
@@ -37,11 +44,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import PrehensionError, WorldFileError
+from ..errors import InvalidObject, PrehensionError, WorldFileError
 from ..geometry.bezier import BezierPatch
 from ..geometry.regions import BezierRegion, PointRegion, SphereCap
 from ..hands.model import Coupling, Finger, Hand, HandRegion, Joint, Link
 from ..objects.model import GraspObject
+from ..objects.solid import MeshFileSolid
 from .cuik_parser import WorldFile, WorldJoint, read_world
 from .model import Contact, Task
 
@@ -266,14 +274,32 @@ def task_from_world(
     try:
         hand = Hand(stem, tuple(links), tuple(joints), tuple(cpl), tuple(fingers), hand_regions)
         _check_body_files(world)
-        obj = GraspObject(obj_name, object_regions, mesh_file=_object_mesh(world, obj_name))
+        obj, judged = _object(obj_name, object_regions, _object_mesh(world, obj_name))
         used = sorted({hand.finger_of_link(r.link) for r in hand_regions.values()} - {None})
         task_name = name or (Path(world.path).resolve().parent.name if world.path else stem) or stem
-        return Task(task_name, hand, obj, tuple(contacts), tuple(used), description=f"imported from {world.path}")
+        return Task(task_name, hand, obj, tuple(contacts), tuple(used), description=f"imported from {world.path}; {judged}")
     except WorldFileError:
         raise
     except PrehensionError as exc:
         raise WorldFileError(str(exc), path=world.path) from None
+
+
+_HAND_GEOMETRY = "hand collisions: none (the .world's link bodies are display shapes; prehension does not read them as collision shapes)"
+
+
+def _object(name: str, regions, mesh: str | None) -> tuple[GraspObject, str]:
+    """The object, with its body file as its collision solid when that is a closed mesh
+    the regions lie on; else display only.  Also what judged collisions, in words."""
+    if mesh is None:
+        return GraspObject(name, regions), f"object collisions: none (the object has no body file); {_HAND_GEOMETRY}"
+    try:
+        obj = GraspObject(name, regions, solid=MeshFileSolid(mesh, 1.0))
+        return obj, f"object collisions: its body file {Path(mesh).name} (a closed mesh, mm); {_HAND_GEOMETRY}"
+    except InvalidObject as exc:
+        reason = str(exc).split(": ", 1)[-1].split("; ")[0]
+        obj = GraspObject(name, regions, mesh_file=mesh)
+        return obj, (f"object collisions: none -- its body file {Path(mesh).name} is display only, not a collision solid, "
+                     f"because {reason}; {_HAND_GEOMETRY}")  # fmt: skip
 
 
 def _check_all_links_used(ctx: _Ctx, hand_links, frames, obj_name) -> None:
