@@ -5,7 +5,8 @@ pieces for primitives and regions; a mesh that is not convex is decomposed by Co
 (approximate convex decomposition, the ``coacd`` package of the ``sim`` extra).
 
 * **Coarse, cached.**  The whole solid is decomposed once, with :data:`DECOMPOSITION`
-  (concavities up to 8% of the mesh's size are filled).  A mesh of more than
+  (concavities up to 8% of the mesh's size are filled; half CoACD's default effort, as
+  the pieces next to the hand are refined anyway).  A mesh of more than
   :data:`SIMPLIFY_ABOVE` triangles is first simplified by manifold3d within
   :data:`SIMPLIFY_FRACTION` of its diagonal (a 100k-triangle mesh: 0.3 s, then CoACD on a
   few thousand triangles: seconds, not minutes).  The pieces are stored in the geometry
@@ -41,11 +42,11 @@ __all__ = ["convex_pieces", "solid_pieces", "decompose", "refine", "check_closed
            "SIMPLIFY_FRACTION"]  # fmt: skip
 
 #: CoACD settings: concavity threshold (a fraction of the mesh size), most pieces, effort.
-DECOMPOSITION = {"threshold": 0.08, "max_convex_hull": 16, "preprocess_mode": "off", "resolution": 1000,
-                 "mcts_iterations": 40, "mcts_max_depth": 2, "mcts_nodes": 10, "seed": 0}  # fmt: skip
+DECOMPOSITION = {"threshold": 0.08, "max_convex_hull": 16, "preprocess_mode": "off", "resolution": 500,
+                 "mcts_iterations": 20, "mcts_max_depth": 2, "mcts_nodes": 10, "seed": 0}  # fmt: skip
 SIMPLIFY_ABOVE = 5000  # triangles: larger meshes are simplified before CoACD
 SIMPLIFY_FRACTION = 0.002  # of the mesh's bounding-box diagonal: the simplification's tolerance
-_VERSION = 2  # of how the pieces are made (part of every cache entry's name)
+_VERSION = 3  # of how the pieces are made (part of every cache entry's name)
 
 _PIECES: "weakref.WeakKeyDictionary[GraspObject, tuple]" = weakref.WeakKeyDictionary()
 _MANIFOLDS: "weakref.WeakKeyDictionary[Mesh, object]" = weakref.WeakKeyDictionary()
