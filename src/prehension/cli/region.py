@@ -67,7 +67,8 @@ def cmd_region(args, console: Console) -> int:
     if not args.point:
         lines.append(
             f"# degree-{args.degree} patch fitted to {picked.n_faces} faces within {args.radius:g} mm; "
-            f"largest deviation from the mesh {picked.max_deviation_mm:.3g} mm"
+            f"largest deviation from the mesh {picked.max_deviation_mm:.3g} mm; normal outward everywhere, at most "
+            f"{picked.max_angle_deg:.0f} deg from the closest face's"
         )
         if picked.max_deviation_mm > 0.5:
             lines.append(f"# (above the default 0.5 mm: set the object's surface_tolerance_mm >= {picked.max_deviation_mm:.2g})")

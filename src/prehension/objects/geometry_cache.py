@@ -16,6 +16,11 @@ and numpy.  Editing the file, the scale, the code or a library therefore misses 
 instead of returning a stale answer; a solid that fails its checks is never stored (the
 error is raised again next time).
 
+Other arrays derived from a mesh alone -- the physics test's convex decomposition
+(:mod:`prehension.sim.pieces`) -- share the folder: :func:`content_key` names such an
+entry by a hash of everything it is computed from, :func:`store_arrays` and
+:func:`load_arrays` write and read it.
+
 Where: ``$PREHENSION_CACHE_DIR`` if set (``off``, ``0`` or an empty value: no cache), else
 ``$XDG_CACHE_HOME/prehension/geometry`` (``~/.cache/prehension/geometry``).  A folder that
 cannot be written, or an entry that cannot be read, only costs the rebuild: the cache is
@@ -38,7 +43,8 @@ from ..atomic import write_bytes_atomic
 from .distance import MeshArrays, MeshDistance
 from .meshes import Mesh
 
-__all__ = ["CACHE_ENV", "cache_folder", "geometry_key", "load_geometry", "store_geometry"]
+__all__ = ["CACHE_ENV", "cache_folder", "geometry_key", "load_geometry", "store_geometry", "content_key", "load_arrays",
+           "store_arrays"]
 
 CACHE_ENV = "PREHENSION_CACHE_DIR"
 _OFF = ("", "0", "off", "none", "false")
@@ -104,15 +110,11 @@ def _entry(key: str | None) -> Path | None:
 def load_geometry(key: str | None) -> tuple[Mesh, MeshDistance] | None:
     """The stored ``(Mesh, MeshDistance)`` of an entry; ``None`` if there is none (or it
     cannot be read whole)."""
-    path = _entry(key)
-    if path is None or not path.is_file():
+    data = load_arrays(key, ("vertices", "faces") + MeshArrays._fields)
+    if data is None:
         return None
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            mesh = Mesh(data["vertices"], data["faces"])
-            fields = [data[name] for name in MeshArrays._fields]
-    except Exception:  # noqa: BLE001 - a damaged entry (cut short, not a zip, a missing array, ...)
-        return None  # rebuilt (and rewritten) by the caller: the cache is never needed for a correct answer
+    mesh = Mesh(data["vertices"], data["faces"])
+    fields = [data[name] for name in MeshArrays._fields]
     fields[-1] = bool(fields[-1])  # robust_sign: stored as a 0-d array
     distance = MeshDistance.__new__(MeshDistance)
     distance.__setstate__({"arrays": tuple(fields)})  # the pickling protocol: no tree rebuilt
@@ -121,11 +123,42 @@ def load_geometry(key: str | None) -> tuple[Mesh, MeshDistance] | None:
 
 def store_geometry(key: str | None, mesh: Mesh, distance: MeshDistance) -> None:
     """Write an entry (atomically); silently nothing if the folder cannot be written."""
+    store_arrays(key, vertices=mesh.vertices, faces=mesh.faces, **dict(zip(MeshArrays._fields, distance.arrays)))
+
+
+def content_key(*parts) -> str:
+    """A hex SHA-256 of ``parts`` (bytes as they are, arrays by dtype, shape and bytes,
+    anything else by its ``repr``): the entry name of something derived from them only."""
+    h = hashlib.sha256()
+    for part in parts:
+        if isinstance(part, np.ndarray):
+            part = repr((part.dtype.str, part.shape)).encode() + np.ascontiguousarray(part).tobytes()
+        elif not isinstance(part, bytes):
+            part = repr(part).encode()
+        h.update(len(part).to_bytes(8, "little"))
+        h.update(part)
+    return h.hexdigest()
+
+
+def load_arrays(key: str | None, names) -> dict[str, np.ndarray] | None:
+    """The arrays ``names`` of an entry; ``None`` if there is none (or it cannot be read whole)."""
+    path = _entry(key)
+    if path is None or not path.is_file():
+        return None
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            return {name: data[name] for name in names}
+    except Exception:  # noqa: BLE001 - a damaged entry (cut short, not a zip, a missing array, ...)
+        return None  # rebuilt (and rewritten) by the caller: the cache is never needed for a correct answer
+
+
+def store_arrays(key: str | None, **arrays) -> None:
+    """Write an entry of named arrays (atomically); silently nothing if the folder cannot be written."""
     path = _entry(key)
     if path is None:
         return
     buffer = io.BytesIO()
-    np.savez(buffer, vertices=mesh.vertices, faces=mesh.faces, **dict(zip(MeshArrays._fields, distance.arrays)))
+    np.savez(buffer, **arrays)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         write_bytes_atomic(path, buffer.getvalue())
