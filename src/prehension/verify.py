@@ -291,6 +291,7 @@ def _reprove(task: Task, data: dict, reprove: bool, time_limit_s) -> tuple[Solve
     if data.get("method") != "complete":
         return None, [Finding("infeasibility", False, "only the complete solver proves infeasibility; method is "
                               f"{data.get('method')!r}")]  # fmt: skip
+    claimed += _from_checkpoint(stats)
     if not reprove:
         return None, [Finding("infeasibility (not re-proved)", True, claimed + "; run check without --no-reprove to re-derive it")]
     from .solvers.complete.search import solve_complete
@@ -301,10 +302,21 @@ def _reprove(task: Task, data: dict, reprove: bool, time_limit_s) -> tuple[Solve
         note = "same count" if same else f"the file says {stats.get('boxes')}: other options or another version"
         by_collision = again.stats.get("collision_pruned", 0)
         how = f", {by_collision} of them for hand-object collision: no penetration-free solution" if by_collision else ""
-        return again, [Finding("infeasibility re-proved", True, f"all {again.stats['boxes']} boxes pruned again{how} ({note})")]
+        return again, [Finding("infeasibility re-proved", True, f"all {again.stats['boxes']} boxes pruned again{how} "
+                               f"({note}){_from_checkpoint(stats)}")]  # fmt: skip
     if again.status == Status.SOLVED:
         return again, [Finding("infeasibility", False, "FALSE: the complete solver finds a verified solution of the embedded task")]
     return again, [Finding("infeasibility (could not re-prove)", True, f"{claimed}; re-running it: {again.message}")]
+
+
+def _from_checkpoint(stats: dict) -> str:
+    """A claim resumed from a checkpoint says so: part of its proof rests on the checkpoint's
+    boxes, so it is re-proved from the initial box like any other (never trusted)."""
+    resumed = stats.get("resumed")
+    if not isinstance(resumed, dict):
+        return ""
+    return (f"; the claim was resumed from checkpoint {resumed.get('checkpoint')!r} ({resumed.get('boxes', '?')} boxes "
+            "pruned before it): the re-proof starts from the initial box and does not read it")  # fmt: skip
 
 
 def _search_options(stored, time_limit_s):
