@@ -129,6 +129,7 @@ def verify_result(
 
 # -- header ---------------------------------------------------------------------------------
 def _embedded_task(data, source: str, base_dir) -> Task:
+    from .tasks.format.embedded import task_with_files
     from .tasks.yaml_io import task_from_dict
 
     if not isinstance(data, dict) or data.get("prehension") != RESULT_TAG:
@@ -136,7 +137,8 @@ def _embedded_task(data, source: str, base_dir) -> Task:
     if not isinstance(data.get("task"), dict):
         raise InvalidTask(f"{source}: the result file has no 'task' (the task it answers is embedded there); "
                           "nothing can be checked without it")  # fmt: skip
-    return task_from_dict(data["task"], base_dir=Path(base_dir or "."), source=f"{source} (embedded task)")
+    task_dict = task_with_files(data["task"], data.get("files"), source)  # the object's mesh as the result carries it
+    return task_from_dict(task_dict, base_dir=Path(base_dir or "."), source=f"{source} (embedded task)")
 
 
 def _header(data: dict) -> list[Finding]:
