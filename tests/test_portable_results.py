@@ -141,3 +141,12 @@ def test_a_result_of_a_hand_read_from_a_file_needs_neither_the_file_nor_its_mesh
     shutil.move(result, moved)
     shutil.rmtree(work)  # the hand file and its meshes are gone
     _check_and_view(moved, tmp_path, capsys)
+
+
+def test_the_json_summary_does_not_print_the_carried_mesh(tmp_path, capsys):
+    task = _mesh_task(tmp_path)
+    capsys.readouterr()
+    assert main(["solve", str(task), "-o", str(tmp_path / "r.json"), "--json"]) == EXIT_OK
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["status"] == "solved" and "files" not in summary and "task" not in summary
+    assert "files" in json.loads((tmp_path / "r.json").read_text())  # the result file has them
