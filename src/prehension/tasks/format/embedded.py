@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import atexit
 import base64
+import functools
 import hashlib
 import shutil
 import tempfile
@@ -67,7 +68,15 @@ def task_file_paths(task_dict: Mapping[str, Any]) -> list[str]:
 
 
 def file_entry(path: str) -> dict:
-    """The entry of one file: its name, SHA-256, size and zlib-compressed bytes (base64)."""
+    """The entry of one file: its name, SHA-256, size and zlib-compressed bytes (base64);
+    made once per file version (path, size, modification time) in a process: a batch
+    worker meets one mesh in many distinct tasks.  Do not modify the returned dict."""
+    st = Path(path).stat()
+    return _entry_of(str(path), st.st_size, st.st_mtime_ns)
+
+
+@functools.lru_cache(maxsize=16)
+def _entry_of(path: str, size: int, mtime_ns: int) -> dict:
     data = Path(path).read_bytes()
     return {
         "name": Path(path).name, "sha256": hashlib.sha256(data).hexdigest(), "size": len(data),
