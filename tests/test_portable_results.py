@@ -1,6 +1,6 @@
 """Result files carry the files their task names (issue 28, item 8): moved alone to another
 folder, with the original mesh gone, ``check`` and ``view`` still work; a batch output
-stores each mesh once; a hand read from a file needs neither the file nor its meshes."""
+stores each mesh once (tests/test_batch.py, on its cluster); a hand read from a file needs neither the file nor its meshes."""
 
 from __future__ import annotations
 
@@ -12,7 +12,6 @@ import zlib
 import numpy as np
 import pytest
 
-from prehension.batch import read_records
 from prehension.cli import EXIT_BAD_INPUT, EXIT_OK, main
 from prehension.hands.files import load_hand_file
 from prehension.tasks.format.embedded import task_with_files
@@ -92,30 +91,6 @@ def test_a_result_without_files_is_read_from_the_disk_as_before(tmp_path, capsys
     result.write_text(json.dumps(data))
     _check_and_view(result, tmp_path, capsys)
     assert task_with_files(data["task"], None, "x") is data["task"]
-
-
-def test_a_batch_stores_a_shared_mesh_once_and_its_output_travels_alone(tmp_path, capsys):
-    folder = tmp_path / "work"
-    tasks = [_mesh_task(folder, f"t{k}.yaml", top_z=15.0) for k in range(3)]  # three tasks, one mesh
-    listing = folder / "tasks.jsonl"
-    listing.write_text("".join(json.dumps({"task": t.name}) + "\n" for t in tasks))
-    out = folder / "out.jsonl"
-    assert main(["batch", str(listing), "-o", str(out), "--method", "local", "--workers", "1", "--quiet"]) == EXIT_OK
-    lines = [json.loads(line) for line in out.read_text().splitlines()]
-    kinds = [line["prehension"] for line in lines]
-    assert kinds.count("batch-file/1") == 2 and kinds.count("batch-task/1") == 3 and kinds.count("batch/1") == 3
-    assert all("files" not in line.get("result", {}) for line in lines if line["prehension"] == "batch/1")  # compact
-    moved = tmp_path / "elsewhere" / "out.jsonl"
-    moved.parent.mkdir()
-    shutil.move(out, moved)
-    shutil.rmtree(folder)
-    capsys.readouterr()
-    assert main(["check", str(moved)]) == EXIT_OK
-    record = read_records(moved, embed_tasks=True)[0]
-    assert sorted(record["result"]["files"]) == sorted(lines[2]["files"])  # as a result file carries them
-    one = tmp_path / "one.json"
-    one.write_text(json.dumps(record["result"]))
-    _check_and_view(one, tmp_path, capsys)
 
 
 @pytest.mark.parametrize("form", ["mjcf", "urdf"])

@@ -80,7 +80,7 @@ def _entry_of(path: str, size: int, mtime_ns: int) -> dict:
     data = Path(path).read_bytes()
     return {
         "name": Path(path).name, "sha256": hashlib.sha256(data).hexdigest(), "size": len(data),
-        "zlib_base64": base64.b64encode(zlib.compress(data, 9)).decode("ascii"),
+        "zlib_base64": base64.b64encode(zlib.compress(data)).decode("ascii"),
     }  # fmt: skip
 
 
