@@ -24,11 +24,12 @@ from tiny_tasks import pincer_task
 SRC = str(Path(prehension.__file__).resolve().parents[1])
 
 
-def _start(argv, folder: Path) -> tuple[subprocess.Popen, Path]:
+def _start(argv, folder: Path, session: bool = False) -> tuple[subprocess.Popen, Path]:
     env = {**os.environ, "PYTHONPATH": SRC + os.pathsep + os.environ.get("PYTHONPATH", "")}
     err = folder / "stderr.txt"
     with open(folder / "stdout.txt", "wb") as out, open(err, "wb") as fh:
-        proc = subprocess.Popen([sys.executable, "-m", "prehension.cli", *argv], stdout=out, stderr=fh, env=env)
+        proc = subprocess.Popen([sys.executable, "-m", "prehension.cli", *argv], stdout=out, stderr=fh, env=env,
+                                start_new_session=session)  # fmt: skip
     return proc, err
 
 
@@ -85,3 +86,30 @@ def test_sigterm_during_a_batch_keeps_what_finished_and_the_batch_resumes(tmp_pa
     records = read_records(out)
     assert sorted(r["id"] for r in records) == sorted(line["id"] for line in lines)  # each task once
     assert [r["id"] for r in records[: len(done)]] == [r["id"] for r in done]  # what finished is kept
+
+
+@pytest.mark.slow  # a local cluster (~10 s)
+def test_a_hang_up_of_the_whole_group_with_workers_is_a_clean_stop(tmp_path):
+    """A closed terminal sends SIGHUP to every process of its group: the command saves as
+    for Ctrl-C, and the cluster's processes (workers, multiprocessing's resource tracker)
+    neither die first nor print tracebacks; none is left behind."""
+    task = tmp_path / "pincer.yaml"
+    task.write_text(dumps_task(pincer_task(30.0)))
+    ckpt, out = tmp_path / "search.json", tmp_path / "result.json"
+    argv = ["solve", str(task), "--method", "complete", "--all", "--sigma", "0.005", "--max-boxes", "1000000",
+            "--time-limit", "0", "--workers", "2", "--checkpoint", str(ckpt), "-o", str(out)]  # fmt: skip
+    proc, err = _start(argv, tmp_path, session=True)
+    _wait_for(lambda: "complete solver: boxes" in err.read_text(errors="replace"), proc)
+    os.killpg(proc.pid, signal.SIGHUP)
+    assert proc.wait(timeout=120) == EXIT_GAVE_UP
+    assert json.loads(out.read_text())["message"].startswith("stopped: interrupted (SIGHUP)") and ckpt.is_file()
+    assert "Traceback" not in err.read_text() and "died unexpectedly" not in err.read_text()
+    deadline = time.monotonic() + 30
+    while time.monotonic() < deadline:
+        try:
+            os.killpg(proc.pid, 0)  # anyone of the group left?
+        except ProcessLookupError:
+            break
+        time.sleep(0.5)
+    else:
+        raise AssertionError("processes of the command's group were left behind")
