@@ -112,7 +112,7 @@ class _Fields:
         self.data, self.where = data, where
 
     def _bad(self, key: str, expected: str, got) -> PrehensionError:
-        shown = repr(got) if len(repr(got)) < 60 else type(got).__name__
+        shown = got if isinstance(got, str) and " " in got else repr(got) if len(repr(got)) < 60 else type(got).__name__
         return PrehensionError(f"{self.where}: '{key}' must be {expected}, got {shown}; the file is damaged or was "
                                "edited: start again without --resume")  # fmt: skip
 
@@ -135,12 +135,16 @@ class _Fields:
         n = None if root is None else len(root[0])
         lo, hi = (self._vector(f"{key}.{side}", box.get(side), n) for side in ("lower", "upper"))
         if len(lo) != len(hi) or np.any(lo > hi):
-            raise self._bad(key, "a box with lower <= upper in every variable", box)
+            k = int(np.argmax(lo > hi)) if len(lo) == len(hi) else None
+            got = f"lower {lo[k]!r} > upper {hi[k]!r} in variable {k}" if k is not None else "bounds of two lengths"
+            raise self._bad(key, "a box with lower <= upper in every variable", got)
         if root is not None:
             slack = 1e-9 * np.maximum(root[1] - root[0], 1.0)
             outside = np.flatnonzero((lo < root[0] - slack) | (hi > root[1] + slack))
             if outside.size:
-                raise self._bad(key, f"a box inside the task's initial box (variable {int(outside[0])} lies outside)", "")
+                k = int(outside[0])
+                got = f"[{lo[k]!r}, {hi[k]!r}] in variable {k}, whose initial range is [{root[0][k]!r}, {root[1][k]!r}]"
+                raise self._bad(key, f"a box inside the task's initial box (variable {k} lies outside)", got)
         d = 0
         if depth:
             d = _Fields(box, self.where).count("depth")
