@@ -48,7 +48,7 @@ import zlib
 from pathlib import Path
 from typing import Any, Mapping
 
-from ...errors import InvalidTask
+from ...errors import InvalidTask, PrehensionError
 
 __all__ = ["FILE_FIELDS", "task_file_paths", "file_entry", "embedded_files", "task_with_files"]
 
@@ -129,10 +129,14 @@ def _written(entry: Mapping[str, Any], path: str, source: str) -> str:
     data = _decoded(entry, path, source)  # checked every time: another entry may claim the same SHA-256
     sha = entry["sha256"]
     if sha not in _WRITTEN or not _WRITTEN[sha].is_file():
-        name = Path(str(entry["name"])).name or "mesh"
-        target = _folder() / sha[:16] / name
-        target.parent.mkdir(parents=True, exist_ok=True)
-        target.write_bytes(data)
+        name = Path(str(entry["name"])).name  # a bare file name: the entry cannot point elsewhere
+        target = _folder() / sha[:16] / (name if name not in ("", ".", "..") else "mesh")
+        try:
+            target.parent.mkdir(parents=True, exist_ok=True)
+            target.write_bytes(data)
+        except OSError as exc:
+            raise PrehensionError(f"{source}: cannot write the copy of {path} it carries to {target} ({exc}); "
+                                  "free some space in the temporary folder (TMPDIR)") from None  # fmt: skip
         _WRITTEN[sha] = target
     return str(_WRITTEN[sha])
 
