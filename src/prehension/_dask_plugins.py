@@ -15,8 +15,9 @@ class IgnoreCtrlC(WorkerPlugin):
 
     A terminal sends Ctrl-C (and, when it closes, SIGHUP) to every process of the
     foreground group: without this, each worker process of a local cluster prints a
-    traceback or dies while the command itself stops the run cleanly.  A plugin registered on the client is set up on every worker, also on
-    those started later to replace a lost one.
+    traceback or dies while the command itself stops the run cleanly.  A plugin registered
+    on the client is set up on every worker, also on those started later to replace a lost
+    one.
     """
 
     name = "prehension-ignore-ctrl-c"

@@ -62,8 +62,8 @@ from ..atomic import open_atomic
 from ..errors import PrehensionError
 
 __all__ = [
-    "RECORD_TAG", "TASK_TAG", "FILE_TAG", "TaskLines", "DONE", "JournalState", "Journal", "Appender", "open_journal", "read_records", "read_tasks",
-    "with_task", "is_done",
+    "RECORD_TAG", "TASK_TAG", "FILE_TAG", "TaskLines", "DONE", "JournalState", "Journal", "Appender", "open_journal",
+    "read_records", "read_tasks", "with_task", "is_done",
 ]  # fmt: skip
 
 RECORD_TAG = "batch/1"
@@ -372,7 +372,8 @@ class TaskLines:
         ref = str(data.get("ref"))
         self.tasks[ref] = data.get("task")
         named = data.get("files") if isinstance(data.get("files"), dict) else {}
-        carried = {p: self._entries[f["sha256"]] for p, f in named.items() if isinstance(f, dict) and f.get("sha256") in self._entries}
+        carried = {p: self._entries[f["sha256"]] for p, f in named.items()
+                   if isinstance(f, dict) and f.get("sha256") in self._entries}  # fmt: skip
         if carried:
             self.files[ref] = carried
         return True
@@ -396,7 +397,8 @@ def read_records(path, *, embed_tasks: bool = False) -> list[dict]:
     return records
 
 
-def with_task(record: dict, tasks: Mapping[str, dict], source: str = "batch output", files: Mapping[str, dict] | None = None) -> dict:
+def with_task(record: dict, tasks: Mapping[str, dict], source: str = "batch output",
+              files: Mapping[str, dict] | None = None) -> dict:  # fmt: skip
     """``record`` with its task in ``result`` (a copy; the record itself when it has it already).
 
     Args:
