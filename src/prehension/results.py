@@ -228,6 +228,7 @@ def result_to_dict(result: SolveResult, quality=None, *, embed_task: bool = True
     default ones if ``None``), or given: ``qualities``, one
     :func:`~prehension.quality.quality_entry` per solution (a batch measures them itself)."""
     from .quality import QualityOptions, quality_entry
+    from .tasks.format.embedded import embedded_files
     from .tasks.yaml_io import task_to_dict
 
     head = {
@@ -237,6 +238,9 @@ def result_to_dict(result: SolveResult, quality=None, *, embed_task: bool = True
     }
     if embed_task:
         head["task"] = task_to_dict(result.task, hand_inline=True)  # a result file is re-checkable alone
+        files = embedded_files(head["task"])  # ... also elsewhere: the object's mesh travels with it
+        if files:
+            head["files"] = files
     if qualities is None:
         options = quality or QualityOptions()
         qualities = [quality_entry(result.task, s.T_palm_object, s.contacts, options) for s in result.solutions]
@@ -267,10 +271,14 @@ def read_result(path) -> tuple[Task, dict]:
 
 
 def result_task(data, source: str, base_dir: Path) -> tuple[Task, dict]:
-    """The task embedded in a result dict (read from ``source``) and the dict itself."""
+    """The task embedded in a result dict (read from ``source``) and the dict itself; the
+    files it names are read from the copies the result carries (``files``, see
+    :mod:`prehension.tasks.format.embedded`)."""
+    from .tasks.format.embedded import task_with_files
     from .tasks.yaml_io import task_from_dict
 
     if not isinstance(data, dict) or data.get("prehension") != RESULT_TAG:
         raise InvalidTask(f"{source}: not a prehension result file (expected 'prehension: {RESULT_TAG}')")
-    return task_from_dict(data["task"], base_dir=base_dir, source=f"{source} (embedded task)"), data
+    task_dict = task_with_files(data.get("task"), data.get("files"), source)
+    return task_from_dict(task_dict, base_dir=base_dir, source=f"{source} (embedded task)"), data
 

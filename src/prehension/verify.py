@@ -130,6 +130,7 @@ def verify_result(
 
 # -- header ---------------------------------------------------------------------------------
 def _embedded_task(data, source: str, base_dir) -> Task:
+    from .tasks.format.embedded import task_with_files
     from .tasks.yaml_io import task_from_dict
 
     if not isinstance(data, dict) or data.get("prehension") != RESULT_TAG:
@@ -137,7 +138,8 @@ def _embedded_task(data, source: str, base_dir) -> Task:
     if not isinstance(data.get("task"), dict):
         raise InvalidTask(f"{source}: the result file has no 'task' (the task it answers is embedded there); "
                           "nothing can be checked without it")  # fmt: skip
-    return task_from_dict(data["task"], base_dir=Path(base_dir or "."), source=f"{source} (embedded task)")
+    task_dict = task_with_files(data["task"], data.get("files"), source)  # the object's mesh as the result carries it
+    return task_from_dict(task_dict, base_dir=Path(base_dir or "."), source=f"{source} (embedded task)")
 
 
 def _header(data: dict) -> list[Finding]:
@@ -313,6 +315,7 @@ def _reprove(task: Task, data: dict, reprove: bool, time_limit_s) -> tuple[Solve
     if data.get("method") != "complete":
         return None, [Finding("infeasibility", False, "only the complete solver proves infeasibility; method is "
                               f"{data.get('method')!r}")]  # fmt: skip
+    claimed += _from_checkpoint(stats)
     if not reprove:
         return None, [Finding("infeasibility (not re-proved)", True, claimed + "; run check without --no-reprove to re-derive it")]
     from .solvers.complete.search import solve_complete
@@ -327,10 +330,21 @@ def _reprove(task: Task, data: dict, reprove: bool, time_limit_s) -> tuple[Solve
         how += f", {by_self} of them for self-collision: no self-collision-free solution" if by_self else ""
         by_closure = again.stats.get("closure_pruned", 0)
         how += f", {by_closure} of them by a certificate that none of their configurations is force closure" if by_closure else ""
-        return again, [Finding("infeasibility re-proved", True, f"all {again.stats['boxes']} boxes pruned again{how} ({note})")]
+        return again, [Finding("infeasibility re-proved", True, f"all {again.stats['boxes']} boxes pruned again{how} "
+                               f"({note}){_from_checkpoint(stats)}")]  # fmt: skip
     if again.status == Status.SOLVED:
         return again, [Finding("infeasibility", False, "FALSE: the complete solver finds a verified solution of the embedded task")]
     return again, [Finding("infeasibility (could not re-prove)", True, f"{claimed}; re-running it: {again.message}")]
+
+
+def _from_checkpoint(stats: dict) -> str:
+    """A claim resumed from a checkpoint says so: part of its proof rests on the checkpoint's
+    boxes, so it is re-proved from the initial box like any other (never trusted)."""
+    resumed = stats.get("resumed")
+    if not isinstance(resumed, dict):
+        return ""
+    return (f"; the claim was resumed from checkpoint {resumed.get('checkpoint')!r} ({resumed.get('boxes', '?')} boxes "
+            "pruned before it): the re-proof starts from the initial box and does not read it")  # fmt: skip
 
 
 def _search_options(stored, time_limit_s):

@@ -12,8 +12,6 @@ or SIGHUP), it writes (atomically) and prints the grasps it has finished, marked
 
 from __future__ import annotations
 
-import signal
-from contextlib import contextmanager
 from pathlib import Path
 from typing import NamedTuple
 
@@ -111,9 +109,8 @@ def cmd_simulate(args, console: Console) -> int:
     task, grasps = stored_grasps(args.result, args.solution)
     reports = []
     try:
-        with interrupts_as_keyboard():
-            for k, g in grasps:
-                reports.append((k, simulate_grasp(task, g, options, args.seed)))
+        for k, g in grasps:  # SIGTERM and SIGHUP arrive as KeyboardInterrupt too (cli.terminate)
+            reports.append((k, simulate_grasp(task, g, options, args.seed)))
     except KeyboardInterrupt:
         _report(args, console, out, task, reports, interrupted=True)
         Console(stderr=True, highlight=False).print(
@@ -123,23 +120,6 @@ def cmd_simulate(args, console: Console) -> int:
         return EXIT_GAVE_UP
     _report(args, console, out, task, reports, interrupted=False)
     return EXIT_OK if all(r.success for _, r in reports) else EXIT_DROPPED
-
-
-@contextmanager
-def interrupts_as_keyboard():
-    """SIGTERM and SIGHUP raise :class:`KeyboardInterrupt` (as Ctrl-C does) while inside,
-    so that what is finished is written; the previous handlers come back on leaving."""
-    kinds = [getattr(signal, name) for name in ("SIGTERM", "SIGHUP") if hasattr(signal, name)]
-
-    def interrupt(signum, frame):
-        raise KeyboardInterrupt(signal.Signals(signum).name)
-
-    previous = {kind: signal.signal(kind, interrupt) for kind in kinds}
-    try:
-        yield
-    finally:
-        for kind, handler in previous.items():
-            signal.signal(kind, handler)
 
 
 def _report(args, console: Console, out, task, reports, interrupted: bool) -> None:

@@ -341,7 +341,8 @@ def solve_complete(
         executor: where boxes are processed (default: in this process); ``workers``
             boxes are kept in flight on it.
         checkpoint: file where the open boxes are saved when the search stops early or
-            is interrupted (Ctrl-C); with ``resume=True`` the search starts from it.
+            is interrupted (Ctrl-C; on the command line also SIGTERM and SIGHUP,
+            :mod:`prehension.cli.terminate`); with ``resume=True`` the search starts from it.
         progress: called after each box with counters (boxes, open, depth, lps), and with
             ``"pair test"`` when the pair test starts (it can take a minute).
     """
@@ -355,9 +356,10 @@ def solve_complete(
         state = SearchState(deque([(form.system.lower.copy(), form.system.upper.copy(), 0)]))
     try:
         stop = _run(form, state, options, executor, max(1, workers), started, progress)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:  # Ctrl-C; in the CLI also SIGTERM and SIGHUP (str(exc): the signal's name)
         save_state(checkpoint, state, fingerprint)
-        return _result(task, form, state, options, started, "interrupted" + _saved_note(checkpoint))
+        how = f" ({exc})" if str(exc) else ""
+        return _result(task, form, state, options, started, f"interrupted{how}" + _saved_note(checkpoint))
     if stop:
         save_state(checkpoint, state, fingerprint)
         stop += _saved_note(checkpoint)
@@ -511,10 +513,12 @@ def _result(task, form, state: SearchState, options, started: float, stop: str, 
     stats["open_box_solutions"] = len(in_open)
     stats["collision_pruned"] = state.collision_pruned
     stats["self_collision_pruned"] = state.self_collision_pruned
-
-
     if options.require is not None:
         stats["closure_pruned"] = state.closure_pruned
+    if state.resumed is not None:
+        stats["resumed"] = dict(state.resumed)
+        if status == Status.INFEASIBLE:
+            msg += _resumed_note(state.resumed)
     if state.pair_test is not None:
         stats["pair_test"] = {"proved": state.pair_test.proved, "boxes": state.pair_test.boxes,
                               "pair": list(state.pair_test.pair) if state.pair_test.pair else None}  # fmt: skip
@@ -538,6 +542,13 @@ def _collision_message(state: SearchState) -> str:
 def _friction(quality: QualityOptions) -> str:
     soft = f", torsion {quality.torsion_mm:g} mm" if quality.torsion_mm else ""
     return f"friction {quality.friction:g}, {quality.cone_edges} cone edges{soft}"
+
+
+def _resumed_note(resumed: dict) -> str:
+    """Says that part of a proof came from a checkpoint (see :mod:`.checkpoint`)."""
+    return (f"; resumed from checkpoint {resumed['checkpoint']}: {resumed['boxes']} of these boxes were pruned "
+            "before it was saved, so part of this proof rests on the checkpoint (prehension check re-proves it "
+            "from the initial box)")  # fmt: skip
 
 
 def _options_dict(options: BranchAndPruneOptions) -> dict:
