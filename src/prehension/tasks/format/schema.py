@@ -121,9 +121,16 @@ class CollisionSpec(_Spec):
         return self
 
 
+class FitSpec(_Spec):
+    geometry: Name
+    miss_mm: Annotated[float, Field(strict=True, allow_inf_nan=False, ge=0)]
+    stick_out_mm: Annotated[float, Field(strict=True, allow_inf_nan=False, ge=0)]
+
+
 class LinkSpec(_Spec):
     name: Name
     collision: list[CollisionSpec] = []
+    fit: FitSpec | None = None
 
 
 class AngleSpec(_Spec):
