@@ -54,7 +54,7 @@ from .provenance import ShapeFit
 from .shapes import shape_capsules, surface_points
 from .tree import couplings, make_joint, rooted
 
-__all__ = ["ImportOptions", "assemble"]
+__all__ = ["ImportOptions", "assemble", "rest_pose", "with_rest_exclusions"]
 
 _FIXED_TYPES = ("fixed",)
 
@@ -157,7 +157,7 @@ def _file_exclusions(raw: RawHand, home) -> tuple[tuple[str, str], ...]:
     return tuple(out)
 
 
-def _with_rest_exclusions(hand: Hand) -> Hand:
+def with_rest_exclusions(hand: Hand) -> Hand:
     """The hand with the link pairs whose capsules overlap at :func:`rest_pose` excluded
     from self-collision checks (noted): capsules only approximate the shapes, and a pair
     that touches at rest would make every configuration a collision."""
@@ -286,7 +286,7 @@ def assemble(raw: RawHand, options: ImportOptions = ImportOptions()) -> Hand:
     name = options.name or raw.name
     kin = Hand(name, tuple(links), tuple(joints), tuple(couplings(raw, order)), frames=frames,
                collision_exclusions=_file_exclusions(raw, home))  # fmt: skip
-    kin = _with_rest_exclusions(kin)
+    kin = with_rest_exclusions(kin)
     chains = finger_chains(palm, [(j.parent, j.child) for j in joints])
     points = {c[-1]: _tip_points(shapes.get(c[-1], []), warnings) for c in chains}
     pads = _pad_frames(kin, chains, points, _tip_hints(raw, home, order))
