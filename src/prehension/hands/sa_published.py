@@ -20,6 +20,7 @@ import numpy as np
 
 from .enclosure import points_distance
 from .sa_hand import PALM_CONTACT_MM, SA_TIP_AXIS, SA_TIP_CENTER_MM, SA_TIP_RADIUS_MM
+from .shapes import _sphere_dirs
 
 __all__ = ["PARTS", "PADS", "PAD_HALF_ANGLE_DEG", "off_vertices", "in_pad_cone", "published_shape"]
 
@@ -42,14 +43,6 @@ def off_vertices(path: Path) -> np.ndarray:
     rows = [r for r in Path(path).read_text().splitlines() if r.strip() and not r.startswith("#")]
     n = int(rows[1].split()[0])
     return np.array([[float(x) for x in r.split()[:3]] for r in rows[2 : 2 + n]])
-
-
-def _sphere_dirs(n: int) -> np.ndarray:
-    k = np.arange(n) + 0.5
-    z = 1.0 - 2.0 * k / n
-    phi = k * math.pi * (3.0 - math.sqrt(5.0))
-    ring = np.sqrt(1.0 - z * z)
-    return np.stack([ring * np.cos(phi), ring * np.sin(phi), z], axis=1)
 
 
 def in_pad_cone(points: np.ndarray, kind: str) -> np.ndarray:
