@@ -26,7 +26,7 @@ from .provenance import ShapeFit
 
 __all__ = ["link_key", "cached_link_fit"]
 
-_SOURCES = ("shapes.py", "enclosure.py", "link_cache.py")
+_SOURCES = ("shapes.py", "enclosure.py", "link_cache.py", "assemble.py")  # assemble: which surface samples, the label
 _LIBRARIES = ("numpy", "scipy")
 
 
