@@ -22,6 +22,7 @@ import numpy as np
 from .atomic import read_json, to_plain, write_json_atomic
 from .errors import InvalidTask, PrehensionError
 from .hands.kinematics import forward_kinematics
+from .tasks.geometry_record import collision_geometry
 from .tasks.idle import settle_idle_fingers
 from .tasks.model import Configuration, Task
 from .tasks.residuals import ResidualReport, Tolerances, _evaluate
@@ -223,7 +224,9 @@ def _solution_to_dict(sol: Solution, quality: dict) -> dict:
 
 def result_to_dict(result: SolveResult, quality=None, *, embed_task: bool = True, qualities=None) -> dict:
     """A JSON-ready dict: units in keys, the task embedded (unless ``embed_task`` is false:
-    a batch stores each distinct task once and its records refer to it); each solution's
+    a batch stores each distinct task once and its records refer to it); the collision
+    geometry that judged it (:func:`~prehension.tasks.geometry_record.collision_geometry`,
+    without the per-link table when the task is not embedded); each solution's
     grasp quality measured with ``quality`` (:class:`prehension.quality.QualityOptions`,
     default ones if ``None``), or given: ``qualities``, one
     :func:`~prehension.quality.quality_entry` per solution (a batch measures them itself)."""
@@ -254,6 +257,7 @@ def result_to_dict(result: SolveResult, quality=None, *, embed_task: bool = True
         "message": result.message,
         "seconds": result.seconds,
         "stats": to_plain(dict(result.stats)),
+        "collision_geometry": collision_geometry(result.task, compact=not embed_task),
         "solutions": [_solution_to_dict(s, q) for s, q in zip(result.solutions, qualities)],
         "unverified_boxes": [{"lower": lo.tolist(), "upper": hi.tolist()} for lo, hi in result.unverified_boxes],
     }

@@ -15,6 +15,9 @@ each of them from the task the file embeds, and reports one :class:`Finding` per
   normals, distance and angle, and the ``worst`` summary, equal the recomputed ones; the
   grasp quality (force closure, epsilon, volume) equals the one recomputed from those
   contacts with the friction model the file states (:mod:`prehension.quality.stored`);
+* the ``collision_geometry`` entry (which capsules, fits, exclusions and object solid
+  judged collisions; :mod:`prehension.tasks.geometry_record`) equals the one derived from
+  the embedded task (a file written before the entry existed is noted, not failed);
 * ``infeasible``: the proof is run again by the complete solver on the embedded task (so
   it cannot have been computed for another task); without ``reprove`` the claim is only
   restated, never called verified.
@@ -35,6 +38,7 @@ from .atomic import read_json
 from .errors import InvalidTask, PrehensionError
 from .hands.kinematics import forward_kinematics
 from .results import RESULT_TAG, SolveResult, Status
+from .tasks.geometry_record import check_collision_geometry
 from .tasks.model import Configuration, Task
 from .tasks.residuals import ResidualReport, Tolerances, evaluate
 
@@ -111,7 +115,7 @@ def verify_result(
             be checked then.
     """
     task = _embedded_task(data, source, base_dir)
-    findings = _header(data)
+    findings = _header(data) + _geometry(task, data)
     status = data.get("status")
     tol = _tolerances_claimed(data, status, findings)
     reports = []
@@ -159,6 +163,13 @@ def _header(data: dict) -> list[Finding]:
         why = "needs at least one solution" if needs else "cannot hold a solution"
         out.append(Finding("status against solutions", ok, f"{status} with {n} solution(s)" + ("" if ok else f": {status} {why}")))
     return out
+
+
+def _geometry(task: Task, data: dict) -> list[Finding]:
+    if "collision_geometry" not in data:
+        return [Finding("collision geometry", True, "not stated (a file written before it was recorded)")]
+    ok, detail = check_collision_geometry(task, data["collision_geometry"])
+    return [Finding("collision geometry (which capsules and solid judged it)", ok, detail)]
 
 
 def _tolerances_claimed(data: dict, status, findings: list[Finding]) -> Tolerances:

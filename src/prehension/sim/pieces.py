@@ -32,7 +32,7 @@ from importlib import metadata
 import numpy as np
 
 from ..errors import InvalidObject, PrehensionError
-from ..objects.geometry_cache import content_key, load_arrays, store_arrays
+from ..disk_cache import content_key, load_arrays, store_arrays
 from ..objects.mesh_io import _boundary_edges
 from ..objects.meshes import Mesh
 from ..objects.model import GraspObject
@@ -84,21 +84,25 @@ def check_closed(mesh: Mesh, what: str) -> None:
         )
 
 
+_PIECE_ARRAYS = ("vertices", "faces", "vertex_end", "face_end")  # a cached decomposition
+
+
 def decompose(mesh: Mesh, settings: dict = DECOMPOSITION) -> list[Mesh]:
     """Convex hulls of CoACD's decomposition of the closed ``mesh`` (mm), read from the
     geometry cache when this mesh was decomposed before with these settings."""
     coacd = _coacd()
     key = content_key("coacd pieces", _VERSION, metadata.version("coacd"), settings, SIMPLIFY_ABOVE, SIMPLIFY_FRACTION,
                       mesh.vertices, mesh.faces)  # fmt: skip
-    stored = load_arrays(key, ("vertices", "faces", "vertex_end", "face_end"))
+    stored = load_arrays(key, _PIECE_ARRAYS)
     if stored is not None:
-        return _split(stored)
+        return _split(dict(zip(_PIECE_ARRAYS, stored)))
     simple = _simplified(mesh)
     coacd.set_log_level("error")
     parts = coacd.run_coacd(coacd.Mesh(np.asarray(simple.vertices, float), np.asarray(simple.faces, np.int64)), **settings)
     pieces = [hull_mesh(np.asarray(vertices, float)) for vertices, _ in parts]
-    store_arrays(key, vertices=np.concatenate([p.vertices for p in pieces]), faces=np.concatenate([p.faces for p in pieces]),
-                 vertex_end=np.cumsum([len(p.vertices) for p in pieces]), face_end=np.cumsum([len(p.faces) for p in pieces]))  # fmt: skip
+    store_arrays(key, dict(vertices=np.concatenate([p.vertices for p in pieces]), faces=np.concatenate([p.faces for p in pieces]),
+                           vertex_end=np.cumsum([len(p.vertices) for p in pieces]),
+                           face_end=np.cumsum([len(p.faces) for p in pieces])))  # fmt: skip
     return pieces
 
 
