@@ -56,7 +56,7 @@ def _fk_case_on_spheres(hand, seed: int):
 
 
 def _penetration_free(task, config) -> bool:
-    return all(c.ok for c in evaluate(task, config).checks if c.kind == "object_collision")
+    return all(c.ok for c in evaluate(task, config).checks if c.kind in ("object_collision", "pad_collision"))
 
 
 def _box_around(rng, form, points, scale):
@@ -189,8 +189,11 @@ def test_a_point_box_is_pruned_only_for_a_link_the_residual_function_finds_too_d
         x = embed(form, config)
         proof = collision_prune(form, x, x, TOLS)
         if proof is not None:
-            depth = {c.name: c.value for c in evaluate(task, config).checks if c.kind == "object_collision"}
-            assert depth[proof.link] > TOL
+            checks = evaluate(task, config).checks
+            depth = {c.name: c.value for c in checks if c.kind == "object_collision"}
+            pads = [c.value for c in checks if c.kind == "pad_collision"
+                    and task.hand_region(next(k for k in task.contacts if k.name == c.name)).link == proof.link]  # fmt: skip
+            assert max([depth.get(proof.link, 0.0)] + pads) > TOL
             fired += 1
     assert fired >= 2
 
@@ -234,21 +237,28 @@ def test_a_task_infeasible_only_through_the_object_is_certified_and_re_proved(tm
     assert off.status == Status.GAVE_UP and off.stats["collision_pruned"] == 0 and not off.solutions
 
 
-def test_a_wide_pit_is_solved_by_the_same_search_and_the_pad_zone_is_never_pruned_for():
-    """The same task with the pit wide enough for the palm: solved, penetration-free; the
-    palm's tip sphere is 1.5 mm into the floor at the pad, which the residual function
-    excepts, and so does the prune (at the solution's own point box)."""
+def test_a_wide_pit_is_solved_by_the_same_search_and_a_proud_sphere_is_not_excused():
+    """The same task with the pit wide enough for the palm: solved, penetration-free, and
+    not pruned at the solution's own point box.  With the palm's tip sphere 1.5 mm proud of
+    its point pad (which has no volume and excuses nothing) every touch of the floor sinks
+    it 1.5 mm: certified infeasible by the collision prune (before issue 26 the zone around
+    the contact excused it)."""
     task = pit_task(120.0)
     result = solve_complete(task, BranchAndPruneOptions(time_limit_s=60))
     assert result.status == Status.SOLVED
     solution = result.solutions[0]
-    assert solution.report.worst("object_collision") <= TOL
+    assert solution.report.worst("object_collision") <= TOL and solution.report.worst("pad_collision") <= TOL
     config = solution.configuration()
-    pose = forward_kinematics(task.hand, config.joint_angles)
-    assert link_penetrations(task, pose, config.T_palm_object)["palm"] > 1.0  # without the pad's exception
     form = build_system(task)
     x = embed(form, config)
     assert collision_prune(form, x, x, TOLS) is None
+    proud = pit_task(120.0, proud_mm=1.5)
+    pose = forward_kinematics(proud.hand, config.joint_angles)
+    T = config.T_palm_object
+    points = [(s.hand_point - T[:3, 3]) @ T[:3, :3] for s in solution.report.contacts]
+    assert link_penetrations(proud, pose, T, points)["palm"] == pytest.approx(1.5, abs=0.13)  # pad or no pad
+    again = solve_complete(proud, BranchAndPruneOptions(time_limit_s=60))
+    assert again.status == Status.INFEASIBLE and again.stats["collision_pruned"] > 0
 
 
 def test_the_prune_gives_the_same_certificate_on_an_executor():
