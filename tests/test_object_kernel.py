@@ -77,14 +77,19 @@ class _Rows:
         return cols
 
 
-def _penetrating_state(name, seed):
-    """A state of the task near a grasp found without the object (these built-ins'
-    collision-blind answers reach into the object), joint angles jittered."""
+def _blind_state(name):
+    """The kernel's rows of the task and the state of its collision-blind grasp."""
     task = load_builtin_task(name)
     blind = solve_local(_blind(task))
     assert blind.success, blind.message
     rows = _Rows(task)
-    x, R, t = rows.state_of(blind.solutions[0].configuration())
+    return (rows, *rows.state_of(blind.solutions[0].configuration()))
+
+
+def _penetrating_state(name, seed):
+    """A state of the task near a grasp found without the object (these built-ins'
+    collision-blind answers reach into the object), joint angles jittered."""
+    rows, x, R, t = _blind_state(name)
     rng = np.random.default_rng(seed)
     x[: rows.g.nf] += rng.uniform(-0.05, 0.05, rows.g.nf)
     return rows, np.clip(x, rows.g.layout.lo, rows.g.layout.hi), R, t
@@ -143,11 +148,7 @@ NO_CAPSULE_ROWS = -1e4  # a margin below every capsule's value: only the pads' r
 def _sunk_states(name, seed, count=6):
     """States of the task around its collision-blind grasp, the object pushed 0-3 mm into
     the hand along random directions and the joints jittered: pads at every depth."""
-    task = load_builtin_task(name)
-    blind = solve_local(_blind(task))
-    assert blind.success, blind.message
-    rows = _Rows(task)
-    x0, R, t0 = rows.state_of(blind.solutions[0].configuration())
+    rows, x0, R, t0 = _blind_state(name)
     rng = np.random.default_rng(seed)
     out = []
     for _ in range(count):

@@ -77,7 +77,7 @@ def capsule_segments(task: Task, pose: HandPose, T_palm_object: np.ndarray):
     return (a - t) @ Rt.T, (b - t) @ Rt.T, shapes.radius, shapes.link
 
 
-def pad_radius(task: Task, hand_region) -> float:
+def pad_radius(hand_region) -> float:
     """The radius ``rho`` of a contact's pad [mm]: a sphere cap's radius, 0 for a point or
     patch hand region (no volume; see the module docstring)."""
     return float(hand_region.region.radius) if isinstance(hand_region.region, SphereCap) else 0.0
@@ -104,7 +104,7 @@ def pad_solids(task: Task, pose: HandPose, T_palm_object, contact_points_object)
             centre = np.asarray(point, dtype=float)
         else:
             centre = (pose.R_palm_link[0, li] @ c_link + pose.r_palm_link[0, li] - T[:3, 3]) @ T[:3, :3]
-        out.append((li, centre, pad_radius(task, hr)))
+        out.append((li, centre, pad_radius(hr)))
     return out
 
 

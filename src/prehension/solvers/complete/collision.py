@@ -232,7 +232,7 @@ def _pads_by_link(form: Formulation) -> dict[str, list[tuple[np.ndarray, float]]
         if centre is None and isinstance(hreg.region, PointRegion):
             centre = np.asarray(hreg.region.point, dtype=float)
         if centre is not None:
-            out.setdefault(hreg.link, []).append((centre, pad_radius(task, hreg)))
+            out.setdefault(hreg.link, []).append((centre, pad_radius(hreg)))
     return out
 
 
