@@ -55,6 +55,13 @@ def _fk_case_on_spheres(hand, seed: int):
     return task, settle_idle_fingers(task, case.config)
 
 
+def _deepest_on(task, config, link: str) -> float:
+    """The residual function's depth of ``link``, or of a pad on it, whichever is deeper [mm]."""
+    pads_on = {c.name for c in task.contacts if task.hand_region(c).link == link}
+    return max([c.value for c in evaluate(task, config).checks
+                if (c.kind == "object_collision" and c.name == link) or (c.kind == "pad_collision" and c.name in pads_on)] + [0.0])  # fmt: skip
+
+
 def _penetration_free(task, config) -> bool:
     return all(c.ok for c in evaluate(task, config).checks if c.kind in ("object_collision", "pad_collision"))
 
@@ -189,11 +196,7 @@ def test_a_point_box_is_pruned_only_for_a_link_the_residual_function_finds_too_d
         x = embed(form, config)
         proof = collision_prune(form, x, x, TOLS)
         if proof is not None:
-            checks = evaluate(task, config).checks
-            depth = {c.name: c.value for c in checks if c.kind == "object_collision"}
-            pads = [c.value for c in checks if c.kind == "pad_collision"
-                    and task.hand_region(next(k for k in task.contacts if k.name == c.name)).link == proof.link]  # fmt: skip
-            assert max([depth.get(proof.link, 0.0)] + pads) > TOL
+            assert _deepest_on(task, config, proof.link) > TOL
             fired += 1
     assert fired >= 2
 
@@ -285,3 +288,34 @@ def test_a_resumed_search_keeps_its_count_of_collision_prunes(tmp_path):
     resumed = solve_complete(task, options, checkpoint=ckpt, resume=True)
     assert resumed.status == Status.INFEASIBLE
     assert resumed.stats["collision_pruned"] == whole.stats["collision_pruned"] and resumed.stats["boxes"] == whole.stats["boxes"]
+
+
+@pytest.mark.parametrize("name", ["teapot-lid-lifting", "teapot-service", "guitar-tuning", "scalpel-upholding"])
+def test_the_prune_never_discards_a_box_around_a_builtin_answer(name):
+    """Real meshes and fingertip pads: around each built-in task's verified local answer
+    (which the residual function accepts, pads and all), the point box and seeded random
+    boxes up to the initial box are never pruned for collision; and the object pushed
+    3 mm into the first pad along its normal is pruned at its point box for that pad's
+    link (the residual function rejects it too)."""
+    from prehension.solve import solve
+    from prehension.tasks.library import load_builtin_task
+
+    task = load_builtin_task(name)
+    solution = solve(task, "local").solutions[0]
+    config = solution.configuration()
+    assert _penetration_free(task, config)
+    form = build_system(task)
+    x = embed(form, config)
+    rng = np.random.default_rng(len(name))
+    boxes = [(x, x), (form.system.lower, form.system.upper)]
+    boxes += [_box_around(rng, form, x[None], 10.0 ** rng.uniform(-9, -1)) for _ in range(10)]
+    for lower, upper in boxes:
+        assert collision_prune(form, lower, upper, TOLS) is None
+    state = solution.report.contacts[0]
+    T = config.T_palm_object.copy()
+    T[:3, 3] -= 3.0 * state.hand_normal  # into the first pad: 3 mm deep
+    sunk = Configuration(config.joint_angles, T, config.contact_params)
+    assert not _penetration_free(task, sunk)
+    xs = embed(form, sunk)
+    proof = collision_prune(form, xs, xs, Tolerances(contact_mm=np.inf, normal_deg=np.inf))  # contacts not made: no anchors
+    assert proof is not None and _deepest_on(task, sunk, proof.link) > TOL  # the residual function agrees
