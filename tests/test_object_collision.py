@@ -229,8 +229,9 @@ def test_colliding_builtin_answers_clear_the_mesh_at_sampled_capsule_points(name
 def test_viewer_draws_pads_in_their_colour_and_a_sunk_pad_red(scalpel):
     """Each fingertip cap's ball is drawn in the pad colour; pushing the object 3 mm into
     the hand along a contact's normal sinks that pad: red, and named in the caption."""
-    from prehension.viewer.scene import PAD_COLOR, PENETRATION_COLOR, build_scene
+    from prehension.viewer.scene import CONTACT_COLORS, PAD_COLOR, PENETRATION_COLOR, build_scene
 
+    assert PAD_COLOR not in CONTACT_COLORS + (PENETRATION_COLOR,)
     task, config = scalpel
     clear = build_scene(task, config)
     assert [m.color for m in clear.layer("pads").meshes] == [PAD_COLOR]

@@ -45,7 +45,9 @@ more than the tolerance.  Its depth is
 (``c`` the cap's centre, or the hand point of a point or patch region with ``rho = 0``;
 exact: one signed-distance query, a ball's depth being ``rho`` minus its centre's signed
 distance).  Every other part of a contact's link, and every other link, is checked as
-any link is.
+any link is.  An excused ball lies inside its pad, so it reaches no deeper than the pad:
+excusing it never changes whether a configuration passes, it only keeps a link's depth
+from repeating its pad's tolerated one.
 """
 
 from __future__ import annotations
