@@ -1,8 +1,8 @@
 """A sound collision prune: a box all of whose configurations put a link into the object.
 
 The residual function rejects a configuration in which some link reaches deeper than
-``object_penetration_mm`` into the object's solid, the touching pads at their contacts
-excepted (:mod:`prehension.tasks.object_collision`).  This module proves, for a box of the
+``object_penetration_mm`` into the object's solid (only a capsule ball inside its own
+contact's pad excused), or some pad does (:mod:`prehension.tasks.object_collision`).  This module proves, for a box of the
 complete solver, that **every** configuration in it is rejected that way, so the box holds
 no solution and may be discarded.
 
@@ -353,7 +353,7 @@ def _anchor_interval(form: Formulation, anchor: ContactAnchor, lower, upper, tol
 def collision_prune(form: Formulation, lower: np.ndarray, upper: np.ndarray, tolerances: Tolerances) -> CollisionProof | None:
     """A proof that every configuration in the box whose contacts are made within
     ``tolerances`` puts some link deeper than ``tolerances.object_penetration_mm`` into
-    the object, the touching pads excepted (see the module docstring), or ``None``."""
+    the object or sinks some pad deeper (see the module docstring), or ``None``."""
     probes, tol_mm = collision_probes(form), tolerances.object_penetration_mm
     if probes is None or not np.isfinite(tol_mm):
         return None
