@@ -11,9 +11,17 @@ For each method and each task, the same task is solved twice: with the object's
 collisions checked (``object_collision`` in the residual function, the local solver's
 kernel repairing penetrating answers with its penetration rows and its driver
 re-checking them, idle fingers settled clear) and with them ignored
-(``collisions: false``).  "clear" counts answers whose links are all within 0.5 mm of the
-surface, measured on both (an answer found with collisions ignored is measured
+(``collisions: false``).  "clear" counts answers whose links and pads are all within 0.5 mm
+of the surface (the residual function's verdict), measured on both (an answer found with collisions ignored is measured
 afterwards).  Times are wall-clock medians per task; read ratios, not absolute values.
+
+"deepest" re-measures each answer found with collisions checked independently of the
+project's distance code (``remeasure.py``: each capsule's axis sampled at 64 points and
+each pad ball, against the closed mesh by brute force, only a capsule ball inside its own
+pad excused) and prints its deepest penetration [mm]; the summary counts answers deeper
+than 1 mm.  ``--baseline SRC`` times the same local solves (collisions checked) with the
+code in ``SRC`` (e.g. a checkout of the previous commit's ``src``) in a subprocess of the
+same run, and prints the ratio of the median times.
 
     python benchmarks/objects.py                       # local solver, every task
     python benchmarks/objects.py --methods local,complete --time-limit 10
@@ -21,6 +29,7 @@ afterwards).  Times are wall-clock medians per task; read ratios, not absolute v
     python benchmarks/objects.py --queries             # microseconds per distance query
     python benchmarks/objects.py --verify              # make_solution of each local answer, both ways
     python benchmarks/objects.py --simulate            # simulate's start on each local answer (slow: ~3 s a task)
+    python benchmarks/objects.py --baseline ../old/src # and the local solver's time against older code
 
 ``--simulate`` (behind a flag: the physics test costs seconds per task) prints, per task the
 local solver solves, the penetration MuJoCo sees at the start of ``prehension simulate``
@@ -32,6 +41,10 @@ at most 1 mm.
 from __future__ import annotations
 
 import argparse
+import json
+import os
+import subprocess
+import sys
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -50,6 +63,9 @@ from prehension.solve import solve
 from prehension.tasks.library import builtin_task_names, load_builtin_task
 from prehension.tasks.model import Contact, Task
 from prehension.tasks.residuals import evaluate
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from remeasure import deepest  # noqa: E402
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "objects"
 MESHES = [("bunny.obj", 100.0)] + [(f"random/{i:03d}.obj", 10.0) for i in range(5)]
@@ -130,7 +146,8 @@ def _clear(task: Task, result) -> bool:
     if not result.solutions:
         return False
     colliding = replace(task, object=replace(task.object, collisions=True))
-    return evaluate(colliding, result.solutions[0].configuration()).worst("object_collision") <= 0.5
+    report = evaluate(colliding, result.solutions[0].configuration())
+    return max(report.worst("object_collision"), report.worst("pad_collision")) <= 0.5
 
 
 def _run(task: Task, method: str, collide: bool, time_limit: float):
@@ -152,6 +169,8 @@ def main() -> None:
     parser.add_argument("--queries", action="store_true", help="only the distance-query speeds, per mesh")
     parser.add_argument("--verify", action="store_true", help="only the cost of verifying each local answer, both ways")
     parser.add_argument("--simulate", action="store_true", help="only simulate's start on each local answer (needs the sim extra)")
+    parser.add_argument("--baseline", help="a checkout's src folder: time the local solver with it too, in the same run")
+    parser.add_argument("--times-json", action="store_true", help=argparse.SUPPRESS)  # the baseline's subprocess
     args = parser.parse_args()
     console = Console(width=150)
     if args.queries:
@@ -160,6 +179,9 @@ def main() -> None:
     rows = [(n, load_builtin_task(n)) for n in builtin_task_names()]
     if SHARED.is_dir():
         rows += mesh_tasks(np.random.default_rng(args.seed), 2 if args.quick else args.per_mesh)[: 9 if args.quick else None]
+    if args.times_json:  # run by --baseline with the older code on the path
+        print(json.dumps([_run(task, "local", True, args.time_limit)[1] for _, task in rows]))
+        return
     if args.verify:
         _verify_cost(console, rows)
         return
@@ -167,33 +189,59 @@ def main() -> None:
         _simulate_start(console, rows)
         return
     for method in args.methods.split(","):
-        _table(console, rows, method.strip(), args.time_limit)
+        times = _table(console, rows, method.strip(), args.time_limit)
+        if args.baseline and method.strip() == "local":
+            _against_baseline(console, args, times)
 
 
-def _table(console: Console, rows, method: str, time_limit: float) -> None:
+def _against_baseline(console: Console, args, times: list[float]) -> None:
+    """The same local solves (collisions checked) with the code in ``args.baseline``, timed in a subprocess."""
+    cmd = [sys.executable, __file__, "--times-json", "--per-mesh", str(args.per_mesh), "--seed", str(args.seed)]
+    cmd += ["--quick"] if args.quick else []
+    env = {**os.environ, "PYTHONPATH": str(Path(args.baseline).resolve())}
+    out = subprocess.run(cmd, env=env, capture_output=True, text=True, check=True).stdout
+    before = json.loads(out.strip().splitlines()[-1])
+    n = len(builtin_task_names())
+    for what, now, then in (("built-in tasks", times[:n], before[:n]), (f"all {len(times)} tasks", times, before)):
+        console.print(f"local, collisions checked, {what}: median {np.median(now):.3f} s against {np.median(then):.3f} s with "
+                      f"{args.baseline} ({np.median(now) / max(np.median(then), 1e-12):.2f}x), total {sum(now):.2f} s against "
+                      f"{sum(then):.2f} s ({sum(now) / max(sum(then), 1e-12):.2f}x)")
+
+
+def _table(console: Console, rows, method: str, time_limit: float) -> list[float]:
     table = Table(title=f"{method} solver: collisions checked vs ignored (clear = every link within 0.5 mm)")
-    for col in ("task", "contacts", "checked: solved", "clear", "time [s]", "ignored: solved", "clear", "time [s]"):
+    for col in ("task", "contacts", "checked: solved", "clear", "deepest [mm]", "time [s]", "ignored: solved", "clear", "time [s]"):
         table.add_column(col, justify="left" if col == "task" else "right")
     totals = {True: [0, 0, []], False: [0, 0, []]}
+    deep: list[float] = []
     for name, task in rows:
         cells = [name, str(len(task.contacts))]
         for collide in (True, False):
             result, seconds = _run(task, method, collide, time_limit)
             clear = _clear(task, result)
-            cells += [result.status, "yes" if clear else "-", f"{seconds:.3f}"]
+            cells += [result.status, "yes" if clear else "-"]
+            if collide:
+                depth, where = deepest(task, result.solutions[0]) if result.solutions else (np.nan, "")
+                deep.append(depth)
+                cells.append(f"{depth:.2f}" + (f" {where}" if depth > 1.0 else ""))
+            cells.append(f"{seconds:.3f}")
             totals[collide][0] += result.success
             totals[collide][1] += clear
             totals[collide][2].append(seconds)
         table.add_row(*cells)
     n = len(rows)
     summary = [f"all {n}", ""]
+    measured = np.array(deep)[np.isfinite(deep)]
     for collide in (True, False):
         solved, clear, secs = totals[collide]
-        summary += [f"{solved}/{n}", f"{clear}/{n}", f"median {np.median(secs):.3f}"]
+        summary += [f"{solved}/{n}", f"{clear}/{n}"]
+        summary += [f"{int(np.sum(measured > 1.0))} > 1 mm, max {measured.max(initial=0.0):.2f}"] if collide else []
+        summary += [f"median {np.median(secs):.3f}"]
     table.add_row(*summary, style="bold")
     console.print(table)
     ratio = np.median(totals[True][2]) / max(np.median(totals[False][2]), 1e-12)
     console.print(f"{method}: median time with collisions / without: {ratio:.2f}x")
+    return totals[True][2]
 
 
 def _verify_cost(console: Console, rows, repeats: int = 5) -> None:

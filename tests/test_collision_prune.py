@@ -22,7 +22,7 @@ from prehension.solvers.complete.search import BranchAndPruneOptions, solve_comp
 from prehension.system.embedding import embed
 from prehension.system.formulation import build_system
 from prehension.tasks.idle import settle_idle_fingers
-from prehension.tasks.model import Task
+from prehension.tasks.model import Configuration, Task
 from prehension.tasks.object_collision import link_penetrations
 from prehension.tasks.residuals import Tolerances, evaluate
 from prehension.verify import verify_result_file
@@ -54,8 +54,15 @@ def _fk_case_on_spheres(hand, seed: int):
     return task, settle_idle_fingers(task, case.config)
 
 
+def _deepest_on(task, config, link: str) -> float:
+    """The residual function's depth of ``link``, or of a pad on it, whichever is deeper [mm]."""
+    pads_on = {c.name for c in task.contacts if task.hand_region(c).link == link}
+    return max([c.value for c in evaluate(task, config).checks
+                if (c.kind == "object_collision" and c.name == link) or (c.kind == "pad_collision" and c.name in pads_on)] + [0.0])  # fmt: skip
+
+
 def _penetration_free(task, config) -> bool:
-    return all(c.ok for c in evaluate(task, config).checks if c.kind == "object_collision")
+    return all(c.ok for c in evaluate(task, config).checks if c.kind in ("object_collision", "pad_collision"))
 
 
 def _probe_points_in_object(task, probes, config) -> np.ndarray:
@@ -169,8 +176,7 @@ def test_a_point_box_is_pruned_only_for_a_link_the_residual_function_finds_too_d
         x = embed(form, config)
         proof = collision_prune(form, x, x, TOLS)
         if proof is not None:
-            depth = {c.name: c.value for c in evaluate(task, config).checks if c.kind == "object_collision"}
-            assert depth[proof.link] > TOL
+            assert _deepest_on(task, config, proof.link) > TOL
             fired += 1
     assert fired >= 2
 
@@ -207,21 +213,28 @@ def test_a_task_infeasible_only_through_the_object_is_certified_and_re_proved(tm
     assert off.status == Status.GAVE_UP and off.stats["collision_pruned"] == 0 and not off.solutions
 
 
-def test_a_wide_pit_is_solved_by_the_same_search_and_the_pad_zone_is_never_pruned_for():
-    """The same task with the pit wide enough for the palm: solved, penetration-free; the
-    palm's tip sphere is 1.5 mm into the floor at the pad, which the residual function
-    excepts, and so does the prune (at the solution's own point box)."""
+def test_a_wide_pit_is_solved_by_the_same_search_and_a_proud_sphere_is_not_excused():
+    """The same task with the pit wide enough for the palm: solved, penetration-free, and
+    not pruned at the solution's own point box.  With the palm's tip sphere 1.5 mm proud of
+    its point pad (which has no volume and excuses nothing) every touch of the floor sinks
+    it 1.5 mm: certified infeasible by the collision prune (before issue 26 the zone around
+    the contact excused it)."""
     task = pit_task(120.0)
     result = solve_complete(task, BranchAndPruneOptions(time_limit_s=60))
     assert result.status == Status.SOLVED
     solution = result.solutions[0]
-    assert solution.report.worst("object_collision") <= TOL
+    assert solution.report.worst("object_collision") <= TOL and solution.report.worst("pad_collision") <= TOL
     config = solution.configuration()
-    pose = forward_kinematics(task.hand, config.joint_angles)
-    assert link_penetrations(task, pose, config.T_palm_object)["palm"] > 1.0  # without the pad's exception
     form = build_system(task)
     x = embed(form, config)
     assert collision_prune(form, x, x, TOLS) is None
+    proud = pit_task(120.0, proud_mm=1.5)
+    pose = forward_kinematics(proud.hand, config.joint_angles)
+    T = config.T_palm_object
+    points = [(s.hand_point - T[:3, 3]) @ T[:3, :3] for s in solution.report.contacts]
+    assert link_penetrations(proud, pose, T, points)["palm"] == pytest.approx(1.5, abs=0.13)  # pad or no pad
+    again = solve_complete(proud, BranchAndPruneOptions(time_limit_s=60))
+    assert again.status == Status.INFEASIBLE and again.stats["collision_pruned"] > 0
 
 
 def test_the_prune_gives_the_same_certificate_on_an_executor():
@@ -248,3 +261,34 @@ def test_a_resumed_search_keeps_its_count_of_collision_prunes(tmp_path):
     resumed = solve_complete(task, options, checkpoint=ckpt, resume=True)
     assert resumed.status == Status.INFEASIBLE
     assert resumed.stats["collision_pruned"] == whole.stats["collision_pruned"] and resumed.stats["boxes"] == whole.stats["boxes"]
+
+
+@pytest.mark.parametrize("name", ["teapot-lid-lifting", "teapot-service", "guitar-tuning", "scalpel-upholding"])
+def test_the_prune_never_discards_a_box_around_a_builtin_answer(name):
+    """Real meshes and fingertip pads: around each built-in task's verified local answer
+    (which the residual function accepts, pads and all), the point box and seeded random
+    boxes up to the initial box are never pruned for collision; and the object pushed
+    3 mm into the first pad along its normal is pruned at its point box for that pad's
+    link (the residual function rejects it too)."""
+    from prehension.solve import solve
+    from prehension.tasks.library import load_builtin_task
+
+    task = load_builtin_task(name)
+    solution = solve(task, "local").solutions[0]
+    config = solution.configuration()
+    assert _penetration_free(task, config)
+    form = build_system(task)
+    x = embed(form, config)
+    rng = np.random.default_rng(len(name))
+    boxes = [(x, x), (form.system.lower, form.system.upper)]
+    boxes += [box_around(rng, form, x[None], 10.0 ** rng.uniform(-9, -1)) for _ in range(10)]
+    for lower, upper in boxes:
+        assert collision_prune(form, lower, upper, TOLS) is None
+    state = solution.report.contacts[0]
+    T = config.T_palm_object.copy()
+    T[:3, 3] -= 3.0 * state.hand_normal  # into the first pad: 3 mm deep
+    sunk = Configuration(config.joint_angles, T, config.contact_params)
+    assert not _penetration_free(task, sunk)
+    xs = embed(form, sunk)
+    proof = collision_prune(form, xs, xs, Tolerances(contact_mm=np.inf, normal_deg=np.inf))  # contacts not made: no anchors
+    assert proof is not None and _deepest_on(task, sunk, proof.link) > TOL  # the residual function agrees

@@ -15,7 +15,7 @@ from prehension.solve import solve
 from prehension.tasks.idle import idle_fingers, settle_idle_fingers
 from prehension.tasks.library import load_builtin_task
 from prehension.tasks.model import Configuration, Contact, Task
-from prehension.tasks.object_collision import _kept_pieces, batch_link_depths, link_penetrations
+from prehension.tasks.object_collision import _kept_pieces, batch_link_depths, link_penetrations, pad_penetrations
 from prehension.tasks.residuals import Tolerances, evaluate
 
 
@@ -68,13 +68,26 @@ def test_capped_capsule_depth_answers_the_same_yes_no_question(rng, cap):
     assert np.all(capped <= exact + 1e-12)  # never more than the depth: a lower bound
     assert (exact > cap).sum() > 10 and (exact <= cap).sum() > 10  # both answers occur
 
-def test_pad_exception_cuts_the_segment_around_the_contact():
+def test_pad_exception_excuses_only_the_capsule_balls_inside_the_pad():
     a, b = np.zeros(3), np.array([10.0, 0, 0])
-    pieces = _kept_pieces(a, b, 1.0, [(np.array([5.0, 0, 0]), 1.0)])
+    pieces = _kept_pieces(a, b, 1.0, [(np.array([5.0, 0, 0]), 3.0)])  # B(s, 1) in B(c, 3): |s - c| <= 2
     np.testing.assert_allclose([p[0][0] for p in pieces], [0.0, 7.0])
     np.testing.assert_allclose([p[1][0] for p in pieces], [3.0, 10.0])
-    assert _kept_pieces(a, b, 1.0, [(np.array([5.0, 50, 0]), 1.0)])[0][1][0] == 10.0  # far ball: whole segment
-    assert _kept_pieces(a, b, 20.0, [(np.array([5.0, 0, 0]), 1.0)]) == []  # swallowed
+    assert _kept_pieces(a, b, 1.0, [(np.array([5.0, 50, 0]), 3.0)])[0][1][0] == 10.0  # far pad: whole segment
+    assert _kept_pieces(a, b, 1.0, [(np.array([5.0, 0, 0]), 20.0)]) == []  # inside a large pad
+    for rho in (1.0, 0.5, 0.0):  # a pad no thicker than the capsule holds none of its balls
+        assert len(_kept_pieces(a, b, 1.0, [(np.array([5.0, 0, 0]), rho)])) == 1
+    rng = np.random.default_rng(3)  # the kept pieces are exactly the balls not inside the pad
+    for _ in range(200):
+        c, rho, r = rng.normal(scale=6.0, size=3), rng.uniform(0, 8), rng.uniform(0.5, 6)
+        u = np.linspace(0, 1, 401)
+        pts = a + u[:, None] * (b - a)
+        inside = np.linalg.norm(pts - c, axis=1) + r <= rho
+        kept = np.zeros(len(u), bool)
+        for p0, p1 in _kept_pieces(a, b, r, [(c, rho)]):
+            kept |= (u >= p0[0] / 10 - 1e-12) & (u <= p1[0] / 10 + 1e-12)
+        boundary = np.abs(np.linalg.norm(pts - c, axis=1) + r - rho) < 1e-6
+        assert np.all((kept == ~inside) | boundary)
 
 
 @pytest.fixture(scope="module")
@@ -101,17 +114,28 @@ def test_solved_builtin_is_clear_and_a_displaced_object_is_caught(scalpel):
     assert evaluate(task, moved, Tolerances(object_penetration_mm=1e3)).worst("object_collision") == palm.value
 
 
-def test_excepting_pads_only_lowers_depths():
-    task = load_builtin_task("scalpel-incision")  # the palm pad touches the handle
+@pytest.mark.parametrize("name", ["scalpel-upholding", "teapot-lid-lifting"])
+def test_what_a_pad_excuses_is_never_deeper_than_the_pad(name):
+    """Excusing only capsule balls inside the pad ball lowers a link's depth at most to
+    the pad's own depth, which is checked: a hand sunk through its fingertips is caught
+    by the pad rows whether or not anything is excused."""
+    task = load_builtin_task(name)
     config = solve(task, "local").solutions[0].configuration()
-    pose = forward_kinematics(task.hand, config.joint_angles)
-    report = evaluate(task, config)
-    T = config.T_palm_object
-    points = [(s.hand_point - T[:3, 3]) @ T[:3, :3] for s in report.contacts]
-    with_pads = link_penetrations(task, pose, T, points)
-    without = link_penetrations(task, pose, T)
-    assert all(with_pads[k] <= without[k] + 1e-12 for k in without)
-    assert max(without.values()) > max(with_pads.values())  # the fingertips do touch the handle
+    for dz in (0.0, -2.0, -6.0):  # the solved grasp, then the object pushed into the hand
+        T = config.T_palm_object.copy()
+        T[:3, 3] += T[:3, :3] @ np.array([0.0, 0.0, dz])
+        moved = Configuration(config.joint_angles, T, config.contact_params)
+        pose = forward_kinematics(task.hand, config.joint_angles)
+        report = evaluate(task, moved)
+        points = [(s.hand_point - T[:3, 3]) @ T[:3, :3] for s in report.contacts]
+        with_pads, without = link_penetrations(task, pose, T, points), link_penetrations(task, pose, T)
+        pads = pad_penetrations(task, pose, T, points)
+        assert set(pads) == {c.name for c in task.contacts}
+        assert {c.name: c.value for c in report.checks if c.kind == "pad_collision"} == pads
+        for c in task.contacts:
+            link = task.hand_region(c).link
+            assert with_pads[link] <= without[link] + 1e-12
+            assert without[link] <= max(with_pads[link], max(pads.values())) + 0.125 + 1e-9
 
 
 def _box_task(centre, size=(24.0, 24.0, 24.0)):
@@ -157,7 +181,7 @@ def test_viewer_paints_penetrating_links_red(scalpel):
     assert not any(m.color == PENETRATION_COLOR for m in clear.layer("hand").meshes)
 
 
-COLLIDING = ("guitar-tuning", "scalpel-handling", "scalpel-incision", "scalpel-upholding", "teapot-service")
+COLLIDING = ("guitar-tuning", "scalpel-handling", "scalpel-upholding", "teapot-service", "teapot-lid-lifting")
 
 
 def _capsule_surface_points(a, b, r, n_axis=24, n_dirs=64):
@@ -173,7 +197,8 @@ def _capsule_surface_points(a, b, r, n_axis=24, n_dirs=64):
 @pytest.mark.parametrize("name", COLLIDING)
 def test_colliding_builtin_answers_clear_the_mesh_at_sampled_capsule_points(name):
     """Independent of link_penetrations: points on every capsule surface against the mesh's
-    signed distance, the pad zones at the contacts left out as documented."""
+    signed distance, only the capsule balls inside a contact's pad ball left out, and the
+    pad balls' own surface points."""
     from prehension.hands.collision import collision_pairs
 
     task = load_builtin_task(name)
@@ -182,18 +207,74 @@ def test_colliding_builtin_answers_clear_the_mesh_at_sampled_capsule_points(name
     pose = forward_kinematics(task.hand, config.joint_angles)
     T = config.T_palm_object
     shapes = collision_pairs(task.hand)
-    hand_points = {task.hand_region(c).link: [] for c in task.contacts}
+    pads = {task.hand_region(c).link: [] for c in task.contacts}
     for c, s in zip(task.contacts, report.contacts):
-        hr = task.hand_region(c)
-        rho = hr.region.radius if hasattr(hr.region, "radius") else max(cap.radius for cap in task.hand.links[task.hand.link_index(hr.link)].collision)
-        hand_points[hr.link].append(((s.hand_point - T[:3, 3]) @ T[:3, :3], rho))
+        rho = task.hand_region(c).region.radius  # the built-in hand's regions are caps
+        centre = (s.hand_point - rho * s.hand_normal - T[:3, 3]) @ T[:3, :3]
+        pads[task.hand_region(c).link].append((centre, rho))
+        points, _ = _capsule_surface_points(centre, centre, rho, n_axis=1)
+        assert task.object.distance.signed_distance(points).min() >= -0.5, c.name
     for s in range(len(shapes.radius)):
         li = shapes.link[s]
         R, r = pose.R_palm_link[0, li], pose.r_palm_link[0, li]
         a, b = [((R @ p + r) - T[:3, 3]) @ T[:3, :3] for p in (shapes.a[s], shapes.b[s])]
         points, centres = _capsule_surface_points(a, b, shapes.radius[s])
         keep = np.ones(len(points), bool)
-        for h, rho in hand_points.get(task.hand.link_names[li], []):
-            keep &= np.linalg.norm(centres - h, axis=1) >= shapes.radius[s] + rho
+        for h, rho in pads.get(task.hand.link_names[li], []):
+            keep &= np.linalg.norm(centres - h, axis=1) > rho - shapes.radius[s]
         if keep.any():
             assert task.object.distance.signed_distance(points[keep]).min() >= -0.5, task.hand.link_names[li]
+
+
+def test_viewer_draws_pads_in_their_colour_and_a_sunk_pad_red(scalpel):
+    """Each fingertip cap's ball is drawn in the pad colour; pushing the object 3 mm into
+    the hand along a contact's normal sinks that pad: red, and named in the caption."""
+    from prehension.viewer.scene import CONTACT_COLORS, PAD_COLOR, PENETRATION_COLOR, build_scene
+
+    assert PAD_COLOR not in CONTACT_COLORS + (PENETRATION_COLOR,)
+    task, config = scalpel
+    clear = build_scene(task, config)
+    assert [m.color for m in clear.layer("pads").meshes] == [PAD_COLOR]
+    assert not any("pad" in line for line in clear.caption)
+    state = evaluate(task, config).contacts[0]
+    T = config.T_palm_object.copy()
+    T[:3, 3] -= 3.0 * state.hand_normal  # the object into the pad, along its normal
+    scene = build_scene(task, Configuration(config.joint_angles, T, config.contact_params))
+    assert PENETRATION_COLOR in [m.color for m in scene.layer("pads").meshes]
+    assert any(f"{task.contacts[0].name} pad" in line for line in scene.caption if line.startswith("into the object (red)"))
+
+
+def test_result_file_carries_each_link_and_pad_depth_and_check_re_derives_them(tmp_path):
+    """The result file states each link's and each pad's depth; ``check`` re-derives them,
+    catches an edited one, and reads a file written before they were stored."""
+    import json
+
+    from prehension.results import write_result
+    from prehension.verify import verify_result_file
+
+    task = load_builtin_task("scalpel-upholding")
+    result = solve(task, "local")
+    path = tmp_path / "r.json"
+    write_result(result, path)
+    data = json.loads(path.read_text())
+    depths = data["solutions"][0]["object_depths_mm"]
+    report = result.solutions[0].report
+    assert depths["links"] == {c.name: c.value for c in report.checks if c.kind == "object_collision"}
+    assert set(depths["pads"]) == {c.name for c in task.contacts}
+
+    def finding(d):
+        path.write_text(json.dumps(d))
+        found = verify_result_file(path).findings
+        return next(f for f in found if f.what.endswith("each link's and each pad's depth in the object")), found
+
+    ok, _ = finding(data)
+    assert ok.ok and "deepest" in ok.detail
+    edited = json.loads(json.dumps(data))
+    edited["solutions"][0]["object_depths_mm"]["pads"][task.contacts[0].name] += 0.01
+    bad, _ = finding(edited)
+    assert not bad.ok and f"pads {task.contacts[0].name}" in bad.detail
+    old = json.loads(json.dumps(data))  # as written before issue 26: no depths, no pad kind
+    del old["solutions"][0]["object_depths_mm"]
+    del old["solutions"][0]["worst"]["pad_collision"]
+    before, found = finding(old)
+    assert before.ok and "not stated" in before.detail and all(f.ok for f in found)

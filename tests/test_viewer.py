@@ -145,7 +145,7 @@ def test_shapeless_links_are_drawn_as_segments_between_joint_centres():
 @pytest.mark.parametrize("name", builtin_task_names())
 def test_every_builtin_task_builds_a_page_of_reasonable_size(name):
     scene = build_scene(load_builtin_task(name))
-    assert {l.key for l in scene.layers} == {"hand", "object", "hand_regions", "object_regions", "contacts", "frames"}
+    assert {l.key for l in scene.layers} == {"hand", "object", "hand_regions", "pads", "object_regions", "contacts", "frames"}
     assert scene.layer("object").meshes and scene.layer("hand_regions").meshes
     assert len(scene_to_html(scene)) < 3_000_000
 

@@ -46,20 +46,21 @@ def pincer_task(d: float) -> Task:
 
 
 # -- the paddle and the pit: infeasible only because of the object --------------------------
-def paddle_hand() -> Hand:
+def paddle_hand(proud_mm: float = 0.0) -> Hand:
     """A palm capsule 100 mm long with a pad at its tip facing +x, and one idle finger.
 
-    A small sphere at the palm's tip holds the pad and reaches 1.5 mm beyond it: penetration
-    that the residual function excepts (the pad's own zone), never pruned for."""
+    A small sphere at the palm's tip holds the pad (a point) and reaches ``proud_mm``
+    beyond the pad's plane x = 10 mm: a point pad has no volume and excuses nothing, so a
+    proud sphere is penetration wherever the pad touches a flat floor."""
     half_pi = np.pi / 2
-    palm = Link("palm", (Capsule((0, 0, 0), (0, 0, 90), 10.0), Capsule((7, 0, 97), (7, 0, 97), 4.5)))
+    palm = Link("palm", (Capsule((0, 0, 0), (0, 0, 90), 10.0), Capsule((5.5 + proud_mm, 0, 97), (5.5 + proud_mm, 0, 97), 4.5)))
     finger = Link("f1", (Capsule((0, 0, 0), (0, 0, 30), 6.0),))
     joint = Joint("j1", "revolute", "palm", "f1", (0, 0, 0), (0, 0, 0), (0, 1, 0), np.eye(3), ("j1",), (0.0,), (half_pi,))
     regions = {"pad": HandRegion("palm", PointRegion((10, 0, 100), (1, 0, 0)))}
     return Hand("paddle", (palm, finger), (joint,), (), (Finger("f", ("f1",)),), regions)
 
 
-def pit_task(half_width: float) -> Task:
+def pit_task(half_width: float, proud_mm: float = 0.0) -> Task:
     """The pad must touch the floor of a square pit (``2 half_width`` wide, 30 mm deep,
     opening towards -x): the palm then lies 10 mm above the floor, in the walls."""
     h, long = half_width, 2 * half_width + 160.0
@@ -67,4 +68,4 @@ def pit_task(half_width: float) -> Task:
              Box((-15.0, h + 40.0, 0.0), (30.0, 80.0, 2 * h)), Box((-15.0, -h - 40.0, 0.0), (30.0, 80.0, 2 * h)))  # fmt: skip
     solid = PrimitiveSolid((Box((30.0, 0.0, 0.0), (60.0, long + 40.0, long + 40.0)),) + walls)
     obj = GraspObject("pit", {"floor": PointRegion((0, 0, 0), (-1, 0, 0))}, solid=solid)
-    return Task(f"pit-{2 * h:g}", paddle_hand(), obj, (Contact("pad", "floor"),), ())
+    return Task(f"pit-{2 * h:g}", paddle_hand(proud_mm), obj, (Contact("pad", "floor"),), ())

@@ -216,10 +216,20 @@ def _solution_to_dict(sol: Solution, quality: dict) -> dict:
             for c in sol.contacts
         ],
         "worst": {k: sol.report.worst(k) for k in sorted(sol.report.kinds)},
+        **_object_depths(sol.report),
         "tolerances": asdict(sol.tolerances),
         "idle_moved": list(sol.idle_moved),
         "quality": quality,
     }
+
+
+def _object_depths(report: ResidualReport) -> dict:
+    """``{"object_depths_mm": {"links": {link: depth}, "pads": {contact: depth}}}`` of a
+    report whose object collides (its ``object_collision`` and ``pad_collision`` checks
+    [mm]), else ``{}``."""
+    links = {c.name: c.value for c in report.checks if c.kind == "object_collision"}
+    pads = {c.name: c.value for c in report.checks if c.kind == "pad_collision"}
+    return {"object_depths_mm": {"links": links, "pads": pads}} if links or pads else {}
 
 
 def result_to_dict(result: SolveResult, quality=None, *, embed_task: bool = True, qualities=None) -> dict:

@@ -236,7 +236,8 @@ def _solution_table(solution, status: str) -> Table:
         table.add_row(name, f"{np.degrees(value):.3f}")
     report = solution.report
     into = [c for c in report.checks if c.kind == "object_collision"]
-    object_note = f"; no link more than {into[0].tolerance:g} mm into the object (deepest {report.worst('object_collision'):.2g} mm)" if into else ""
+    object_note = (f"; no link or pad more than {into[0].tolerance:g} mm into the object (deepest link "
+                   f"{report.worst('object_collision'):.2g} mm, pad {report.worst('pad_collision'):.2g} mm)") if into else ""  # fmt: skip
     table.caption = (
         f"contacts within {report.worst('contact_distance'):.1e} mm and {report.worst('contact_normal'):.1e} deg; "
         f"limits and couplings exact; no self-collision{object_note}"

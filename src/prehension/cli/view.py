@@ -27,7 +27,7 @@ def add_parsers(sub) -> None:
     render.add_argument("--azim", type=finite, default=None, metavar="DEG", help="view azimuth [deg] (default 35)")
     render.add_argument("--size", default="900x700", metavar="WxH", help="picture size in pixels (default 900x700)")
     render.add_argument(
-        "--layers", metavar="A,B", help="layers to draw (default: hand,object,hand_regions,object_regions,contacts; also frames)"
+        "--layers", metavar="A,B", help="layers to draw (default: hand,object,hand_regions,pads,object_regions,contacts; also frames)"
     )
 
 

@@ -1,4 +1,4 @@
-"""Hand–object collision: how deep each link's capsules reach into the object's solid.
+"""Hand–object collision: how deep each link's capsules, and each touching pad, reach into the object's solid.
 
 A capsule (segment ``a``-``b`` and radius ``r``, :class:`~prehension.hands.model.Capsule`)
 is clear of the object when every point of its segment lies outside the solid at least
@@ -17,14 +17,37 @@ deeper than ``r``; its depth below the surface is then sampled
 0.125 mm of the true value, from below, as samples 0.25 mm apart would be, measuring
 only where the minimum could be).
 
-**The touching pads are excepted.**  A link that makes a contact touches the object there
-by design, and its capsules (coarser than its pad) may reach the surface near the
-contact.  For each contact, on the link that carries the contact's hand region, the part
-of each capsule's segment within ``r + rho`` of the contact point (the hand point) is not
-checked, where ``r`` is the capsule's radius and ``rho`` the pad's radius: a sphere
-cap's radius, or for a patch or point hand region the link's largest capsule radius.
-That is, a capsule ball is excepted when it overlaps the ball of radius ``rho`` around the
-contact point.  Everything else of that link, and every other link, is checked.
+**The exception is the pad, nothing more.**  Each contact's hand region has a *pad*: the
+solid that touches the object there.
+
+* A sphere cap's pad is its whole ball ``P = B(c, rho)`` (centre ``c`` and radius ``rho``
+  fixed on the link).  On the contact's link, a capsule ball ``B(s, r)`` (``s`` on the
+  segment) is excused only where it lies inside the pad:
+
+  .. math::
+
+      B(s, r) \\subseteq B(c, \\rho) \\iff |s - c| \\le \\rho - r,
+
+  so nothing of a capsule at least as thick as the pad is excused.  The excused part is
+  fixed on the link (it does not move with the contact point): on the SA hand's distal
+  capsules (``r`` = 10 mm, ``rho`` = 13 mm, ``c`` at the capsule's end) the last 3 mm of
+  the 17 mm segment, against a zone of ``r + rho`` = 23 mm around the contact point before.
+* A point or patch hand region has no volume: its pad is the region itself, no capsule
+  ball lies inside it, and nothing is excused (``rho = 0``, the pad the hand point).
+
+**The pad is itself checked**: it may touch the object at the contact, and nowhere sink
+more than the tolerance.  Its depth is
+
+.. math::
+
+    \\text{pad depth} = \\max\\bigl(0,\\; \\rho - \\mathrm{sd}(c)\\bigr)
+
+(``c`` the cap's centre, or the hand point of a point or patch region with ``rho = 0``;
+exact: one signed-distance query, a ball's depth being ``rho`` minus its centre's signed
+distance).  Every other part of a contact's link, and every other link, is checked as
+any link is.  An excused ball lies inside its pad, so it reaches no deeper than the pad:
+excusing it never changes whether a configuration passes, it only keeps a link's depth
+from repeating its pad's tolerated one.
 """
 
 from __future__ import annotations
@@ -37,8 +60,8 @@ from ..hands.kinematics import HandPose
 from .model import Task
 
 __all__ = [
-    "link_penetrations", "batch_link_depths", "moving_links", "capsule_segments", "pad_exclusions", "segment_depths",
-    "SAMPLE_MM",
+    "link_penetrations", "pad_penetrations", "batch_link_depths", "moving_links", "capsule_segments", "pad_solids",
+    "pad_radius", "pad_centre_in_link", "segment_depths", "SAMPLE_MM",
 ]  # fmt: skip
 
 SAMPLE_MM = 0.25  # spacing of the depth samples of a segment that reaches inside [mm]
@@ -56,33 +79,60 @@ def capsule_segments(task: Task, pose: HandPose, T_palm_object: np.ndarray):
     return (a - t) @ Rt.T, (b - t) @ Rt.T, shapes.radius, shapes.link
 
 
-def pad_radius(task: Task, hand_region) -> float:
-    """The radius of a contact's pad [mm] (see the module docstring)."""
-    if isinstance(hand_region.region, SphereCap):
-        return float(hand_region.region.radius)
-    link = task.hand.links[task.hand.link_index(hand_region.link)]
-    return max((float(c.radius) for c in link.collision), default=0.0)
+def pad_radius(hand_region) -> float:
+    """The radius ``rho`` of a contact's pad [mm]: a sphere cap's radius, 0 for a point or
+    patch hand region (no volume; see the module docstring)."""
+    return float(hand_region.region.radius) if isinstance(hand_region.region, SphereCap) else 0.0
 
 
-def pad_exclusions(task: Task, contact_points_object) -> list[tuple[int, np.ndarray, float]]:
-    """Per contact: ``(link index, contact point (3,) in the object frame [mm], pad radius [mm])``."""
+def pad_centre_in_link(hand_region) -> np.ndarray | None:
+    """A sphere cap's centre in its link's frame [mm]; ``None`` for a point or patch region
+    (its pad is the hand point of the contact)."""
+    return np.asarray(hand_region.region.center, dtype=float) if isinstance(hand_region.region, SphereCap) else None
+
+
+def pad_solids(task: Task, pose: HandPose, T_palm_object, contact_points_object) -> list[tuple[int, np.ndarray, float]]:
+    """Per contact, its pad: ``(link index, centre (3,) in the object frame [mm], rho [mm])``
+    (see the module docstring): a sphere cap's ball, its centre placed by ``pose`` (one
+    configuration) and ``T_palm_object``; a point or patch region's hand point
+    ``contact_points_object[c]`` (object frame [mm]) with ``rho = 0``.  Empty when no
+    contact point is given (then nothing is excused and no pad is checked)."""
+    T = np.asarray(T_palm_object, dtype=float)
     out = []
     for c, point in zip(task.contacts, contact_points_object):
         hr = task.hand_region(c)
-        out.append((task.hand.link_index(hr.link), np.asarray(point, dtype=float), pad_radius(task, hr)))
+        li, c_link = task.hand.link_index(hr.link), pad_centre_in_link(hr)
+        if c_link is None:
+            centre = np.asarray(point, dtype=float)
+        else:
+            centre = (pose.R_palm_link[0, li] @ c_link + pose.r_palm_link[0, li] - T[:3, 3]) @ T[:3, :3]
+        out.append((li, centre, pad_radius(hr)))
     return out
 
 
-def _kept_pieces(a, b, radius, balls) -> list[tuple[np.ndarray, np.ndarray]]:
-    """The pieces of segment a-b outside every ball ``(centre, rho)`` grown by ``radius``."""
+def pad_penetrations(task: Task, pose: HandPose, T_palm_object, contact_points_object) -> dict[str, float]:
+    """Depth of each contact's pad into the object, ``max(0, rho - sd(centre))`` [mm], by
+    contact name (see the module docstring); empty when no contact point is given."""
+    pads = pad_solids(task, pose, T_palm_object, contact_points_object)
+    if not pads:
+        return {}
+    sd = task.object.distance.signed_distance(np.array([centre for _, centre, _ in pads]))
+    return {c.name: max(0.0, rho - float(d)) for c, (_, _, rho), d in zip(task.contacts, pads, sd)}
+
+
+def _kept_pieces(a, b, radius, pads) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The pieces of segment a-b whose capsule balls (radius ``radius``) do not lie inside
+    any pad ball ``(centre, rho)``: the segment less ``|s - centre| <= rho - radius``."""
     pieces = [(0.0, 1.0)]
     d = b - a
     dd = float(d @ d)
-    for centre, rho in balls:
-        R = radius + rho
+    for centre, rho in pads:
+        R = rho - radius
+        if R <= 0.0:
+            continue  # the capsule is at least as thick as the pad: nothing of it is inside
         f = a - centre
         if dd <= 1e-18:
-            lo, hi = (0.0, 1.0) if f @ f < R * R else (1.0, 0.0)
+            lo, hi = (0.0, 1.0) if f @ f <= R * R else (1.0, 0.0)
         else:
             bq, cq = float(f @ d) / dd, (float(f @ f) - R * R) / dd
             disc = bq * bq - cq
@@ -109,7 +159,8 @@ def link_penetrations(
         pose: forward kinematics of one configuration.
         T_palm_object: (4, 4) object pose.
         contact_points_object: per contact, the hand point in the object frame [mm]
-            (the pads there are excepted, see the module docstring); empty: nothing excepted.
+            (what lies inside each contact's pad is excused, see the module docstring);
+            empty: nothing excused.
         links: indices of the links to check (default: every link with capsules).
     """
     starts, ends, radius, link = capsule_segments(task, pose, T_palm_object)
@@ -117,8 +168,8 @@ def link_penetrations(
         keep = np.isin(link, list(links))
         starts, ends, radius, link = starts[keep], ends[keep], radius[keep], link[keep]
     balls: dict[int, list] = {}
-    for li, point, rho in pad_exclusions(task, contact_points_object):
-        balls.setdefault(li, []).append((point, rho))
+    for li, centre, rho in pad_solids(task, pose, T_palm_object, contact_points_object):
+        balls.setdefault(li, []).append((centre, rho))
     p0, p1, rad, owner = [], [], [], []
     for s in range(len(radius)):
         for a, b in _kept_pieces(starts[s], ends[s], radius[s], balls.get(int(link[s]), ())):

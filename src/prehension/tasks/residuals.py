@@ -11,7 +11,8 @@ task and a configuration it reports, in physical units:
 * per coupling: ``|q[dof] - (ratio q[source] + offset)|`` [deg];
 * per pair of collision capsules: the penetration depth [mm] (0 when apart);
 * per link with collision capsules, when the object has a solid that collides: how deep
-  the link reaches into the object [mm], the touching pads at their contacts excepted
+  the link reaches into the object [mm], only what lies inside a contact's own pad excused;
+  and per contact, how deep its pad (a fingertip cap's ball) reaches into the object [mm]
   (:mod:`prehension.tasks.object_collision` defines both exactly).
 
 Each value is compared with a :class:`Tolerances` entry; a configuration is a solution
@@ -79,6 +80,7 @@ TOLERANCE_OF_KIND = {
     "coupling": "coupling_deg",
     "collision": "penetration_mm",
     "object_collision": "object_penetration_mm",
+    "pad_collision": "object_penetration_mm",
 }  # each kind of check, and the Tolerances field it is judged with
 
 
@@ -86,7 +88,7 @@ TOLERANCE_OF_KIND = {
 class Check:
     """One constraint: ``value`` (>= 0) is its violation, in ``unit``."""
 
-    kind: str  # contact_distance | contact_normal | hand_region | object_region | joint_limit | coupling | collision | object_collision
+    kind: str  # contact_distance | contact_normal | hand_region | object_region | joint_limit | coupling | collision | object_collision | pad_collision
     name: str
     value: float
     unit: str
@@ -360,7 +362,8 @@ def _evaluate(task: Task, config: Configuration, tolerances: Tolerances, pose: H
 # The checks of a configuration, in order: per contact its distance [mm], normal angle
 # [deg], hand and object region; per dof its limit [deg], per coupling [deg]; per pair of
 # links with capsules their deepest penetration [mm]; per link with capsules its depth in
-# the object [mm] when the object collides (:func:`_object_collision_checks`).  Every
+# the object [mm], then per contact its pad's depth [mm], when the object collides
+# (:func:`_object_collision_checks`).  Every
 # column but the values depends only on the task (and the tolerances): built once.
 _CONTACT_KINDS = ("contact_distance", "contact_normal", "hand_region", "object_region")
 
@@ -442,13 +445,16 @@ def _link_pairs(names: tuple[tuple[str, str], ...]) -> tuple[tuple[str, ...], np
 
 
 def _object_collision_checks(task, pose, T_palm_object, hand_points_palm, tol) -> tuple:
+    """``(kinds, names, values, units, tolerances)`` of the object's checks: per link with
+    capsules its depth (``object_collision``), per contact its pad's (``pad_collision``)."""
     if not task.object.collides:
         return (), (), [], (), ()
-    from .object_collision import link_penetrations
+    from .object_collision import link_penetrations, pad_penetrations
 
     T = np.asarray(T_palm_object, dtype=float)
     points = (hand_points_palm - T[:3, 3]) @ T[:3, :3]  # palm -> object frame, (C, 3)
-    depth = link_penetrations(task, pose, T, points)
-    n = len(depth)
-    return (("object_collision",) * n, tuple(depth), [float(v) for v in depth.values()], ("mm",) * n,
-            (float(tol.object_penetration_mm),) * n)  # fmt: skip
+    depth, pads = link_penetrations(task, pose, T, points), pad_penetrations(task, pose, T, points)
+    n, m = len(depth), len(pads)
+    return (("object_collision",) * n + ("pad_collision",) * m, tuple(depth) + tuple(pads),
+            [float(v) for v in depth.values()] + [float(v) for v in pads.values()], ("mm",) * (n + m),
+            (float(tol.object_penetration_mm),) * (n + m))  # fmt: skip

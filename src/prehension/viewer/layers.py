@@ -10,7 +10,8 @@ from typing import Mapping
 
 import numpy as np
 
-from ..hands.model import Hand
+from ..geometry.regions import SphereCap
+from ..hands.model import Capsule, Hand
 from ..objects.meshes import Mesh
 from ..tasks.model import Task
 from . import scene as S
@@ -19,7 +20,7 @@ from .tessellate import capsule_mesh, region_center, region_mesh
 
 __all__ = [
     "hand_layer", "object_layer", "hand_region_layer", "object_region_layer", "contact_layer", "frame_layer",
-    "object_extent_mm", "penetrating_links",
+    "object_extent_mm", "penetrating_links", "pad_layer", "sunk_pads",
 ]  # fmt: skip
 
 
@@ -61,12 +62,26 @@ def hand_layer(hand: Hand, T_palm_link: Mapping[str, np.ndarray], penetrating: M
 
 def penetrating_links(task: Task, pose: GraspPose, tolerance_mm: float = 0.5) -> dict[str, float]:
     """Links deeper than ``tolerance_mm`` into the object in ``pose``, with their depth [mm]
-    (as the residual function measures it, the touching pads excepted); empty when the
-    object has no colliding solid or the pose makes no contact."""
+    (as the residual function measures it: only what lies inside a contact's own pad is
+    excused); empty when the object has no colliding solid or the pose makes no contact."""
+    depths = _object_depths(task, pose)
+    return {link: d for link, d in depths[0].items() if d > tolerance_mm} if depths else {}
+
+
+def sunk_pads(task: Task, pose: GraspPose, tolerance_mm: float = 0.5) -> dict[str, float]:
+    """Contacts whose pad (a fingertip cap's ball) is deeper than ``tolerance_mm`` into the
+    object in ``pose``, with its depth [mm]; empty as :func:`penetrating_links`."""
+    depths = _object_depths(task, pose)
+    return {name: d for name, d in depths[1].items() if d > tolerance_mm} if depths else {}
+
+
+def _object_depths(task: Task, pose: GraspPose):
+    """``(link depths, pad depths)`` of the residual function [mm], or ``None`` without a
+    colliding solid or a solution."""
     if not task.object.collides or not pose.has_solution:
-        return {}
+        return None
     from ..hands.kinematics import HandPose
-    from ..tasks.object_collision import link_penetrations
+    from ..tasks.object_collision import link_penetrations, pad_penetrations
 
     T_links = np.stack([pose.T_palm_link[name] for name in task.hand.link_names])[None]  # (1, L, 4, 4)
     n = task.hand.n_dof
@@ -74,8 +89,23 @@ def penetrating_links(task: Task, pose: GraspPose, tolerance_mm: float = 0.5) ->
     T = pose.T_palm_object
     by_name = {c.name: c.hand_point for c in pose.contacts}
     points = [(by_name.get(c.name, np.full(3, np.inf)) - T[:3, 3]) @ T[:3, :3] for c in task.contacts]
-    depth = link_penetrations(task, hand_pose, T, points)
-    return {link: d for link, d in depth.items() if d > tolerance_mm}
+    return link_penetrations(task, hand_pose, T, points), pad_penetrations(task, hand_pose, T, points)
+
+
+def pad_layer(task: Task, T_palm_link: Mapping[str, np.ndarray], sunk: Mapping[str, float] | None = None) -> "S.Layer":
+    """Each contact's pad, a fingertip cap's whole ball (the solid that touches the object
+    and is excused from its link's check), translucent in the pad colour, red when it is
+    in ``sunk`` (deeper than the tolerance); a point or patch hand region has no volume
+    and is drawn by :func:`hand_region_layer` only."""
+    sunk = sunk or {}
+    own, red = [], []
+    for contact in task.contacts:
+        hr = task.hand_region(contact)
+        if isinstance(hr.region, SphereCap):
+            ball = capsule_mesh(Capsule(hr.region.center, hr.region.center, hr.region.radius))
+            (red if contact.name in sunk else own).append(ball.transformed(T_palm_link[hr.link]))
+    meshes = (_merged(own, S.PAD_COLOR, 0.35, closed=True), _merged(red, S.PENETRATION_COLOR, 0.6, closed=True))
+    return S.Layer("pads", "pads", tuple(m for m in meshes if m is not None))
 
 
 def _skeleton(hand: Hand, link: str, T: np.ndarray) -> list["S.Polyline"]:

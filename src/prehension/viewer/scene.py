@@ -29,7 +29,8 @@ __all__ = [
 HAND_COLOR = "#a9b4bf"
 PALM_COLOR = "#8f9baa"
 OBJECT_COLOR = "#d9c49a"
-PENETRATION_COLOR = "#d62728"  # links that reach into the object
+PENETRATION_COLOR = "#d62728"  # links (and pads) that reach into the object
+PAD_COLOR = "#b39ddb"  # the contacts' pads: a fingertip cap's ball (lavender: none of the contact colours)
 OBJECT_OPACITY = 0.38
 SPARE_REGION_COLOR = "#a9b7c6"  # object regions no contact names
 OBJECT_NORMAL_COLOR = "#2f3b4a"
@@ -197,7 +198,7 @@ def build_scene(task: Task, grasp=None, *, status: str | None = None) -> Scene:
     """
     from .layers import (
         contact_layer, frame_layer, hand_layer, hand_region_layer, object_extent_mm, object_layer, object_region_layer,
-        penetrating_links,
+        pad_layer, penetrating_links, sunk_pads,
     )  # fmt: skip
 
     pose = _as_pose(task, grasp)
@@ -207,11 +208,12 @@ def build_scene(task: Task, grasp=None, *, status: str | None = None) -> Scene:
         hand = hand_layer(task.hand, links).all_points_mm()
         pose = GraspPose(links, beside_the_hand(hand.min(0), hand.max(0), *object_extent_mm(task)))
     scale_mm = _arrow_length_mm(task, pose)
-    red = penetrating_links(task, pose)
+    red, sunk = penetrating_links(task, pose), sunk_pads(task, pose)
     layers = (
         hand_layer(task.hand, pose.T_palm_link, red),
         object_layer(task, pose.T_palm_object),
         hand_region_layer(task, pose.T_palm_link, colors),
+        pad_layer(task, pose.T_palm_link, sunk),
         object_region_layer(task, pose.T_palm_object, colors),
         contact_layer(task, pose, colors, scale_mm),
         frame_layer(task, pose, scale_mm),
@@ -222,9 +224,12 @@ def build_scene(task: Task, grasp=None, *, status: str | None = None) -> Scene:
         layers += (friction_cone_layer(pose, colors, scale_mm),)
     status = status or pose.status
     legend = _legend(task, colors, has_hand=bool(layers[0].meshes), has_object=bool(layers[1].meshes))
-    if red:
-        legend += (LegendEntry("link into the object (> 0.5 mm)", PENETRATION_COLOR),)
-    caption = _caption(pose) + ((_penetration_line(red),) if red else ())
+    if layers[3].meshes:
+        legend += (LegendEntry("pad (a fingertip's ball, excused from its link)", PAD_COLOR),)
+    if red or sunk:
+        legend += (LegendEntry("link or pad into the object (> 0.5 mm)", PENETRATION_COLOR),)
+    sunk_names = {f"{name} pad": depth for name, depth in sunk.items()}
+    caption = _caption(pose) + ((_penetration_line({**red, **sunk_names}),) if red or sunk else ())
     return Scene(task.name, status, _title(task, pose, status), caption, layers, legend)
 
 

@@ -1,8 +1,8 @@
 """A sound collision prune: a box all of whose configurations put a link into the object.
 
 The residual function rejects a configuration in which some link reaches deeper than
-``object_penetration_mm`` into the object's solid, the touching pads at their contacts
-excepted (:mod:`prehension.tasks.object_collision`).  This module proves, for a box of the
+``object_penetration_mm`` into the object's solid (only a capsule ball inside its own
+contact's pad excused), or some pad does (:mod:`prehension.tasks.object_collision`).  This module proves, for a box of the
 complete solver, that **every** configuration in it is rejected that way, so the box holds
 no solution and may be discarded.
 
@@ -53,12 +53,16 @@ reaches inside by Lipschitz bisection to within 0.125 mm, as samples 0.25 mm apa
 so it may read up to 0.125 mm low) + :data:`FLOAT_MARGIN_MM`
 (the distance structure is exact up to rounding).
 
-**The touching pads.**  The residual function skips the part of a contact link's capsule
-within ``r + rho`` of the contact's hand point (``rho`` the pad radius).  The hand point
-lies in a ball fixed to the link (:func:`prehension.system.formulation.reach_ball`:
-centre ``c``, radius ``s``), so a probe with ``|p - c| - s > r + rho`` (+ a small margin) is
-never skipped, whatever the configuration; probes closer to some contact of their link are
-not used.  No probe is used on any doubt: an object without a solid, or with
+**The pads.**  The residual function excuses, on a contact's link, only the capsule balls
+inside the contact's pad ball (a fingertip cap's ball ``B(c, rho)``, fixed on the link:
+``|p - c| <= rho - r``; a point or patch hand region excuses nothing), and checks the pad
+itself: ``rho - sd(c)`` at most the tolerance.  Both are fixed on the link, so a probe
+with ``|p - c| > rho - r`` (+ a small margin) is never excused, whatever the
+configuration, and each pad is a probe of its own (its centre ``c`` with radius ``rho``;
+a hand point region's point with radius 0; a hand patch's point moves over the patch and
+gives none).  The residual function's pad depth is one exact query, so the same test
+with the same margin is sound for it.
+No probe is used on any doubt: an object without a solid, or with
 ``collisions: false``, is never pruned this way.
 """
 
@@ -70,8 +74,8 @@ import numpy as np
 
 from ...frozen import cached_per_value
 from ...geometry.regions import PointRegion, SphereCap
-from ...system.formulation import Formulation, reach_ball
-from ...tasks.object_collision import SAMPLE_MM, pad_radius
+from ...system.formulation import Formulation
+from ...tasks.object_collision import SAMPLE_MM, pad_centre_in_link, pad_radius
 from ...tasks.residuals import Tolerances
 
 __all__ = ["CollisionProbes", "CollisionProof", "ContactAnchor", "collision_probes", "probe_enclosures", "collision_prune",
@@ -79,7 +83,7 @@ __all__ = ["CollisionProbes", "CollisionProof", "ContactAnchor", "collision_prob
 
 PROBE_SPACING_MM = 5.0  # largest distance between two probe points of a capsule [mm]
 FLOAT_MARGIN_MM = 1e-6  # rounding of the distance structure and of the enclosures [mm]
-_PAD_MARGIN_MM = 1e-3  # a probe this much farther than the pad exclusion [mm]
+_PAD_MARGIN_MM = 1e-3  # a probe's ball this much farther from inside a pad than the residual function excuses [mm]
 _ROUNDING = 1e-9  # outward rounding of an enclosure, relative to its magnitude
 _SUBDIVIDE_BELOW = 0.25  # an object patch's (s, t) box smaller than this: bound its sub-patch (~0.5 ms)
 
@@ -166,19 +170,19 @@ def _build_probes(form: Formulation) -> CollisionProbes | None:
     pads = _pads_by_link(form)
     rows, radius, extra, names, points = [], [], [], [], []
     for link in hand.links:
-        if not link.collision:
+        shapes = [(p, float(cap.radius)) for cap in link.collision for p in _segment_points(cap.a, cap.b)
+                  if _outside_pads(p, float(cap.radius), pads.get(link.name, ()))]  # fmt: skip
+        shapes += [(c, rho) for c, rho in pads.get(link.name, ())]  # the pads themselves
+        if not shapes:
             continue
         anchor, J, reach = _anchor(form, link.name)
-        for capsule in link.collision:
-            for p in _segment_points(capsule.a, capsule.b):
-                if not _clear_of_pads(p, capsule.radius, pads.get(link.name, ())):
-                    continue
-                if J is None:  # a link of the system: the point itself
-                    point, e = p, 0.0
-                else:  # outside it: the joint centre J, and how far p can be from it
-                    point, e = J, reach + float(np.linalg.norm(p - _last_centre(form, link.name)))
-                rows.append(_point_rows(form, anchor, point, n))
-                radius.append(float(capsule.radius)), extra.append(e), names.append(link.name), points.append(p)
+        for p, r in shapes:
+            if J is None:  # a link of the system: the point itself
+                point, e = p, 0.0
+            else:  # outside it: the joint centre J, and how far p can be from it
+                point, e = J, reach + float(np.linalg.norm(p - _last_centre(form, link.name)))
+            rows.append(_point_rows(form, anchor, point, n))
+            radius.append(r), extra.append(e), names.append(link.name), points.append(p)
     if not rows:
         return None
     A, columns = _compressed(np.vstack(rows))
@@ -218,18 +222,24 @@ def _segment_points(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def _pads_by_link(form: Formulation) -> dict[str, list[tuple[np.ndarray, float]]]:
-    """Per link: ``(centre [mm], reach [mm])`` of each contact's exclusion: a probe point
-    ``p`` on a capsule of radius ``r`` is skipped by the residual function only if
-    ``|p - centre| <= r + reach`` (``reach`` = hand-region ball radius + pad radius)."""
+    """Per link: ``(centre [mm], rho [mm])`` in the link's frame of each contact's pad that
+    is fixed on it: a sphere cap's ball, a point region's point (``rho = 0``); a patch's
+    pad (its moving hand point) is left out, and excuses nothing either."""
     task, out = form.task, {}
-    for a, contact in enumerate(task.contacts):
-        link, centre, slack = reach_ball(task, a, exact_caps=False)
-        out.setdefault(link, []).append((centre, slack + pad_radius(task, task.hand_region(contact))))
+    for contact in task.contacts:
+        hreg = task.hand_region(contact)
+        centre = pad_centre_in_link(hreg)
+        if centre is None and isinstance(hreg.region, PointRegion):
+            centre = np.asarray(hreg.region.point, dtype=float)
+        if centre is not None:
+            out.setdefault(hreg.link, []).append((centre, pad_radius(hreg)))
     return out
 
 
-def _clear_of_pads(p: np.ndarray, r: float, pads) -> bool:
-    return all(np.linalg.norm(p - c) > r + reach + _PAD_MARGIN_MM for c, reach in pads)
+def _outside_pads(p: np.ndarray, r: float, pads) -> bool:
+    """Whether the ball ``B(p, r)`` lies inside no pad ``B(c, rho)`` (by a margin): the
+    residual function never excuses it."""
+    return all(np.linalg.norm(p - c) > rho - r + _PAD_MARGIN_MM for c, rho in pads)
 
 
 def _anchor(form: Formulation, link: str) -> tuple[str, np.ndarray | None, float]:
@@ -343,7 +353,7 @@ def _anchor_interval(form: Formulation, anchor: ContactAnchor, lower, upper, tol
 def collision_prune(form: Formulation, lower: np.ndarray, upper: np.ndarray, tolerances: Tolerances) -> CollisionProof | None:
     """A proof that every configuration in the box whose contacts are made within
     ``tolerances`` puts some link deeper than ``tolerances.object_penetration_mm`` into
-    the object, the touching pads excepted (see the module docstring), or ``None``."""
+    the object or sinks some pad deeper (see the module docstring), or ``None``."""
     probes, tol_mm = collision_probes(form), tolerances.object_penetration_mm
     if probes is None or not np.isfinite(tol_mm):
         return None

@@ -9,14 +9,24 @@ afterwards by :func:`~prehension.tasks.idle.settle_idle_fingers`), its **value**
 
 where ``sd`` is the signed distance to the surface (negative inside), and the kept pieces
 are those of :func:`prehension.tasks.object_collision._kept_pieces`: the parts of the
-segment outside the ball of radius ``r + rho`` around each contact point of the capsule's
-link (``rho`` the contact's pad radius).  So ``max(0, -value)`` is exactly the depth the
+segment whose capsule balls do not lie inside a pad of the capsule's link, i.e. the
+segment less ``|p - c| <= rho - r`` for each contact on that link (``c`` the pad's centre
+``ph - rho nh``: a fingertip cap's centre, fixed on the link; ``rho`` its radius, 0 for a
+point or patch hand region, which excuses nothing).  So ``max(0, -value)`` is exactly the depth the
 one residual function reports for that capsule (:func:`~prehension.objects.distance.capsule_depths`:
 the exact segment distance when the piece is outside the solid, else the sampled minimum:
 within ``step / 2`` there, within ``max(step / 2, depth / 8)`` here
 (:data:`~prehension.objects.distance.REL_TOL`: the rows need no more), and the kernel and
 the residual function agree on what counts (a piece reaching in is deeper than its
 radius for both).
+
+**The pads' rows** (:func:`pad_rows`).  Each contact's pad is itself checked, as the
+residual function does: its value is ``sd(c) - rho`` (``max(0, -value)`` the pad depth
+the residual function reports, exact).  A pad touches the object at its contact, so it
+is held to a depth, not to a clearance: it counts as clear down to
+:data:`PAD_CLEAR_MM` deep (the residual function allows 0.5 mm), and a pad deeper than
+:data:`PAD_ROW_MM` gets a row that pushes it back to that depth (a pad touching a
+surface that agrees with its region has no row: the row never fights the contact).
 
 **Its gradient.**  With the closest pair ``(p, s)`` -- ``p`` on the segment (fixed on the
 link), ``s`` on the surface (fixed on the object) -- and ``n`` the outward unit normal
@@ -39,7 +49,10 @@ from ...objects.distance import REL_TOL, MeshArrays, SdGrid, in_grid, empty_mesh
 from ._jit import njit
 from ._linalg import cross, mat_vec
 
-__all__ = ["ObjectArrays", "NO_OBJECT", "object_rows"]
+__all__ = ["ObjectArrays", "NO_OBJECT", "object_rows", "pad_rows", "PAD_ROW_MM", "PAD_CLEAR_MM"]
+
+PAD_ROW_MM = 0.2  # a pad deeper than this into the object gets a row, which pushes it back to this depth [mm]
+PAD_CLEAR_MM = 0.35  # a pad this deep or less is clear (the residual function allows 0.5 mm) [mm]
 
 
 class ObjectArrays(NamedTuple):
@@ -48,7 +61,7 @@ class ObjectArrays(NamedTuple):
     ``mesh`` (:class:`~prehension.objects.distance.MeshArrays`, object frame, mm);
     ``active``: whether rows are made (a task whose object collides); ``checked``
     (n_caps,) bool: the capsules checked (links that move with the task); ``pad`` (C,)
-    each contact's pad radius [mm]; ``step``: spacing of the depth samples of a piece
+    each contact's pad radius [mm] (0 for a point or patch hand region); ``step``: spacing of the depth samples of a piece
     that reaches inside [mm] (the residual function's
     :data:`~prehension.tasks.object_collision.SAMPLE_MM`); ``grid``: the mesh's lazily
     filled signed-distance grid (:class:`~prehension.objects.distance.SdGrid`), which the
@@ -74,24 +87,25 @@ NO_OBJECT = no_object()
 # -- one capsule -----------------------------------------------------------------------------
 @njit(cache=True)
 def _cut(ws, s, cut):
-    """The pieces of capsule ``s``'s segment outside its link's pad balls, as parameter
-    intervals ``cut[0, :n]`` of ``[0, 1]`` (``_kept_pieces``); returns ``n``."""
+    """The pieces of capsule ``s``'s segment whose balls do not lie inside a pad of its
+    link, as parameter intervals ``cut[0, :n]`` of ``[0, 1]`` (``_kept_pieces``: the
+    segment less ``|p - c| <= rho - r``, ``c`` the pad's centre ``ph - rho nh``); returns ``n``."""
     lay, obj = ws.lay, ws.obj
     a, b = ws.ends[s, 0], ws.ends[s, 1]
     dd = (b[0] - a[0]) ** 2 + (b[1] - a[1]) ** 2 + (b[2] - a[2]) ** 2
     cut[0, 0, 0], cut[0, 0, 1] = 0.0, 1.0
     n = 1
     for c in range(lay.link.shape[0]):
-        if lay.link[c] != ws.hand.cap_link[s]:
-            continue
-        R = ws.hand.cap_radius[s] + obj.pad[c]
+        R = obj.pad[c] - ws.hand.cap_radius[s]
+        if lay.link[c] != ws.hand.cap_link[s] or R <= 0.0:
+            continue  # another link's pad, or one no thicker than the capsule: nothing inside it
         ff = fd = 0.0
         for i in range(3):
-            f = a[i] - ws.ph[c, i]
+            f = a[i] - (ws.ph[c, i] - obj.pad[c] * ws.nh[c, i])
             ff += f * f
             fd += f * (b[i] - a[i])
         if dd <= 1e-18:
-            lo, hi = (0.0, 1.0) if ff < R * R else (1.0, 0.0)
+            lo, hi = (0.0, 1.0) if ff <= R * R else (1.0, 0.0)
         else:
             bq, cq = fd / dd, (ff - R * R) / dd
             disc = bq * bq - cq
@@ -164,10 +178,10 @@ def _far_from_object(ws, s, margin):
 
 # -- the row ---------------------------------------------------------------------------------
 @njit(cache=True)
-def _penetration_row(ws, data, s, outward, row):
-    """Row ``row`` of ``ws.M``: the gradient of capsule ``s``'s value in ``x`` at the pair
-    ``ws.oseg[5:7]`` (object frame): ``outward`` is +1 when the segment's point is outside
-    (the outward normal points from the surface point to it), -1 inside."""
+def _penetration_row(ws, data, li, outward, row):
+    """Row ``row`` of ``ws.M``: the gradient of a value of link ``li`` (a capsule's or a
+    pad's) in ``x`` at the pair ``ws.oseg[5:7]`` (object frame): ``outward`` is +1 when the
+    link's point is outside (the outward normal points from the surface point to it), -1 inside."""
     hand, lay, M, nf = ws.hand, ws.lay, ws.M, ws.lay.nf
     n, p, q, cp = ws.pa, ws.pb, ws.tmp[0, 0], ws.tmp[0, 1]
     gap = math.sqrt((ws.oseg[5, 0] - ws.oseg[6, 0]) ** 2 + (ws.oseg[5, 1] - ws.oseg[6, 1]) ** 2 + (ws.oseg[5, 2] - ws.oseg[6, 2]) ** 2)
@@ -183,7 +197,6 @@ def _penetration_row(ws, data, s, outward, row):
         cp[i] += ws.t[i]
     for j in range(M.shape[1]):
         M[row, j] = 0.0
-    li = hand.cap_link[s]
     for d in range(lay.dof_free.shape[0]):
         col = lay.dof_free[d]
         if col < 0 or not hand.moves[li, d]:
@@ -224,7 +237,31 @@ def object_rows(ws, data, margin, row0, max_rows, every):
         value, gap = _capsule_value(ws, s, ws.oseg[5:7], margin, every)
         vmin = min(vmin, value)
         if value < margin and nrows < max_rows and gap > 1e-9:
-            _penetration_row(ws, data, s, 1.0 if value + ws.hand.cap_radius[s] >= 0.0 else -1.0, row0 + nrows)
+            _penetration_row(ws, data, ws.hand.cap_link[s], 1.0 if value + ws.hand.cap_radius[s] >= 0.0 else -1.0, row0 + nrows)
             ws.g[row0 + nrows] = value - margin
+            nrows += 1
+    n_pads, vpad = pad_rows(ws, data, row0 + nrows, max_rows - nrows)
+    return nrows + n_pads, min(vmin, vpad)
+
+
+@njit(cache=True)
+def pad_rows(ws, data, row0, max_rows):
+    """Each contact's pad against the object (see the module docstring): rows
+    ``sd(c) - rho + PAD_ROW_MM`` of the pads deeper than :data:`PAD_ROW_MM`, from ``row0``,
+    at most ``max_rows``; ``(rows written, smallest value sd(c) - rho + PAD_CLEAR_MM)``."""
+    obj, lay, oseg = ws.obj, ws.lay, ws.oseg
+    nrows, vmin = 0, 1e300
+    for c in range(lay.link.shape[0]):
+        for i in range(3):
+            ws.vec[i] = ws.ph[c, i] - obj.pad[c] * ws.nh[c, i] - ws.t[i]  # the pad's centre, palm frame less t
+        for i in range(3):
+            oseg[0, i] = ws.R[0, i] * ws.vec[0] + ws.R[1, i] * ws.vec[1] + ws.R[2, i] * ws.vec[2]
+        sd = segment_min_sd(obj.mesh, oseg[0], oseg[0], obj.step, oseg[5:7], obj.pad[c] + PAD_CLEAR_MM, REL_TOL)
+        value = sd - obj.pad[c]
+        vmin = min(vmin, value + PAD_CLEAR_MM)
+        gap = math.sqrt((oseg[5, 0] - oseg[6, 0]) ** 2 + (oseg[5, 1] - oseg[6, 1]) ** 2 + (oseg[5, 2] - oseg[6, 2]) ** 2)
+        if value < -PAD_ROW_MM and nrows < max_rows and gap > 1e-9:
+            _penetration_row(ws, data, lay.link[c], 1.0 if sd >= 0.0 else -1.0, row0 + nrows)
+            ws.g[row0 + nrows] = value + PAD_ROW_MM
             nrows += 1
     return nrows, vmin

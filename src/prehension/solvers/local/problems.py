@@ -371,15 +371,16 @@ def _task_row(task: Task) -> np.ndarray:
 def object_arrays(task: Task) -> ObjectArrays:
     """The kernel's view of the task's solid (:class:`._penetration.ObjectArrays`): the
     capsules of the links that move with the task are checked (idle fingers are cleared by
-    :func:`~prehension.tasks.idle.settle_idle_fingers`), each contact's pad excepted as
-    :mod:`prehension.tasks.object_collision` does; inactive when the object does not collide."""
+    :func:`~prehension.tasks.idle.settle_idle_fingers`), what lies inside each contact's
+    pad excused and each pad checked as :mod:`prehension.tasks.object_collision` does (the
+    pads' radii: a cap's, 0 for a point or patch); inactive when the object does not collide."""
     from ...hands.collision import collision_pairs
     from ...tasks.object_collision import SAMPLE_MM, moving_links, pad_radius
 
     if not task.object.collides:
         return NO_OBJECT
     checked = np.isin(collision_pairs(task.hand).link, moving_links(task))
-    pads = np.array([pad_radius(task, task.hand_region(c)) for c in task.contacts], dtype=float)
+    pads = np.array([pad_radius(task.hand_region(c)) for c in task.contacts], dtype=float)
     distance = task.object.distance
     return ObjectArrays(distance.arrays, True, checked.astype(np.bool_), pads, float(SAMPLE_MM), distance.sd_grid())
 

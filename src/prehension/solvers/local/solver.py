@@ -285,12 +285,14 @@ def _check_tasks(group: Group, tasks, idx, x, R, t, options: LocalOptions):
 
 
 def _object_depth(task: Task, pose: HandPose, T, hand_points_palm) -> float:
+    """The deepest moving link or pad in the object [mm] (as the residual function measures them)."""
     if not task.object.collides:
         return 0.0
-    from ...tasks.object_collision import link_penetrations, moving_links
+    from ...tasks.object_collision import link_penetrations, moving_links, pad_penetrations
 
     points = (hand_points_palm - T[:3, 3]) @ T[:3, :3]
-    return max(link_penetrations(task, pose, T, points, moving_links(task)).values(), default=0.0)
+    links = link_penetrations(task, pose, T, points, moving_links(task)).values()
+    return max(max(links, default=0.0), max(pad_penetrations(task, pose, T, points).values(), default=0.0))
 
 
 def _check(group: Group, contact_fn, idx, x, R, t, options: LocalOptions):
