@@ -103,7 +103,10 @@ def test_the_ascent_raises_epsilon_and_returns_a_verified_grasp(box, quality):
     task, solution = box
     up = improve_grasp(task, solution, quality, AscentOptions(steps=12))
     assert up.start.epsilon == grasp_quality(task, solution, quality).epsilon
-    assert up.accepted >= 1 and up.quality.epsilon > 1.2 * up.start.epsilon
+    # 1.18x (hard) and 1.24x (soft) in 12 steps: steps that would put a distal capsule into the
+    # box beyond its pad (the pad rule, docs/objects.md) are rejected, so the gain is smaller
+    # than the 1.29x measured before that rule.
+    assert up.accepted >= 1 and up.quality.epsilon > 1.15 * up.start.epsilon
     assert evaluate(task, up.solution.configuration()).ok  # strict tolerances
     assert up.quality == grasp_quality(task, up.solution, quality)
     assert merit(task, up.solution, quality) == pytest.approx(up.quality.epsilon, abs=1e-12)

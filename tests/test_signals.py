@@ -24,12 +24,20 @@ from tiny_tasks import pincer_task
 SRC = str(Path(prehension.__file__).resolve().parents[1])
 
 
+def _default_signals() -> None:
+    """In the child: SIGTERM and SIGHUP at their default action, whatever the runner ignores
+    (a CI job or ``nohup`` may start the suite with SIGHUP ignored, and an ignored signal
+    stays ignored by design: cli/terminate.py)."""
+    for sig in (signal.SIGTERM, signal.SIGHUP):
+        signal.signal(sig, signal.SIG_DFL)
+
+
 def _start(argv, folder: Path, session: bool = False) -> tuple[subprocess.Popen, Path]:
     env = {**os.environ, "PYTHONPATH": SRC + os.pathsep + os.environ.get("PYTHONPATH", "")}
     err = folder / "stderr.txt"
     with open(folder / "stdout.txt", "wb") as out, open(err, "wb") as fh:
         proc = subprocess.Popen([sys.executable, "-m", "prehension.cli", *argv], stdout=out, stderr=fh, env=env,
-                                start_new_session=session)  # fmt: skip
+                                start_new_session=session, preexec_fn=_default_signals)  # fmt: skip
     return proc, err
 
 
@@ -46,7 +54,8 @@ def test_a_signal_during_a_complete_search_writes_checkpoint_and_result(tmp_path
     task = tmp_path / "pincer.yaml"
     task.write_text(dumps_task(pincer_task(30.0)))
     ckpt, out = tmp_path / "search.json", tmp_path / "result.json"
-    argv = ["solve", str(task), "--method", "complete", "--all", "--sigma", "0.01", "--max-boxes", "1000000",
+    # sigma 0.002: a search of minutes, so it is still running when the signal arrives on a loaded machine
+    argv = ["solve", str(task), "--method", "complete", "--all", "--sigma", "0.002", "--max-boxes", "1000000",
             "--time-limit", "0", "--checkpoint", str(ckpt), "-o", str(out)]  # fmt: skip
     proc, err = _start(argv, tmp_path)
     _wait_for(lambda: "complete solver: boxes" in err.read_text(errors="replace"), proc)  # searching
