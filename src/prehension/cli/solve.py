@@ -20,7 +20,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from ..atomic import check_output_path
-from ..errors import PrehensionError
+from ..errors import PrehensionError, not_a_file
 from ..results import Status, result_to_dict, write_result
 from . import args as types
 from .best import add_best_arguments, add_quality_arguments, best_options, best_table, quality_lines, quality_options
@@ -158,7 +158,7 @@ def cmd_solve(args, console: Console) -> int:
     if args.resume and args.checkpoint is None:
         raise PrehensionError("--resume needs --checkpoint FILE (the file the interrupted run saved)")
     if args.resume and not args.checkpoint.is_file():
-        raise PrehensionError(f"cannot resume: no checkpoint file {args.checkpoint}")
+        raise PrehensionError(f"cannot resume: {not_a_file('checkpoint file', args.checkpoint)}")
     path = _check_outputs(args, task)
     quality, best = quality_options(args), best_options(args, time_limit_s)
     where = (args.scheduler, args.workers if args.workers > 1 else None)
