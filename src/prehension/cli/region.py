@@ -19,7 +19,8 @@ def add_parser(sub) -> None:
     p.add_argument("mesh", type=Path, help="mesh file (OBJ, STL, PLY, OFF, GLB)")
     p.add_argument("--at", required=True, metavar="X,Y,Z",
                    help="a point on (or near) the surface, mm in the object frame (after --scale); negative values "
-                        "work as they are: --at -30,0,0")  # fmt: skip
+                        "work as they are: --at -30,0,0.  A point farther from the surface than --radius is "
+                        "refused with its distance, the nearest surface point and the mesh's bounding box (mm)")  # fmt: skip
     p.add_argument("--radius", type=types.positive, metavar="MM",
                    help="fit the surface within this distance of the point [mm] (> 0; not with --point)")  # fmt: skip
     p.add_argument("--degree", type=int, default=2, help="patch degree in u and v, 1..6 (default 2)")
@@ -70,7 +71,10 @@ def cmd_region(args, console: Console) -> int:
             f"largest deviation from the mesh {picked.max_deviation_mm:.3g} mm"
         )
         if picked.max_deviation_mm > 0.5:
-            lines.append(f"# (above the default 0.5 mm: set the object's surface_tolerance_mm >= {picked.max_deviation_mm:.2g})")
+            lines.append(
+                f"# (above the default 0.5 mm: set the object's surface_tolerance_mm >= {picked.max_deviation_mm:.2g}, "
+                "or fit less curved surface: a smaller --radius or a higher --degree)"
+            )
     text = "\n".join(lines) + "\n" + dump_yaml({args.name: _rounded(region_to_dict(picked.region))})
     console.print(text, markup=False, highlight=False, soft_wrap=True, end="")
     return EXIT_OK

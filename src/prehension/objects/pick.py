@@ -16,8 +16,11 @@ parametrisation:
   heights ``z_ij`` the least-squares fit to points sampled on the faces over the square.
   The normal ``p_u x p_v`` is then ``n`` to first order: outward.
 
-The piece must be a height field over the tangent plane (every face within 84 degrees of
-``n``); otherwise the radius is too large for that part of the surface.  The fit's quality is
+The piece must be a height field over the tangent plane (faces more than 84 degrees from
+``n`` are dropped); a radius within which the surface wraps around the object (the closest
+face's normal more than 84 degrees from ``n``, or ``n`` cancelling out) is refused with the
+radius at which faces start to turn that far.  A point farther from the surface than the
+radius is refused with the nearest surface point and the mesh's bounding box.  The fit's quality is
 the largest distance from the patch to the surface, over a 25 x 25 grid of the patch [mm].
 """
 
@@ -125,7 +128,10 @@ def _fit(points, p0, e1, e2, n, half: float, degree: int) -> BezierRegion:
     inside = (np.abs(s) <= half) & (np.abs(t) <= half)
     u, v = (s[inside] + half) / (2 * half), (t[inside] + half) / (2 * half)
     if inside.sum() < (degree + 1) ** 2:
-        raise InvalidObject(f"too few surface samples ({inside.sum()}) for a degree-{degree} patch; pick a larger radius")
+        raise InvalidObject(
+            f"too few surface samples ({inside.sum()}) over the patch's square (half-width {half:.4g} mm) for a "
+            f"degree-{degree} patch: the surface there turns away from the tangent plane; pick a smaller radius or degree"
+        )
     A = np.einsum("ki,kj->kij", _bernstein(degree, u), _bernstein(degree, v)).reshape(len(u), -1)
     heights, *_ = np.linalg.lstsq(A, z[inside], rcond=None)
     grid = np.linspace(-half, half, degree + 1)
@@ -145,16 +151,34 @@ def _piece_by_radius(mesh, distance, at, radius):
     at = np.asarray(at, dtype=float).reshape(3)
     sd, closest = distance.signed_distance(at[None], closest=True)
     if abs(sd[0]) > radius:
+        lo, hi = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
+        box = " x ".join(f"[{a:.4g}, {b:.4g}]" for a, b in zip(lo, hi))
         raise InvalidObject(
-            f"the point {np.round(at, 3).tolist()} is {abs(sd[0]):.3g} mm from the surface, farther than the radius "
-            f"({radius:g} mm); give a point on (or near) the surface, in mm of the object frame"
+            f"the point {_listed(at)} is {abs(sd[0]):.4g} mm from the surface, farther than the radius "
+            f"({radius:g} mm); the nearest surface point is {_listed(closest[0])} mm, and the mesh spans {box} mm "
+            "(x, y, z); give a point on (or near) the surface, in mm of the object frame"
         )
     p0 = closest[0]
     seed = int(distance.closest_faces(p0[None])[0])
     tri, normals, areas = _face_data(mesh)
-    near = np.linalg.norm(tri - p0, axis=2).min(axis=1) <= radius
+    reach = np.linalg.norm(tri - p0, axis=2).min(axis=1)
+    near = reach <= radius
     near[seed] = True
-    return p0, _connected(mesh, near, seed), tri, normals, areas
+    piece = _connected(mesh, near, seed)
+    n = (normals[piece] * areas[piece, None]).sum(axis=0)
+    if not normals[seed] @ n > _MIN_COS * np.linalg.norm(n):
+        # the faces around the point point every way (a corner, a whole small object): no one side to fit
+        away = _connected(mesh, np.ones(len(mesh.faces), bool), seed) & (normals @ normals[seed] <= _MIN_COS)
+        fits = f"faces turn more than 84 degrees from the point's normal {reach[away].min():.4g} mm away: pick a radius under that"
+        raise InvalidObject(
+            f"a radius of {radius:g} mm is too large for one patch at {_listed(p0)}: the surface within it wraps around "
+            f"the object (its faces point every way, so they have no common outward side); the {fits}, or --point"
+        )
+    return p0, piece, tri, normals, areas
+
+
+def _listed(point) -> str:
+    return "[" + ", ".join(f"{x:.4g}" for x in np.asarray(point, float)) + "]"
 
 
 def region_from_mesh(
