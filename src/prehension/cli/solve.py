@@ -47,7 +47,8 @@ def add_parser(sub) -> None:
                    help="complete solver: describe the solution set down to --sigma (breadth first); stops "
                         "after 100 boxes unless --max-boxes is given (or at --time-limit), returning a cover: "
                         "solution boxes, verified solutions and the boxes still open")  # fmt: skip
-    p.add_argument("--sigma", type=types.finite, default=0.1, help="complete solver: solution-box size (fraction of the initial box)")
+    p.add_argument("--sigma", type=types.finite, default=None,
+                   help="complete solver: solution-box size (fraction of the initial box; default 0.1)")  # fmt: skip
     p.add_argument("--workers", type=types.positive_int, default=1,
                    help="complete solver: boxes processed in parallel on a local Dask cluster of N processes")  # fmt: skip
     p.add_argument("--scheduler", metavar="ADDR", help="complete solver: process boxes on a running Dask cluster (tcp://host:8786)")
@@ -66,6 +67,22 @@ def add_parser(sub) -> None:
     p.add_argument("--html", type=Path, metavar="FILE", help="also write the 3-D view of the grasp (as 'prehension view')")
     add_quality_arguments(p)
     add_best_arguments(p)
+    types.add_option_rule(p, _method_options)
+
+
+_COMPLETE_ONLY = ("all", "sigma", "max_boxes", "checkpoint", "resume", "workers", "scheduler")
+
+
+def _method_options(args) -> str | None:
+    """An option of one solver given with ``--method`` the other: refused, not ignored."""
+    if args.method == "local":
+        given = [k for k in _COMPLETE_ONLY if getattr(args, k) not in (None, False) and not (k == "workers" and args.workers == 1)]
+        if given:
+            flag = "--" + given[0].replace("_", "-")
+            return f"{flag} is an option of the complete solver; --method local does not use it: drop it or use --method auto or complete"
+    if args.method == "complete" and args.sequence is not None:
+        return "--sequence gives the local solver's initial poses; --method complete does not use it: drop it or use --method auto or local"
+    return None
 
 
 def task_inputs(text: str) -> list[Path]:
@@ -116,14 +133,15 @@ def _options(args):
     calls this only then.  The one value the command line can make invalid, ``--sigma``,
     is checked here, before any work, with the options' own words.
     """
-    if not 0.0 < args.sigma < 1.0:
-        raise PrehensionError(f"sigma must lie in (0, 1) (a fraction of the initial box), got {args.sigma}")
+    sigma = 0.1 if args.sigma is None else args.sigma
+    if not 0.0 < sigma < 1.0:
+        raise PrehensionError(f"sigma must lie in (0, 1) (a fraction of the initial box), got {sigma}")
 
     def make():
         from ..solvers.complete.search import BranchAndPruneOptions
 
         return BranchAndPruneOptions(
-            sigma=args.sigma, order="breadth" if args.all else "depth", all_solutions=args.all,
+            sigma=sigma, order="breadth" if args.all else "depth", all_solutions=args.all,
             max_boxes=args.max_boxes, time_limit_s=types.time_limit(args.time_limit),
         )  # fmt: skip
 
