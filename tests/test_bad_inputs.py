@@ -59,3 +59,36 @@ def test_batch_refuses_rank_without_best(tmp_path, capsys):
     with pytest.raises(SystemExit) as exit_:
         main(["batch", str(tmp_path), "-o", str(tmp_path / "out.jsonl"), "--rank", "found"])
     assert exit_.value.code == EXIT_BAD_INPUT and "--rank needs --best N" in capsys.readouterr().err
+
+
+def _mesh_task(tmp_path, corner="[-10, -5, 15]"):
+    pytest.importorskip("trimesh").creation.box(extents=(40, 20, 30)).export(tmp_path / "box.stl")
+    path = tmp_path / "task.yaml"
+    path.write_text(
+        "prehension: task/1\nname: t\nhand: schunk-sa\nobject:\n  name: box\n  mesh: box.stl\n  units: mm\n"
+        f"  regions:\n    top: {{bezier: [[{corner}, [-10, 5, 15]], [[10, -5, 15], [10, 5, 15]]]}}\n"
+        "    bottom: {point: [0, 0, -15], normal: [0, 0, -1]}\n"
+        "contacts:\n  - {hand: index_tip, object: top}\n  - {hand: thumb_tip, object: bottom}\nfingers: [index, thumb]\n",
+        encoding="utf-8",
+    )
+    return path
+
+
+def test_a_huge_number_in_a_task_file_is_named_not_turned_into_nan(tmp_path, capsys):
+    """The sweep: 1e308 in a control point overflowed (RuntimeWarning on stderr) and was then
+    reported as "got nan"; now the number itself is refused with the bound."""
+    assert main(["show", str(_mesh_task(tmp_path, "[1e308, -5, 15]"))]) == EXIT_BAD_INPUT
+    err = capsys.readouterr().err
+    assert "bezier.0.0.0: must be at most 1e+09 in size" in " ".join(err.split()) and "1e+308" in err
+    assert "nan" not in err and "Warning" not in err
+    assert main(["show", str(_mesh_task(tmp_path, "[-10, -5, 15]"))]) == 0
+
+
+def test_huge_or_badly_indexed_meshes_are_named_without_numpy_noise(tmp_path, capsys):
+    (tmp_path / "huge.obj").write_text("v 1e300 0 0\nv -1e300 0 0\nv 0 1e300 0\nv 0 0 1e300\nf 1 2 3\nf 1 3 4\nf 1 4 2\nf 2 4 3\n")
+    (tmp_path / "index.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n")
+    for name, message in (("huge.obj", "coordinates reach 1e+300 mm, more than 1e+09 mm"),
+                          ("index.obj", "a face refers to a vertex the file does not have")):  # fmt: skip
+        assert main(["region", str(tmp_path / name), "--at", "0,0,0", "--radius", "1", "--units", "mm"]) == EXIT_BAD_INPUT
+        err = " ".join(capsys.readouterr().err.split())
+        assert f"{name}: " in err and message in err and "Warning" not in err

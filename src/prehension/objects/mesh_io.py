@@ -6,7 +6,7 @@ with an :class:`~prehension.errors.InvalidObject` that names the file and the pr
 
 * the file exists, is a format trimesh reads, and holds triangles (not a point cloud or
   an empty scene);
-* every vertex is finite; faces of zero area (repeated corners, collinear corners) are
+* every vertex is finite and within 1e9 mm of the origin; faces of zero area (repeated corners, collinear corners) are
   dropped, and a mesh left with none, or flat (zero extent along an axis), is refused;
 * ``closed=True`` (what collisions need): the surface is watertight (every edge shared by
   exactly two faces) and its faces are consistently wound (else refused, counting the
@@ -30,6 +30,7 @@ __all__ = ["UNITS", "MESH_SUFFIXES", "load_mesh", "load_display_mesh", "checked_
 
 # mm per unit
 UNITS = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4}
+MAX_COORDINATE_MM = 1e9  # as the numbers of a task file (tasks.format.schema.MAX_MAGNITUDE)
 MESH_SUFFIXES = (".obj", ".stl", ".ply", ".off", ".glb", ".gltf")
 
 
@@ -70,6 +71,8 @@ def _read(path: Path):
         loaded = trimesh.load(str(path), force="mesh", process=False)
     except ImportError as exc:
         raise InvalidObject(_missing_module(path, exc)) from None
+    except IndexError as exc:
+        raise InvalidObject(f"{path}: not a readable mesh: a face refers to a vertex the file does not have ({exc})") from None
     except Exception as exc:  # trimesh raises many kinds on a bad file
         raise InvalidObject(f"{path}: not a readable mesh ({type(exc).__name__}: {exc})") from None
     faces = getattr(loaded, "faces", None)
@@ -103,11 +106,20 @@ def load_display_mesh(path) -> Mesh:
     readable format, finite and indexing their vertices; open or flat is fine."""
     path = Path(path)
     vertices, faces = _read(path)
-    if not np.all(np.isfinite(vertices)):
-        raise InvalidObject(f"{path}: mesh has non-finite vertex coordinates (NaN or infinity)")
+    _check_vertices(vertices, str(path))
     if faces.min() < 0 or faces.max() >= len(vertices):
         raise InvalidObject(f"{path}: faces index vertices 0..{len(vertices) - 1}, got {faces.min()}..{faces.max()}")
     return Mesh(vertices, faces)
+
+
+def _check_vertices(v: np.ndarray, source: str) -> None:
+    if not np.all(np.isfinite(v)):
+        raise InvalidObject(f"{source}: mesh has non-finite vertex coordinates (NaN or infinity)")
+    if len(v) and np.abs(v).max() > MAX_COORDINATE_MM:
+        raise InvalidObject(
+            f"{source}: mesh coordinates reach {np.abs(v).max():.3g} mm, more than {MAX_COORDINATE_MM:g} mm (1000 km; "
+            "beyond it the 1e-6 mm tolerances are below double precision); check the file's units or scale"
+        )
 
 
 def checked_mesh(vertices, faces, source: str, *, closed: bool = True) -> Mesh:
@@ -120,8 +132,7 @@ def checked_mesh(vertices, faces, source: str, *, closed: bool = True) -> Mesh:
     trimesh = _trimesh()
     v = np.asarray(vertices, dtype=float).reshape(-1, 3)
     f = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
-    if not np.all(np.isfinite(v)):
-        raise InvalidObject(f"{source}: mesh has non-finite vertex coordinates (NaN or infinity)")
+    _check_vertices(v, source)
     if len(f) and (f.min() < 0 or f.max() >= len(v)):
         raise InvalidObject(f"{source}: faces index vertices 0..{len(v) - 1}, got {f.min()}..{f.max()}")
     # What trimesh's process(validate=True) does, without its fix_normals: that needs the optional
