@@ -92,3 +92,16 @@ def test_huge_or_badly_indexed_meshes_are_named_without_numpy_noise(tmp_path, ca
         assert main(["region", str(tmp_path / name), "--at", "0,0,0", "--radius", "1", "--units", "mm"]) == EXIT_BAD_INPUT
         err = " ".join(capsys.readouterr().err.split())
         assert f"{name}: " in err and message in err and "Warning" not in err
+
+
+@pytest.mark.parametrize("option", ["-o", "--html"])
+def test_solve_refuses_to_write_over_the_tasks_mesh(tmp_path, capsys, option):
+    """The sweep: ``solve task.yaml -o box.stl`` moved the task's own mesh aside and wrote the
+    result in its place (the task then no longer loads); the mesh is an input like the task file."""
+    task = _mesh_task(tmp_path)
+    mesh = tmp_path / "box.stl"
+    before = mesh.read_bytes()
+    argv = ["solve", str(task), "--method", "local", "--quiet", option, str(mesh)]
+    assert main(argv + (["-o", str(tmp_path / "r.json")] if option != "-o" else [])) == EXIT_BAD_INPUT
+    assert "is an input of this command" in capsys.readouterr().err
+    assert mesh.read_bytes() == before and not list(tmp_path.glob("box.stl.~*"))

@@ -28,7 +28,7 @@ from .codes import EXIT_APPROXIMATE, EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK
 from .hands import print_hand_warnings
 from .progress import LiveProgress
 
-__all__ = ["add_parser", "cmd_solve", "EXIT_OF_STATUS", "task_inputs"]
+__all__ = ["add_parser", "cmd_solve", "EXIT_OF_STATUS", "task_inputs", "files_of_task"]
 
 EXIT_OF_STATUS = {
     Status.SOLVED: EXIT_OK, Status.INFEASIBLE: EXIT_INFEASIBLE, Status.GAVE_UP: EXIT_GAVE_UP,
@@ -109,9 +109,16 @@ def _keep_previous(path: Path) -> Path | None:
     return backup
 
 
+def files_of_task(task) -> list[Path]:
+    """The files a loaded task reads: its object's mesh and display mesh, its hand's file."""
+    solid, hand_source = getattr(task.object, "solid", None), getattr(task.hand, "source", None)
+    names = (getattr(solid, "path", None), task.object.mesh_file, getattr(hand_source, "path", None))
+    return [Path(name) for name in names if name]
+
+
 def _check_outputs(args, task) -> Path:
     """Every output checked before the solve: returns the result file's path."""
-    inputs = task_inputs(args.task)
+    inputs = task_inputs(args.task) + files_of_task(task)
     path = check_output_path(args.output or _default_output(task.name), "result file", inputs=inputs)
     named = [(path, "result file")]
     if args.html is not None:
