@@ -105,3 +105,15 @@ def test_solve_refuses_to_write_over_the_tasks_mesh(tmp_path, capsys, option):
     assert main(argv + (["-o", str(tmp_path / "r.json")] if option != "-o" else [])) == EXIT_BAD_INPUT
     assert "is an input of this command" in capsys.readouterr().err
     assert mesh.read_bytes() == before and not list(tmp_path.glob("box.stl.~*"))
+
+
+def test_a_named_pipe_given_for_an_input_is_named_and_not_read(tmp_path, capsys):
+    """The sweep: ``region fifo`` said "not found" (and opening it to read would wait for a writer)."""
+    import os
+
+    fifo = tmp_path / "mesh.stl"
+    os.mkfifo(fifo)
+    for argv in (["region", str(fifo), "--at", "0,0,0", "--radius", "1", "--units", "mm"], ["check", str(fifo)]):
+        assert main(argv) == EXIT_BAD_INPUT
+        err = " ".join(capsys.readouterr().err.split())
+        assert "is not a regular file (a named pipe" in err and "not found" not in err

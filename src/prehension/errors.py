@@ -76,8 +76,10 @@ class WorldFileError(PrehensionError):
 
 def not_a_file(what: str, path) -> str:
     """The message for a ``path`` that should be a file (``what``: "mesh file", "result
-    file"...) and is not: a folder is said to be one, anything else is "not found"."""
+    file"...) and is not: a folder or a special file is said to be one, else "not found"."""
     path = Path(path)
     if path.is_dir():
         return f"{what} {path} is a folder, not a file; give the file inside it"
+    if path.exists():
+        return f"{what} {path} is not a regular file (a named pipe, socket or device); give a regular file"
     return f"{what} not found: {path}"
