@@ -117,3 +117,17 @@ def test_a_named_pipe_given_for_an_input_is_named_and_not_read(tmp_path, capsys)
         assert main(argv) == EXIT_BAD_INPUT
         err = " ".join(capsys.readouterr().err.split())
         assert "is not a regular file (a named pipe" in err and "not found" not in err
+
+
+def test_a_result_file_without_its_task_is_refused_by_view_as_by_check(tmp_path, capsys):
+    """The sweep: ``view`` of a result file whose 'task' was deleted crashed with a KeyError traceback."""
+    import json
+
+    result = tmp_path / "r.json"
+    assert main(["solve", "teapot-lid-lifting", "--method", "local", "--quiet", "-o", str(result)]) == 0
+    data = json.loads(result.read_text())
+    del data["task"]
+    result.write_text(json.dumps(data))
+    for argv in (["view", str(result), "-o", str(tmp_path / "v.html")], ["check", str(result)]):
+        assert main(argv) == EXIT_BAD_INPUT
+        assert "the result file has no 'task'" in capsys.readouterr().err

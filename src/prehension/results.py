@@ -272,5 +272,8 @@ def result_task(data, source: str, base_dir: Path) -> tuple[Task, dict]:
 
     if not isinstance(data, dict) or data.get("prehension") != RESULT_TAG:
         raise InvalidTask(f"{source}: not a prehension result file (expected 'prehension: {RESULT_TAG}')")
+    if not isinstance(data.get("task"), dict):
+        raise InvalidTask(f"{source}: the result file has no 'task' (the task it answers is embedded there); "
+                          "nothing can be checked or drawn without it")  # fmt: skip
     return task_from_dict(data["task"], base_dir=base_dir, source=f"{source} (embedded task)"), data
 
