@@ -131,3 +131,19 @@ def test_a_result_file_without_its_task_is_refused_by_view_as_by_check(tmp_path,
     for argv in (["view", str(result), "-o", str(tmp_path / "v.html")], ["check", str(result)]):
         assert main(argv) == EXIT_BAD_INPUT
         assert "the result file has no 'task'" in capsys.readouterr().err
+
+
+def test_json_inputs_that_are_missing_folders_or_not_text_are_named(tmp_path, capsys):
+    """The sweep: a missing --sequence file was an errno text, a binary result file a codec error."""
+    (tmp_path / "folder.json").mkdir()
+    (tmp_path / "binary.json").write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(50))
+    cases = [
+        (["solve", "teapot-lid-lifting", "--method", "local", "--sequence", str(tmp_path / "none.json")],
+         "initial-pose sequence not found"),
+        (["solve", "teapot-lid-lifting", "--method", "local", "--sequence", str(tmp_path / "folder.json")], "is a folder"),
+        (["check", str(tmp_path / "binary.json")], "binary.json: not a result file (not UTF-8 text"),
+    ]  # fmt: skip
+    for argv, message in cases:
+        assert main([*argv, *(["-o", str(tmp_path / "r.json")] if argv[0] == "solve" else [])]) == EXIT_BAD_INPUT
+        err = " ".join(capsys.readouterr().err.split())
+        assert message in err and "Errno" not in err and "codec" not in err
