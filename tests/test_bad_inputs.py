@@ -147,3 +147,14 @@ def test_json_inputs_that_are_missing_folders_or_not_text_are_named(tmp_path, ca
         assert main([*argv, *(["-o", str(tmp_path / "r.json")] if argv[0] == "solve" else [])]) == EXIT_BAD_INPUT
         err = " ".join(capsys.readouterr().err.split())
         assert message in err and "Errno" not in err and "codec" not in err
+
+
+def test_a_hand_or_task_folder_is_said_to_be_one(tmp_path, capsys):
+    hand = tmp_path / "my_hand"
+    hand.mkdir()
+    (hand / "right.urdf").write_text("<robot name='r'/>")
+    for argv, message in ((["show", str(hand)], "is a folder; give the hand file inside it (it holds right.urdf)"),
+                          (["offline", str(hand), "-o", str(tmp_path / "s.json")], "(it holds right.urdf)"),
+                          (["solve", str(tmp_path)], "is a folder, not a task; give a task file")):  # fmt: skip
+        assert main(argv) == EXIT_BAD_INPUT
+        assert message in " ".join(capsys.readouterr().err.split())

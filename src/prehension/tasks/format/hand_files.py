@@ -169,6 +169,9 @@ def resolve_hand(spec: str | os.PathLike) -> Hand:
             raise InvalidHand(not_a_file("hand file", path))
         return load_hand_file(path) if suffix in HAND_SUFFIXES else _yaml_hand(path)
     aliases = ", ".join(f"{a} ({n})" for a, n in HAND_ALIASES.items())
+    if path.is_dir():
+        found = sorted(p.name for p in path.iterdir() if p.suffix.lower() in HAND_SUFFIXES)[:5]
+        raise InvalidHand(f"{text} is a folder; give the hand file inside it" + (f" (it holds {', '.join(found)})" if found else ""))
     raise InvalidHand(
         f"{text!r} is neither a built-in hand ({', '.join(BUILTIN_HANDS)}; aliases: {aliases}) nor a hand file "
         "(.urdf, .xml/.mjcf for MJCF, .yaml for a hand or task file)"
