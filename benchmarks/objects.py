@@ -20,6 +20,13 @@ afterwards).  Times are wall-clock medians per task; read ratios, not absolute v
     python benchmarks/objects.py --quick               # built-in tasks and 9 mesh tasks
     python benchmarks/objects.py --queries             # microseconds per distance query
     python benchmarks/objects.py --verify              # make_solution of each local answer, both ways
+    python benchmarks/objects.py --simulate            # simulate's start on each local answer (slow: ~3 s a task)
+
+``--simulate`` (behind a flag: the physics test costs seconds per task) prints, per task the
+local solver solves, the penetration MuJoCo sees at the start of ``prehension simulate``
+split into the hand's own (its geoms into the solver's mesh) and the object's
+approximation error (its convex pieces off the mesh next to the hand), with the counts
+at most 1 mm.
 """
 
 from __future__ import annotations
@@ -33,6 +40,7 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
+from prehension.errors import InvalidObject
 from prehension.objects.distance import MeshDistance
 from prehension.objects.mesh_io import load_mesh
 from prehension.objects.model import GraspObject
@@ -81,8 +89,11 @@ def _patch(mesh, distance, centre, inradius):
     return region_from_mesh(mesh, at=centre, radius=min(0.8 * inradius, 6.0), degree=1, distance=distance).region
 
 
-def mesh_tasks(rng, per_mesh: int) -> list[tuple[str, Task]]:
-    """``per_mesh`` tasks on each shared mesh (2, 3 or 4 contacts in turn)."""
+def mesh_tasks(rng, per_mesh: int, counts=(2, 3, 4), patch=None) -> list[tuple[str, Task]]:
+    """``per_mesh`` tasks on each shared mesh (``counts`` contacts in turn: 2, 3 or 4);
+    ``patch(mesh, distance, centre, inradius)`` makes each region (default: a planar patch
+    inside the face)."""
+    patch = patch or _patch
     hand = load_builtin_task("guitar-tuning").hand
     out = []
     for file, scale in MESHES:
@@ -98,13 +109,16 @@ def mesh_tasks(rng, per_mesh: int) -> list[tuple[str, Task]]:
                 continue
             used.add(i)
             others = [q for p, q in pairs if p == i and q != j and np.linalg.norm(centre[q] - centre[j]) > 15.0]
-            partners = ([j] + others)[: 1 + made % 3]  # 2, 3, 4 contacts in turn (fewer when the faces run out)
+            partners = ([j] + others)[: counts[made % len(counts)] - 1]  # counts in turn (fewer when the faces run out)
             n_fingers = len(partners)
-            regions = {"thumb_side": _patch(mesh, distance, centre[i], inradius[i])}
-            contacts = [Contact("thumb_tip", "thumb_side")]
-            for f, face in zip(FINGERS, partners):
-                regions[f"{f}_side"] = _patch(mesh, distance, centre[face], inradius[face])
-                contacts.append(Contact(f"{f}_tip", f"{f}_side"))
+            try:  # a face that another part of the solid covers in part is refused by region_from_mesh
+                regions = {"thumb_side": patch(mesh, distance, centre[i], inradius[i])}
+                contacts = [Contact("thumb_tip", "thumb_side")]
+                for f, face in zip(FINGERS, partners):
+                    regions[f"{f}_side"] = patch(mesh, distance, centre[face], inradius[face])
+                    contacts.append(Contact(f"{f}_tip", f"{f}_side"))
+            except InvalidObject:
+                continue
             obj = GraspObject(Path(file).stem, regions, solid=MeshFileSolid(str(path), scale))
             name = f"{Path(file).stem}-{len(contacts)}c-{made}"
             out.append((name, Task(name, hand, obj, tuple(contacts), ("thumb",) + FINGERS[:n_fingers])))
@@ -137,6 +151,7 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--queries", action="store_true", help="only the distance-query speeds, per mesh")
     parser.add_argument("--verify", action="store_true", help="only the cost of verifying each local answer, both ways")
+    parser.add_argument("--simulate", action="store_true", help="only simulate's start on each local answer (needs the sim extra)")
     args = parser.parse_args()
     console = Console(width=150)
     if args.queries:
@@ -147,6 +162,9 @@ def main() -> None:
         rows += mesh_tasks(np.random.default_rng(args.seed), 2 if args.quick else args.per_mesh)[: 9 if args.quick else None]
     if args.verify:
         _verify_cost(console, rows)
+        return
+    if args.simulate:
+        _simulate_start(console, rows)
         return
     for method in args.methods.split(","):
         _table(console, rows, method.strip(), args.time_limit)
@@ -199,6 +217,32 @@ def _verify_cost(console: Console, rows, repeats: int = 5) -> None:
     n = len(times[True])
     console.print(f"make_solution of {n} local answers (mean of {repeats} calls each, median over the answers): collisions checked "
                   f"{1e3 * np.median(times[True]):.2f} ms, ignored {1e3 * np.median(times[False]):.2f} ms")
+
+
+def _simulate_start(console: Console, rows) -> None:
+    """Per solved task: the penetration at the start of the physics test, split."""
+    from prehension.sim import simulate_grasp
+
+    table = Table(title="simulate's start on the local solver's first answer (MuJoCo = hand's own + approximation, roughly)")
+    for col in ("task", "MuJoCo start [mm]", "hand's own [mm]", "approximation [mm]", "pieces", "held", "time [s]"):
+        table.add_column(col, justify="left" if col == "task" else "right")
+    starts, hands, approx = [], [], []
+    for name, task in rows:
+        result = solve(task, "local")
+        if not result.solutions:
+            continue
+        t0 = time.perf_counter()
+        report = simulate_grasp(task, result.solutions[0])
+        hand = report.hand_penetration_mm or 0.0
+        starts.append(report.initial_penetration_mm)
+        hands.append(hand)
+        approx.append(report.approximation_mm)
+        table.add_row(name, f"{report.initial_penetration_mm:.2f}", f"{hand:.2f}", f"{report.approximation_mm:.2f}",
+                      str(report.object_pieces), f"{report.held}/6", f"{time.perf_counter() - t0:.1f}")  # fmt: skip
+    n = len(starts)
+    at_most = [sum(np.asarray(x) <= 1.0) for x in (starts, hands, approx)]
+    table.add_row(f"<= 1 mm of {n} solved", *[f"{k}/{n}" for k in at_most], "", "", "", style="bold")
+    console.print(table)
 
 
 def _queries(console: Console, n: int = 300) -> None:

@@ -6,6 +6,7 @@ other parallel searches, on local clusters of 1 and 2 worker processes.
     python benchmarks/scaling.py --batch-only     # the batch tables only
     python benchmarks/scaling.py --stages-only    # one process only: per task, per stage, the client alone
     python benchmarks/scaling.py --per-builtin 8  # only: each built-in task's solve, 8 copies in one batch
+    python benchmarks/scaling.py --per-builtin 8 --enclosing  # and on the SA hand with enclosing capsules
 
 **Batch** (issue 16): the built-in tasks, ``--tasks`` of them (the nine, repeated, each with
 its own id), method ``local``:
@@ -377,31 +378,57 @@ def fresh_worker_table(entries: list[dict], cold: bool) -> Table:
 
 
 # -- the solvers on the cluster (issue 6) ------------------------------------------------------------
-def per_builtin_table(copies: int) -> Table:
-    """Each built-in task ``copies`` times in one ``solve_local_batch`` call: CPU ms per copy
-    of the solve and of the re-verification, and the copies solved strictly."""
+def _per_builtin_rows(tasks, copies: int, opt, sequence) -> list[tuple[float, float, int]]:
+    """Per task: CPU ms per copy of the solve and of the re-verification, copies solved."""
     from prehension.results import Status
-    from prehension.solvers.local import LocalOptions, solve_local_batch
+    from prehension.solvers.local import solve_local_batch
+
+    solve_local_batch(tasks, opt, sequence, list(range(len(tasks))))  # warm: compiled code, geometry caches
+    rows = []
+    for task in tasks:
+        a = time.process_time()
+        found = solve_local_batch([task] * copies, opt, sequence, list(range(copies)))
+        b = time.process_time()
+        results = [r.to_result(task, opt, 0.0, {}) for r in found]
+        c = time.process_time()
+        rows.append(((b - a) / copies * 1e3, (c - b) / copies * 1e3, sum(r.status == Status.SOLVED for r in results)))
+    return rows
+
+
+def per_builtin_table(copies: int, enclosing: bool = False) -> Table:
+    """Each built-in task ``copies`` times in one ``solve_local_batch`` call: CPU ms per copy
+    of the solve and of the re-verification, and the copies solved strictly; with
+    ``enclosing``, in the same run, the same tasks on the SA hand with enclosing capsules
+    (:func:`~prehension.hands.sa_enclosing.with_enclosing_capsules`, the same initial-pose
+    sequence) and the ratio of the solve times."""
+    from prehension.hands.sa_enclosing import with_enclosing_capsules
+    from prehension.solvers.local import LocalOptions
+    from prehension.solvers.local.sequence import shipped_sequence
     from prehension.tasks.library import builtin_task_names, load_builtin_task
 
     names = builtin_task_names()
     tasks = [load_builtin_task(n) for n in names]
     opt = LocalOptions()
-    solve_local_batch(tasks, opt, None, list(range(len(tasks))))  # warm: compiled code, geometry caches
+    rows = _per_builtin_rows(tasks, copies, opt, None)
+    columns = ["task", "solve", "verify", "solved"]
+    if enclosing:
+        seq = replace(shipped_sequence(tasks[0].hand), hand="schunk-sa-enclosing")
+        other = _per_builtin_rows([replace(t, hand=with_enclosing_capsules(t.hand)) for t in tasks], copies, opt, seq)
+        columns += ["enclosing: solve", "verify", "solved", "solve ratio"]
     table = Table(title=f"Each built-in task {copies} times in one solve_local_batch call (CPU ms per copy)")
-    for column in ("task", "solve", "verify", "solved"):
+    for column in columns:
         table.add_column(column, justify="left" if column == "task" else "right")
-    solve_ms, verify_ms = [], []
-    for name, task in zip(names, tasks):
-        a = time.process_time()
-        found = solve_local_batch([task] * copies, opt, None, list(range(copies)))
-        b = time.process_time()
-        results = [r.to_result(task, opt, 0.0, {}) for r in found]
-        c = time.process_time()
-        solve_ms.append((b - a) / copies * 1e3)
-        verify_ms.append((c - b) / copies * 1e3)
-        table.add_row(name, f"{solve_ms[-1]:.2f}", f"{verify_ms[-1]:.2f}", f"{sum(r.status == Status.SOLVED for r in results)}/{copies}")
-    table.add_row("mean", f"{np.mean(solve_ms):.2f}", f"{np.mean(verify_ms):.2f}", "", end_section=True)
+    for k, (name, (sv, vf, ok)) in enumerate(zip(names, rows)):
+        cells = [name, f"{sv:.2f}", f"{vf:.2f}", f"{ok}/{copies}"]
+        if enclosing:
+            sv2, vf2, ok2 = other[k]
+            cells += [f"{sv2:.2f}", f"{vf2:.2f}", f"{ok2}/{copies}", f"{sv2 / sv:.2f}"]
+        table.add_row(*cells)
+    mean = ["mean", f"{np.mean([r[0] for r in rows]):.2f}", f"{np.mean([r[1] for r in rows]):.2f}", ""]
+    if enclosing:
+        s2 = np.mean([r[0] for r in other])
+        mean += [f"{s2:.2f}", f"{np.mean([r[1] for r in other]):.2f}", "", f"{s2 / np.mean([r[0] for r in rows]):.2f}"]
+    table.add_row(*mean, end_section=True)
     return table
 
 
@@ -428,6 +455,7 @@ def main() -> None:
     parser.add_argument("--chunks", type=int, nargs="+", default=(100, 250, 1000, 2500), help="solvers: chunk sizes")
     parser.add_argument("--offline", type=int, nargs=3, default=(300, 6, 2), metavar=("M", "N", "IMAX"))
     parser.add_argument("--per-builtin", type=int, metavar="N", help="only: each built-in task N times in one batch solve")
+    parser.add_argument("--enclosing", action="store_true", help="with --per-builtin: also on the SA hand with enclosing capsules")
     parser.add_argument("--quick", action="store_true", help="360 tasks, one repeat, no cold compile, smaller solver runs")
     args = parser.parse_args()
     if args.quick:
@@ -437,7 +465,7 @@ def main() -> None:
     started = time.perf_counter()
     console.print(f"load average at the start {os.getloadavg()[0]:.1f} ({os.cpu_count()} cores)")
     if args.per_builtin:
-        console.print(per_builtin_table(args.per_builtin))
+        console.print(per_builtin_table(args.per_builtin, args.enclosing))
         console.print(f"load average at the end {os.getloadavg()[0]:.1f}")
         return
     _warm_worker()

@@ -176,6 +176,7 @@ def _answers():
 
 
 @needs_aot
+@pytest.mark.slow  # compiles every kernel by JIT (~70 s with an empty numba cache)
 def test_the_extension_gives_the_jits_answers_bit_for_bit():
     """Built for the installing machine's CPU (PREHENSION_AOT_CPU=host), the extension computes
     what the JIT computes, to the bit: the nine built-ins and 30 random point problems."""

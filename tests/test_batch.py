@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import signal
 import time
 
@@ -298,3 +299,31 @@ def test_complete_box_search_on_the_cluster_is_the_one_process_search(client):
             alone.status, alone.stats["boxes"], alone.stats["lps"])  # fmt: skip
         if alone.solutions:
             np.testing.assert_array_equal(spread.solutions[0].q, alone.solutions[0].q)
+
+
+def test_a_batch_stores_a_shared_mesh_once_and_its_output_travels_alone(client, tmp_path, capsys):
+    """Issue 28, item 8: the mesh the tasks share is stored once, and the output is re-checked alone."""
+    from test_portable_results import _check_and_view, _mesh_task
+
+    folder = tmp_path / "work"
+    tasks = [_mesh_task(folder, f"t{k}.yaml", top_z=15.0) for k in range(3)]  # three tasks, one mesh
+    listing = folder / "tasks.jsonl"
+    listing.write_text("".join(json.dumps({"task": t.name}) + "\n" for t in tasks))
+    out = folder / "out.jsonl"
+    argv = ["batch", str(listing), "-o", str(out), "--method", "local", "--scheduler", client.scheduler.address, "--quiet"]
+    assert main(argv) == EXIT_OK
+    lines = [json.loads(line) for line in out.read_text().splitlines()]
+    kinds = [line["prehension"] for line in lines]
+    assert kinds.count("batch-file/1") == 2 and kinds.count("batch-task/1") == 3 and kinds.count("batch/1") == 3
+    assert all("files" not in line.get("result", {}) for line in lines if line["prehension"] == "batch/1")  # compact
+    moved = tmp_path / "elsewhere" / "out.jsonl"
+    moved.parent.mkdir()
+    shutil.move(out, moved)
+    shutil.rmtree(folder)
+    capsys.readouterr()
+    assert main(["check", str(moved)]) == EXIT_OK
+    record = read_records(moved, embed_tasks=True)[0]
+    assert sorted(record["result"]["files"]) == sorted(lines[2]["files"])  # as a result file carries them
+    one = tmp_path / "one.json"
+    one.write_text(json.dumps(record["result"]))
+    _check_and_view(one, tmp_path, capsys)

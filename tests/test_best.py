@@ -126,6 +126,8 @@ def test_solve_best_on_the_command_line(tmp_path, capsys):
     (["--approximate"], "cannot be combined with --approximate"),
     (["--starts", "-3"], "--starts must be an integer >= 0"),
     (["--distinct-mm", "0"], "--distinct-mm must be a positive number"),
+    (["--ascent-steps", "-1"], "--ascent-steps must be an integer >= 0"),
+    (["--require", "force-closure"], "cannot be combined with --require"),
     (["--friction", "-1"], "--friction must be a number >= 0"),
 ])  # fmt: skip
 def test_bad_best_arguments_are_refused(tmp_path, capsys, extra, message):

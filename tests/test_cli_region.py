@@ -44,7 +44,7 @@ def test_region_from_mesh_refuses_bad_requests():
 
     box = trimesh.creation.box(extents=(20.0, 20.0, 20.0))
     mesh = Mesh(box.vertices, box.faces)
-    with pytest.raises(InvalidObject, match=r"is 40 mm from the surface, farther than the radius \(5 mm\)"):
+    with pytest.raises(InvalidObject, match=r"is 40 mm from the object.s outer surface, farther than the radius \(5 mm\)"):
         region_from_mesh(mesh, at=(0, 0, 50), radius=5.0)
     with pytest.raises(InvalidObject, match="degree must be an integer from 1 to 6"):
         region_from_mesh(mesh, at=(0, 0, 10), radius=5.0, degree=9)
@@ -95,3 +95,47 @@ def test_a_task_on_a_mesh_file_in_14_lines_solves_from_the_cli(tmp_path, capsys)
     data = json.loads(out.read_text())
     assert data["status"] == "solved" and data["solutions"][0]["worst"]["object_collision"] <= 0.5
     assert main(["check", str(out)]) == EXIT_OK
+
+
+def test_a_pick_next_to_a_thin_walls_rim_keeps_its_own_side():
+    """A 0.5 mm slab picked on its top face 1 mm from the rim (the rim and the bottom face
+    within the radius): the patch is the top face's, normal +z, outward everywhere."""
+    import trimesh
+
+    slab = trimesh.creation.box(extents=(40.0, 40.0, 0.5))
+    mesh = Mesh(slab.vertices, slab.faces)
+    picked = region_from_mesh(mesh, at=(19.0, 0.0, 0.25), radius=4.0, degree=1)
+    _, n = picked.region.evaluate(np.array([[0.5, 0.5], [0.0, 0.0], [1.0, 1.0]]))
+    assert np.all(n[:, 2] > 0.999) and picked.max_angle_deg < 1.0
+
+
+@requires_objects
+def test_regions_picked_on_the_random_solids_never_point_into_them(rng):
+    """Seeded picks on the five random solids (overlapping parts: internal walls, thin
+    walls, edges): every region returned points out of the solid at every point of a 9 x 9
+    grid (a step along its normal from the closest surface point leaves the solid); the
+    others are refused with a message naming the reason."""
+    from prehension.errors import InvalidObject
+    from prehension.objects.distance import MeshDistance
+    from prehension.objects.mesh_io import load_mesh
+
+    returned = 0
+    for path in sorted((SHARED / "objects" / "random").glob("*.obj")):
+        mesh = load_mesh(path, 10.0)
+        distance = MeshDistance(mesh.vertices, mesh.faces)
+        tri = mesh.vertices[mesh.faces]
+        area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+        for _ in range(12):
+            at = rng.dirichlet([1, 1, 1]) @ tri[rng.choice(len(area), p=area / area.sum())]
+            try:
+                picked = region_from_mesh(mesh, at=at, radius=float(rng.choice([3.0, 6.0, 10.0])),
+                                          degree=int(rng.integers(1, 4)), distance=distance)  # fmt: skip
+            except InvalidObject as exc:
+                assert any(w in str(exc) for w in ("points into the object", "covers the face", "outer surface", "too few surface samples"))
+                continue
+            returned += 1
+            t = np.linspace(0, 1, 9)
+            p, n = picked.region.evaluate(np.stack(np.meshgrid(t, t, indexing="ij"), -1).reshape(-1, 2))
+            _, q = distance.signed_distance(p, closest=True)
+            assert np.all(distance.signed_distance(q + 0.05 * n) > 0)
+    assert returned >= 30

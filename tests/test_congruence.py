@@ -367,7 +367,7 @@ def test_the_twist_condition_keeps_every_pair_that_one_rotation_can_make(seed):
     assert kept.all()
 
 
-@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("seed", [0, 1] + [pytest.param(s, marks=pytest.mark.slow) for s in (2, 3)])
 def test_the_twist_condition_prunes_exact_values_that_no_rotation_can_make(seed):
     """Random normals: at points (boxes of width 0) the condition is exact -- it prunes
     exactly the cases where no twist meets both cones (by a scan of the twist), beyond a

@@ -186,3 +186,40 @@ def test_reference_vector_not_orthogonal_to_axis_is_refused():
 def test_unsupported_joint_kind_names_the_line():
     with pytest.raises(WorldFileError, match=r"t.world:\d+: .*prismatic.*supported joints: revolute, universal, spherical, in_patch"):
         _import_text(WORLD_HEAD + "prismatic: palm (0,0,0)+(1,0,0) f1 (0,0,0)+(1,0,0)\n")
+
+
+@requires_cuik
+def test_the_objects_body_file_is_its_collision_solid_when_closed_else_the_reason_is_stated():
+    """The scalpel's body file is closed: the imported task collides with it (and keeps it
+    through a task file); the teapot's is open: display only, and the description says
+    why.  Both say what judged the hand."""
+    from prehension.objects.solid import MeshFileSolid
+
+    scalpel = import_world(next(p for p in cuik_worlds() if "scalpel" in str(p)))
+    assert isinstance(scalpel.object.solid, MeshFileSolid) and scalpel.object.collides
+    assert scalpel.object.solid.path.endswith("scalpel.off")
+    assert "object collisions: its body file scalpel.off" in scalpel.description
+    assert "hand collisions: the built-in SA hand's capsules" in scalpel.description
+    teapot = import_world(next(p for p in cuik_worlds() if "teapot" in str(p)))
+    assert teapot.object.solid is None and not teapot.object.collides and teapot.object.mesh_file.endswith("teapot.off")
+    assert "teapot.off is display only, not a collision solid, because mesh is not watertight (304 edges" in teapot.description
+    assert loads_task(dumps_task(scalpel)).object.collides  # the solid survives a task file
+
+
+@requires_cuik
+@pytest.mark.parametrize("path", cuik_worlds()[:1], ids=_key)
+def test_a_world_of_the_sa_hand_gets_its_capsules_and_another_hand_none(path, sa_hand):
+    """The IJRR files' hand moves as the SA hand: each link carries the SA link's capsules
+    (matched by pose, so the file's names need not be ours); the 2011 angle reading read
+    the other way moves differently: no capsules, and the notes say so."""
+    from prehension.tasks.cuik_import import NO_HAND_GEOMETRY, SA_GEOMETRY
+
+    hand = import_world(path).hand
+    assert hand.notes[-1] == SA_GEOMETRY
+    for file_link, sa_link in LINKS.items():
+        ours, theirs = hand.links[hand.link_index(file_link)].collision, sa_hand.links[sa_hand.link_index(sa_link)].collision
+        assert len(ours) == len(theirs) >= 1
+        for a, b in zip(ours, theirs):
+            assert np.allclose(a.a, b.a) and np.allclose(a.b, b.b) and a.radius == b.radius
+    other = import_world(path, angle2="current").hand
+    assert other.notes[-1] == NO_HAND_GEOMETRY and not any(link.collision for link in other.links)

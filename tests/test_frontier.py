@@ -85,6 +85,7 @@ def test_the_span_test_proves_a_task_past_the_distance_limit_and_never_one_just_
         assert not prove_out_of_span(pair_problem(family.task_at(found.t_mm - eps_mm), 0, 1), hand).proved
 
 
+@pytest.mark.slow  # the matching alone, without the span test (~7 s)
 def test_the_lid_a_millimetre_past_its_frontier_is_proved_by_matching_ranges(frontier_module):
     """The teapot lid's knob moved to ``t* + 1 mm`` (``t*`` = 163.911 mm, benchmarks/README.md):
     the pair test by matching ranges proves it (the product search does not in 2 M boxes)."""
@@ -102,6 +103,7 @@ def tuning(frontier_module):
     return family, frontier_module.find_frontier(family, seeds=1)
 
 
+@pytest.mark.slow  # the matching alone (~12 s); the search certifies it at its first box below
 def test_guitar_tuning_a_millimetre_past_its_frontier_is_proved_by_matching_ranges(tuning):
     """guitar-tuning's key (biquadratic patches, normals within 17 degrees of the line between
     the fingertips) at ``t* + 1 mm``: the hand stage against the object side's extremes leaves
@@ -116,6 +118,7 @@ def test_guitar_tuning_a_millimetre_past_its_frontier_is_proved_by_matching_rang
     assert outcome.proved
 
 
+@pytest.mark.slow  # two full pair tests on a feasible task (~20 s each)
 @pytest.mark.parametrize("eps_mm", [0.01, 0.05])
 def test_guitar_tuning_just_inside_its_frontier_is_never_proved(frontier_module, tuning, eps_mm):
     """Soundness where the new pruning acts: the task at ``t* - eps`` has a known strict solution

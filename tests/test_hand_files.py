@@ -169,7 +169,7 @@ def test_mjcf_task_file(tmp_path):
 # -- the command line's hand names ------------------------------------------------------------
 def test_resolve_hand(tmp_path):
     assert resolve_hand("sa").name == resolve_hand("schunk-sa").name == "schunk-sa"
-    with pytest.raises(InvalidHand, match=r"'nope' is neither a built-in hand \(schunk-sa; aliases: sa \(schunk-sa\)\)"):
+    with pytest.raises(InvalidHand, match=r"'nope' is neither a built-in hand \(schunk-sa, schunk-sa-enclosing; aliases: sa \(schunk-sa\)\)"):
         resolve_hand("nope")
     with pytest.raises(InvalidHand, match=r"hand file not found: .*x\.urdf"):
         resolve_hand(tmp_path / "x.urdf")

@@ -527,6 +527,7 @@ def _cached_signatures(dispatcher):
     return {key[0] for key in index if key[2][0] == code}
 
 
+@pytest.mark.slow  # compiles the whole kernel by JIT (1-3 min with an empty numba cache; CI shares it with test_aot's)
 def test_the_kernel_compiles_each_function_for_one_signature():
     import importlib
 

@@ -31,7 +31,7 @@ def _boxes(pieces: int):
     return np.vstack([box.vertices, other.vertices]), np.vstack([box.faces, other.faces + len(box.vertices)])
 
 
-@pytest.mark.parametrize("pieces", [1, 2])
+@pytest.mark.parametrize("pieces", [1, pytest.param(2, marks=pytest.mark.slow)])  # 2: ~17 s
 def test_capsule_depth_is_radius_minus_the_least_signed_distance(rng, pieces):
     """Segments from inside and outside the mesh's bounding box (whose outside needs no sign
     query), wholly inside, wholly outside and crossing, on one piece and on two."""

@@ -213,7 +213,7 @@ def _hand_points_object(task, config):
     return out
 
 
-@pytest.mark.parametrize("name", ["teapot-service", "guitar-tuning"])
+@pytest.mark.parametrize("name", ["teapot-service", pytest.param("guitar-tuning", marks=pytest.mark.slow)])
 def test_segment_min_sd_is_within_its_tolerance_of_the_least_signed_distance(name):
     """Outside: the exact distance.  Reaching in: the signed distance at a point of the
     segment (the pair), never below the true minimum (dense samples 0.01 mm apart, less

@@ -73,11 +73,11 @@ def test_the_object_reference_is_cached_per_object_and_equals_the_computed_one()
     from prehension.quality.solid import object_center, object_reference
 
     task = load_builtin_task("teapot-service")
-    centre, radius = grasp_module._reference(task, QualityOptions())
+    centre, radius = grasp_module.torque_reference(task, QualityOptions())
     expected_centre, expected_radius = object_reference(task.object, object_center(task.object))
     assert np.array_equal(centre, expected_centre) and radius == expected_radius
     centre[:] = 0.0  # a caller's copy: the cache is not touched
-    assert np.array_equal(grasp_module._reference(task, QualityOptions())[0], expected_centre)
+    assert np.array_equal(grasp_module.torque_reference(task, QualityOptions())[0], expected_centre)
 
 
 def test_given_quality_entries_are_stored_as_given_and_must_match_the_solutions():

@@ -237,3 +237,35 @@ def test_every_kind_of_hand_region_becomes_a_solid(tmp_path):
     tip = next(g for g in range(model.ngeom) if model.geom_bodyid[g] == dist and model.geom_type[g] == sphere)
     assert np.allclose(model.geom_pos[tip] * 1000, (0, 0, 30)) and model.geom_size[tip][0] == pytest.approx(8e-3)
     assert sum(model.geom_bodyid[g] == model.body("object").id for g in range(model.ngeom)) == 1  # one box
+
+
+@pytest.mark.parametrize("how", ["SIGINT", "SIGTERM", "SIGHUP"])
+def test_simulate_interrupted_writes_the_grasps_it_finished(tmp_path, capsys, monkeypatch, four, how):
+    """The signal arrives while the second of three grasps runs: the first is written,
+    atomically, marked interrupted; exit 4; the previous signal handlers come back."""
+    import os
+    import signal
+
+    import prehension.sim
+    from prehension.sim import PhysicsReport
+
+    task, grasp = four
+    path = tmp_path / "three.json"
+    write_result(SolveResult(task, "local", "solved", "test", (grasp, grasp, grasp)), path)
+    calls = []
+
+    def fake(task, solution, options, seed):
+        calls.append(1)
+        if len(calls) == 2:
+            os.kill(os.getpid(), getattr(signal, how))
+        return PhysicsReport(True, False, 0.0, (), seed, options, 0.0, 0.0, 1)
+
+    monkeypatch.setattr(prehension.sim, "simulate_grasp", fake)
+    before = signal.getsignal(signal.SIGTERM), signal.getsignal(signal.SIGHUP)
+    out = tmp_path / "physics.json"
+    assert main(["simulate", str(path), "-o", str(out)]) == 4
+    data = json.loads(out.read_text())
+    assert data["interrupted"] is True and [g["solution"] for g in data["grasps"]] == [0]
+    assert "interrupted after 1 of 3 grasp(s)" in capsys.readouterr().err
+    assert (signal.getsignal(signal.SIGTERM), signal.getsignal(signal.SIGHUP)) == before
+    assert not [p for p in tmp_path.iterdir() if p.name not in ("three.json", "physics.json")]  # no temporary left

@@ -380,8 +380,9 @@ def test_hand_and_region_dict_round_trips(rng):
 
 def test_builtin_hands_table_and_primitive_schema_match_meshes():
     assert FORMAT_TAG == "task/1"
-    assert list(BUILTIN_HANDS) == ["schunk-sa"]
+    assert list(BUILTIN_HANDS) == ["schunk-sa", "schunk-sa-enclosing"]
     assert BUILTIN_HANDS["schunk-sa"]().n_dof == 17
+    assert BUILTIN_HANDS["schunk-sa-enclosing"]().dof_names == BUILTIN_HANDS["schunk-sa"]().dof_names
     for key, (spec, cls) in PRIMITIVES.items():
         assert set(spec.model_fields) == {f.name for f in dataclasses.fields(cls)}, key
 
@@ -504,7 +505,7 @@ BAD_CASES = {
     "missing tag": (("prehension: task/1\n", ""), r"prehension: missing format tag; .*'prehension: task/1'"),
     "unknown built-in hand": (("hand: schunk-sa", "hand: shunk-sa"),
                               r"hand: unknown built-in hand 'shunk-sa'; built-in hands are: schunk-sa"),
-    "hand of wrong type": (("hand: schunk-sa", "hand: [1, 2]"), r"hand: give a built-in hand name \(schunk-sa\)"),
+    "hand of wrong type": (("hand: schunk-sa", "hand: [1, 2]"), r"hand: give a built-in hand name \(schunk-sa, schunk-sa-enclosing\)"),
     "misspelt key": (("  name: knob\n", "  name: knob\n  colour: red\n"),
                      r"object: extra key 'colour' not allowed here; allowed keys: name, regions, mesh, scale, units, shape, collisions, surface_tolerance_mm, display"),
     "misspelt top-level key": (("fingers:", "finger:"), r"extra key 'finger' not allowed .*did you mean 'fingers'"),

@@ -185,8 +185,24 @@ def _task_region_moved(data):
         spec[key]["center"][0] += 1.0
 
 
+def _geometry_digest(data):
+    data["collision_geometry"]["digest"] = "sha256:0000000000000000"
+
+
+def _geometry_stick_out(data):
+    data["collision_geometry"]["links"]["palm"]["stick_out_mm"] = 0.0
+
+
+def _capsule_grown_in_task(data):
+    data["task"]["hand"]["links"][1]["collision"][0]["radius"] += 0.5  # the file's geometry is not what judged it
+
+
+def _fit_changed_in_task(data):
+    data["task"]["hand"]["links"][0]["fit"]["miss_mm"] = 0.0
+
+
 TAMPERS = [
-    _shift_deg, _shift_rad, _move_idle_finger, _move_link, _drop_link, _distance, _angle, _hand_point,
+    _geometry_digest, _geometry_stick_out, _capsule_grown_in_task, _fit_changed_in_task, _shift_deg, _shift_rad, _move_idle_finger, _move_link, _drop_link, _distance, _angle, _hand_point,
     _object_normal, _object_pose, _worst, _tolerances, _solved_without_solution, _infeasible_with_solution,
     _success_flag, _unknown_status, _task_region_moved,
 ]  # fmt: skip

@@ -14,7 +14,14 @@ re-verifies each one with :func:`~prehension.results.make_solution` (strict tole
 measures its quality (:func:`~prehension.quality.grasp_quality`), sorts them by the ranking
 (``"q1"``: epsilon, then volume; ``"volume"``: volume, then epsilon; ``"found"``: the order
 found) and keeps, in that order, each solution that is *distinct* from every one kept
-before it, up to ``n``.
+before it, up to ``2 n`` of them; then
+
+4. **improves** each, in that order, by the quality ascent along the task's solution set
+   (:func:`~prehension.ascent.improve_grasp`: contacts sliding in their regions, every
+   step re-verified by the residual function), and keeps each improved grasp that is
+   still distinct from the improved ones kept before it, up to ``n``; the kept grasps
+   are ranked again by their improved quality (``"found"`` keeps the order found).
+   ``ascent=None`` skips this step (the candidates as found).
 
 Two solutions are the **same grasp** when every joint angle of the fingers taking part
 differs by less than ``joint_deg``, the object positions by less than ``position_mm`` and
@@ -31,6 +38,7 @@ from typing import Callable, Literal
 
 import numpy as np
 
+from .ascent import AscentOptions, improve_grasp
 from .errors import PrehensionError
 from .geometry.rotations import angle_between
 from .quality import GraspQuality, QualityOptions, configuration_quality, grasp_quality
@@ -55,7 +63,8 @@ class BestOptions:
             to count as distinct (each > 0).
         quality: the friction model the ranking measures with (also the one stored).
         time_limit_s: stop collecting after this long [s] (``None``: no limit); the
-            complete solver gets what is left.
+            complete solver gets what is left, the ascent what is left then.
+        ascent: the quality ascent applied to each kept grasp (``None``: none).
     """
 
     n: int = 5
@@ -66,6 +75,7 @@ class BestOptions:
     rotation_deg: float = 5.0
     quality: QualityOptions = field(default_factory=QualityOptions)
     time_limit_s: float | None = None
+    ascent: AscentOptions | None = field(default_factory=AscentOptions)
 
     def __post_init__(self):
         def need(ok: bool, message: str) -> None:
@@ -80,6 +90,7 @@ class BestOptions:
             need(isinstance(value, (int, float)) and np.isfinite(value) and value > 0, f"{name} must be a positive number, got {value!r}")
         need(isinstance(self.quality, QualityOptions), "quality must be a QualityOptions")
         need(self.time_limit_s is None or self.time_limit_s > 0, f"time limit must be > 0 s, got {self.time_limit_s!r}")
+        need(self.ascent is None or isinstance(self.ascent, AscentOptions), "ascent must be an AscentOptions or None")
 
 
 def _integer(x) -> bool:
@@ -93,6 +104,7 @@ class _Candidate:
     source: str
     order: int
     solution: Solution | None = None  # already verified (complete solver), else verified when kept
+    ascent: dict | None = None  # what the quality ascent did to it (steps accepted and tried, epsilon before)
 
 
 def distinct(a, b, task: Task, options: BestOptions = BestOptions(), active: np.ndarray | None = None) -> bool:
@@ -167,14 +179,18 @@ def _complete_phase(task: Task, deadline: float | None, complete_options, execut
     return solve_complete(task, options, executor=executor, workers=workers, progress=progress)
 
 
-def _ranked(candidates: list[_Candidate], task: Task, options: BestOptions) -> tuple[list[_Candidate], int]:
+def _key(c: _Candidate, rank: str) -> tuple:
+    q = c.quality
+    return {"q1": (-q.epsilon, -q.volume, c.order), "volume": (-q.volume, -q.epsilon, c.order),
+            "found": (c.order,)}[rank]  # fmt: skip
+
+
+def _ranked(candidates: list[_Candidate], task: Task, options: BestOptions, most: int) -> tuple[list[_Candidate], int]:
     """The distinct candidates in rank order, each re-verified (:func:`make_solution`) as it
-    is kept, up to ``options.n``; and how many distinct ones there were in all."""
+    is kept, up to ``most``; and how many distinct ones there were in all."""
 
     def key(c: _Candidate):
-        q = c.quality
-        return {"q1": (-q.epsilon, -q.volume, c.order), "volume": (-q.volume, -q.epsilon, c.order),
-                "found": (c.order,)}[options.rank]  # fmt: skip
+        return _key(c, options.rank)
 
     active = task.active_mask
     kept: list[_Candidate] = []
@@ -183,7 +199,7 @@ def _ranked(candidates: list[_Candidate], task: Task, options: BestOptions) -> t
         if not all(distinct(c.config, k.config, task, options, active) for k in kept):
             continue
         n_distinct += 1
-        if len(kept) < options.n:
+        if len(kept) < most:
             solution = c.solution or make_solution(task, c.config)
             if solution is None:  # never kept unverified
                 n_distinct -= 1
@@ -234,8 +250,32 @@ def solve_best(
         complete = _complete_phase(task, deadline, complete_options, executor, workers, progress)
         found += [(s, "complete solver (solution set)") for s in complete.solutions]
     candidates = [_candidate(task, grasp, source, i, options.quality) for i, (grasp, source) in enumerate(found)]
-    kept, n_distinct = _ranked(candidates, task, options)
+    kept, n_distinct = _ranked(candidates, task, options, options.n if options.ascent is None else 2 * options.n)
+    if options.ascent is not None:
+        kept = _improved(kept, task, options, deadline)
     return _result(task, options, kept, n_distinct, len(candidates), stats, complete, time.perf_counter() - started)
+
+
+def _improved(pool: list[_Candidate], task: Task, options: BestOptions, deadline: float | None) -> list[_Candidate]:
+    """Step 4 of the module docstring: the pool's grasps improved by the ascent, the distinct
+    ones kept (up to ``options.n``), ranked again."""
+    active = task.active_mask
+    kept: list[_Candidate] = []
+    for c in pool:
+        if len(kept) == options.n:
+            break
+        ascent = options.ascent
+        if deadline is not None:
+            left = deadline - time.perf_counter()
+            ascent = replace(ascent, steps=0) if left <= 0.0 else replace(ascent, time_limit_s=left / (options.n - len(kept)))
+        up = improve_grasp(task, c.solution, options.quality, ascent)
+        done = {"accepted": up.accepted, "tried": up.tried, "epsilon_before": up.start.epsilon}
+        better = replace(c, config=up.solution.configuration(), quality=up.quality, solution=up.solution, ascent=done)
+        if all(distinct(better.config, k.config, task, options, active) for k in kept):
+            kept.append(better)
+    if options.rank != "found":
+        kept.sort(key=lambda c: _key(c, options.rank))
+    return kept
 
 
 def _candidate(task: Task, grasp, source: str, order: int, quality: QualityOptions) -> _Candidate:
@@ -250,7 +290,7 @@ def _result(task, options: BestOptions, chosen, n_distinct, n_candidates, stats,
         "distinct_when": {"joint_deg": options.joint_deg, "position_mm": options.position_mm, "rotation_deg": options.rotation_deg},
         "random_starts": options.starts, "quality_options": options.quality.to_dict(),
         "sources": [c.source for c in chosen], "epsilon": [c.quality.epsilon for c in chosen],
-        "force_closure": [c.quality.force_closure for c in chosen], **stats,
+        "force_closure": [c.quality.force_closure for c in chosen], "ascent": [c.ascent for c in chosen], **stats,
     }  # fmt: skip
     used_complete = complete is not None
     if not chosen:

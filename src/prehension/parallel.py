@@ -100,21 +100,25 @@ def cluster(scheduler: str | None = None, workers: int | None = None, *, dashboa
 
 @contextlib.contextmanager
 def _ctrl_c_ignored():
-    """Ignore Ctrl-C (SIGINT) in this process while a local cluster starts.
+    """Ignore Ctrl-C (SIGINT) and a hang-up (SIGHUP) in this process while a local cluster starts.
 
     An ignored signal stays ignored across ``exec``, and Python then installs no
-    KeyboardInterrupt handler: the worker processes spawned meanwhile never print a
-    traceback when a terminal sends Ctrl-C to the whole foreground group.  A Ctrl-C
-    pressed during those seconds is lost (the command then takes the next one).
+    KeyboardInterrupt handler: the worker processes spawned meanwhile (and their helpers,
+    such as multiprocessing's resource tracker) never print a traceback or die when a
+    terminal sends Ctrl-C, or its hang-up, to the whole foreground group; the command
+    stops them itself (see :mod:`prehension.cli.terminate`).  A Ctrl-C pressed during
+    those seconds is lost (the command then takes the next one).
     """
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    quiet = [s for s in (signal.SIGINT, getattr(signal, "SIGHUP", None)) if s is not None]
+    previous = {s: signal.signal(s, signal.SIG_IGN) for s in quiet}
     try:
         yield
     finally:
-        signal.signal(signal.SIGINT, previous)
+        for s, handler in previous.items():
+            signal.signal(s, handler)
 
 
 def _connect(distributed, address: str):

@@ -22,6 +22,7 @@ import numpy as np
 from .atomic import read_json, to_plain, write_json_atomic
 from .errors import InvalidTask, PrehensionError
 from .hands.kinematics import forward_kinematics
+from .tasks.geometry_record import collision_geometry
 from .tasks.idle import settle_idle_fingers
 from .tasks.model import Configuration, Task
 from .tasks.residuals import ResidualReport, Tolerances, _evaluate
@@ -223,11 +224,14 @@ def _solution_to_dict(sol: Solution, quality: dict) -> dict:
 
 def result_to_dict(result: SolveResult, quality=None, *, embed_task: bool = True, qualities=None) -> dict:
     """A JSON-ready dict: units in keys, the task embedded (unless ``embed_task`` is false:
-    a batch stores each distinct task once and its records refer to it); each solution's
+    a batch stores each distinct task once and its records refer to it); the collision
+    geometry that judged it (:func:`~prehension.tasks.geometry_record.collision_geometry`,
+    without the per-link table when the task is not embedded); each solution's
     grasp quality measured with ``quality`` (:class:`prehension.quality.QualityOptions`,
     default ones if ``None``), or given: ``qualities``, one
     :func:`~prehension.quality.quality_entry` per solution (a batch measures them itself)."""
     from .quality import QualityOptions, quality_entry
+    from .tasks.format.embedded import embedded_files
     from .tasks.yaml_io import task_to_dict
 
     head = {
@@ -237,6 +241,9 @@ def result_to_dict(result: SolveResult, quality=None, *, embed_task: bool = True
     }
     if embed_task:
         head["task"] = task_to_dict(result.task, hand_inline=True)  # a result file is re-checkable alone
+        files = embedded_files(head["task"])  # ... also elsewhere: the object's mesh travels with it
+        if files:
+            head["files"] = files
     if qualities is None:
         options = quality or QualityOptions()
         qualities = [quality_entry(result.task, s.T_palm_object, s.contacts, options) for s in result.solutions]
@@ -250,6 +257,7 @@ def result_to_dict(result: SolveResult, quality=None, *, embed_task: bool = True
         "message": result.message,
         "seconds": result.seconds,
         "stats": to_plain(dict(result.stats)),
+        "collision_geometry": collision_geometry(result.task, compact=not embed_task),
         "solutions": [_solution_to_dict(s, q) for s, q in zip(result.solutions, qualities)],
         "unverified_boxes": [{"lower": lo.tolist(), "upper": hi.tolist()} for lo, hi in result.unverified_boxes],
     }
@@ -267,7 +275,10 @@ def read_result(path) -> tuple[Task, dict]:
 
 
 def result_task(data, source: str, base_dir: Path) -> tuple[Task, dict]:
-    """The task embedded in a result dict (read from ``source``) and the dict itself."""
+    """The task embedded in a result dict (read from ``source``) and the dict itself; the
+    files it names are read from the copies the result carries (``files``, see
+    :mod:`prehension.tasks.format.embedded`)."""
+    from .tasks.format.embedded import task_with_files
     from .tasks.yaml_io import task_from_dict
 
     if not isinstance(data, dict) or data.get("prehension") != RESULT_TAG:
@@ -275,5 +286,6 @@ def result_task(data, source: str, base_dir: Path) -> tuple[Task, dict]:
     if not isinstance(data.get("task"), dict):
         raise InvalidTask(f"{source}: the result file has no 'task' (the task it answers is embedded there); "
                           "nothing can be checked or drawn without it")  # fmt: skip
-    return task_from_dict(data["task"], base_dir=base_dir, source=f"{source} (embedded task)"), data
+    task_dict = task_with_files(data["task"], data.get("files"), source)  # the object's mesh as the result carries it
+    return task_from_dict(task_dict, base_dir=base_dir, source=f"{source} (embedded task)"), data
 

@@ -40,6 +40,8 @@ def solve(
     progress: Callable[[dict], None] | None = None,
     sequence=None,
     time_limit_s: float | None = None,
+    require: str | None = None,
+    quality=None,
 ) -> SolveResult:
     """Solve ``task`` with the chosen method (see the module docstring).
 
@@ -47,6 +49,13 @@ def solve(
     local solver stops at it (:attr:`LocalOptions.time_limit_s`), and the complete solver
     gets what is left (at most its own ``time_limit_s``); when nothing is left the answer
     is the local solver's ``gave_up``, saying so.
+
+    ``require="force-closure"``: only a force-closure grasp (friction model ``quality``, a
+    :class:`~prehension.quality.QualityOptions`; default the stored quality's) is an
+    answer.  The local solver's solutions that are not force closure are dropped (``auto``
+    then runs the complete solver, ``local`` gives up); the complete solver searches for
+    force-closure grasps only and proves, when it answers ``infeasible``, that the task
+    has none (:mod:`prehension.solvers.complete.closure`).
 
     ``sequence``: the local solver's initial poses (an
     :class:`~prehension.solvers.local.InitialPoseSequence`, e.g. from ``prehension
@@ -59,6 +68,8 @@ def solve(
     """
     if method not in ("auto", "local", "complete"):
         raise PrehensionError(f"method must be 'auto', 'local' or 'complete', got {method!r}")
+    if require not in (None, "force-closure"):
+        raise PrehensionError(f"require must be 'force-closure' or None (any grasp), got {require!r}")
     if sequence is not None:
         check_sequence(sequence, task.hand)
     started = time.perf_counter()
@@ -68,6 +79,8 @@ def solve(
         if progress is not None:
             progress({"stage": "local solver"})
         local = _solve_local(task, local_options, seed, sequence, time_limit_s)
+        if require is not None:
+            local = _meeting(local, quality)
         if local.success or method == "local":
             return local
     from .solvers.complete.search import BranchAndPruneOptions, solve_complete
@@ -78,6 +91,8 @@ def solve(
     if complete_options is None and method == "auto":
         note = f"{local.message}; the time limit ({time_limit_s:g} s) was reached before the complete solver could start"
         return replace(local, message=note, seconds=time.perf_counter() - started)
+    if require is not None:
+        complete_options = replace(complete_options, require=require, quality=quality or complete_options.quality)
     if progress is not None:
         progress({"stage": "complete solver"})
     result = solve_complete(
@@ -93,6 +108,21 @@ def solve(
         stats = dict(result.stats, local=dict(local.stats))
         result = replace(result, message=note, seconds=seconds, stats=stats)
     return result
+
+
+def _meeting(local: SolveResult, quality) -> SolveResult:
+    """``local`` with only its force-closure solutions; ``gave_up`` when none is left."""
+    from .quality import QualityOptions, grasp_quality
+
+    quality = quality or QualityOptions()
+    kept = tuple(s for s in local.solutions if grasp_quality(local.task, s, quality).force_closure)
+    if len(kept) == len(local.solutions):
+        return local
+    if kept:
+        return replace(local, solutions=kept)
+    dropped = len(local.solutions)
+    return replace(local, status=Status.GAVE_UP, solutions=(),
+                   message=f"{local.message}; none of its {dropped} solution(s) is force closure (required)")  # fmt: skip
 
 
 def _solve_local(task: Task, options, seed: int, sequence=None, time_limit_s: float | None = None) -> SolveResult:

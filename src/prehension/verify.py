@@ -15,6 +15,9 @@ each of them from the task the file embeds, and reports one :class:`Finding` per
   normals, distance and angle, and the ``worst`` summary, equal the recomputed ones; the
   grasp quality (force closure, epsilon, volume) equals the one recomputed from those
   contacts with the friction model the file states (:mod:`prehension.quality.stored`);
+* the ``collision_geometry`` entry (which capsules, fits, exclusions and object solid
+  judged collisions; :mod:`prehension.tasks.geometry_record`) equals the one derived from
+  the embedded task (a file written before the entry existed is noted, not failed);
 * ``infeasible``: the proof is run again by the complete solver on the embedded task (so
   it cannot have been computed for another task); without ``reprove`` the claim is only
   restated, never called verified.
@@ -32,9 +35,10 @@ from typing import Any
 import numpy as np
 
 from .atomic import read_json
-from .errors import InvalidTask
+from .errors import InvalidTask, PrehensionError
 from .hands.kinematics import forward_kinematics
 from .results import SolveResult, Status, result_task
+from .tasks.geometry_record import check_collision_geometry
 from .tasks.model import Configuration, Task
 from .tasks.residuals import ResidualReport, Tolerances, evaluate
 
@@ -111,7 +115,7 @@ def verify_result(
             be checked then.
     """
     task = _embedded_task(data, source, base_dir)
-    findings = _header(data)
+    findings = _header(data) + _geometry(task, data)
     status = data.get("status")
     tol = _tolerances_claimed(data, status, findings)
     reports = []
@@ -120,6 +124,7 @@ def verify_result(
         report, found = _solution(task, sol, i, tol)
         reports.append(report)
         findings += found
+    findings += _requirement(task, data, reports)
     reproof = None
     if status == Status.INFEASIBLE and not solutions:
         reproof, found = _reprove(task, data, reprove, time_limit_s)
@@ -149,6 +154,13 @@ def _header(data: dict) -> list[Finding]:
         why = "needs at least one solution" if needs else "cannot hold a solution"
         out.append(Finding("status against solutions", ok, f"{status} with {n} solution(s)" + ("" if ok else f": {status} {why}")))
     return out
+
+
+def _geometry(task: Task, data: dict) -> list[Finding]:
+    if "collision_geometry" not in data:
+        return [Finding("collision geometry", True, "not stated (a file written before it was recorded)")]
+    ok, detail = check_collision_geometry(task, data["collision_geometry"])
+    return [Finding("collision geometry (which capsules and solid judged it)", ok, detail)]
 
 
 def _tolerances_claimed(data: dict, status, findings: list[Finding]) -> Tolerances:
@@ -277,6 +289,27 @@ def _quality(task: Task, config: Configuration, report: ResidualReport, sol: dic
     return [Finding(f"{label}: quality (force closure, epsilon, volume)", ok, detail)]
 
 
+def _requirement(task: Task, data: dict, reports: list) -> list[Finding]:
+    """A search that required force closure (``stats.options.require``): every solution is
+    force closure with the friction model the search states."""
+    stats = data.get("stats") if isinstance(data.get("stats"), dict) else {}
+    options = stats.get("options") if isinstance(stats.get("options"), dict) else {}
+    if options.get("require") != "force-closure":
+        return []
+    from .quality import QualityOptions, contacts_quality
+
+    try:
+        quality = QualityOptions.from_dict(options.get("quality", {}))
+    except PrehensionError as exc:
+        return [Finding("required force closure", False, f"the stated friction model is malformed: {exc}")]
+    found = []
+    for i, (report, sol) in enumerate(zip(reports, data.get("solutions") or [])):
+        if report is not None:
+            closed = contacts_quality(task, np.array(sol["T_palm_object"], dtype=float), report.contacts, quality).force_closure
+            found.append(Finding(f"solution {i}: force closure (required)", closed, "" if closed else "FALSE: not force closure"))
+    return found
+
+
 # -- infeasible -----------------------------------------------------------------------------
 def _reprove(task: Task, data: dict, reprove: bool, time_limit_s) -> tuple[SolveResult | None, list[Finding]]:
     stats = data.get("stats") if isinstance(data.get("stats"), dict) else {}
@@ -284,6 +317,7 @@ def _reprove(task: Task, data: dict, reprove: bool, time_limit_s) -> tuple[Solve
     if data.get("method") != "complete":
         return None, [Finding("infeasibility", False, "only the complete solver proves infeasibility; method is "
                               f"{data.get('method')!r}")]  # fmt: skip
+    claimed += _from_checkpoint(stats)
     if not reprove:
         return None, [Finding("infeasibility (not re-proved)", True, claimed + "; run check without --no-reprove to re-derive it")]
     from .solvers.complete.search import solve_complete
@@ -296,21 +330,38 @@ def _reprove(task: Task, data: dict, reprove: bool, time_limit_s) -> tuple[Solve
         by_self = again.stats.get("self_collision_pruned", 0)
         how = f", {by_collision} of them for hand-object collision: no penetration-free solution" if by_collision else ""
         how += f", {by_self} of them for self-collision: no self-collision-free solution" if by_self else ""
-        return again, [Finding("infeasibility re-proved", True, f"all {again.stats['boxes']} boxes pruned again{how} ({note})")]
+        by_closure = again.stats.get("closure_pruned", 0)
+        how += f", {by_closure} of them by a certificate that none of their configurations is force closure" if by_closure else ""
+        return again, [Finding("infeasibility re-proved", True, f"all {again.stats['boxes']} boxes pruned again{how} "
+                               f"({note}){_from_checkpoint(stats)}")]  # fmt: skip
     if again.status == Status.SOLVED:
         return again, [Finding("infeasibility", False, "FALSE: the complete solver finds a verified solution of the embedded task")]
     return again, [Finding("infeasibility (could not re-prove)", True, f"{claimed}; re-running it: {again.message}")]
+
+
+def _from_checkpoint(stats: dict) -> str:
+    """A claim resumed from a checkpoint says so: part of its proof rests on the checkpoint's
+    boxes, so it is re-proved from the initial box like any other (never trusted)."""
+    resumed = stats.get("resumed")
+    if not isinstance(resumed, dict):
+        return ""
+    return (f"; the claim was resumed from checkpoint {resumed.get('checkpoint')!r} ({resumed.get('boxes', '?')} boxes "
+            "pruned before it): the re-proof starts from the initial box and does not read it")  # fmt: skip
 
 
 def _search_options(stored, time_limit_s):
     """The stored search options that change the proof (sigma, order...), with the check's time limit."""
     from .solvers.complete.search import BranchAndPruneOptions
 
+    from .quality import QualityOptions
+
     known = {f.name for f in fields(BranchAndPruneOptions)}
     simple = {k: v for k, v in (stored or {}).items() if k in known and isinstance(v, (int, float, str, bool))}
     simple.pop("max_boxes", None)
     simple["time_limit_s"] = time_limit_s
     try:
+        if isinstance((stored or {}).get("quality"), dict):  # the friction model of require="force-closure"
+            simple["quality"] = QualityOptions.from_dict(stored["quality"])
         return BranchAndPruneOptions(**simple)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, PrehensionError):
         return BranchAndPruneOptions(time_limit_s=time_limit_s)

@@ -14,8 +14,14 @@ refers to it::
 
     {"prehension": "batch-task/1", "ref": "3f9c...", "task": {...the task-file dict...}}
 
-``ref`` is 16 hex digits of the SHA-256 of the task dict (keys sorted): two records refer
-to one line exactly when their tasks are the same.  :func:`with_task` puts the task back
+``ref`` is 16 hex digits of the SHA-256 of the task dict (keys sorted) and of the files it
+names: two records refer to one line exactly when their tasks are the same.  The files a
+task names (its object's mesh) travel with the journal, each distinct file **once**, in a
+*file line* written before the first task line that names it; the task line refers to it
+by SHA-256 (``"files": {path: {"sha256": ...}}``; see :mod:`prehension.tasks.format.embedded`)::
+
+    {"prehension": "batch-file/1", "sha256": "9f2c...", "name": "mug.ply", "size": ..., "zlib_base64": "..."}
+  :func:`with_task` puts the task back
 into a compact record's result (what ``prehension check`` does); *self-contained* records
 (``--self-contained``) embed the task in ``result`` and have no ``task_ref``.
 
@@ -28,6 +34,7 @@ that refer to it, in the same write: a record that survives a crash has its task
 
 * a torn tail (a cut line after the last newline, and lines of NUL bytes or cut lines
   after the last good line: what a crash can leave) is cut off;
+* file lines are kept like task lines;
 * records that are not *done* are dropped, by an atomic rewrite, so that their tasks are
   solved again and the journal keeps **one record per task id**.  Done: ``solved`` and
   ``infeasible`` (proven), and ``gave_up`` / ``approximate`` unless ``retry_gave_up``;
@@ -55,12 +62,13 @@ from ..atomic import open_atomic
 from ..errors import PrehensionError
 
 __all__ = [
-    "RECORD_TAG", "TASK_TAG", "DONE", "JournalState", "Journal", "Appender", "open_journal", "read_records", "read_tasks",
-    "with_task", "is_done",
+    "RECORD_TAG", "TASK_TAG", "FILE_TAG", "TaskLines", "DONE", "JournalState", "Journal", "Appender", "open_journal",
+    "read_records", "read_tasks", "with_task", "is_done",
 ]  # fmt: skip
 
 RECORD_TAG = "batch/1"
 TASK_TAG = "batch-task/1"
+FILE_TAG = "batch-file/1"
 DONE = ("solved", "infeasible")  # plus "gave_up" unless retried
 
 
@@ -77,11 +85,13 @@ class JournalState:
         done: status of every done task, by id.
         notes: what the repair did, one sentence each (empty when nothing).
         task_refs: the refs of the task lines it holds.
+        file_shas: the SHA-256 of the file lines it holds.
     """
 
     done: Mapping[str, str] = field(default_factory=dict)
     notes: tuple[str, ...] = ()
     task_refs: frozenset = frozenset()
+    file_shas: frozenset = frozenset()
 
 
 def _is_record(data) -> bool:
@@ -93,16 +103,20 @@ def _is_task_line(data) -> bool:
             and isinstance(data.get("task"), dict))  # fmt: skip
 
 
+def _is_file_line(data) -> bool:
+    return isinstance(data, dict) and data.get("prehension") == FILE_TAG and isinstance(data.get("sha256"), str)
+
+
 def _parse(line: bytes) -> dict | None:
-    """A record or a task line, else ``None``."""
+    """A record, a task line or a file line, else ``None``."""
     try:
         data = json.loads(line)
     except (json.JSONDecodeError, UnicodeDecodeError):
         return None
-    return data if _is_record(data) or _is_task_line(data) else None
+    return data if _is_record(data) or _is_task_line(data) or _is_file_line(data) else None
 
 
-_STARTS = tuple(b'{"prehension":"' + tag.encode() + b'"' for tag in (RECORD_TAG, TASK_TAG))  # how our lines start
+_STARTS = tuple(b'{"prehension":"' + tag.encode() + b'"' for tag in (RECORD_TAG, TASK_TAG, FILE_TAG))  # how our lines start
 
 
 def _is_debris(raw: bytes) -> bool:
@@ -124,6 +138,8 @@ def _line(raw: bytes) -> _Line:
     data = _parse(raw)
     if data is not None and data["prehension"] == TASK_TAG:
         return _Line(None, "task", data["ref"])
+    if data is not None and data["prehension"] == FILE_TAG:
+        return _Line(None, "file", data["sha256"])
     if data is not None:
         return _Line((data["id"], str(data.get("status"))), "record")
     return _Line(None, "blank" if not raw.strip() else "debris" if _is_debris(raw) else "foreign")
@@ -155,7 +171,7 @@ def _good_part(path: Path, lines: list[_Line], torn: int) -> tuple[int, list[str
     Raises:
         PrehensionError: a line is not ours, or debris lies before a record.
     """
-    n_good = 1 + max((i for i, line in enumerate(lines) if line.kind in ("record", "task")), default=-1)
+    n_good = 1 + max((i for i, line in enumerate(lines) if line.kind in ("record", "task", "file")), default=-1)
     for i, line in enumerate(lines):
         if line.kind == "foreign" or (i < n_good and line.kind == "debris"):
             raise _not_a_journal(path, i + 1)
@@ -171,7 +187,7 @@ def _selection(lines: list[_Line], retry_gave_up: bool) -> tuple[list[bool], dic
     keep, done = [], {}
     retried = duplicates = 0
     for line in lines:
-        if line.kind == "task":
+        if line.kind in ("task", "file"):
             keep.append(True)
             continue
         ok = line.key is not None and line.key[0] not in done and is_done(line.key[1], retry_gave_up)
@@ -217,7 +233,8 @@ def _repair(path: Path, retry_gave_up: bool) -> JournalState:
     if duplicates:
         notes.append(f"dropped {duplicates} duplicated record(s) (did another run write this journal?)")
     refs = frozenset(line.ref for line in lines[:n_good] if line.kind == "task")
-    return JournalState(done, tuple(notes), refs)
+    shas = frozenset(line.ref for line in lines[:n_good] if line.kind == "file")
+    return JournalState(done, tuple(notes), refs, shas)
 
 
 @contextlib.contextmanager
@@ -239,10 +256,11 @@ def _locked(path: Path) -> Iterator[None]:
 class Journal:
     """The open journal: :meth:`append_lines` writes a chunk's lines, flushed and fsynced once."""
 
-    def __init__(self, fh, task_refs: frozenset = frozenset(), path: Path | None = None):
+    def __init__(self, fh, task_refs: frozenset = frozenset(), path: Path | None = None, file_shas: frozenset = frozenset()):
         self._fh = fh
         self.path = path
         self.task_refs: set[str] = set(task_refs)  # the task lines it holds (or has been given)
+        self.file_shas: set[str] = set(file_shas)  # the file lines it holds (or has been given)
 
     def append_lines(self, lines: Iterable[bytes]) -> None:
         """Append complete lines (each ends with a newline) in one write, then flush and fsync."""
@@ -323,7 +341,7 @@ def open_journal(path, retry_gave_up: bool = False) -> Iterator[tuple[Journal, J
     with _locked(path):
         state = _repair(path, retry_gave_up) if path.exists() else JournalState()
         with open(path, "ab") as fh:
-            yield Journal(fh, state.task_refs, path), state
+            yield Journal(fh, state.task_refs, path, state.file_shas), state
 
 
 def _complete_lines(path) -> Iterator[dict]:
@@ -334,6 +352,33 @@ def _complete_lines(path) -> Iterator[dict]:
                 yield data
 
 
+class TaskLines:
+    """The task and file lines of a journal, read in order: :attr:`tasks` (task dict by
+    ref) and :attr:`files` (by ref: the ``files`` entry a result of that task carries,
+    ``{path: entry}``, from the file lines before it)."""
+
+    def __init__(self):
+        self.tasks: dict[str, dict] = {}
+        self.files: dict[str, dict] = {}
+        self._entries: dict[str, dict] = {}  # file lines by SHA-256
+
+    def add(self, data: dict) -> bool:
+        """Take a task or file line (True); anything else is left to the caller (False)."""
+        if _is_file_line(data):
+            self._entries[data["sha256"]] = {k: v for k, v in data.items() if k != "prehension"}
+            return True
+        if data.get("prehension") != TASK_TAG:
+            return False
+        ref = str(data.get("ref"))
+        self.tasks[ref] = data.get("task")
+        named = data.get("files") if isinstance(data.get("files"), dict) else {}
+        carried = {p: self._entries[f["sha256"]] for p, f in named.items()
+                   if isinstance(f, dict) and f.get("sha256") in self._entries}  # fmt: skip
+        if carried:
+            self.files[ref] = carried
+        return True
+
+
 def read_tasks(path) -> dict[str, dict]:
     """The task lines of a journal: task dict (task-file format) by ref."""
     return {d["ref"]: d["task"] for d in _complete_lines(path) if d["prehension"] == TASK_TAG}
@@ -342,25 +387,26 @@ def read_tasks(path) -> dict[str, dict]:
 def read_records(path, *, embed_tasks: bool = False) -> list[dict]:
     """Every complete record of a journal, in file order (a torn last line is skipped).
 
-    With ``embed_tasks``, each compact record's ``result`` gets its task back
-    (:func:`with_task`): every record is then self-contained, as a result file.
+    With ``embed_tasks``, each compact record's ``result`` gets its task back, and the
+    files it names (:func:`with_task`): every record is then self-contained, as a result file.
     """
-    records, tasks = [], {}
+    records, lines = [], TaskLines()
     for data in _complete_lines(path):
-        if data["prehension"] == TASK_TAG:
-            tasks[data["ref"]] = data["task"]
-        else:
-            records.append(with_task(data, tasks, str(path)) if embed_tasks else data)
+        if not lines.add(data):
+            records.append(with_task(data, lines.tasks, str(path), lines.files) if embed_tasks else data)
     return records
 
 
-def with_task(record: dict, tasks: Mapping[str, dict], source: str = "batch output") -> dict:
+def with_task(record: dict, tasks: Mapping[str, dict], source: str = "batch output",
+              files: Mapping[str, dict] | None = None) -> dict:  # fmt: skip
     """``record`` with its task in ``result`` (a copy; the record itself when it has it already).
 
     Args:
         record: a batch record.
         tasks: task dicts by ref (the task lines read so far, see :func:`read_tasks`).
         source: where the record was read, for the message.
+        files: by ref, the files the task names (:attr:`TaskLines.files`): put in
+            ``result["files"]`` as a result file carries them.
 
     Raises:
         PrehensionError: the record refers to a task line that is not in ``tasks``.
@@ -374,4 +420,5 @@ def with_task(record: dict, tasks: Mapping[str, dict], source: str = "batch outp
             f"(a compact record's task is a \"{TASK_TAG}\" line before it; was the file cut or edited?)"
         )
     head = {k: result[k] for k in ("prehension", "units", "frames") if k in result}
-    return {**record, "result": {**head, "task": tasks[ref], **result}}
+    carried = {"files": files[ref]} if files and ref in files else {}
+    return {**record, "result": {**head, "task": tasks[ref], **carried, **result}}

@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any, Mapping
 
 from .inputs import entry_task
-from .journal import TASK_TAG
+from .journal import FILE_TAG, TASK_TAG
 
 __all__ = ["LoadedTask", "load_entry", "CACHE_SIZE"]
 
@@ -33,8 +33,12 @@ class LoadedTask:
     Attributes:
         task: the task.
         task_dict: the task in the task-file format (what a result file embeds).
-        ref: 16 hex digits of the SHA-256 of ``task_dict`` with sorted keys.
+        files: the files the task names, ``{path: entry}``
+            (:func:`~prehension.tasks.format.embedded.embedded_files`).
+        ref: 16 hex digits of the SHA-256 of ``task_dict`` with sorted keys and of its
+            files' SHA-256 (a mesh edited between runs makes another task line).
         task_line: the journal's task line for it (bytes, newline included).
+        file_lines: the journal's file line of each file, by SHA-256.
     """
 
     def __init__(self, task):
@@ -47,14 +51,32 @@ class LoadedTask:
         return task_to_dict(self.task, hand_inline=True)  # as a result file embeds it: re-checkable alone
 
     @cached_property
+    def files(self) -> dict:
+        from ..tasks.format.embedded import embedded_files
+
+        return embedded_files(self.task_dict)
+
+    @cached_property
+    def _file_refs(self) -> dict:
+        return {path: {"sha256": entry["sha256"]} for path, entry in self.files.items()}
+
+    @cached_property
     def ref(self) -> str:
-        canonical = json.dumps(self.task_dict, sort_keys=True, separators=(",", ":"))
+        content = [self.task_dict, self._file_refs] if self.files else self.task_dict
+        canonical = json.dumps(content, sort_keys=True, separators=(",", ":"))
         return hashlib.sha256(canonical.encode("utf-8")).hexdigest()[:16]
 
     @cached_property
     def task_line(self) -> bytes:
         line = {"prehension": TASK_TAG, "ref": self.ref, "task": self.task_dict}
+        if self.files:
+            line["files"] = self._file_refs
         return (json.dumps(line, separators=(",", ":")) + "\n").encode("utf-8")
+
+    @cached_property
+    def file_lines(self) -> dict[str, bytes]:
+        lines = {e["sha256"]: {"prehension": FILE_TAG, **e} for e in self.files.values()}
+        return {sha: (json.dumps(line, separators=(",", ":")) + "\n").encode("utf-8") for sha, line in lines.items()}
 
 
 _CACHE: OrderedDict = OrderedDict()

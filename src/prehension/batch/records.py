@@ -28,13 +28,15 @@ class RecordLine(NamedTuple):
 
 
 class ChunkOutput(NamedTuple):
-    """What a chunk sends back: its records, the task lines they refer to (by ref), and
-    the worker's ``(wall, CPU)`` seconds per stage of the chunk (:data:`STAGES`; CPU of the
-    worker's thread; for benchmarks and profiling: nothing of it is written)."""
+    """What a chunk sends back: its records, the task lines they refer to (by ref), the
+    worker's ``(wall, CPU)`` seconds per stage of the chunk (:data:`STAGES`; CPU of the
+    worker's thread; for benchmarks and profiling: nothing of it is written), and the file
+    lines of the files those tasks name (by SHA-256; the client writes each once)."""
 
     records: list
     tasks: dict
     stages: Mapping[str, tuple[float, float]] = {}
+    files: Mapping[str, bytes] = {}
 
 
 def encode(data: Mapping[str, Any]) -> bytes:
@@ -75,7 +77,8 @@ def result_line(entry: Mapping[str, Any], method: str, seed: int, result, loaded
     fields = dict(status=result.status, seconds=seconds, message=result.message)
     if self_contained:
         head = {k: data[k] for k in ("prehension", "units", "frames")}
-        whole = {**head, "task": loaded.task_dict, **data}
+        carried = {"files": loaded.files} if loaded.files else {}  # self-contained: its own copy of the mesh
+        whole = {**head, "task": loaded.task_dict, **carried, **data}
         record = record_dict(entry, method, seed, **fields, result=whole, **(extra or {}))
         return RecordLine(entry["id"], result.status, None, encode(record))
     record = record_dict(entry, method, seed, **fields, task_ref=loaded.ref, result=data, **(extra or {}))

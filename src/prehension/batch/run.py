@@ -217,12 +217,15 @@ class _Run:
             self.progress(BatchProgress(self.total, len(self.written), self.skipped, dict(self.counts)))
 
     def accept(self, output: ChunkOutput) -> None:
-        """Queue a finished chunk for the journal: the task lines its new records need, then
-        the records (written together: one write, one fsync); then report progress."""
+        """Queue a finished chunk for the journal: the file lines and task lines its new
+        records need, then the records (written together: one write, one fsync); then report progress."""
         fresh = [r for r in output.records if r.id not in self.written]  # never twice, whatever happens
         needed = {r.task_ref for r in fresh if r.task_ref is not None} - self.journal.task_refs
-        self.appender.put([output.tasks[ref] for ref in sorted(needed)] + [r.line for r in fresh])
+        files = sorted(set(output.files) - self.journal.file_shas) if needed else []  # each file once, before its task lines
+        self.appender.put([output.files[sha] for sha in files] + [output.tasks[ref] for ref in sorted(needed)]
+                          + [r.line for r in fresh])  # fmt: skip
         self.journal.task_refs |= needed
+        self.journal.file_shas |= set(files)
         self.written.update(r.id for r in fresh)
         self.counts.update(r.status for r in fresh)
         self.report()

@@ -139,6 +139,7 @@ class _Chunk:
         self.options = options
         self.records: list[RecordLine] = []
         self.tasks: dict[str, bytes] = {}
+        self.files: dict[str, bytes] = {}  # file lines of the files the tasks name, by SHA-256
         self.stages: dict[str, tuple[float, float]] = dict.fromkeys(STAGES, (0.0, 0.0))  # ChunkOutput.stages
         self._sequences: dict = {}
 
@@ -183,6 +184,7 @@ class _Chunk:
                                seconds, self.options.self_contained, qualities, extra)  # fmt: skip
             if line.task_ref is not None:
                 self.tasks.setdefault(line.task_ref, loaded.task_line)
+                self.files.update(loaded.file_lines)
         except Exception as exc:  # a bug must not stop the other tasks; the record says what happened
             self.fail(entry, exc, seconds + self.spent("record", started))
             return
@@ -190,7 +192,7 @@ class _Chunk:
         self.records.append(line)
 
     def output(self) -> ChunkOutput:
-        return ChunkOutput(self.records, self.tasks, self.stages)
+        return ChunkOutput(self.records, self.tasks, self.stages, self.files)
 
 
 def _clock() -> tuple[float, float]:

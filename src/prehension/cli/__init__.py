@@ -16,6 +16,7 @@ from rich.markup import escape
 from ..deadline import TimeLimitReached
 from ..errors import PrehensionError
 from . import batch, check, hands, offline, region, simulate, solve, view
+from .terminate import Terminated, termination_as_interrupt
 from .codes import EXIT_APPROXIMATE, EXIT_BAD_INPUT, EXIT_CHECK_FAILED, EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK
 
 __all__ = [
@@ -106,15 +107,17 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return EXIT_OK
     try:
-        return commands[args.command](args, console)
+        with termination_as_interrupt():  # SIGTERM and SIGHUP save what Ctrl-C saves
+            return commands[args.command](args, console)
     except PrehensionError as exc:
         Console(stderr=True, highlight=False).print(f"[bold red]error:[/] {escape(str(exc))}", markup=True, soft_wrap=True)
         return EXIT_BAD_INPUT
     except TimeLimitReached as exc:  # a command that can save part of its work says so itself
         Console(stderr=True, highlight=False).print(f"gave up: {exc}; nothing was written", markup=False, soft_wrap=True)
         return EXIT_GAVE_UP
-    except KeyboardInterrupt:  # what a command saves on Ctrl-C it has saved; say so in one line
-        Console(stderr=True, highlight=False).print("interrupted (Ctrl-C); nothing more was written", soft_wrap=True)
+    except KeyboardInterrupt as exc:  # what a command saves on Ctrl-C it has saved; say so in one line
+        what = str(exc) if isinstance(exc, Terminated) else "Ctrl-C"
+        Console(stderr=True, highlight=False).print(f"interrupted ({what}); nothing more was written", soft_wrap=True)
         return EXIT_GAVE_UP
     except MemoryError:
         Console(stderr=True, highlight=False).print(

@@ -13,7 +13,7 @@ from ..errors import PrehensionError
 from . import args as types
 
 __all__ = [
-    "add_quality_arguments", "add_best_arguments", "add_batch_arguments", "quality_options", "best_options", "batch_extras",
+    "add_quality_arguments", "add_best_arguments", "add_require_argument", "add_batch_arguments", "quality_options", "best_options", "batch_extras",
     "quality_lines", "best_table",
 ]  # fmt: skip
 
@@ -26,6 +26,13 @@ def add_quality_arguments(p) -> None:
     g.add_argument("--cone-edges", type=int, default=None, metavar="M", help="edges of each linearised friction cone (default 8)")
     g.add_argument("--torsion", type=types.finite, default=None, metavar="MM",
                    help="soft fingers: torsional friction [mm] (default 0: hard fingers; a two-finger pinch needs it)")  # fmt: skip
+
+
+def add_require_argument(p) -> None:
+    """``solve --require force-closure``: only a force-closure grasp is an answer."""
+    p.add_argument("--require", choices=("force-closure",), default=None,
+                   help="force-closure: answer only with a force-closure grasp (with --friction/--cone-edges/--torsion), "
+                        "or prove with the complete solver that the regions admit none (docs/quality.md)")  # fmt: skip
 
 
 def add_best_arguments(p) -> None:
@@ -41,14 +48,17 @@ def add_best_arguments(p) -> None:
                    help="--best: solutions are distinct when some joint angle, or the object's orientation, differs by this much (default 5)")  # fmt: skip
     g.add_argument("--distinct-mm", type=types.finite, default=None, metavar="MM",
                    help="--best: ... or the object's position by this much (default 5)")  # fmt: skip
+    g.add_argument("--ascent-steps", type=int, default=None, metavar="K",
+                   help="--best: steps of the quality ascent that moves each grasp along its solution set to a "
+                        "higher epsilon, every step re-verified (default 20; 0: the grasps as found; docs/quality.md)")  # fmt: skip
     types.add_option_rule(p, _needs_best)
 
 
-_BEST_DEFAULTS = {"rank": "q1", "starts": 100, "distinct_deg": 5.0, "distinct_mm": 5.0}
+_BEST_DEFAULTS = {"rank": "q1", "starts": 100, "distinct_deg": 5.0, "distinct_mm": 5.0, "ascent_steps": 20}
 
 
 def _needs_best(args) -> str | None:
-    """``--rank``, ``--starts``, ``--distinct-*`` only tell ``--best`` how to work."""
+    """``--rank``, ``--starts``, ``--distinct-*``, ``--ascent-steps`` only tell ``--best`` how to work."""
     if args.best is not None:
         return None
     given = [f"--{k.replace('_', '-')}" for k in _BEST_DEFAULTS if getattr(args, k) is not None]
@@ -92,23 +102,27 @@ def quality_options(args):
 
 def best_options(args, time_limit_s):
     """The :class:`~prehension.best.BestOptions` of ``--best`` (``None`` without it)."""
+    from ..ascent import AscentOptions
     from ..best import BestOptions
 
     if args.best is None:
         return None
-    rank, starts, distinct_deg, distinct_mm = (v if getattr(args, k) is None else getattr(args, k) for k, v in _BEST_DEFAULTS.items())
+    rank, starts, distinct_deg, distinct_mm, ascent_steps = (v if getattr(args, k) is None else getattr(args, k) for k, v in _BEST_DEFAULTS.items())
     for flag, given in (("--all", getattr(args, "all", False)), ("--checkpoint", getattr(args, "checkpoint", None)),
-                        ("--approximate", getattr(args, "approximate", False))):  # fmt: skip
+                        ("--approximate", getattr(args, "approximate", False)), ("--require", getattr(args, "require", None))):  # fmt: skip
         if given:
             raise PrehensionError(f"--best collects its own set of strictly verified solutions; it cannot be combined with {flag}")
     if starts < 0:
         raise PrehensionError(f"--starts must be an integer >= 0, got {starts}")
+    if ascent_steps < 0:
+        raise PrehensionError(f"--ascent-steps must be an integer >= 0 (0: no ascent), got {ascent_steps}")
     for flag, value in (("--distinct-deg", distinct_deg), ("--distinct-mm", distinct_mm)):
         if not value > 0:
             raise PrehensionError(f"{flag} must be a positive number, got {value}")
     return BestOptions(
         n=args.best, rank=rank, starts=starts, joint_deg=distinct_deg, position_mm=distinct_mm,
         rotation_deg=distinct_deg, quality=quality_options(args), time_limit_s=time_limit_s,
+        ascent=AscentOptions(steps=ascent_steps) if ascent_steps else None,
     )  # fmt: skip
 
 
@@ -130,8 +144,10 @@ def best_table(result) -> Table:
     best = result.stats["best"]
     table = Table(title=f"Best {len(result.solutions)} of {best['candidates']} found ({best['distinct']} distinct), "
                         f"ranked by {best['rank']}", title_justify="left")  # fmt: skip
-    for col in ("#", "force closure", "epsilon", "found by"):
+    for col in ("#", "force closure", "epsilon", "as found", "ascent steps", "found by"):
         table.add_column(col)
-    for i, (closed, eps, source) in enumerate(zip(best["force_closure"], best["epsilon"], best["sources"])):
-        table.add_row(str(i), "yes" if closed else "no", f"{eps:.4g}", source)
+    ascents = best.get("ascent") or [None] * len(best["sources"])
+    for i, (closed, eps, source, up) in enumerate(zip(best["force_closure"], best["epsilon"], best["sources"], ascents)):
+        before, steps = ("-", "-") if up is None else (f"{up['epsilon_before']:.4g}", f"{up['accepted']} of {up['tried']}")
+        table.add_row(str(i), "yes" if closed else "no", f"{eps:.4g}", before, steps, source)
     return table

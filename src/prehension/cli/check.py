@@ -103,20 +103,20 @@ def _findings_table(checked) -> Table:
 def _check_batch(path, console: Console, reprove: bool, limit) -> int:
     """Re-derive every result of a batch output; one row per record (a compact record's
     task is read from the task line it refers to)."""
-    from ..batch.journal import with_task
+    from ..batch.journal import TaskLines, with_task
     from ..verify import verify_result
 
     table = Table(title=f"{path}: every task's result re-derived", title_justify="left")
     for col in ("id", "status", "solutions", "contact [mm]", "normal [deg]", "verdict"):
         table.add_column(col)
     ok = True
-    tasks: dict = {}
-    for line, record in _records(path, tasks):
+    lines = TaskLines()
+    for line, record in _records(path, lines):
         if not record.get("result"):
             table.add_row(escape(str(record.get("id"))), str(record.get("status")), "-", "", "", "no result stored")
             continue
         try:
-            record = with_task(record, tasks, f"{path}:{line}")
+            record = with_task(record, lines.tasks, f"{path}:{line}", lines.files)
         except PrehensionError:
             ok = False
             missing = f"[bold red]DOES NOT HOLD[/]: its task line {escape(str(record.get('task_ref')))} is missing"
@@ -143,11 +143,10 @@ def _with_finding(checked, what: str, detail: str):
     return replace(checked, findings=checked.findings + (Finding(what, False, detail),))
 
 
-def _records(path, tasks: dict):
+def _records(path, lines):
     """``(line number, record)`` of a JSON-lines file; a bad line is an error naming it.
-    The task lines of a batch output go into ``tasks`` (by ref), not out."""
-    from ..batch.journal import TASK_TAG
-
+    The task and file lines of a batch output go into ``lines``
+    (:class:`~prehension.batch.journal.TaskLines`), not out."""
     if not path.is_file():
         raise InvalidTask(not_a_file("batch output", path))
     with open(path, encoding="utf-8") as fh:
@@ -160,7 +159,6 @@ def _records(path, tasks: dict):
                 raise InvalidTask(f"{path}:{n}: not valid JSON ({exc.msg}); a batch output holds one record per line") from None
             if not isinstance(record, dict):
                 raise PrehensionError(f"{path}:{n}: expected a JSON object (a batch record)")
-            if record.get("prehension") == TASK_TAG:
-                tasks[str(record.get("ref"))] = record.get("task")
+            if lines.add(record):
                 continue
             yield n, record

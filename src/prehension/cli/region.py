@@ -68,9 +68,15 @@ def cmd_region(args, console: Console) -> int:
     if not args.point:
         lines.append(
             f"# degree-{args.degree} patch fitted to {picked.n_faces} faces within {args.radius:g} mm; "
-            f"largest deviation from the mesh {picked.max_deviation_mm:.3g} mm"
+            f"largest deviation from the mesh {picked.max_deviation_mm:.3g} mm; normal outward everywhere, at most "
+            f"{picked.max_angle_deg:.0f} deg from the closest face's"
         )
-        if picked.max_deviation_mm > 0.5:
+        if picked.max_deviation_mm > 0.5 and args.radius > picked.turns_away_mm:
+            lines.append(
+                f"# (above the default 0.5 mm: the surface turns more than 84 degrees from the point's normal "
+                f"{picked.turns_away_mm:.4g} mm away, which one patch cannot follow: pick a --radius under that)"
+            )
+        elif picked.max_deviation_mm > 0.5:
             lines.append(
                 f"# (above the default 0.5 mm: set the object's surface_tolerance_mm >= {picked.max_deviation_mm:.2g}, "
                 "or fit less curved surface: a smaller --radius or a higher --degree)"

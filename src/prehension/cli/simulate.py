@@ -5,7 +5,9 @@ as ``prehension check`` would (:func:`prehension.verify.verify_result_file`): a 
 claims do not hold is refused, never simulated.  Then the DexGraspBench protocol runs
 (:mod:`prehension.sim`).  Exit code: 0 when every simulated grasp holds, 7 when one drops
 or is rejected (too much penetration at the start), 2 on bad input -- including a
-missing ``sim`` extra (the message says what to install).
+missing ``sim`` extra (the message says what to install).  Interrupted (Ctrl-C, SIGTERM
+or SIGHUP), it writes (atomically) and prints the grasps it has finished, marked
+``"interrupted": true``, and exits with 4.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ from rich.table import Table
 from ..atomic import check_output_path, write_json_atomic
 from ..errors import InvalidTask, PrehensionError, not_a_file
 from . import args as types
-from .codes import EXIT_OK
+from .codes import EXIT_GAVE_UP, EXIT_OK
 
 __all__ = ["add_parser", "cmd_simulate", "EXIT_DROPPED", "PHYSICS_TAG"]
 
@@ -105,8 +107,24 @@ def cmd_simulate(args, console: Console) -> int:
     options = sim_options(args)
     out = check_output_path(args.output, "output", inputs=[args.result], suffixes=(".json",)) if args.output else None
     task, grasps = stored_grasps(args.result, args.solution)
-    reports = [(k, simulate_grasp(task, g, options, args.seed)) for k, g in grasps]
-    data = {"prehension": PHYSICS_TAG, "result": str(args.result), "task": task.name,
+    reports = []
+    try:
+        for k, g in grasps:  # SIGTERM and SIGHUP arrive as KeyboardInterrupt too (cli.terminate)
+            reports.append((k, simulate_grasp(task, g, options, args.seed)))
+    except KeyboardInterrupt:
+        _report(args, console, out, task, reports, interrupted=True)
+        Console(stderr=True, highlight=False).print(
+            f"interrupted after {len(reports)} of {len(grasps)} grasp(s); "
+            + (f"the finished ones are in {out}" if out is not None else "the finished ones are printed above"),
+            soft_wrap=True)  # fmt: skip
+        return EXIT_GAVE_UP
+    _report(args, console, out, task, reports, interrupted=False)
+    return EXIT_OK if all(r.success for _, r in reports) else EXIT_DROPPED
+
+
+def _report(args, console: Console, out, task, reports, interrupted: bool) -> None:
+    """Write (atomically) and print the outcome of the grasps in ``reports``."""
+    data = {"prehension": PHYSICS_TAG, "result": str(args.result), "task": task.name, "interrupted": interrupted,
             "grasps": [dict(solution=k, **r.to_dict()) for k, r in reports]}  # fmt: skip
     if out is not None:
         write_json_atomic(out, data)
@@ -114,12 +132,11 @@ def cmd_simulate(args, console: Console) -> int:
         import json
 
         print(json.dumps(data, indent=1, allow_nan=False))
-    else:
-        for k, report in reports:
-            console.print(_table(k, report))
-        if out is not None:
-            console.print(f"outcome written to {out}")
-    return EXIT_OK if all(r.success for _, r in reports) else EXIT_DROPPED
+        return
+    for k, report in reports:
+        console.print(_table(k, report))
+    if out is not None:
+        console.print(f"outcome written to {out}")
 
 
 def _table(k: int, report) -> Table:
@@ -133,5 +150,13 @@ def _table(k: int, report) -> Table:
     o = report.options
     table.caption = (f"object {o.mass_kg:g} kg, friction {o.friction:g}, pushed with {o.push_accel * o.mass_kg:g} N for "
                      f"{o.hold_s:g} s after a {o.squeeze_mm:g} mm squeeze; held: moved < {o.max_shift_mm:g} mm and "
-                     f"turned < {o.max_turn_deg:g} deg")  # fmt: skip
+                     f"turned < {o.max_turn_deg:g} deg\n{_start(report)}")  # fmt: skip
     return table
+
+
+def _start(report) -> str:
+    """The initial penetration, split into the hand's own and the object's approximation."""
+    hand = "no mesh to measure" if report.hand_penetration_mm is None else f"{report.hand_penetration_mm:.2f} mm"
+    return (f"start: {report.initial_penetration_mm:.2f} mm of penetration in MuJoCo; the hand's own into the solver's "
+            f"mesh: {hand}; the object's convex approximation ({report.object_pieces} pieces) off the mesh next to "
+            f"the hand: {report.approximation_mm:.2f} mm")

@@ -23,7 +23,9 @@ from ..atomic import check_output_path
 from ..errors import PrehensionError, not_a_file
 from ..results import Status, result_to_dict, write_result
 from . import args as types
-from .best import add_best_arguments, add_quality_arguments, best_options, best_table, quality_lines, quality_options
+from .best import (
+    add_best_arguments, add_quality_arguments, add_require_argument, best_options, best_table, quality_lines, quality_options,
+)  # fmt: skip
 from .codes import EXIT_APPROXIMATE, EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK
 from .hands import print_hand_warnings
 from .progress import LiveProgress
@@ -66,6 +68,7 @@ def add_parser(sub) -> None:
     p.add_argument("--json", action="store_true", help="print the result summary as JSON on stdout")
     p.add_argument("--html", type=Path, metavar="FILE", help="also write the 3-D view of the grasp (as 'prehension view')")
     add_quality_arguments(p)
+    add_require_argument(p)
     add_best_arguments(p)
     types.add_option_rule(p, _method_options)
 
@@ -186,6 +189,9 @@ def cmd_solve(args, console: Console) -> int:
         raise PrehensionError(f"cannot resume: {not_a_file('checkpoint file', args.checkpoint)}")
     path = _check_outputs(args, task)
     quality, best = quality_options(args), best_options(args, time_limit_s)
+    if args.require and args.method == "local":
+        raise PrehensionError(f"--require {args.require} needs the complete solver (--method complete, or auto): "
+                              "the local solver cannot prove that no such grasp exists")  # fmt: skip
     where = (args.scheduler, args.workers if args.workers > 1 else None)
     check_where(*where)
     if args.method == "local":  # the cluster only serves the complete solver's boxes
@@ -207,7 +213,7 @@ def cmd_solve(args, console: Console) -> int:
                 result = solve(
                     task, args.method, complete_options=complete_options, local_options=_local_options(args), seed=args.seed,
                     executor=executor, workers=workers, checkpoint=args.checkpoint, resume=args.resume, progress=update,
-                    sequence=sequence, time_limit_s=time_limit_s,
+                    sequence=sequence, time_limit_s=time_limit_s, require=args.require, quality=quality,
                 )  # fmt: skip
     backup = _keep_previous(path)
     write_result(result, path, quality)
@@ -234,7 +240,7 @@ def _write_view(console: Console, args, result) -> None:
 
 def _report(console: Console, args, result, path: Path, backup: Path | None) -> None:
     if args.json:
-        summary = {k: v for k, v in result_to_dict(result).items() if k not in ("task", "solutions")}
+        summary = {k: v for k, v in result_to_dict(result, embed_task=False).items() if k != "solutions"}  # no task, no mesh
         summary["result_file"] = str(path)
         if result.solutions:
             summary["joint_angles_deg"] = {k: float(np.degrees(v)) for k, v in result.solutions[0].joint_angles.items()}

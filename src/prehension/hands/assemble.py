@@ -44,15 +44,17 @@ import numpy as np
 from ..errors import InvalidHand
 from .collision import capsule_clearances
 from .enclosure import link_fit
+from .link_cache import cached_link_fit, link_key
 from .description import RawHand, RawShape
 from .fingers import CLOSURES, closure, finger_chains, finger_names, make_fingers
 from .fingertips import PadFrame, TipOverride, apply_override, cap_axis, fit_fingertip, pad_frame
 from .kinematics import forward_kinematics
 from .model import Capsule, Hand, HandRegion, Link, NamedFrame
+from .provenance import ShapeFit
 from .shapes import shape_capsules, surface_points
 from .tree import couplings, make_joint, rooted
 
-__all__ = ["ImportOptions", "assemble"]
+__all__ = ["ImportOptions", "assemble", "rest_pose", "with_rest_exclusions"]
 
 _FIXED_TYPES = ("fixed",)
 
@@ -87,20 +89,37 @@ def _survivor_shapes(raw: RawHand, home) -> dict[str, list[RawShape]]:
     return out
 
 
-def _capsules(shapes: list[RawShape], warnings: list[str]) -> tuple[list[Capsule], list[RawShape], list[np.ndarray]]:
-    """The capsules of the collision shapes that could be read, those shapes and their
-    surface points (link frame) for :func:`~prehension.hands.enclosure.link_fit`."""
-    out, used, surface = [], [], []
+def _readable(shapes: list[RawShape], warnings: list[str]) -> tuple[list[RawShape], list, bool]:
+    """The collision shapes whose files can be read (a mesh's vertices read once and kept
+    on the shape), their vertices (``None`` for a primitive), and whether all could."""
+    used, verts, complete = [], [], True
     for s in shapes:
         if s.role != "collision":
             continue
+        try:
+            v = None if s.kind != "mesh" else np.asarray(s.vertices(), dtype=float)
+        except (ValueError, OSError) as exc:
+            warnings.append(f"warning: {s.what}: {exc}; skipped")
+            complete = False
+            continue
+        used.append(s if v is None else replace(s, vertices=lambda v=v: v))
+        verts.append(v)
+    return used, verts, complete
+
+
+def _capsules(shapes: list[RawShape], warnings: list[str]) -> tuple[list[Capsule], ShapeFit | None, bool]:
+    """The capsules of ``shapes`` and their :func:`~prehension.hands.enclosure.link_fit`,
+    and whether every shape gave its capsules (nothing was skipped with a warning)."""
+    out, used, surface = [], [], []
+    for s in shapes:
         try:
             out += shape_capsules(s)
             surface.append(surface_points(s, 2000))
             used.append(s)
         except (ValueError, OSError) as exc:
             warnings.append(f"warning: {s.what}: {exc}; skipped")
-    return out, used, surface
+    fit = link_fit(out, used, surface, _fit_label(used)) if out else None
+    return out, fit, len(used) == len(shapes)
 
 
 def _fit_label(used: list[RawShape]) -> str:
@@ -112,10 +131,11 @@ def _links(names: list[str], shapes: dict[str, list[RawShape]], warnings: list[s
     """One link per name, its capsules enclosing its collision shapes, with their fit."""
     links = []
     for n in names:
-        caps, used, surface = _capsules(shapes.get(n, []), warnings)
+        used, verts, complete = _readable(shapes.get(n, []), warnings)
+        key = link_key(used, verts) if (used and complete) else None  # fitted once, kept on disk
+        caps, fit = cached_link_fit(key, lambda: _capsules(used, warnings))
         if not caps and shapes.get(n):
             warnings.append(f"warning: link {n!r} has no collision shape: it is not checked for self-collision")
-        fit = link_fit(caps, used, surface, _fit_label(used)) if caps else None
         links.append(Link(n, tuple(caps), fit))
     return links
 
@@ -137,7 +157,7 @@ def _file_exclusions(raw: RawHand, home) -> tuple[tuple[str, str], ...]:
     return tuple(out)
 
 
-def _with_rest_exclusions(hand: Hand) -> Hand:
+def with_rest_exclusions(hand: Hand) -> Hand:
     """The hand with the link pairs whose capsules overlap at :func:`rest_pose` excluded
     from self-collision checks (noted): capsules only approximate the shapes, and a pair
     that touches at rest would make every configuration a collision."""
@@ -266,7 +286,7 @@ def assemble(raw: RawHand, options: ImportOptions = ImportOptions()) -> Hand:
     name = options.name or raw.name
     kin = Hand(name, tuple(links), tuple(joints), tuple(couplings(raw, order)), frames=frames,
                collision_exclusions=_file_exclusions(raw, home))  # fmt: skip
-    kin = _with_rest_exclusions(kin)
+    kin = with_rest_exclusions(kin)
     chains = finger_chains(palm, [(j.parent, j.child) for j in joints])
     points = {c[-1]: _tip_points(shapes.get(c[-1], []), warnings) for c in chains}
     pads = _pad_frames(kin, chains, points, _tip_hints(raw, home, order))

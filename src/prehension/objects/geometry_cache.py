@@ -16,63 +16,31 @@ and numpy.  Editing the file, the scale, the code or a library therefore misses 
 instead of returning a stale answer; a solid that fails its checks is never stored (the
 error is raised again next time).
 
-Where: ``$PREHENSION_CACHE_DIR`` if set (``off``, ``0`` or an empty value: no cache), else
-``$XDG_CACHE_HOME/prehension/geometry`` (``~/.cache/prehension/geometry``).  A folder that
-cannot be written, or an entry that cannot be read, only costs the rebuild: the cache is
-never needed for a correct answer.  Entries are written atomically
-(:mod:`prehension.atomic`), so concurrent processes never read half a file.
+Where, and what happens when the folder cannot be written or an entry cannot be read:
+:mod:`prehension.disk_cache` (shared with the hands' fitted capsules).
 """
 
 from __future__ import annotations
 
 import functools
 import hashlib
-import io
-import os
-from importlib import metadata
 from pathlib import Path
 
-import numpy as np
-
-from ..atomic import write_bytes_atomic
+from ..disk_cache import CACHE_ENV, cache_folder, code_fingerprint, load_arrays, store_arrays
 from .distance import MeshArrays, MeshDistance
 from .meshes import Mesh
 
 __all__ = ["CACHE_ENV", "cache_folder", "geometry_key", "load_geometry", "store_geometry"]
 
-CACHE_ENV = "PREHENSION_CACHE_DIR"
-_OFF = ("", "0", "off", "none", "false")
 _SOURCES = ("mesh_io.py", "distance.py", "solid.py", "meshes.py", "geometry_cache.py")  # what builds an entry
 _LIBRARIES = ("trimesh", "manifold3d", "numpy")
-
-
-def cache_folder() -> Path | None:
-    """The folder of the entries, or ``None`` when the cache is switched off."""
-    value = os.environ.get(CACHE_ENV)
-    if value is not None:
-        return None if value.strip().lower() in _OFF else Path(value).expanduser()
-    base = os.environ.get("XDG_CACHE_HOME")
-    if not base:
-        try:
-            base = Path.home() / ".cache"
-        except RuntimeError:  # no home folder known: no cache
-            return None
-    return Path(base) / "prehension" / "geometry"
 
 
 @functools.lru_cache(maxsize=1)
 def _fingerprint() -> bytes:
     """The source of the modules that build an entry and the libraries' versions."""
-    h = hashlib.sha256()
     here = Path(__file__).parent
-    for name in _SOURCES:
-        h.update((here / name).read_bytes())
-    for lib in _LIBRARIES:
-        try:
-            h.update(f"{lib}={metadata.version(lib)};".encode())
-        except metadata.PackageNotFoundError:
-            h.update(f"{lib}=absent;".encode())
-    return h.digest()
+    return code_fingerprint([here / name for name in _SOURCES], _LIBRARIES)
 
 
 def geometry_key(solid, closed: bool) -> str | None:
@@ -96,23 +64,13 @@ def geometry_key(solid, closed: bool) -> str | None:
     return h.hexdigest()
 
 
-def _entry(key: str | None) -> Path | None:
-    folder = cache_folder()
-    return None if (folder is None or key is None) else folder / f"{key}.npz"
-
-
 def load_geometry(key: str | None) -> tuple[Mesh, MeshDistance] | None:
     """The stored ``(Mesh, MeshDistance)`` of an entry; ``None`` if there is none (or it
     cannot be read whole)."""
-    path = _entry(key)
-    if path is None or not path.is_file():
+    arrays = load_arrays(key, ("vertices", "faces", *MeshArrays._fields))
+    if arrays is None:
         return None
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            mesh = Mesh(data["vertices"], data["faces"])
-            fields = [data[name] for name in MeshArrays._fields]
-    except Exception:  # noqa: BLE001 - a damaged entry (cut short, not a zip, a missing array, ...)
-        return None  # rebuilt (and rewritten) by the caller: the cache is never needed for a correct answer
+    mesh, fields = Mesh(arrays[0], arrays[1]), arrays[2:]
     fields[-1] = bool(fields[-1])  # robust_sign: stored as a 0-d array
     distance = MeshDistance.__new__(MeshDistance)
     distance.__setstate__({"arrays": tuple(fields)})  # the pickling protocol: no tree rebuilt
@@ -121,13 +79,4 @@ def load_geometry(key: str | None) -> tuple[Mesh, MeshDistance] | None:
 
 def store_geometry(key: str | None, mesh: Mesh, distance: MeshDistance) -> None:
     """Write an entry (atomically); silently nothing if the folder cannot be written."""
-    path = _entry(key)
-    if path is None:
-        return
-    buffer = io.BytesIO()
-    np.savez(buffer, vertices=mesh.vertices, faces=mesh.faces, **dict(zip(MeshArrays._fields, distance.arrays)))
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        write_bytes_atomic(path, buffer.getvalue())
-    except OSError:
-        pass  # a read-only home, a full disk: the next process builds it again
+    store_arrays(key, dict(vertices=mesh.vertices, faces=mesh.faces, **dict(zip(MeshArrays._fields, distance.arrays))))

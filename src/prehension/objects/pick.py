@@ -17,11 +17,21 @@ parametrisation:
   The normal ``p_u x p_v`` is then ``n`` to first order: outward.
 
 The piece must be a height field over the tangent plane (faces more than 84 degrees from
-``n`` are dropped); a radius within which the surface wraps around the object (the closest
-face's normal more than 84 degrees from ``n``, or ``n`` cancelling out) is refused with the
-radius at which faces start to turn that far.  A point farther from the surface than the
-radius is refused with the nearest surface point and the mesh's bounding box.  The fit's quality is
+``n`` are dropped); how far from the point the surface starts to turn that far is reported
+(``turns_away_mm``), so that a radius too large for one patch gets the advice of a smaller
+one.  A point farther from the surface than the radius is refused with the nearest surface
+point and the mesh's bounding box.  The fit's quality is
 the largest distance from the patch to the surface, over a 25 x 25 grid of the patch [mm].
+
+Only the *outer* surface is picked from: a mesh made of closed parts that overlap has
+internal walls (faces with the solid on both sides), and a thin wall has its other side
+within the radius.  A face is outer when a point :data:`OUTSIDE_STEP_MM` off it along its
+normal (from its centre, or halfway from there to a corner) is outside the solid; the piece keeps the outer faces facing the same
+side as the one closest to ``at`` (within 84 degrees of it) and connected to it.  The
+fitted patch is then checked: on a 9 x 9 grid, a step of :data:`OUTSIDE_STEP_MM` along
+its normal from the closest surface point must leave the solid (the normal points out,
+not into the object), else the request is refused with the reason; the largest angle
+between the patch's normal and the closest face's is reported (``max_angle_deg``).
 """
 
 from __future__ import annotations
@@ -31,7 +41,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..errors import InvalidObject
+from ..errors import InvalidGeometry, InvalidObject
 from ..geometry.bezier import BezierPatch
 from ..geometry.regions import BezierRegion, PointRegion, Region
 from .meshes import Mesh
@@ -45,6 +55,8 @@ MAX_DEGREE = 6
 _SAMPLES_PER_EDGE = 5  # barycentric samples per triangle edge
 _CHECK_GRID = 25
 _MIN_COS = 0.1  # faces further than ~84 deg from the mean normal: not a height field
+OUTSIDE_STEP_MM = 0.05  # a face (a patch point) is on the outer surface if this step along its normal leaves the solid
+_NORMAL_GRID = 9
 
 
 @dataclass(frozen=True, eq=False)
@@ -57,6 +69,13 @@ class PickedRegion:
         point: (3,) the surface point the region is centred on [mm].
         normal: (3,) the outward normal there.
         n_faces: how many faces were fitted.
+        max_angle_deg: largest angle between the region's normal and the normal of the
+            closest face, over a 9 x 9 grid of the region [deg] (next to an edge, the
+            closest face may be the one across it: what is checked is the step outwards).
+        turns_away_mm: how far from the point (over the outer surface connected to it) a
+            face turns more than 84 degrees from the closest face's normal [mm]; a radius
+            beyond it asks one patch to follow a surface that bends away (inf: never, or a
+            set of faces was given).
     """
 
     region: Region
@@ -64,6 +83,8 @@ class PickedRegion:
     point: np.ndarray
     normal: np.ndarray
     n_faces: int
+    max_angle_deg: float = 0.0
+    turns_away_mm: float = float("inf")
 
 
 def _face_data(mesh: Mesh):
@@ -140,41 +161,60 @@ def _fit(points, p0, e1, e2, n, half: float, degree: int) -> BezierRegion:
     return BezierRegion(BezierPatch(ctrl))
 
 
-def _deviation(region: Region, distance: MeshDistance) -> float:
-    t = np.linspace(0, 1, _CHECK_GRID)
+def _grid(region: Region, k: int):
+    """Points and normals of ``region`` on a k x k grid of its parameters (its point, for a point region)."""
+    t = np.linspace(0, 1, k)
     uv = np.stack(np.meshgrid(t, t, indexing="ij"), -1).reshape(-1, 2) if region.n_params else np.zeros((1, 0))
-    points, _ = region.evaluate(uv)
+    return region.evaluate(uv)
+
+
+def _deviation(region: Region, distance: MeshDistance) -> float:
+    points, _ = _grid(region, _CHECK_GRID)
     return float(np.abs(distance.signed_distance(points)).max())
+
+
+def _outer_faces(distance, tri, normals) -> np.ndarray:
+    """(F,) bool: the faces a step along their normal leaves the solid through, from their
+    centre or from one of the three points halfway from it to a corner (a face that another
+    part of the solid covers in part is outer where it is not covered)."""
+    centre = tri.mean(axis=1, keepdims=True)
+    points = np.concatenate([centre, 0.5 * (centre + tri)], axis=1) + OUTSIDE_STEP_MM * normals[:, None]  # (F, 4, 3)
+    return (distance.signed_distance(points.reshape(-1, 3)).reshape(-1, 4) > 0).any(axis=1)
 
 
 def _piece_by_radius(mesh, distance, at, radius):
     at = np.asarray(at, dtype=float).reshape(3)
-    sd, closest = distance.signed_distance(at[None], closest=True)
-    if abs(sd[0]) > radius:
+    tri, normals, areas = _face_data(mesh)
+    outer = _outer_faces(distance, tri, normals)
+    if not outer.any():
+        raise InvalidObject("the mesh has no outer surface to pick from (every face has the solid on both sides)")
+    from .distance import MeshDistance
+
+    outside = MeshDistance(mesh.vertices, mesh.faces[outer])  # closest points on the outer surface only
+    _, closest = outside.signed_distance(at[None], closest=True)
+    p0 = closest[0]
+    gap = float(np.linalg.norm(at - p0))
+    if gap > radius:
         lo, hi = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
         box = " x ".join(f"[{a:.4g}, {b:.4g}]" for a, b in zip(lo, hi))
         raise InvalidObject(
-            f"the point {_listed(at)} is {abs(sd[0]):.4g} mm from the surface, farther than the radius "
-            f"({radius:g} mm); the nearest surface point is {_listed(closest[0])} mm, and the mesh spans {box} mm "
-            "(x, y, z); give a point on (or near) the surface, in mm of the object frame"
+            f"the point {_listed(at)} is {gap:.4g} mm from the object's outer surface, farther than the radius "
+            f"({radius:g} mm); the nearest outer surface point is {_listed(p0)} mm, and the mesh spans {box} mm "
+            "(x, y, z); give a point on (or near) the outer surface, in mm of the object frame"
         )
-    p0 = closest[0]
-    seed = int(distance.closest_faces(p0[None])[0])
-    tri, normals, areas = _face_data(mesh)
+    seed = int(np.flatnonzero(outer)[outside.closest_faces(p0[None])[0]])
+    if distance.signed_distance((p0 + OUTSIDE_STEP_MM * normals[seed])[None])[0] <= 0:
+        raise InvalidObject(
+            f"the outer surface point closest to {np.round(at, 3).tolist()} lies where another part of the solid covers "
+            "the face (an internal wall of overlapping parts); pick a point elsewhere on the outside"
+        )
     reach = np.linalg.norm(tri - p0, axis=2).min(axis=1)
-    near = reach <= radius
+    near = (reach <= radius) & outer & (normals @ normals[seed] > _MIN_COS)
     near[seed] = True
     piece = _connected(mesh, near, seed)
-    n = (normals[piece] * areas[piece, None]).sum(axis=0)
-    if not normals[seed] @ n > _MIN_COS * np.linalg.norm(n):
-        # the faces around the point point every way (a corner, a whole small object): no one side to fit
-        away = _connected(mesh, np.ones(len(mesh.faces), bool), seed) & (normals @ normals[seed] <= _MIN_COS)
-        fits = f"faces turn more than 84 degrees from the point's normal {reach[away].min():.4g} mm away: pick a radius under that"
-        raise InvalidObject(
-            f"a radius of {radius:g} mm is too large for one patch at {_listed(p0)}: the surface within it wraps around "
-            f"the object (its faces point every way, so they have no common outward side); the {fits}, or --point"
-        )
-    return p0, piece, tri, normals, areas
+    away = _connected(mesh, outer, seed) & (normals @ normals[seed] <= _MIN_COS)
+    turns_mm = float(reach[away].min()) if away.any() else float("inf")
+    return p0, piece, tri, normals, areas, turns_mm
 
 
 def _listed(point) -> str:
@@ -208,7 +248,7 @@ def region_from_mesh(
     if faces is None:
         if at is None or radius is None or not (np.isfinite(radius) and radius > 0):
             raise InvalidObject("give a surface point 'at' and a positive 'radius' [mm], or a set of faces")
-        p0, chosen, tri, normals, areas = _piece_by_radius(mesh, distance, at, float(radius))
+        p0, chosen, tri, normals, areas, turns_mm = _piece_by_radius(mesh, distance, at, float(radius))
         half = float(radius) / np.sqrt(2.0)
     else:
         tri, normals, areas = _face_data(mesh)
@@ -219,6 +259,7 @@ def region_from_mesh(
         chosen[idx] = True
         p0 = None
         half = None
+        turns_mm = float("inf")
     n = (normals[chosen] * areas[chosen, None]).sum(axis=0)
     n /= np.linalg.norm(n)
     facing = normals[chosen] @ n
@@ -233,7 +274,37 @@ def region_from_mesh(
         half = float(np.max(np.abs(np.stack([rel @ e1, rel @ e2]))))
     if point:
         region = PointRegion(p0, n)
-        return PickedRegion(region, 0.0, p0, n, int(chosen.sum()))
+        return PickedRegion(region, 0.0, p0, n, int(chosen.sum()), _outward_angle(region, distance, normals), turns_mm)
     e1, e2 = _frame(n)
-    region = _fit(np.concatenate([_samples(tri[chosen]), _lifted_grid(distance, p0, e1, e2, half)]), p0, e1, e2, n, half, degree)
-    return PickedRegion(region, _deviation(region, distance), p0, n, int(chosen.sum()))
+    lifted = _lifted_grid(distance, p0, e1, e2, half)
+    lifted = lifted[distance.signed_distance(lifted + OUTSIDE_STEP_MM * n) > 0]  # not on a thin wall's other side
+    try:
+        region = _fit(np.concatenate([_samples(tri[chosen]), lifted]), p0, e1, e2, n, half, degree)
+    except (InvalidGeometry, InvalidObject) as exc:
+        if faces is None and float(radius) > turns_mm:
+            raise InvalidObject(
+                f"a radius of {float(radius):g} mm is too large for one patch here: the surface turns more than 84 degrees "
+                f"from the point's normal {turns_mm:.4g} mm away; pick a radius under that ({exc})"
+            ) from None
+        raise
+    angle = _outward_angle(region, distance, normals)
+    return PickedRegion(region, _deviation(region, distance), p0, n, int(chosen.sum()), angle, turns_mm)
+
+
+def _outward_angle(region: Region, distance: MeshDistance, normals: np.ndarray) -> float:
+    """The largest angle between ``region``'s normal and the closest face's [deg], over a
+    grid of the region; refuses a region whose normal points into the object."""
+    points, n = _grid(region, _NORMAL_GRID)
+    _, closest = distance.signed_distance(points, closest=True)
+    inward = distance.signed_distance(closest + OUTSIDE_STEP_MM * n) <= 0
+    face_n = normals[distance.closest_faces(closest)]
+    angle = float(np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", n, face_n), -1.0, 1.0))).max())
+    if inward.any():
+        k = int(np.argmax(inward))
+        raise InvalidObject(
+            f"the fitted region's normal points into the object at {int(inward.sum())} of {len(points)} points (e.g. at "
+            f"{np.round(points[k], 2).tolist()}: a step along it stays inside the solid; up to {angle:.0f} deg from the "
+            "closest face's normal): the piece of surface is not one outer side of the object there (a thin wall, an "
+            "edge, or a face another part of the solid covers); pick a point farther from the edge or a smaller radius"
+        )
+    return angle

@@ -31,7 +31,7 @@ from .options import QualityOptions
 from .solid import object_center, object_reference
 from .wrenches import primitive_wrenches
 
-__all__ = ["GraspQuality", "grasp_quality", "contacts_quality", "configuration_quality", "contact_quality", "QUALITY_KEYS"]
+__all__ = ["GraspQuality", "grasp_quality", "contacts_quality", "configuration_quality", "contact_quality", "torque_reference", "QUALITY_KEYS"]
 
 MEMO_SIZE = 4096  # distinct grasps whose measures a process keeps (a few hundred bytes each)
 QUALITY_KEYS = ("force_closure", "epsilon", "volume", "closure_margin", "center_mm", "radius_mm", "options")
@@ -122,7 +122,7 @@ def contacts_quality(task: Task, T_palm_object, contacts, options: QualityOption
     n_palm = np.array([c.object_normal for c in contacts], dtype=float)
     p_obj = (p_palm - t) @ R  # R^T (p - t), row-wise
     inward = -(n_palm @ R)
-    centre, radius = _reference(task, options)
+    centre, radius = torque_reference(task, options)
     return contact_quality(p_obj, inward, centre, radius, options)
 
 
@@ -137,12 +137,13 @@ def configuration_quality(task: Task, config, options: QualityOptions = QualityO
         p, n = task.object_region(contact).evaluate(np.asarray(op, dtype=float)[None])
         points.append(p[0])
         inward.append(-n[0])
-    centre, radius = _reference(task, options)
+    centre, radius = torque_reference(task, options)
     return contact_quality(np.array(points), np.array(inward), centre, radius, options)
 
 
-def _reference(task: Task, options: QualityOptions) -> tuple[np.ndarray, float]:
-    """The centre and radius: as stated in ``options``, else the object's own."""
+def torque_reference(task: Task, options: QualityOptions = QualityOptions()) -> tuple[np.ndarray, float]:
+    """The centre (3,) [mm, object frame] torques are taken about and the radius [mm] that
+    scales them: as stated in ``options``, else the object's own."""
     if options.center_mm is None and options.radius_mm is None:
         centre, radius = _own_reference(task.object)
         return centre.copy(), radius

@@ -37,7 +37,7 @@ from scipy.spatial import ConvexHull, QhullError
 
 from ..lp import quiet_highs
 
-__all__ = ["ClosureTest", "force_closure", "hull_measures", "CLOSURE_TOLERANCE"]
+__all__ = ["ClosureTest", "force_closure", "hull_measures", "hull_facets", "CLOSURE_TOLERANCE"]
 
 CLOSURE_TOLERANCE = 1e-9  # smallest LP margin t* (a weight) that counts as force closure
 _RANK_TOLERANCE = 1e-9  # relative singular value below which the wrenches lose a dimension
@@ -112,13 +112,31 @@ def hull_measures(wrenches) -> tuple[float, float]:
     The distance is negative when the origin lies outside the hull; both are 0 when the
     hull is flat (the wrenches lie in an affine hyperplane).
     """
-    W = np.asarray(wrenches, dtype=float).reshape(-1, 6)
+    hull = _hull(np.asarray(wrenches, dtype=float).reshape(-1, 6))
+    if hull is None:
+        return 0.0, 0.0
+    normals, offsets = _unit_facets(hull)
+    return float(np.min(-offsets)), float(hull.volume)
+
+
+def hull_facets(wrenches) -> tuple[np.ndarray, np.ndarray] | None:
+    """``(outward unit normals (F, 6), offsets (F,))`` of the facets of ``conv(wrenches (K, 6))``
+    (``a . x + b <= 0`` inside; ``-b`` the signed distance of the origin to each facet plane);
+    ``None`` when the hull is flat.  The facets :func:`hull_measures` measures."""
+    hull = _hull(np.asarray(wrenches, dtype=float).reshape(-1, 6))
+    return None if hull is None else _unit_facets(hull)
+
+
+def _hull(W: np.ndarray):
     if len(W) < 7 or _rank(W[1:] - W[0]) < 6:
-        return 0.0, 0.0
+        return None
     try:
-        hull = ConvexHull(W)
+        return ConvexHull(W)
     except QhullError:  # flat up to rounding
-        return 0.0, 0.0
-    normals, offsets = hull.equations[:, :6], hull.equations[:, 6]  # n . x + b <= 0 inside, |n| = 1
-    distance = float(np.min(-offsets / np.linalg.norm(normals, axis=1)))
-    return distance, float(hull.volume)
+        return None
+
+
+def _unit_facets(hull) -> tuple[np.ndarray, np.ndarray]:
+    normals, offsets = hull.equations[:, :6], hull.equations[:, 6]  # n . x + b <= 0 inside
+    norm = np.linalg.norm(normals, axis=1)
+    return normals / norm[:, None], offsets / norm

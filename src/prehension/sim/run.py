@@ -8,7 +8,7 @@ deterministic: the same grasp, options and seed give the same numbers.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
@@ -16,9 +16,9 @@ from ..errors import PrehensionError
 from ..geometry.rotations import rotation_about
 from ..tasks.model import Task
 from .options import PUSH_DIRECTIONS, SimOptions
-from .pieces import convex_pieces
 from .scene import MM, SimScene, build_scene_xml
 from .squeeze import squeeze_targets
+from .start import hand_depth, posed, solver_distance, start_state
 
 __all__ = ["PushOutcome", "PhysicsReport", "simulate_grasp", "require_mujoco", "scene_for"]
 
@@ -55,10 +55,15 @@ class PhysicsReport:
     Attributes:
         success: held in all six directions (and not rejected).
         rejected: the grasp started with a penetration deeper than the limit (not simulated).
-        initial_penetration_mm: deepest hand-object penetration at the start [mm].
+        initial_penetration_mm: deepest hand-object penetration MuJoCo sees at the start [mm].
         pushes: one outcome per direction (empty when rejected).
         seed: the seed of the jitter.
         options: the protocol's settings.
+        hand_penetration_mm: how deep the hand's geoms reach into the solver's mesh at the
+            start [mm], exactly (``None``: the object has no mesh); see :mod:`.start`.
+        approximation_mm: how far the object's convex pieces stand out of the solver's mesh
+            where the hand touches them at the start [mm] (the object's approximation error).
+        object_pieces: how many convex pieces made the object (after refining near the hand).
     """
 
     success: bool
@@ -67,6 +72,9 @@ class PhysicsReport:
     pushes: tuple[PushOutcome, ...]
     seed: int
     options: SimOptions = field(default_factory=SimOptions)
+    hand_penetration_mm: float | None = None
+    approximation_mm: float = 0.0
+    object_pieces: int = 0
 
     @property
     def held(self) -> int:
@@ -75,8 +83,9 @@ class PhysicsReport:
     def to_dict(self) -> dict:
         return {
             "success": self.success, "rejected": self.rejected, "initial_penetration_mm": self.initial_penetration_mm,
-            "held": self.held, "pushes": [asdict(p) for p in self.pushes], "seed": self.seed,
-            "options": self.options.to_dict(),
+            "hand_penetration_mm": self.hand_penetration_mm, "approximation_mm": self.approximation_mm,
+            "object_pieces": self.object_pieces, "held": self.held, "pushes": [asdict(p) for p in self.pushes],
+            "seed": self.seed, "options": self.options.to_dict(),
         }  # fmt: skip
 
     def describe(self) -> str:
@@ -103,28 +112,32 @@ def _jittered(T: np.ndarray, centre_mm: np.ndarray, options: SimOptions, seed: i
 
 
 def scene_for(task: Task, solution, options: SimOptions = SimOptions(), seed: int = 0) -> SimScene:
-    """The MuJoCo scene of ``solution`` (see :mod:`.scene`)."""
+    """The MuJoCo scene of ``solution`` (see :mod:`.scene`), its object's pieces refined
+    next to the hand (:mod:`.start`; the approximation error left there in the scene's
+    ``approximation_mm``)."""
     from ..quality.solid import mass_properties, object_solid
 
     centre = mass_properties(object_solid(task.object)).centroid_mm
     T = _jittered(np.asarray(solution.T_palm_object, float), centre, options, seed)
-    return build_scene_xml(task, T, convex_pieces(task.object), options)
+    start = start_state(require_mujoco(), task, T, np.asarray(solution.q, float), options)
+    return replace(build_scene_xml(task, T, start.pieces, options), approximation_mm=start.approximation_mm)
 
 
 def simulate_grasp(task: Task, solution, options: SimOptions = SimOptions(), seed: int = 0) -> PhysicsReport:
     """The physics test of ``solution`` (a grasp of ``task``; see the module docstring)."""
     mujoco = require_mujoco()
     scene = scene_for(task, solution, options, seed)
-    model = mujoco.MjModel.from_xml_string(scene.xml)
-    data = mujoco.MjData(model)
     q = np.asarray(solution.q, dtype=float)
+    model, data = posed(mujoco, scene.xml, scene.dof_names, q)
     q_squeeze = squeeze_targets(task, q, solution.contacts, options.squeeze_mm)
     sim = _Sim(mujoco, model, data, scene, q, q_squeeze, options)
     depth = sim.reset()
+    start = dict(hand_penetration_mm=hand_depth(model, data, solver_distance(task), scene.T_palm_object),
+                 approximation_mm=scene.approximation_mm, object_pieces=len(scene.object_pieces))  # fmt: skip
     if depth > options.max_penetration_mm:
-        return PhysicsReport(False, True, depth, (), seed, options)
+        return PhysicsReport(False, True, depth, (), seed, options, **start)
     pushes = tuple(sim.push(name, np.asarray(d), depth) for name, d in PUSH_DIRECTIONS)
-    return PhysicsReport(all(p.held for p in pushes), False, depth, pushes, seed, options)
+    return PhysicsReport(all(p.held for p in pushes), False, depth, pushes, seed, options, **start)
 
 
 class _Sim:

@@ -46,12 +46,15 @@ class SimScene:
         dof_names: the hand's dofs; joint ``"dof:<name>"`` and actuator ``"act:<name>"`` each.
         object_pieces: convex pieces of the object (object frame, mm).
         T_palm_object: (4, 4) the object's starting pose [mm] (jittered when asked).
+        approximation_mm: how far the pieces stand out of the solver's mesh next to the
+            hand [mm] (:mod:`.start`; 0 when not measured).
     """
 
     xml: str
     dof_names: tuple[str, ...]
     object_pieces: tuple[Mesh, ...]
     T_palm_object: np.ndarray
+    approximation_mm: float = 0.0
 
 
 def _num(x) -> str:
@@ -77,9 +80,11 @@ class _Mjcf:
         return name
 
 
-def build_scene_xml(task: Task, T_palm_object: np.ndarray, pieces, options: SimOptions) -> SimScene:
+def build_scene_xml(task: Task, T_palm_object: np.ndarray, pieces, options: SimOptions, margin_mm: float = 0.0) -> SimScene:
     """The scene of ``task`` with the object at ``T_palm_object (4, 4)`` [mm], made of the
-    convex ``pieces`` (object frame, mm).  Joint angles are set on the model, not here."""
+    convex ``pieces`` (object frame, mm).  Joint angles are set on the model, not here.
+    With ``margin_mm``, contacts are reported up to that gap (the probe of
+    :mod:`.run` that finds where the pieces stray from the solver's mesh; never simulated)."""
     hand = task.hand
     used: dict[str, list] = {}
     for c in task.contacts:
@@ -105,7 +110,7 @@ def build_scene_xml(task: Task, T_palm_object: np.ndarray, pieces, options: SimO
     <flag gravity="disable"/>
   </option>
   <default>
-    <geom condim="4" friction="{friction}"/>
+    <geom condim="4" friction="{friction}" margin="{_num(margin_mm * MM)}"/>
   </default>
   <asset>
 {assets}

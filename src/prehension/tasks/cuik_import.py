@@ -28,20 +28,32 @@ SA hand does.  Fingers are the chains that leave the ground link, named after th
 link; the fingers taking part are those that carry a contact.  Everything else in a file
 (other joint kinds, a spherical joint that is not a contact, several free bodies) is
 refused with an error naming the line.
+
+The object's body file (``body "file.off"`` of the object link), when it is a closed mesh
+that the contact regions lie on, is its collision solid (mm): the hand may not pass
+through it.  Otherwise (an open mesh, such as the IJRR teapot's, or regions off its
+surface) it is display only, and the task's description says so and why.  The hand's
+link bodies are display shapes, not read as collision shapes: a hand that moves as the
+built-in SA hand (every link at an SA link's pose, at zero and at random angles; the
+IJRR files) gets the SA hand's collision capsules, any other hand none.  The hand's
+notes and the task's description say which geometry judged collisions.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import PrehensionError, WorldFileError
+from ..errors import InvalidObject, PrehensionError, WorldFileError
 from ..geometry.bezier import BezierPatch
 from ..geometry.regions import BezierRegion, PointRegion, SphereCap
+from ..hands.kinematics import forward_kinematics
 from ..hands.model import Coupling, Finger, Hand, HandRegion, Joint, Link
+from ..hands.sa_hand import schunk_sa_hand
 from ..objects.model import GraspObject
+from ..objects.solid import MeshFileSolid
 from .cuik_parser import WorldFile, WorldJoint, read_world
 from .model import Contact, Task
 
@@ -264,16 +276,78 @@ def task_from_world(
     links = [Link(ground)] + [Link(j.child) for j in joints]
     stem = Path(world.path).stem if world.path else "world"
     try:
-        hand = Hand(stem, tuple(links), tuple(joints), tuple(cpl), tuple(fingers), hand_regions)
+        hand = _with_sa_geometry(Hand(stem, tuple(links), tuple(joints), tuple(cpl), tuple(fingers), hand_regions))
         _check_body_files(world)
-        obj = GraspObject(obj_name, object_regions, mesh_file=_object_mesh(world, obj_name))
+        obj, judged = _object(obj_name, object_regions, _object_mesh(world, obj_name))
         used = sorted({hand.finger_of_link(r.link) for r in hand_regions.values()} - {None})
         task_name = name or (Path(world.path).resolve().parent.name if world.path else stem) or stem
-        return Task(task_name, hand, obj, tuple(contacts), tuple(used), description=f"imported from {world.path}")
+        about = f"imported from {world.path}; {judged}; {hand.notes[-1]}"
+        return Task(task_name, hand, obj, tuple(contacts), tuple(used), description=about)
     except WorldFileError:
         raise
     except PrehensionError as exc:
         raise WorldFileError(str(exc), path=world.path) from None
+
+
+SA_GEOMETRY = "hand collisions: the built-in SA hand's capsules (this world's hand moves as the SA hand)"
+NO_HAND_GEOMETRY = ("hand collisions: none (the .world's link bodies are display shapes; prehension does not read "
+                    "them as collision shapes)")  # fmt: skip
+_SAME_POSE_MM = 1e-3  # the files round some axes to 5 digits
+
+
+def _with_sa_geometry(hand: Hand) -> Hand:
+    """``hand`` with the built-in SA hand's collision capsules on its links when it is the
+    SA hand: every link at the pose of one SA link, at zero angles and at four seeded random
+    ones (the dofs matched through the joints' child links); else ``hand`` as it is.  Its
+    notes say which (:data:`SA_GEOMETRY`, :data:`NO_HAND_GEOMETRY`)."""
+    match = _sa_links(hand)
+    if match is None:
+        return replace(hand, notes=hand.notes + (NO_HAND_GEOMETRY,))
+    sa = schunk_sa_hand()
+    links = tuple(Link(link.name, sa.links[sa.link_index(match[link.name])].collision) for link in hand.links)
+    return replace(hand, links=links, notes=hand.notes + (SA_GEOMETRY,))
+
+
+def _sa_links(hand: Hand) -> dict[str, str] | None:
+    """Link name -> the SA hand's link at the same pose, if ``hand`` moves as the SA hand."""
+    sa = schunk_sa_hand()
+    if len(hand.links) != len(sa.links) or hand.n_dof != sa.n_dof:
+        return None
+    ours = forward_kinematics(hand, np.zeros(hand.n_dof)).T_palm_link.reshape(-1, 4, 4)
+    theirs = forward_kinematics(sa, np.zeros(sa.n_dof)).T_palm_link.reshape(-1, 4, 4)
+    gap = np.abs(ours[:, None] - theirs[None]).max(axis=(2, 3))  # (L, L)
+    best = gap.argmin(axis=1)
+    if gap[np.arange(len(best)), best].max() > _SAME_POSE_MM or len(set(best)) != len(best):
+        return None
+    match = {link.name: sa.links[j].name for link, j in zip(hand.links, best)}
+    by_child = {j.child: j for j in sa.joints}
+    order = []  # for each of our dofs, the SA dof
+    for joint in hand.joints:
+        twin = by_child[match[joint.child]]
+        if match.get(joint.parent) != twin.parent or len(twin.dof_names) != len(joint.dof_names):
+            return None
+        order += [sa.dof_index(d) for d in twin.dof_names]
+    q_sa = np.random.default_rng(0).uniform(-1.0, 1.0, size=(4, sa.n_dof))
+    q_ours = np.zeros((4, hand.n_dof))
+    q_ours[:, [hand.dof_index(d) for joint in hand.joints for d in joint.dof_names]] = q_sa[:, order]
+    ours = forward_kinematics(hand, q_ours).T_palm_link
+    theirs = forward_kinematics(sa, q_sa).T_palm_link[:, best]
+    return match if np.abs(ours - theirs).max() <= _SAME_POSE_MM else None
+
+
+def _object(name: str, regions, mesh: str | None) -> tuple[GraspObject, str]:
+    """The object, with its body file as its collision solid when that is a closed mesh
+    the regions lie on; else display only.  Also what judged collisions, in words."""
+    if mesh is None:
+        return GraspObject(name, regions), "object collisions: none (the object has no body file)"
+    try:
+        obj = GraspObject(name, regions, solid=MeshFileSolid(mesh, 1.0))
+        return obj, f"object collisions: its body file {Path(mesh).name} (a closed mesh, mm)"
+    except InvalidObject as exc:
+        reason = str(exc).split(": ", 1)[-1].split("; ")[0]
+        obj = GraspObject(name, regions, mesh_file=mesh)
+        return obj, (f"object collisions: none -- its body file {Path(mesh).name} is display only, not a collision solid, "
+                     f"because {reason}")  # fmt: skip
 
 
 def _check_all_links_used(ctx: _Ctx, hand_links, frames, obj_name) -> None:

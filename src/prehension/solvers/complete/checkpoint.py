@@ -18,6 +18,21 @@ two fingerprints, and :func:`load_state` refuses one that does not match:
 
 The refusal names what differs (the task, or which options with both values).  Saved
 solutions are verified again on resume (:meth:`SearchState.from_json`).
+
+A checkpoint is a file a user can edit, and an edited one could make a feasible task
+"infeasible" (emptying its open boxes leaves nothing to search).  So:
+
+* a **content digest** (``digest``: SHA-256 of the file's JSON without it, keys sorted)
+  refuses a file changed after it was written, by mistake or by hand;
+* every field is **validated** before use: counters are non-negative integers; each box
+  is finite, ``lower <= upper``, inside the task's initial box (to ``1e-9`` of its
+  width), of the system's dimension; a checkpoint always has an open box (one is only
+  written while boxes are open).  Each refusal names the field and what would be valid;
+* the digest is no signature (whoever edits the boxes can recompute it), so a search
+  resumed from a checkpoint **says so** in its result (``stats["resumed"]``, and the
+  message of an infeasible answer): part of its proof rests on the boxes the checkpoint
+  says were pruned.  ``prehension check`` re-proves such a claim from the initial box,
+  as it does every infeasibility, and names the checkpoint in its finding.
 """
 
 from __future__ import annotations
@@ -39,7 +54,7 @@ from ...tasks.residuals import Tolerances
 
 __all__ = ["SearchState", "search_fingerprint", "load_state", "save_state", "FORMAT"]
 
-FORMAT = "prehension-complete-checkpoint/2"
+FORMAT = "prehension-complete-checkpoint/3"  # /3: the content digest
 _STOP_ONLY = ("max_boxes", "time_limit_s")  # options that do not change the search
 
 
@@ -57,6 +72,8 @@ class SearchState:
     pair_test: object = None  # the pair test's result once run (.congruence.CongruenceResult)
     collision_pruned: int = 0  # boxes pruned because every configuration in them penetrates the object
     self_collision_pruned: int = 0  # boxes pruned because every solution in them collides with the hand itself
+    closure_pruned: int = 0  # boxes pruned because no configuration in them is force closure (require)
+    resumed: dict | None = None  # where a resumed search came from: {"checkpoint", "boxes", "lps"} (see the module docstring)
 
     def to_json(self) -> dict:
         return {
@@ -66,21 +83,93 @@ class SearchState:
             "max_depth": self.max_depth,
             "collision_pruned": self.collision_pruned,
             "self_collision_pruned": self.self_collision_pruned,
+            "closure_pruned": self.closure_pruned,
             "small": [{"lower": lo.tolist(), "upper": hi.tolist()} for lo, hi in self.small],
             "solutions": [_configuration_to_json(s.configuration()) for s in self.solutions],
         }
 
     @staticmethod
-    def from_json(data: dict, task: Task, tolerances: Tolerances) -> "SearchState":
-        """The saved state; saved solutions are verified again (any that fails is dropped)."""
-        open_ = deque((np.array(b["lower"]), np.array(b["upper"]), int(b["depth"])) for b in data["open"])
-        state = SearchState(open_, data["boxes"], data["lps"], data["max_depth"])
-        state.collision_pruned = int(data.get("collision_pruned", 0))
-        state.self_collision_pruned = int(data.get("self_collision_pruned", 0))
-        state.small = [(np.array(b["lower"]), np.array(b["upper"])) for b in data["small"]]
-        again = (make_solution(task, _configuration_from_json(c), tolerances) for c in data.get("solutions", []))
-        state.solutions = [s for s in again if s is not None]
+    def from_json(data: dict, task: Task, tolerances: Tolerances, root: tuple | None = None,
+                  where: str = "checkpoint") -> "SearchState":  # fmt: skip
+        """The saved state, every field validated (see the module docstring); saved
+        solutions are verified again (any that fails is dropped).  ``root``: the initial
+        box ``(lower, upper)`` the boxes must lie in."""
+        check = _Fields(data, where)
+        open_ = deque((lo, hi, d) for lo, hi, d in check.boxes("open", root, depth=True))
+        if not open_:
+            raise PrehensionError(f"{where}: 'open' holds no box; a checkpoint is only written while boxes are "
+                                  "open (was it edited?); start again without --resume")  # fmt: skip
+        state = SearchState(open_, check.count("boxes"), check.count("lps"), check.count("max_depth"))
+        state.collision_pruned = check.count("collision_pruned", default=0)
+        state.self_collision_pruned = check.count("self_collision_pruned", default=0)
+        state.closure_pruned = check.count("closure_pruned", default=0)
+        state.small = [(lo, hi) for lo, hi, _ in check.boxes("small", root)]
+        for i, saved in enumerate(check.solutions()):
+            solution = _saved_solution(task, saved, tolerances, f"{where}: solutions[{i}]")
+            if solution is not None:
+                state.solutions.append(solution)
         return state
+
+
+class _Fields:
+    """The fields of a checkpoint's JSON, each checked as it is read (errors name it)."""
+
+    def __init__(self, data: dict, where: str):
+        self.data, self.where = data, where
+
+    def _bad(self, key: str, expected: str, got) -> PrehensionError:
+        shown = got if isinstance(got, str) and " " in got else repr(got) if len(repr(got)) < 60 else type(got).__name__
+        return PrehensionError(f"{self.where}: '{key}' must be {expected}, got {shown}; the file is damaged or was "
+                               "edited: start again without --resume")  # fmt: skip
+
+    def count(self, key: str, default: int | None = None) -> int:
+        value = self.data.get(key, default)
+        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+            raise self._bad(key, "a non-negative integer", value)
+        return value
+
+    def boxes(self, key: str, root: tuple | None, depth: bool = False) -> list:
+        """``[(lower, upper, depth)]`` of a list of boxes (depth 0 when not stored)."""
+        items = self.data.get(key)
+        if not isinstance(items, list):
+            raise self._bad(key, "a list of boxes {lower, upper" + (", depth}" if depth else "}"), items)
+        return [self._box(f"{key}[{i}]", b, root, depth) for i, b in enumerate(items)]
+
+    def _box(self, key: str, box, root: tuple | None, depth: bool) -> tuple:
+        if not isinstance(box, dict):
+            raise self._bad(key, "a mapping {lower, upper}", box)
+        n = None if root is None else len(root[0])
+        lo, hi = (self._vector(f"{key}.{side}", box.get(side), n) for side in ("lower", "upper"))
+        if len(lo) != len(hi) or np.any(lo > hi):
+            k = int(np.argmax(lo > hi)) if len(lo) == len(hi) else None
+            got = f"lower {lo[k]!r} > upper {hi[k]!r} in variable {k}" if k is not None else "bounds of two lengths"
+            raise self._bad(key, "a box with lower <= upper in every variable", got)
+        if root is not None:
+            slack = 1e-9 * np.maximum(root[1] - root[0], 1.0)
+            outside = np.flatnonzero((lo < root[0] - slack) | (hi > root[1] + slack))
+            if outside.size:
+                k = int(outside[0])
+                got = f"[{lo[k]!r}, {hi[k]!r}] in variable {k}, whose initial range is [{root[0][k]!r}, {root[1][k]!r}]"
+                raise self._bad(key, f"a box inside the task's initial box (variable {k} lies outside)", got)
+        d = 0
+        if depth:
+            d = _Fields(box, self.where).count("depth")
+        return lo, hi, d
+
+    def _vector(self, key: str, values, n: int | None) -> np.ndarray:
+        ok = isinstance(values, list) and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values)
+        if not ok or (n is not None and len(values) != n):
+            raise self._bad(key, "a list of " + (f"{n} numbers (one per variable)" if n is not None else "numbers"), values)
+        array = np.array(values, dtype=float)
+        if not np.all(np.isfinite(array)):
+            raise self._bad(key, "finite numbers (no NaN or infinity)", values)
+        return array
+
+    def solutions(self) -> list:
+        saved = self.data.get("solutions", [])
+        if not isinstance(saved, list) or not all(isinstance(c, dict) for c in saved):
+            raise self._bad("solutions", "a list of configurations", saved)
+        return saved
 
 
 def _configuration_to_json(config: Configuration) -> dict:
@@ -93,7 +182,16 @@ def _configuration_to_json(config: Configuration) -> dict:
 
 def _configuration_from_json(data: dict) -> Configuration:
     params = tuple((np.array(h, dtype=float), np.array(o, dtype=float)) for h, o in data["contact_params"])
-    return Configuration(np.array(data["joint_angles"]), np.array(data["T_palm_object"]), params)
+    return Configuration(np.array(data["joint_angles"], dtype=float), np.array(data["T_palm_object"], dtype=float), params)
+
+
+def _saved_solution(task: Task, data: dict, tolerances: Tolerances, where: str):
+    """A saved solution verified again (``None`` when it fails the residual function)."""
+    try:
+        return make_solution(task, _configuration_from_json(data), tolerances)
+    except (KeyError, TypeError, ValueError, IndexError) as exc:  # PrehensionError is a ValueError
+        raise PrehensionError(f"{where}: not a configuration of this task {{joint_angles, T_palm_object, "
+                              f"contact_params}} ({type(exc).__name__}: {exc}); start again without --resume") from None
 
 
 # -- fingerprints ------------------------------------------------------------------------
@@ -132,7 +230,11 @@ def _options_mapping(options) -> dict:
         else:
             flat[prefix[:-1]] = value
 
-    walk("", {k: v for k, v in asdict(options).items() if k not in _STOP_ONLY})
+    values = {k: v for k, v in asdict(options).items() if k not in _STOP_ONLY}
+    if values.get("require") is None:  # no requirement: the fingerprint of a search before it existed
+        values.pop("require", None)
+        values.pop("quality", None)
+    walk("", values)
     return flat
 
 
@@ -174,24 +276,47 @@ def _mismatch(saved: dict, now: dict, path) -> str:
 
 
 # -- files -------------------------------------------------------------------------------
-def load_state(form: Formulation, options, checkpoint) -> SearchState:
-    """The state saved in ``checkpoint`` for this very search; refused otherwise."""
+def _content_digest(data: dict) -> str:
+    """SHA-256 of a checkpoint's JSON without its ``digest`` (keys sorted, compact)."""
+    body = {k: v for k, v in data.items() if k != "digest"}
+    return hashlib.sha256(json.dumps(body, sort_keys=True, separators=(",", ":")).encode()).hexdigest()
+
+
+def _read(checkpoint) -> tuple[dict, dict]:
+    """``(data, its fingerprints)`` of a checkpoint file, its digest checked."""
     if checkpoint is None or not Path(checkpoint).is_file():
         raise PrehensionError(f"cannot resume: no checkpoint file {checkpoint}")
     try:
         data = json.loads(Path(checkpoint).read_text())
-        saved = data["search"] if isinstance(data, dict) and isinstance(data.get("search"), dict) else {}
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise PrehensionError(f"cannot resume: {checkpoint} is not a checkpoint file ({exc})") from None
+    if not isinstance(data, dict):
+        raise PrehensionError(f"cannot resume: {checkpoint} is not a checkpoint file (a JSON object was expected)")
+    saved = data["search"] if isinstance(data.get("search"), dict) else {}
+    if saved.get("format") == FORMAT and data.get("digest") != _content_digest(data):
+        raise PrehensionError(f"cannot resume: checkpoint {checkpoint} was changed after it was written (its content "
+                              "does not match its SHA-256 digest); a changed checkpoint could prove a wrong answer: "
+                              "start again without --resume")  # fmt: skip
+    return data, saved
+
+
+def load_state(form: Formulation, options, checkpoint) -> SearchState:
+    """The state saved in ``checkpoint`` for this very search; refused otherwise (another
+    task or options, a changed file, a field of the wrong type or a box out of place)."""
+    data, saved = _read(checkpoint)
     reason = _mismatch(saved, search_fingerprint(form, options), checkpoint)
     if reason:
         raise PrehensionError(reason)
-    return SearchState.from_json(data, form.task, options.tolerances)
+    root = (form.system.lower, form.system.upper)
+    state = SearchState.from_json(data, form.task, options.tolerances, root, where=f"checkpoint {checkpoint}")
+    state.resumed = {"checkpoint": str(checkpoint), "boxes": state.boxes, "lps": state.lps}
+    return state
 
 
 def save_state(checkpoint, state: SearchState, fingerprint: dict) -> None:
-    """Write the state and its fingerprints atomically (nothing when no box is open)."""
+    """Write the state, its fingerprints and its digest atomically (nothing when no box is open)."""
     if checkpoint is not None and state.open:
         data = state.to_json()
         data["search"] = fingerprint
+        data["digest"] = _content_digest(data)
         write_text_atomic(Path(checkpoint), json.dumps(data))

@@ -13,7 +13,10 @@ solution box (``all_solutions``).  When every box is pruned the answer is **infe
 with the numbers of boxes and linear programs as its certificate -- for an object that
 collides, "no penetration-free solution" when the collision prune discarded any box
 (``stats["collision_pruned"]``), and "no self-collision-free solution" when the
-self-collision prune did (:mod:`.self_collision`, ``stats["self_collision_pruned"]``).
+self-collision prune did (:mod:`.self_collision`, ``stats["self_collision_pruned"]``).  With
+``require="force-closure"`` only force-closure solutions count and a box is also discarded
+when :mod:`.closure` certifies that none of its configurations is force closure: "no
+force-closure grasp" (``stats["closure_pruned"]``).
 
 Boxes are independent, so :func:`solve_complete` can process them on any
 ``concurrent.futures.Executor`` (a process pool, a Dask cluster's executor): workers
@@ -43,7 +46,9 @@ from ..local.options import LocalOptions
 from ..local.solver import refine_local
 from ...system.embedding import configuration_from_point, embed
 from ...system.formulation import Formulation, build_system
+from ...quality import QualityOptions, grasp_quality
 from .checkpoint import SearchState, load_state, save_state, search_fingerprint
+from .closure import closure_prune
 from .collision import collision_prune
 from .self_collision import self_collision_prune
 from .congruence import congruence_test
@@ -101,6 +106,12 @@ class BranchAndPruneOptions:
             solution in it has two capsules of the hand deeper into each other than
             ``tolerances.penetration_mm`` (:mod:`.self_collision`).  ``False``: such
             boxes are searched until ``sigma``.
+        require: ``"force-closure"``: only force-closure grasps count as solutions (with
+            the friction model ``quality``), and a box is discarded when a certificate
+            proves that none of its configurations is force closure (:mod:`.closure`); an
+            ``infeasible`` answer then proves that the task has no force-closure grasp.
+            ``None``: any grasp.
+        quality: the friction model of ``require``.
     """
 
     sigma: float = 0.1
@@ -115,6 +126,8 @@ class BranchAndPruneOptions:
     pair_test_boxes: int = 200_000
     collision_prune: bool = True
     self_collision_prune: bool = True
+    require: Literal["force-closure"] | None = None
+    quality: QualityOptions = field(default_factory=QualityOptions)
 
     def __post_init__(self):
         if not 0.0 < self.sigma < 1.0:
@@ -125,6 +138,10 @@ class BranchAndPruneOptions:
             raise PrehensionError(f"pair_test_boxes must be an integer >= 0, got {self.pair_test_boxes!r}")
         if self.order not in ("depth", "breadth"):
             raise PrehensionError(f"order must be 'depth' or 'breadth', got {self.order!r}")
+        if self.require not in (None, "force-closure"):
+            raise PrehensionError(f"require must be 'force-closure' or None (any grasp), got {self.require!r}")
+        if not isinstance(self.quality, QualityOptions):
+            raise PrehensionError(f"quality must be a QualityOptions, got {type(self.quality).__name__}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -141,6 +158,7 @@ class BoxOutcome:
     best: tuple = (float("inf"), float("inf"))  # (contact_mm, normal_deg) the verification came closest to
     by_collision: bool = False  # "empty" because every configuration in it penetrates the object
     by_self_collision: bool = False  # "empty" because every solution in it collides with the hand itself
+    by_closure: bool = False  # "empty" because no configuration in it is force closure (require="force-closure")
 
 
 def _scaled_widths(form: Formulation, lower, upper) -> np.ndarray:
@@ -173,7 +191,7 @@ def _verify(
     for config in reached.configurations:
         if config is not None:
             solution = make_solution(form.task, config, options.tolerances)
-            if solution is not None and (not in_box or _inside(form, solution, lower, upper)):
+            if solution is not None and (not in_box or _inside(form, solution, lower, upper)) and _required(form, solution, options):
                 return solution, reached.best()
     return None, reached.best()
 
@@ -199,6 +217,8 @@ def process_box(form: Formulation, lower, upper, depth: int, options: BranchAndP
         return BoxOutcome("empty", lower, upper, depth, 0, by_collision=True)
     if _self_collides(form, lower, upper, options):
         return BoxOutcome("empty", lower, upper, depth, 0, by_self_collision=True)
+    if _never_closure(form, lower, upper, options):
+        return BoxOutcome("empty", lower, upper, depth, 0, by_closure=True)
     best = (float("inf"), float("inf"))
     if not options.all_solutions:
         solution, best = _verify(form, lower, upper, options)
@@ -213,6 +233,8 @@ def process_box(form: Formulation, lower, upper, depth: int, options: BranchAndP
         return BoxOutcome("empty", lo, hi, depth, shrunk.n_lps, best=best, by_collision=True)
     if _self_collides(form, lo, hi, options):
         return BoxOutcome("empty", lo, hi, depth, shrunk.n_lps, best=best, by_self_collision=True)
+    if _never_closure(form, lo, hi, options):
+        return BoxOutcome("empty", lo, hi, depth, shrunk.n_lps, best=best, by_closure=True)
     widths = _scaled_widths(form, lo, hi)
     if widths.max() < options.sigma:
         if options.all_solutions:
@@ -239,6 +261,15 @@ def _self_collides(form: Formulation, lower, upper, options: BranchAndPruneOptio
     if not options.self_collision_prune:
         return False
     return self_collision_prune(form, lower, upper, options.tolerances) is not None
+# -- require="force-closure" (kept apart: :mod:`.closure` proves, these two apply it) --------------
+def _never_closure(form: Formulation, lower, upper, options: BranchAndPruneOptions) -> bool:
+    """Whether a certificate proves that no configuration of the box is force closure (:mod:`.closure`)."""
+    return options.require == "force-closure" and closure_prune(form, lower, upper, options.quality) is not None
+
+
+def _required(form: Formulation, solution: Solution, options: BranchAndPruneOptions) -> bool:
+    """Whether a verified solution also meets ``options.require``."""
+    return options.require is None or grasp_quality(form.task, solution, options.quality).force_closure
 
 
 def _inside(form: Formulation, solution: Solution, lower, upper) -> bool:
@@ -257,6 +288,7 @@ def _record(state: SearchState, out: BoxOutcome, options: BranchAndPruneOptions)
     state.max_depth = max(state.max_depth, out.depth)
     state.collision_pruned += out.by_collision
     state.self_collision_pruned += out.by_self_collision
+    state.closure_pruned += out.by_closure
     if out.kind == "solution":
         state.solutions.append(out.solution)
     elif out.kind == "small":
@@ -309,7 +341,8 @@ def solve_complete(
         executor: where boxes are processed (default: in this process); ``workers``
             boxes are kept in flight on it.
         checkpoint: file where the open boxes are saved when the search stops early or
-            is interrupted (Ctrl-C); with ``resume=True`` the search starts from it.
+            is interrupted (Ctrl-C; on the command line also SIGTERM and SIGHUP,
+            :mod:`prehension.cli.terminate`); with ``resume=True`` the search starts from it.
         progress: called after each box with counters (boxes, open, depth, lps), and with
             ``"pair test"`` when the pair test starts (it can take a minute).
     """
@@ -323,9 +356,10 @@ def solve_complete(
         state = SearchState(deque([(form.system.lower.copy(), form.system.upper.copy(), 0)]))
     try:
         stop = _run(form, state, options, executor, max(1, workers), started, progress)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:  # Ctrl-C; in the CLI also SIGTERM and SIGHUP (str(exc): the signal's name)
         save_state(checkpoint, state, fingerprint)
-        return _result(task, form, state, options, started, "interrupted" + _saved_note(checkpoint))
+        how = f" ({exc})" if str(exc) else ""
+        return _result(task, form, state, options, started, f"interrupted{how}" + _saved_note(checkpoint))
     if stop:
         save_state(checkpoint, state, fingerprint)
         stop += _saved_note(checkpoint)
@@ -464,6 +498,12 @@ def _result(task, form, state: SearchState, options, started: float, stop: str, 
         msg = (f"infeasible: contacts {task.contacts[a].name} and {task.contacts[b].name} cannot be made together "
                f"whatever the object's pose (pair test: {state.pair_test.boxes} boxes pruned, after {state.boxes} "
                f"box(es) and {state.lps} LPs of the search)")  # fmt: skip
+    elif state.closure_pruned:
+        status = Status.INFEASIBLE
+        msg = (f"infeasible: no force-closure grasp: all {state.boxes} boxes pruned, {state.closure_pruned} of them by a "
+               f"certificate that no configuration in them is force closure ({_friction(options.quality)}; "
+               f"{state.collision_pruned} for hand-object collision, {state.self_collision_pruned} for self-collision, "
+               f"{state.lps} linear programs)")  # fmt: skip
     elif state.collision_pruned or state.self_collision_pruned:
         status = Status.INFEASIBLE
         msg = _collision_message(state)
@@ -473,6 +513,12 @@ def _result(task, form, state: SearchState, options, started: float, stop: str, 
     stats["open_box_solutions"] = len(in_open)
     stats["collision_pruned"] = state.collision_pruned
     stats["self_collision_pruned"] = state.self_collision_pruned
+    if options.require is not None:
+        stats["closure_pruned"] = state.closure_pruned
+    if state.resumed is not None:
+        stats["resumed"] = dict(state.resumed)
+        if status == Status.INFEASIBLE:
+            msg += _resumed_note(state.resumed)
     if state.pair_test is not None:
         stats["pair_test"] = {"proved": state.pair_test.proved, "boxes": state.pair_test.boxes,
                               "pair": list(state.pair_test.pair) if state.pair_test.pair else None}  # fmt: skip
@@ -493,7 +539,23 @@ def _collision_message(state: SearchState) -> str:
     return f"infeasible: no {what} solution: all {state.boxes} boxes pruned, {', '.join(why)} ({state.lps} linear programs)"
 
 
+def _friction(quality: QualityOptions) -> str:
+    soft = f", torsion {quality.torsion_mm:g} mm" if quality.torsion_mm else ""
+    return f"friction {quality.friction:g}, {quality.cone_edges} cone edges{soft}"
+
+
+def _resumed_note(resumed: dict) -> str:
+    """Says that part of a proof came from a checkpoint (see :mod:`.checkpoint`)."""
+    return (f"; resumed from checkpoint {resumed['checkpoint']}: {resumed['boxes']} of these boxes were pruned "
+            "before it was saved, so part of this proof rests on the checkpoint (prehension check re-proves it "
+            "from the initial box)")  # fmt: skip
+
+
 def _options_dict(options: BranchAndPruneOptions) -> dict:
     d = asdict(options)
     d.pop("tolerances", None)
+    if options.require is None:
+        d.pop("quality", None)  # the friction model only matters to the requirement
+    else:
+        d["quality"] = options.quality.to_dict()
     return d

@@ -16,7 +16,7 @@ import numpy as np
 from ...geometry.bezier import BezierPatch
 from ...geometry.regions import BezierRegion, PointRegion, Region, SphereCap
 from ...hands.model import Capsule, Coupling, Finger, Hand, HandRegion, Joint, Link, NamedFrame
-from ...hands.provenance import HandSource, file_sha256
+from ...hands.provenance import HandSource, ShapeFit, file_sha256
 from ...objects.model import GraspObject
 from ..model import Contact, Task
 from .errors import fail, join_path, kind_of, located, validate
@@ -60,7 +60,8 @@ def _link(spec: LinkSpec) -> Link:
     for c in spec.collision:
         a, b = (c.center, c.center) if c.center is not None else (c.a, c.b)
         shapes.append(Capsule(a, b, c.radius))
-    return Link(spec.name, tuple(shapes))
+    fit = None if spec.fit is None else ShapeFit(**spec.fit.model_dump())
+    return Link(spec.name, tuple(shapes), fit)
 
 
 def _joint(spec: JointSpec) -> Joint:

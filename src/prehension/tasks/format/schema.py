@@ -16,7 +16,16 @@ from ...hands.sa_hand import schunk_sa_hand
 from ...objects.meshes import Box, Cylinder, Ellipsoid, Sphere, Torus
 
 FORMAT_TAG = "task/1"
-BUILTIN_HANDS: dict[str, Callable[[], Hand]] = {"schunk-sa": schunk_sa_hand}
+
+
+def _sa_enclosing() -> Hand:
+    """The SA hand with enclosing capsules (read on first use: it imports the file-hand assembler)."""
+    from ...hands.sa_enclosing import schunk_sa_hand_enclosing
+
+    return schunk_sa_hand_enclosing()
+
+
+BUILTIN_HANDS: dict[str, Callable[[], Hand]] = {"schunk-sa": schunk_sa_hand, "schunk-sa-enclosing": _sa_enclosing}
 
 
 def _list_of(n: int, what: str):
@@ -133,9 +142,16 @@ class CollisionSpec(_Spec):
         return self
 
 
+class FitSpec(_Spec):
+    geometry: Name
+    miss_mm: Annotated[float, Field(strict=True, allow_inf_nan=False, ge=0)]
+    stick_out_mm: Annotated[float, Field(strict=True, allow_inf_nan=False, ge=0)]
+
+
 class LinkSpec(_Spec):
     name: Name
     collision: list[CollisionSpec] = []
+    fit: FitSpec | None = None
 
 
 class AngleSpec(_Spec):

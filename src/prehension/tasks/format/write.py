@@ -102,6 +102,9 @@ def _link_to_dict(link: Link) -> dict:
     out: dict = {"name": link.name}
     if link.collision:
         out["collision"] = [_capsule_to_dict(c) for c in link.collision]
+    if link.fit is not None:  # what the capsules miss of the link's own shapes, how far they stick out
+        f = link.fit
+        out["fit"] = {"geometry": f.geometry, "miss_mm": float(f.miss_mm), "stick_out_mm": float(f.stick_out_mm)}
     return out
 
 

@@ -1,0 +1,149 @@
+"""Grasps that hold: the first solution's epsilon against ``solve --best 5``'s, and its cost.
+
+Tasks: 3- and 4-fingertip tasks on every mesh of ``../shared/objects`` (the bunny at 100 mm
+per unit, the five random solids at 10 mm per unit; the thumb against index, middle and
+ring on faces whose normals face each other across the object, seeded random; each region
+the largest patch of radius ``--region-mm``, 3/4 or 1/2 of it fitted by ``region_from_mesh``,
+degree 2, that stays within 0.3 mm of the surface, else a planar patch inside the face:
+the random solids are coarse polyhedra, so most of their regions are small), the built-in tasks and the
+examples of ``examples/quality``.
+
+Per task (friction 0.6, hard fingers unless ``--torsion``): the Ferrari-Canny epsilon of
+the first solution (``prehension solve --method local``), of the best of ``solve --best
+5 --ascent-steps 0`` (the distinct solutions of the random starts as found, ranked) and of
+``solve --best 5`` (each of them then moved along its solution set by the quality ascent,
+re-verified at every step), and the time of ``--best 5`` (wall clock and CPU of this
+process: one core).  The physics column waits for ``solve --hold`` (issue 27, items 2-4):
+it reads "-" until then.  Summary: the median ratio best/first over the tasks whose first
+solution is force closure, how many tasks go from not force closure to force closure,
+and the median and largest time.
+
+    python benchmarks/hold.py                      # every task (~40), a few minutes
+    python benchmarks/hold.py --quick              # 2 tasks per mesh, no built-in tasks
+    python benchmarks/hold.py --torsion 5          # soft fingers
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+from rich.console import Console
+from rich.table import Table
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from objects import SHARED, _patch, mesh_tasks  # noqa: E402  (a sibling benchmark script)
+
+from prehension.ascent import AscentOptions  # noqa: E402
+from prehension.best import BestOptions, solve_best  # noqa: E402
+from prehension.errors import PrehensionError  # noqa: E402
+from prehension.objects.pick import region_from_mesh  # noqa: E402
+from prehension.quality import QualityOptions, grasp_quality  # noqa: E402
+from prehension.solve import solve  # noqa: E402
+from prehension.tasks.library import builtin_task_names, load_builtin_task, resolve_task  # noqa: E402
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "quality"
+
+
+def _fitted_patch(radius_mm: float):
+    """The largest region -- degree 2, radius ``radius_mm``, then 3/4 and 1/2 of it -- that
+    fits the surface within 0.3 mm (on a 7 x 7 grid of its parameters); else the planar
+    patch inside the face."""
+    grid = np.stack(np.meshgrid(np.linspace(0, 1, 7), np.linspace(0, 1, 7)), axis=-1).reshape(-1, 2)
+
+    def patch(mesh, distance, centre, inradius):
+        for radius in (radius_mm, 0.75 * radius_mm, 0.5 * radius_mm):
+            try:
+                region = region_from_mesh(mesh, at=centre, radius=radius, degree=2, distance=distance).region
+            except PrehensionError:  # not a height field there
+                continue
+            if np.max(np.abs(distance.signed_distance(region.evaluate(grid)[0]))) <= 0.3:
+                return region
+        return _patch(mesh, distance, centre, inradius)
+
+    return patch
+
+
+def _tasks(args) -> list:
+    rows = []
+    if SHARED.is_dir():
+        made = mesh_tasks(np.random.default_rng(args.seed), 2 if args.quick else args.per_mesh, counts=(3, 4),
+                          patch=_fitted_patch(args.region_mm))  # fmt: skip
+        rows += [task for _, task in made if len(task.contacts) >= 3]  # a mesh short of opposed faces gives fewer
+    if not args.quick:
+        rows += [load_builtin_task(n) for n in builtin_task_names()]
+        rows += [resolve_task(str(p)) for p in sorted(EXAMPLES.glob("*.yaml"))]
+    return rows
+
+
+def _epsilon(task, result, quality) -> float | None:
+    return grasp_quality(task, result.solutions[0], quality).epsilon if result.solutions else None
+
+
+def _measure(task, quality: QualityOptions, n: int, seed: int) -> dict:
+    first = solve(task, "local", seed=seed)
+    found = solve_best(task, BestOptions(n=n, quality=quality, ascent=None), "local", seed=seed)
+    wall, cpu = time.perf_counter(), time.process_time()
+    best = solve_best(task, BestOptions(n=n, quality=quality, ascent=AscentOptions()), "local", seed=seed)
+    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+    steps = [a for a in best.stats["best"]["ascent"] if a is not None]
+    return {"first": _epsilon(task, first, quality), "found": _epsilon(task, found, quality),
+            "best": _epsilon(task, best, quality), "wall": wall, "cpu": cpu,
+            "steps": f"{sum(a['accepted'] for a in steps)}/{sum(a['tried'] for a in steps)}"}  # fmt: skip
+
+
+def _fmt(eps) -> str:
+    return "-" if eps is None else f"{eps:.4f}"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--per-mesh", type=int, default=4, help="tasks per shared mesh, 3 and 4 contacts in turn (default 4)")
+    parser.add_argument("--region-mm", type=float, default=12.0, help="radius of each mesh region [mm] (default 12)")
+    parser.add_argument("--best", type=int, default=5, help="N of --best N (default 5)")
+    parser.add_argument("--torsion", type=float, default=0.0, help="soft fingers: torsional friction [mm] (default 0)")
+    parser.add_argument("--quick", action="store_true", help="2 tasks per mesh, no built-in tasks")
+    parser.add_argument("--seed", type=int, default=0)
+    args = parser.parse_args()
+    quality = QualityOptions(torsion_mm=args.torsion)
+    console = Console(width=150)
+    table = Table(title=f"first solution vs --best {args.best} (epsilon, mu {quality.friction:g}, "
+                        f"{'torsion %g mm' % args.torsion if args.torsion else 'hard fingers'})")  # fmt: skip
+    for col in ("task", "contacts", "first", f"best {args.best} as found", f"best {args.best}", "ratio", "ascent steps",
+                "time [s] wall", "cpu", "physics (--hold)"):  # fmt: skip
+        table.add_column(col, justify="left" if col == "task" else "right")
+    rows = []
+    for task in _tasks(args):
+        m = _measure(task, quality, args.best, args.seed)
+        rows.append(m)
+        ratio = m["best"] / m["first"] if m["first"] and m["best"] is not None else None
+        table.add_row(task.name, str(len(task.contacts)), _fmt(m["first"]), _fmt(m["found"]), _fmt(m["best"]),
+                      "-" if ratio is None else f"{ratio:.2f}", m["steps"], f"{m['wall']:.2f}", f"{m['cpu']:.2f}", "-")  # fmt: skip
+    console.print(table)
+    _summary(console, rows)
+
+
+def _summary(console: Console, rows: list) -> None:
+    closed = [m for m in rows if m["first"] and m["best"] is not None]
+    opened = sum(1 for m in rows if m["first"] == 0.0 and (m["best"] or 0.0) > 0.0)
+    still = sum(1 for m in rows if m["first"] == 0.0 and m["best"] == 0.0)
+    solved = [m for m in rows if m["best"] is not None]
+    if closed:
+        ratios = [m["best"] / m["first"] for m in closed]
+        found = [m["found"] / m["first"] for m in closed]
+        console.print(f"median epsilon ratio, --best vs first, over the {len(closed)} tasks whose first solution is force "
+                      f"closure: {statistics.median(ratios):.2f} (as found, without the ascent: {statistics.median(found):.2f})")  # fmt: skip
+    console.print(f"first solution not force closure: {opened} become force closure with --best, {still} do not")
+    if solved:
+        cpu = [m["cpu"] for m in solved]
+        wall = [m["wall"] for m in solved]
+        console.print(f"--best time over {len(solved)} solved tasks: CPU median {statistics.median(cpu):.2f} s, "
+                      f"max {max(cpu):.2f} s; wall median {statistics.median(wall):.2f} s, max {max(wall):.2f} s")  # fmt: skip
+
+
+if __name__ == "__main__":
+    main()

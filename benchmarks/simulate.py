@@ -1,0 +1,141 @@
+"""``prehension simulate``: seconds per grasp, cold and warm, and where the physics scene starts.
+
+Rows: one solved task per mesh of ../shared/objects (the tasks of ``objects.py``), one per
+built-in object, and a procedural noisy blob of 81,920 triangles (an icosphere with twelve
+seeded bumps and dents, ~70 mm across; two fingertip patches at its ends along x).  Each
+row solves the task (local solver), writes the result, then runs ``prehension simulate``
+twice as a user would, each in a new process: *cold* with an empty geometry cache (the
+convex decomposition computed), *warm* with the cache the cold run left (read back).
+Columns: the penetration MuJoCo sees at the start, the hand's own penetration into the
+solver's mesh, the object's approximation error next to the hand, the number of pieces.
+
+The last row is the blob with 200 triangles removed (an open mesh, ``collisions: false``):
+``simulate`` must refuse it with a message, not hang.
+
+    python benchmarks/simulate.py            # every row
+    python benchmarks/simulate.py --quick    # the blob, a random solid and the guitar
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+from rich.console import Console
+from rich.table import Table
+
+from prehension.objects.model import GraspObject
+from prehension.objects.pick import region_from_mesh
+from prehension.objects.solid import MeshFileSolid
+from prehension.results import write_result
+from prehension.solve import solve
+from prehension.tasks.library import load_builtin_task
+from prehension.tasks.model import Contact, Task
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from objects import SHARED, mesh_tasks  # noqa: E402 - the shared-mesh tasks of objects.py
+
+BUILTIN = ("teapot-service", "guitar-tuning", "scalpel-handling")
+
+
+def blob_obj(path: Path, seed: int = 0, radius: float = 35.0, hole: int = 0) -> Path:
+    """Write the noisy blob (OBJ, mm; ``hole`` triangles removed) to ``path``."""
+    import trimesh
+
+    sphere = trimesh.creation.icosphere(subdivisions=6)  # 81,920 triangles
+    rng = np.random.default_rng(seed)
+    v = sphere.vertices
+    r = np.ones(len(v))
+    for _ in range(12):
+        c = rng.normal(size=3)
+        c /= np.linalg.norm(c)
+        r += rng.uniform(-0.25, 0.35) * np.exp(-np.sum((v - c) ** 2, 1) / 0.15)
+    faces = sphere.faces[hole:]
+    trimesh.Trimesh(v * (radius * r)[:, None], faces, process=False).export(path)
+    return path
+
+
+def blob_task(path: Path, closed: bool = True) -> Task:
+    """Thumb against index across the blob's x extent (degree-2 patches of radius 6 mm)."""
+    from prehension.objects.distance import MeshDistance
+    from prehension.objects.mesh_io import load_mesh
+
+    mesh = load_mesh(path, 1.0, closed=closed)
+    distance = MeshDistance(mesh.vertices, mesh.faces)
+    ends = mesh.vertices[[np.argmin(mesh.vertices[:, 0]), np.argmax(mesh.vertices[:, 0])]]
+    regions = {name: region_from_mesh(mesh, at=p, radius=6.0, degree=2, distance=distance).region
+               for name, p in zip(("thumb_side", "index_side"), ends)}  # fmt: skip
+    obj = GraspObject("blob", regions, solid=MeshFileSolid(str(path), 1.0), collisions=closed)
+    hand = load_builtin_task("guitar-tuning").hand
+    contacts = (Contact("thumb_tip", "thumb_side"), Contact("index_tip", "index_side"))
+    return Task("blob-2c" if closed else "open-blob-2c", hand, obj, contacts, ("thumb", "index"))
+
+
+def _simulate(result: Path, cache: Path) -> tuple[float, int, dict | None, str]:
+    """One ``prehension simulate`` process: ``(seconds, exit code, first grasp's outcome, stderr)``."""
+    out = result.with_suffix(".physics.json")
+    out.unlink(missing_ok=True)
+    env = dict(os.environ, PREHENSION_CACHE_DIR=str(cache))
+    t0 = time.perf_counter()
+    run = subprocess.run([sys.executable, "-m", "prehension.cli", "simulate", str(result), "--solution", "0", "-o", str(out)],
+                         env=env, capture_output=True, text=True, timeout=1800)  # fmt: skip
+    seconds = time.perf_counter() - t0
+    grasp = json.loads(out.read_text())["grasps"][0] if out.is_file() else None
+    return seconds, run.returncode, grasp, run.stderr.strip().splitlines()[-1] if run.stderr.strip() else ""
+
+
+def rows(quick: bool, folder: Path) -> list[tuple[str, Task]]:
+    out = [("blob (81,920 tri)", blob_task(blob_obj(folder / "blob.obj")))]
+    if SHARED.is_dir():
+        shared = mesh_tasks(np.random.default_rng(0), 1)
+        out += shared[1:2] if quick else shared
+    out += [(name, load_builtin_task(name)) for name in (BUILTIN[1:2] if quick else BUILTIN)]
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--quick", action="store_true", help="the blob, one random solid and the guitar")
+    args = parser.parse_args()
+    console = Console(width=160)
+    table = Table(title="prehension simulate: seconds per grasp (each run a new process) and the start")
+    for col in ("task", "triangles", "cold [s]", "warm [s]", "exit", "MuJoCo start [mm]", "hand's own [mm]",
+                "approximation [mm]", "pieces"):  # fmt: skip
+        table.add_column(col, justify="left" if col == "task" else "right")
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        for name, task in rows(args.quick, folder):
+            result = solve(task, "local")
+            faces = str(len(task.object.surface.faces))
+            if not result.solutions:
+                table.add_row(name, faces, "-", "-", "unsolved", "", "", "", "")
+                continue
+            path = folder / f"{name.split()[0]}.json"
+            write_result(result, path)
+            cache = folder / f"cache-{name.split()[0]}"
+            cold, code, grasp, _ = _simulate(path, cache)
+            warm, code, grasp, err = _simulate(path, cache)
+            if grasp is None:
+                table.add_row(name, faces, f"{cold:.1f}", f"{warm:.1f}", str(code), err[:60], "", "", "")
+                continue
+            hand = grasp["hand_penetration_mm"]
+            table.add_row(name, faces, f"{cold:.1f}", f"{warm:.1f}", str(code), f"{grasp['initial_penetration_mm']:.2f}",
+                          "-" if hand is None else f"{hand:.2f}", f"{grasp['approximation_mm']:.2f}", str(grasp["object_pieces"]))  # fmt: skip
+        open_task = blob_task(blob_obj(folder / "open.obj", hole=200), closed=False)
+        result = solve(open_task, "local")
+        if result.solutions:
+            write_result(result, folder / "open.json")
+            seconds, code, _, err = _simulate(folder / "open.json", folder / "cache-open")
+            table.add_row("open blob (81,720 tri)", str(len(open_task.object.surface.faces)), f"{seconds:.1f}", "", str(code), err[:80])
+    console.print(table)
+
+
+if __name__ == "__main__":
+    main()

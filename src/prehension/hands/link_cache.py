@@ -1,0 +1,64 @@
+"""A file hand's fitted collision capsules and their fit, kept on disk between processes.
+
+Fitting enclosing capsules to a link's meshes (:func:`~prehension.hands.shapes.mesh_capsule`
+tries 306 axes) and measuring what they miss and how far they stick out
+(:func:`~prehension.hands.enclosure.link_fit`) costs 2-3 s for a whole hand, in every
+process that reads the hand file.  Both depend only on the link's collision shapes, so
+they are stored per link under a SHA-256 of: each shape's kind, sizes, pose in the link
+and (for a mesh) its vertices' bytes; the source of the modules that compute them; the
+versions of numpy and scipy.  Editing a mesh, a shape or that code misses the cache.  A
+link whose shapes could not all be read is never stored.  Folder and rules:
+:mod:`prehension.disk_cache`.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from ..disk_cache import code_fingerprint, load_arrays, store_arrays
+from .model import Capsule
+from .provenance import ShapeFit
+
+__all__ = ["link_key", "cached_link_fit"]
+
+_SOURCES = ("shapes.py", "enclosure.py", "link_cache.py", "assemble.py")  # assemble: which surface samples, the label
+_LIBRARIES = ("numpy", "scipy")
+
+
+@functools.lru_cache(maxsize=1)
+def _fingerprint() -> bytes:
+    here = Path(__file__).parent
+    return code_fingerprint([here / name for name in _SOURCES], _LIBRARIES)
+
+
+def link_key(shapes, vertices) -> str:
+    """The entry name of a link's collision ``shapes`` (:class:`RawShape`), ``vertices``
+    the mesh vertices of each (``None`` for a primitive)."""
+    h = hashlib.sha256(_fingerprint())
+    for s, v in zip(shapes, vertices):
+        h.update(repr((s.kind, tuple(float(x) for x in s.size))).encode())
+        h.update(np.ascontiguousarray(s.T_link_shape, dtype=float).tobytes())
+        if v is not None:
+            h.update(np.ascontiguousarray(v, dtype=float).tobytes())
+    return h.hexdigest()
+
+
+def cached_link_fit(
+    key: str | None, compute: Callable[[], tuple[list[Capsule], ShapeFit | None, bool]]
+) -> tuple[list[Capsule], ShapeFit | None]:
+    """The stored capsules and fit for ``key``, else ``compute()``'s ``(capsules, fit,
+    storable)``, stored when ``storable`` (``key`` ``None``: never stored)."""
+    stored = load_arrays(key, ("capsules", "fit", "geometry"))
+    if stored is not None:
+        caps, fit, geometry = stored
+        return [Capsule(c[:3], c[3:6], c[6]) for c in caps], ShapeFit(str(geometry), float(fit[0]), float(fit[1]))
+    caps, fit, storable = compute()
+    if key is not None and storable and fit is not None:
+        rows = np.array([[*c.a, *c.b, c.radius] for c in caps], dtype=float).reshape(-1, 7)
+        store_arrays(key, dict(capsules=rows, fit=np.array([fit.miss_mm, fit.stick_out_mm]), geometry=np.array(fit.geometry)))
+    return caps, fit
