@@ -36,6 +36,7 @@ def test_a_folder_given_for_a_file_is_said_to_be_a_folder(tmp_path, capsys, argv
         (["--rank", "volume"], "--rank", "needs --best N"),
         (["--starts", "3"], "--starts", "needs --best N"),
         (["--distinct-mm", "2"], "--distinct-mm", "needs --best N"),
+        (["--ascent-steps", "3"], "--ascent-steps", "needs --best N"),
         (["--method", "local", "--all"], "--all", "--method local does not use it"),
         (["--method", "local", "--checkpoint", "c.json"], "--checkpoint", "--method local does not use it"),
         (["--method", "local", "--sigma", "0.2"], "--sigma", "--method local does not use it"),
