@@ -63,3 +63,11 @@ def test_a_point_off_the_surface_gets_the_nearest_surface_point_and_the_bounding
     assert near[2] == pytest.approx(30, abs=0.5) and abs(near[0]) < 1 and abs(near[1]) < 1
     assert "[-30, 30] x [-30, 30] x [-30, 30] mm" in err
     assert main(["region", str(ball), f"--at={near[0]},{near[1]},{near[2]}", "--radius", "2", "--units", "mm"]) == EXIT_OK
+
+
+@pytest.mark.parametrize("at", ["1e308,0,0", "nan,0,0", "0,inf,0"])
+def test_an_at_beyond_any_mesh_is_refused_before_numpy_overflows(ball, at, capsys):
+    """The sweep: --at 1e308,0,0 printed numpy's overflow warning and 'inf mm from the surface'."""
+    assert main(["region", str(ball), f"--at={at}", "--radius", "3", "--units", "mm"]) == EXIT_BAD_INPUT
+    err = capsys.readouterr().err
+    assert "--at takes three numbers" in err and "Warning" not in err

@@ -36,8 +36,8 @@ def _point(text: str):
         values = [float(x) for x in text.split(",")]
     except ValueError:
         values = []
-    if len(values) != 3:
-        raise PrehensionError(f"--at takes three numbers X,Y,Z [mm], e.g. --at 0,12.5,30; got {text!r}")
+    if len(values) != 3 or not all(abs(v) <= 1e9 for v in values):  # also refuses nan and inf
+        raise PrehensionError(f"--at takes three numbers X,Y,Z [mm] (finite, at most 1e9 in size), e.g. --at 0,12.5,30; got {text!r}")
     return values
 
 
