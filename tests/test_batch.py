@@ -85,7 +85,7 @@ def test_a_folder_of_task_files_is_an_input(tmp_path):
         ('{"task": "teapot-service"', r"tasks.jsonl:2: not valid JSON"),
         ('["teapot-service"]', r"tasks.jsonl:2: a line must be a JSON object"),
         ('{"task": "no-such-task"}', r"tasks.jsonl:2: 'no-such-task' is neither a built-in task"),
-        ('{"task": "missing.yaml"}', r"tasks.jsonl:2: task file .*missing.yaml does not exist"),
+        ('{"task": "missing.yaml"}', r"tasks.jsonl:2: task file not found: .*missing.yaml"),
         ('{"tusk": "teapot-service"}', r"tasks.jsonl:2: a line is"),
         ('{"id": 7, "task": "teapot-service"}', r"tasks.jsonl:2: \"id\" must be a non-empty string"),
         ('{"task": "guitar-tuning"}', r"tasks.jsonl:2: task id 'guitar-tuning-\w+' is already used by .*tasks.jsonl:1"),

@@ -66,6 +66,73 @@ def test_bad_meshes_are_refused_with_the_reason(tmp_path):
     assert load_mesh(tmp_path / "open.stl", 1.0, closed=False).faces.shape == (11, 3)
 
 
+
+def _flipped_box(tmp_path, suffix=".obj"):
+    """A closed box with one face listed the other way round: 3 of its 18 edges disagree."""
+    box = trimesh.creation.box(extents=(10, 10, 10))
+    faces = box.faces.copy()
+    faces[0] = faces[0][::-1]
+    path = tmp_path / f"flipped{suffix}"
+    trimesh.Trimesh(box.vertices, faces, process=False).export(str(path))
+    return path
+
+
+def _no_networkx(monkeypatch):
+    """Make networkx unimportable, as on an install without trimesh's optional modules."""
+    import builtins
+
+    real_import = builtins.__import__
+
+    def guarded(name, *args, **kwargs):
+        if name == "networkx" or name.startswith("networkx."):
+            raise ModuleNotFoundError("No module named 'networkx'", name="networkx")
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.setitem(__import__("sys").modules, "networkx", None)
+    monkeypatch.setattr(builtins, "__import__", guarded)
+    monkeypatch.setattr(trimesh.graph, "nx", trimesh.exceptions.ExceptionWrapper(ModuleNotFoundError("networkx")))
+
+
+@pytest.mark.parametrize("suffix", [".obj", ".stl"])
+def test_inconsistent_winding_is_refused_without_networkx(tmp_path, monkeypatch, suffix):
+    """Issue 28 item 5: this crashed with "No module named 'networkx'" (trimesh's repair)."""
+    path = _flipped_box(tmp_path, suffix)
+    _no_networkx(monkeypatch)
+    with pytest.raises(InvalidObject, match=rf"flipped{suffix}: .*not wound consistently \(3 of 18 edges"):
+        load_mesh(path, 1.0)
+    assert load_mesh(path, 1.0, closed=False).faces.shape == (12, 3)  # no collisions: taken as it is
+    good = load_mesh(_box_file(tmp_path, suffix), 1.0)  # a well-wound mesh needs no networkx either
+    assert trimesh.Trimesh(good.vertices, good.faces).volume > 0
+
+
+def test_inconsistent_winding_is_refused_not_repaired_where_a_repair_could_run(tmp_path, monkeypatch):
+    """Issue 28 item 5: with networkx installed trimesh re-wound the mesh silently; docs/objects.md
+    says it is refused.  No trimesh repair is called whether or not networkx is there."""
+    calls = []
+    monkeypatch.setattr(trimesh.Trimesh, "fix_normals", lambda self, *a, **k: calls.append("fix_normals"))
+    monkeypatch.setattr(trimesh.repair, "fix_winding", lambda *a, **k: calls.append("fix_winding"))
+    with pytest.raises(InvalidObject, match="not wound consistently"):
+        load_mesh(_flipped_box(tmp_path), 1.0)
+    load_mesh(_box_file(tmp_path, ".stl"), 1.0)
+    assert calls == []
+
+
+def test_a_garbage_mesh_file_is_named_with_its_problem(tmp_path, monkeypatch):
+    """Issue 28 item 9: random bytes in an .stl were reported as a missing charset_normalizer module."""
+    rng = np.random.default_rng(5)
+    for suffix in (".stl", ".obj", ".off"):
+        path = tmp_path / f"garbage{suffix}"
+        path.write_bytes(rng.integers(128, 256, 300, dtype=np.uint8).tobytes())
+        with pytest.raises(InvalidObject, match=rf"garbage{suffix}: not a readable {suffix[1:].upper()} file: it is not text") as info:
+            load_mesh(path, 1.0)
+        assert "charset" not in str(info.value)
+    (tmp_path / "empty.obj").write_bytes(b"")
+    with pytest.raises(InvalidObject, match=r"empty.obj: the file is empty \(0 bytes\)"):
+        load_mesh(tmp_path / "empty.obj", 1.0)
+    (tmp_path / "folder.stl").mkdir()
+    with pytest.raises(InvalidObject, match="mesh file .*folder.stl is a folder, not a file"):
+        load_mesh(tmp_path / "folder.stl", 1.0)
+
 KNOB_TASK = """\
 prehension: task/1
 name: mesh-box

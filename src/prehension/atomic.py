@@ -21,7 +21,7 @@ from typing import BinaryIO, Iterator
 
 import numpy as np
 
-from .errors import InvalidTask, PrehensionError
+from .errors import InvalidTask, PrehensionError, not_a_file
 
 __all__ = [
     "open_atomic", "write_text_atomic", "write_bytes_atomic", "to_plain", "write_json_atomic", "read_json",
@@ -207,9 +207,14 @@ def _same_file(a: Path, b: Path) -> bool:
 def read_json(path, what: str):
     """The JSON document in ``path``; errors name the file and ``what`` was expected."""
     path = Path(path)
+    article = "an" if what[:1].lower() in "aeiou" else "a"
+    if not path.is_file():  # a folder, a missing file, a named pipe (reading one would wait for a writer)
+        raise InvalidTask(not_a_file(what, path))
     try:
         return json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InvalidTask(f"cannot read {what} {path}: {exc}") from None
+    except UnicodeDecodeError:
+        raise InvalidTask(f"{path}: not {article} {what} (not UTF-8 text, so not JSON)") from None
+    except OSError as exc:
+        raise InvalidTask(f"cannot read {what} {path}: {exc.strerror or exc}") from None
     except json.JSONDecodeError as exc:
-        raise InvalidTask(f"{path}: not a {what} (invalid JSON at line {exc.lineno})") from None
+        raise InvalidTask(f"{path}: not {article} {what} (invalid JSON at line {exc.lineno})") from None

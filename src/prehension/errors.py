@@ -8,6 +8,8 @@ it into a one-line message and the "bad input" exit code.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 __all__ = [
     "PrehensionError",
     "InvalidGeometry",
@@ -18,6 +20,7 @@ __all__ = [
     "InvalidTask",
     "InvalidConfiguration",
     "WorldFileError",
+    "not_a_file",
 ]
 
 
@@ -69,3 +72,14 @@ class WorldFileError(PrehensionError):
         super().__init__(where + message)
         self.path = path
         self.line = line
+
+
+def not_a_file(what: str, path) -> str:
+    """The message for a ``path`` that should be a file (``what``: "mesh file", "result
+    file"...) and is not: a folder or a special file is said to be one, else "not found"."""
+    path = Path(path)
+    if path.is_dir():
+        return f"{what} {path} is a folder, not a file; give the file inside it"
+    if path.exists():
+        return f"{what} {path} is not a regular file (a named pipe, socket or device); give a regular file"
+    return f"{what} not found: {path}"

@@ -293,6 +293,9 @@ def result_task(data, source: str, base_dir: Path) -> tuple[Task, dict]:
 
     if not isinstance(data, dict) or data.get("prehension") != RESULT_TAG:
         raise InvalidTask(f"{source}: not a prehension result file (expected 'prehension: {RESULT_TAG}')")
-    task_dict = task_with_files(data.get("task"), data.get("files"), source)
+    if not isinstance(data.get("task"), dict):
+        raise InvalidTask(f"{source}: the result file has no 'task' (the task it answers is embedded there); "
+                          "nothing can be checked or drawn without it")  # fmt: skip
+    task_dict = task_with_files(data["task"], data.get("files"), source)  # the object's mesh as the result carries it
     return task_from_dict(task_dict, base_dir=base_dir, source=f"{source} (embedded task)"), data
 

@@ -37,7 +37,7 @@ import numpy as np
 from .atomic import read_json
 from .errors import InvalidTask, PrehensionError
 from .hands.kinematics import forward_kinematics
-from .results import RESULT_TAG, SolveResult, Status
+from .results import SolveResult, Status, result_task
 from .tasks.geometry_record import check_collision_geometry
 from .tasks.model import Configuration, Task
 from .tasks.residuals import ResidualReport, Tolerances, evaluate
@@ -134,16 +134,7 @@ def verify_result(
 
 # -- header ---------------------------------------------------------------------------------
 def _embedded_task(data, source: str, base_dir) -> Task:
-    from .tasks.format.embedded import task_with_files
-    from .tasks.yaml_io import task_from_dict
-
-    if not isinstance(data, dict) or data.get("prehension") != RESULT_TAG:
-        raise InvalidTask(f"{source}: not a prehension result file (expected 'prehension: {RESULT_TAG}')")
-    if not isinstance(data.get("task"), dict):
-        raise InvalidTask(f"{source}: the result file has no 'task' (the task it answers is embedded there); "
-                          "nothing can be checked without it")  # fmt: skip
-    task_dict = task_with_files(data["task"], data.get("files"), source)  # the object's mesh as the result carries it
-    return task_from_dict(task_dict, base_dir=Path(base_dir or "."), source=f"{source} (embedded task)")
+    return result_task(data, source, Path(base_dir or "."))[0]
 
 
 def _header(data: dict) -> list[Finding]:

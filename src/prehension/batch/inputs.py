@@ -43,7 +43,7 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any, Iterable, Mapping
 
-from ..errors import InvalidTask
+from ..errors import InvalidTask, not_a_file
 from ..tasks.library import builtin_task_names
 
 __all__ = ["BatchEntry", "read_inputs", "entry_task"]
@@ -187,7 +187,7 @@ def _named_payload(spec: str, base: Path, source: str) -> tuple[dict, str, bytes
         return {"kind": "builtin", "name": spec}, spec, _builtin_bytes(spec)
     file = Path(spec) if Path(spec).is_absolute() else base / spec
     if not file.is_file():
-        raise InvalidTask(f"{source}: task file {file} does not exist")
+        raise InvalidTask(f"{source}: {not_a_file('task file', file)}")
     payload, data = _file_payload(file, source)
     return payload, file.stem, data
 

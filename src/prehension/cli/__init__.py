@@ -91,10 +91,11 @@ def main(argv: list[str] | None = None) -> int:
 
     import sys
 
-    from .args import join_negative_values
+    from .args import check_option_rules, join_negative_values
 
     parser = build_parser()
     args = parser.parse_args(join_negative_values(list(sys.argv[1:] if argv is None else argv)))
+    check_option_rules(args)
     console = Console(highlight=False, quiet=bool(getattr(args, "quiet", False)))
     commands = {
         "tasks": cmd_tasks, "show": cmd_show, "import-cuik": cmd_import, "solve": cmd_solve,

@@ -7,7 +7,8 @@ import argparse
 import math
 import re
 
-__all__ = ["seed", "seconds", "finite", "positive", "positive_int", "time_limit", "DEFAULT_TIME_LIMIT_S", "join_negative_values"]
+__all__ = ["seed", "seconds", "finite", "positive", "positive_int", "time_limit", "DEFAULT_TIME_LIMIT_S", "join_negative_values",
+           "add_option_rule", "check_option_rules"]
 
 DEFAULT_TIME_LIMIT_S = 300.0  # prehension solve: every run is bounded unless asked otherwise
 
@@ -92,3 +93,19 @@ def time_limit(value: float | None, flag: str = "--time-limit") -> float | None:
 
         raise PrehensionError(f"{flag} must be a number of seconds >= 0 (0: no limit), got {value!r}")
     return float(value)
+
+
+def add_option_rule(parser: argparse.ArgumentParser, rule) -> None:
+    """After parsing, ``rule(args)`` returning a message makes it ``parser``'s error (its usage
+    and the message on stderr, exit code 2): an option that another one needs, or that the
+    chosen method would ignore, is refused instead of dropped silently."""
+    rules = parser.get_default("option_rules") or ()
+    parser.set_defaults(option_rules=(*rules, (parser, rule)))
+
+
+def check_option_rules(args: argparse.Namespace) -> None:
+    """Apply the rules :func:`add_option_rule` registered for the parsed sub-command."""
+    for parser, rule in getattr(args, "option_rules", ()):
+        message = rule(args)
+        if message:
+            parser.error(message)

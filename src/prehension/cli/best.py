@@ -41,16 +41,30 @@ def add_best_arguments(p) -> None:
     g.add_argument("--best", type=types.positive_int, default=None, metavar="N",
                    help="collect up to N distinct verified solutions and rank them (local solver from many starts; "
                         "the complete solver's solution set with --method complete)")  # fmt: skip
-    g.add_argument("--rank", choices=("q1", "volume", "found"), default="q1",
+    g.add_argument("--rank", choices=("q1", "volume", "found"), default=None,
                    help="order of --best: q1 (Ferrari-Canny epsilon, default), volume, or found (the order found)")  # fmt: skip
-    g.add_argument("--starts", type=int, default=100, metavar="S", help="--best: random starts of the local solver (default 100)")
-    g.add_argument("--distinct-deg", type=types.finite, default=5.0, metavar="DEG",
+    g.add_argument("--starts", type=int, default=None, metavar="S", help="--best: random starts of the local solver (default 100)")
+    g.add_argument("--distinct-deg", type=types.finite, default=None, metavar="DEG",
                    help="--best: solutions are distinct when some joint angle, or the object's orientation, differs by this much (default 5)")  # fmt: skip
-    g.add_argument("--distinct-mm", type=types.finite, default=5.0, metavar="MM",
+    g.add_argument("--distinct-mm", type=types.finite, default=None, metavar="MM",
                    help="--best: ... or the object's position by this much (default 5)")  # fmt: skip
-    g.add_argument("--ascent-steps", type=int, default=20, metavar="K",
+    g.add_argument("--ascent-steps", type=int, default=None, metavar="K",
                    help="--best: steps of the quality ascent that moves each grasp along its solution set to a "
                         "higher epsilon, every step re-verified (default 20; 0: the grasps as found; docs/quality.md)")  # fmt: skip
+    types.add_option_rule(p, _needs_best)
+
+
+_BEST_DEFAULTS = {"rank": "q1", "starts": 100, "distinct_deg": 5.0, "distinct_mm": 5.0, "ascent_steps": 20}
+
+
+def _needs_best(args) -> str | None:
+    """``--rank``, ``--starts``, ``--distinct-*``, ``--ascent-steps`` only tell ``--best`` how to work."""
+    if args.best is not None:
+        return None
+    given = [f"--{k.replace('_', '-')}" for k in _BEST_DEFAULTS if getattr(args, k) is not None]
+    if given:
+        return f"{given[0]} needs --best N (it says how --best collects and ranks its solutions); add --best N or drop {given[0]}"
+    return None
 
 
 def add_batch_arguments(p) -> None:
@@ -93,21 +107,22 @@ def best_options(args, time_limit_s):
 
     if args.best is None:
         return None
+    rank, starts, distinct_deg, distinct_mm, ascent_steps = (v if getattr(args, k) is None else getattr(args, k) for k, v in _BEST_DEFAULTS.items())
     for flag, given in (("--all", getattr(args, "all", False)), ("--checkpoint", getattr(args, "checkpoint", None)),
                         ("--approximate", getattr(args, "approximate", False)), ("--require", getattr(args, "require", None))):  # fmt: skip
         if given:
             raise PrehensionError(f"--best collects its own set of strictly verified solutions; it cannot be combined with {flag}")
-    if args.starts < 0:
-        raise PrehensionError(f"--starts must be an integer >= 0, got {args.starts}")
-    if args.ascent_steps < 0:
-        raise PrehensionError(f"--ascent-steps must be an integer >= 0 (0: no ascent), got {args.ascent_steps}")
-    for flag, value in (("--distinct-deg", args.distinct_deg), ("--distinct-mm", args.distinct_mm)):
+    if starts < 0:
+        raise PrehensionError(f"--starts must be an integer >= 0, got {starts}")
+    if ascent_steps < 0:
+        raise PrehensionError(f"--ascent-steps must be an integer >= 0 (0: no ascent), got {ascent_steps}")
+    for flag, value in (("--distinct-deg", distinct_deg), ("--distinct-mm", distinct_mm)):
         if not value > 0:
             raise PrehensionError(f"{flag} must be a positive number, got {value}")
     return BestOptions(
-        n=args.best, rank=args.rank, starts=args.starts, joint_deg=args.distinct_deg, position_mm=args.distinct_mm,
-        rotation_deg=args.distinct_deg, quality=quality_options(args), time_limit_s=time_limit_s,
-        ascent=AscentOptions(steps=args.ascent_steps) if args.ascent_steps else None,
+        n=args.best, rank=rank, starts=starts, joint_deg=distinct_deg, position_mm=distinct_mm,
+        rotation_deg=distinct_deg, quality=quality_options(args), time_limit_s=time_limit_s,
+        ascent=AscentOptions(steps=ascent_steps) if ascent_steps else None,
     )  # fmt: skip
 
 

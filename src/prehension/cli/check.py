@@ -14,7 +14,7 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from ..errors import InvalidTask, PrehensionError
+from ..errors import InvalidTask, PrehensionError, not_a_file
 from ..results import Status
 from .codes import EXIT_APPROXIMATE, EXIT_CHECK_FAILED, EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK
 
@@ -43,7 +43,7 @@ def cmd_check(args, console: Console) -> int:
     from ..verify import verify_result_file
 
     if not path.is_file():
-        raise InvalidTask(f"result file not found: {path}")
+        raise InvalidTask(not_a_file("result file", path))
     checked = verify_result_file(path, reprove=not args.no_reprove, time_limit_s=limit)
     solutions = len(checked.reports)
     console.print(f"{path}: task {checked.task.name!r}, status {checked.status}, {solutions} solution(s)")
@@ -148,7 +148,7 @@ def _records(path, lines):
     The task and file lines of a batch output go into ``lines``
     (:class:`~prehension.batch.journal.TaskLines`), not out."""
     if not path.is_file():
-        raise InvalidTask(f"batch output not found: {path}")
+        raise InvalidTask(not_a_file("batch output", path))
     with open(path, encoding="utf-8") as fh:
         for n, text in enumerate(fh, start=1):
             if not text.strip():

@@ -41,6 +41,8 @@ def hand_named(spec: str):
     suffix = path.suffix.lower()
     if HAND_ALIASES.get(spec, spec) in BUILTIN_HANDS or suffix in HAND_SUFFIXES:
         return resolve_hand(spec)
+    if path.is_dir() and any(p.suffix.lower() in HAND_SUFFIXES for p in path.iterdir()):
+        return resolve_hand(spec)  # a hand's folder: says so, naming the hand files in it
     if suffix in (".yaml", ".yml") and path.is_file() and not _is_task_file(path):
         return resolve_hand(spec)
     return None

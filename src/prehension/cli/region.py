@@ -19,7 +19,8 @@ def add_parser(sub) -> None:
     p.add_argument("mesh", type=Path, help="mesh file (OBJ, STL, PLY, OFF, GLB)")
     p.add_argument("--at", required=True, metavar="X,Y,Z",
                    help="a point on (or near) the surface, mm in the object frame (after --scale); negative values "
-                        "work as they are: --at -30,0,0")  # fmt: skip
+                        "work as they are: --at -30,0,0.  A point farther from the surface than --radius is "
+                        "refused with its distance, the nearest surface point and the mesh's bounding box (mm)")  # fmt: skip
     p.add_argument("--radius", type=types.positive, metavar="MM",
                    help="fit the surface within this distance of the point [mm] (> 0; not with --point)")  # fmt: skip
     p.add_argument("--degree", type=int, default=2, help="patch degree in u and v, 1..6 (default 2)")
@@ -35,8 +36,8 @@ def _point(text: str):
         values = [float(x) for x in text.split(",")]
     except ValueError:
         values = []
-    if len(values) != 3:
-        raise PrehensionError(f"--at takes three numbers X,Y,Z [mm], e.g. --at 0,12.5,30; got {text!r}")
+    if len(values) != 3 or not all(abs(v) <= 1e9 for v in values):  # also refuses nan and inf
+        raise PrehensionError(f"--at takes three numbers X,Y,Z [mm] (finite, at most 1e9 in size), e.g. --at 0,12.5,30; got {text!r}")
     return values
 
 
@@ -70,8 +71,16 @@ def cmd_region(args, console: Console) -> int:
             f"largest deviation from the mesh {picked.max_deviation_mm:.3g} mm; normal outward everywhere, at most "
             f"{picked.max_angle_deg:.0f} deg from the closest face's"
         )
-        if picked.max_deviation_mm > 0.5:
-            lines.append(f"# (above the default 0.5 mm: set the object's surface_tolerance_mm >= {picked.max_deviation_mm:.2g})")
+        if picked.max_deviation_mm > 0.5 and args.radius > picked.turns_away_mm:
+            lines.append(
+                f"# (above the default 0.5 mm: the surface turns more than 84 degrees from the point's normal "
+                f"{picked.turns_away_mm:.4g} mm away, which one patch cannot follow: pick a --radius under that)"
+            )
+        elif picked.max_deviation_mm > 0.5:
+            lines.append(
+                f"# (above the default 0.5 mm: set the object's surface_tolerance_mm >= {picked.max_deviation_mm:.2g}, "
+                "or fit less curved surface: a smaller --radius or a higher --degree)"
+            )
     text = "\n".join(lines) + "\n" + dump_yaml({args.name: _rounded(region_to_dict(picked.region))})
     console.print(text, markup=False, highlight=False, soft_wrap=True, end="")
     return EXIT_OK

@@ -21,7 +21,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from ..atomic import check_output_path, write_json_atomic
-from ..errors import InvalidTask, PrehensionError
+from ..errors import InvalidTask, PrehensionError, not_a_file
 from . import args as types
 from .codes import EXIT_GAVE_UP, EXIT_OK
 
@@ -61,7 +61,7 @@ def stored_grasps(path: Path, index: int | None):
     from ..verify import verify_result_file
 
     if not path.is_file():
-        raise InvalidTask(f"result file not found: {path}")
+        raise InvalidTask(not_a_file("result file", path))
     checked = verify_result_file(path, reprove=False)
     if not checked.holds:
         failures = "; ".join(f"{f.what}: {f.detail}" for f in checked.failures[:3])

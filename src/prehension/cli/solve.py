@@ -20,7 +20,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from ..atomic import check_output_path
-from ..errors import PrehensionError
+from ..errors import PrehensionError, not_a_file
 from ..results import Status, result_to_dict, write_result
 from . import args as types
 from .best import (
@@ -30,7 +30,7 @@ from .codes import EXIT_APPROXIMATE, EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK
 from .hands import print_hand_warnings
 from .progress import LiveProgress
 
-__all__ = ["add_parser", "cmd_solve", "EXIT_OF_STATUS", "task_inputs"]
+__all__ = ["add_parser", "cmd_solve", "EXIT_OF_STATUS", "task_inputs", "files_of_task"]
 
 EXIT_OF_STATUS = {
     Status.SOLVED: EXIT_OK, Status.INFEASIBLE: EXIT_INFEASIBLE, Status.GAVE_UP: EXIT_GAVE_UP,
@@ -49,7 +49,8 @@ def add_parser(sub) -> None:
                    help="complete solver: describe the solution set down to --sigma (breadth first); stops "
                         "after 100 boxes unless --max-boxes is given (or at --time-limit), returning a cover: "
                         "solution boxes, verified solutions and the boxes still open")  # fmt: skip
-    p.add_argument("--sigma", type=types.finite, default=0.1, help="complete solver: solution-box size (fraction of the initial box)")
+    p.add_argument("--sigma", type=types.finite, default=None,
+                   help="complete solver: solution-box size (fraction of the initial box; default 0.1)")  # fmt: skip
     p.add_argument("--workers", type=types.positive_int, default=1,
                    help="complete solver: boxes processed in parallel on a local Dask cluster of N processes")  # fmt: skip
     p.add_argument("--scheduler", metavar="ADDR", help="complete solver: process boxes on a running Dask cluster (tcp://host:8786)")
@@ -69,6 +70,22 @@ def add_parser(sub) -> None:
     add_quality_arguments(p)
     add_require_argument(p)
     add_best_arguments(p)
+    types.add_option_rule(p, _method_options)
+
+
+_COMPLETE_ONLY = ("all", "sigma", "max_boxes", "checkpoint", "resume", "workers", "scheduler")
+
+
+def _method_options(args) -> str | None:
+    """An option of one solver given with ``--method`` the other: refused, not ignored."""
+    if args.method == "local":
+        given = [k for k in _COMPLETE_ONLY if getattr(args, k) not in (None, False) and not (k == "workers" and args.workers == 1)]
+        if given:
+            flag = "--" + given[0].replace("_", "-")
+            return f"{flag} is an option of the complete solver; --method local does not use it: drop it or use --method auto or complete"
+    if args.method == "complete" and args.sequence is not None:
+        return "--sequence gives the local solver's initial poses; --method complete does not use it: drop it or use --method auto or local"
+    return None
 
 
 def task_inputs(text: str) -> list[Path]:
@@ -95,9 +112,16 @@ def _keep_previous(path: Path) -> Path | None:
     return backup
 
 
+def files_of_task(task) -> list[Path]:
+    """The files a loaded task reads: its object's mesh and display mesh, its hand's file."""
+    solid, hand_source = getattr(task.object, "solid", None), getattr(task.hand, "source", None)
+    names = (getattr(solid, "path", None), task.object.mesh_file, getattr(hand_source, "path", None))
+    return [Path(name) for name in names if name]
+
+
 def _check_outputs(args, task) -> Path:
     """Every output checked before the solve: returns the result file's path."""
-    inputs = task_inputs(args.task)
+    inputs = task_inputs(args.task) + files_of_task(task)
     path = check_output_path(args.output or _default_output(task.name), "result file", inputs=inputs)
     named = [(path, "result file")]
     if args.html is not None:
@@ -119,14 +143,15 @@ def _options(args):
     calls this only then.  The one value the command line can make invalid, ``--sigma``,
     is checked here, before any work, with the options' own words.
     """
-    if not 0.0 < args.sigma < 1.0:
-        raise PrehensionError(f"sigma must lie in (0, 1) (a fraction of the initial box), got {args.sigma}")
+    sigma = 0.1 if args.sigma is None else args.sigma
+    if not 0.0 < sigma < 1.0:
+        raise PrehensionError(f"sigma must lie in (0, 1) (a fraction of the initial box), got {sigma}")
 
     def make():
         from ..solvers.complete.search import BranchAndPruneOptions
 
         return BranchAndPruneOptions(
-            sigma=args.sigma, order="breadth" if args.all else "depth", all_solutions=args.all,
+            sigma=sigma, order="breadth" if args.all else "depth", all_solutions=args.all,
             max_boxes=args.max_boxes, time_limit_s=types.time_limit(args.time_limit),
         )  # fmt: skip
 
@@ -161,7 +186,7 @@ def cmd_solve(args, console: Console) -> int:
     if args.resume and args.checkpoint is None:
         raise PrehensionError("--resume needs --checkpoint FILE (the file the interrupted run saved)")
     if args.resume and not args.checkpoint.is_file():
-        raise PrehensionError(f"cannot resume: no checkpoint file {args.checkpoint}")
+        raise PrehensionError(f"cannot resume: {not_a_file('checkpoint file', args.checkpoint)}")
     path = _check_outputs(args, task)
     quality, best = quality_options(args), best_options(args, time_limit_s)
     if args.require and args.method == "local":

@@ -6,10 +6,11 @@ with an :class:`~prehension.errors.InvalidObject` that names the file and the pr
 
 * the file exists, is a format trimesh reads, and holds triangles (not a point cloud or
   an empty scene);
-* every vertex is finite; faces of zero area (repeated corners, collinear corners) are
+* every vertex is finite and within 1e9 mm of the origin; faces of zero area (repeated corners, collinear corners) are
   dropped, and a mesh left with none, or flat (zero extent along an axis), is refused;
 * ``closed=True`` (what collisions need): the surface is watertight (every edge shared by
-  exactly two faces) and its faces are consistently wound.  A closed mesh whose faces all
+  exactly two faces) and its faces are consistently wound (else refused, counting the
+  edges that disagree; nothing is re-wound silently, and no optional module is needed).  A closed mesh whose faces all
   face inwards is turned outwards (its inside is unambiguous); a mesh that does not enclose
   a positive volume is refused.
 
@@ -22,13 +23,14 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InvalidObject
+from ..errors import InvalidObject, not_a_file
 from .meshes import Mesh
 
 __all__ = ["UNITS", "MESH_SUFFIXES", "load_mesh", "load_display_mesh", "checked_mesh", "scale_of"]
 
 # mm per unit
 UNITS = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4}
+MAX_COORDINATE_MM = 1e9  # as the numbers of a task file (tasks.format.schema.MAX_MAGNITUDE)
 MESH_SUFFIXES = (".obj", ".stl", ".ply", ".off", ".glb", ".gltf")
 
 
@@ -60,17 +62,36 @@ def _trimesh():
 def _read(path: Path):
     trimesh = _trimesh()
     if not path.is_file():
-        raise InvalidObject(f"mesh file not found: {path}")
+        raise InvalidObject(not_a_file("mesh file", path))
     if path.suffix.lower() not in MESH_SUFFIXES:
         raise InvalidObject(f"{path}: unsupported mesh format {path.suffix or '(no suffix)'}; use {', '.join(MESH_SUFFIXES)}")
+    if path.stat().st_size == 0:
+        raise InvalidObject(f"{path}: the file is empty (0 bytes); a mesh file is needed")
     try:
         loaded = trimesh.load(str(path), force="mesh", process=False)
+    except ImportError as exc:
+        raise InvalidObject(_missing_module(path, exc)) from None
+    except IndexError as exc:
+        raise InvalidObject(f"{path}: not a readable mesh: a face refers to a vertex the file does not have ({exc})") from None
     except Exception as exc:  # trimesh raises many kinds on a bad file
         raise InvalidObject(f"{path}: not a readable mesh ({type(exc).__name__}: {exc})") from None
     faces = getattr(loaded, "faces", None)
     if faces is None or len(faces) == 0:
         raise InvalidObject(f"{path}: holds no triangles (a point cloud, lines or an empty scene); a mesh file is needed")
     return np.asarray(loaded.vertices, dtype=float), np.asarray(faces, dtype=np.int64)
+
+
+def _missing_module(path: Path, exc: ImportError) -> str:
+    """Why trimesh wanted a module it does not have: mostly to guess the encoding of text it
+    cannot decode, i.e. the file is not a mesh of its kind at all."""
+    kind = path.suffix.lower().lstrip(".").upper()
+    try:
+        path.read_bytes().decode("utf-8")
+    except UnicodeDecodeError:
+        binary = f" and not a binary {kind} (its header does not match its size)" if kind == "STL" else ""
+        return f"{path}: not a readable {kind} file: it is not text (not UTF-8 or ASCII){binary}"
+    name = getattr(exc, "name", None) or str(exc)
+    return f"{path}: reading this {kind} file needs the optional module {name} (pip install {name})"
 
 
 def load_mesh(path, scale: float, *, closed: bool = True) -> Mesh:
@@ -85,11 +106,20 @@ def load_display_mesh(path) -> Mesh:
     readable format, finite and indexing their vertices; open or flat is fine."""
     path = Path(path)
     vertices, faces = _read(path)
-    if not np.all(np.isfinite(vertices)):
-        raise InvalidObject(f"{path}: mesh has non-finite vertex coordinates (NaN or infinity)")
+    _check_vertices(vertices, str(path))
     if faces.min() < 0 or faces.max() >= len(vertices):
         raise InvalidObject(f"{path}: faces index vertices 0..{len(vertices) - 1}, got {faces.min()}..{faces.max()}")
     return Mesh(vertices, faces)
+
+
+def _check_vertices(v: np.ndarray, source: str) -> None:
+    if not np.all(np.isfinite(v)):
+        raise InvalidObject(f"{source}: mesh has non-finite vertex coordinates (NaN or infinity)")
+    if len(v) and np.abs(v).max() > MAX_COORDINATE_MM:
+        raise InvalidObject(
+            f"{source}: mesh coordinates reach {np.abs(v).max():.3g} mm, more than {MAX_COORDINATE_MM:g} mm (1000 km; "
+            "beyond it the 1e-6 mm tolerances are below double precision); check the file's units or scale"
+        )
 
 
 def checked_mesh(vertices, faces, source: str, *, closed: bool = True) -> Mesh:
@@ -102,11 +132,15 @@ def checked_mesh(vertices, faces, source: str, *, closed: bool = True) -> Mesh:
     trimesh = _trimesh()
     v = np.asarray(vertices, dtype=float).reshape(-1, 3)
     f = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
-    if not np.all(np.isfinite(v)):
-        raise InvalidObject(f"{source}: mesh has non-finite vertex coordinates (NaN or infinity)")
+    _check_vertices(v, source)
     if len(f) and (f.min() < 0 or f.max() >= len(v)):
         raise InvalidObject(f"{source}: faces index vertices 0..{len(v) - 1}, got {f.min()}..{f.max()}")
-    mesh = trimesh.Trimesh(v, f, process=True, validate=True)  # merges duplicate vertices, drops zero-area faces
+    # What trimesh's process(validate=True) does, without its fix_normals: that needs the optional
+    # networkx and would re-wind a mesh silently, which the winding check below refuses instead.
+    mesh = trimesh.Trimesh(v, f, process=False)
+    mesh.update_faces(mesh.unique_faces() & mesh.nondegenerate_faces())  # drops duplicate and zero-area faces
+    mesh.merge_vertices()
+    mesh.remove_unreferenced_vertices()
     if len(mesh.faces) == 0:
         raise InvalidObject(f"{source}: degenerate mesh: every face has zero area")
     if np.min(mesh.extents) <= 1e-9 * max(1.0, float(np.max(mesh.extents))):
@@ -124,10 +158,14 @@ def _check_closed(mesh, source: str, trimesh) -> None:
             "collisions need a closed surface: repair the mesh (fill its holes), or set collisions: false "
             "to use it for display and contact regions only"
         )
-    if not mesh.is_winding_consistent:
+    disagree = _disagreeing_edges(mesh.faces)
+    if disagree:
         raise InvalidObject(
-            f"{source}: the faces of the mesh are not wound consistently (neighbouring faces list their shared edge "
-            "in the same direction); repair the mesh (e.g. trimesh.repair.fix_winding) and save it again"
+            f"{source}: the faces of the mesh are not wound consistently ({disagree} of {len(mesh.edges_unique)} edges "
+            "are listed in the same direction by both faces that share them; a consistently wound surface lists "
+            "each edge once in each direction); re-orient the faces (e.g. MeshLab: Filters > Normals > Re-Orient "
+            "all faces coherently) and save the mesh again, or set collisions: false to use it for display and "
+            "contact regions only"
         )
     if mesh.volume < 0:
         mesh.invert()
@@ -140,3 +178,15 @@ def _boundary_edges(faces: np.ndarray) -> int:
     e = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
     _, counts = np.unique(e, axis=0, return_counts=True)
     return int(np.sum(counts != 2))
+
+
+def _disagreeing_edges(faces: np.ndarray) -> int:
+    """Number of edges of a watertight mesh that both their faces list in the same direction.
+
+    Each face lists its edges ``(a, b), (b, c), (c, a)``; on a consistently wound closed
+    surface the two faces sharing an edge list it in opposite directions, so no directed
+    edge occurs twice.  (Plain numpy: trimesh's winding repair needs the optional networkx.)
+    """
+    directed = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    _, counts = np.unique(directed, axis=0, return_counts=True)
+    return int(np.sum(counts > 1))

@@ -16,8 +16,11 @@ parametrisation:
   heights ``z_ij`` the least-squares fit to points sampled on the faces over the square.
   The normal ``p_u x p_v`` is then ``n`` to first order: outward.
 
-The piece must be a height field over the tangent plane (every face within 84 degrees of
-``n``); otherwise the radius is too large for that part of the surface.  The fit's quality is
+The piece must be a height field over the tangent plane (faces more than 84 degrees from
+``n`` are dropped); how far from the point the surface starts to turn that far is reported
+(``turns_away_mm``), so that a radius too large for one patch gets the advice of a smaller
+one.  A point farther from the surface than the radius is refused with the nearest surface
+point and the mesh's bounding box.  The fit's quality is
 the largest distance from the patch to the surface, over a 25 x 25 grid of the patch [mm].
 
 Only the *outer* surface is picked from: a mesh made of closed parts that overlap has
@@ -38,7 +41,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..errors import InvalidObject
+from ..errors import InvalidGeometry, InvalidObject
 from ..geometry.bezier import BezierPatch
 from ..geometry.regions import BezierRegion, PointRegion, Region
 from .meshes import Mesh
@@ -69,6 +72,10 @@ class PickedRegion:
         max_angle_deg: largest angle between the region's normal and the normal of the
             closest face, over a 9 x 9 grid of the region [deg] (next to an edge, the
             closest face may be the one across it: what is checked is the step outwards).
+        turns_away_mm: how far from the point (over the outer surface connected to it) a
+            face turns more than 84 degrees from the closest face's normal [mm]; a radius
+            beyond it asks one patch to follow a surface that bends away (inf: never, or a
+            set of faces was given).
     """
 
     region: Region
@@ -77,6 +84,7 @@ class PickedRegion:
     normal: np.ndarray
     n_faces: int
     max_angle_deg: float = 0.0
+    turns_away_mm: float = float("inf")
 
 
 def _face_data(mesh: Mesh):
@@ -141,7 +149,10 @@ def _fit(points, p0, e1, e2, n, half: float, degree: int) -> BezierRegion:
     inside = (np.abs(s) <= half) & (np.abs(t) <= half)
     u, v = (s[inside] + half) / (2 * half), (t[inside] + half) / (2 * half)
     if inside.sum() < (degree + 1) ** 2:
-        raise InvalidObject(f"too few surface samples ({inside.sum()}) for a degree-{degree} patch; pick a larger radius")
+        raise InvalidObject(
+            f"too few surface samples ({inside.sum()}) over the patch's square (half-width {half:.4g} mm) for a "
+            f"degree-{degree} patch: the surface there turns away from the tangent plane; pick a smaller radius or degree"
+        )
     A = np.einsum("ki,kj->kij", _bernstein(degree, u), _bernstein(degree, v)).reshape(len(u), -1)
     heights, *_ = np.linalg.lstsq(A, z[inside], rcond=None)
     grid = np.linspace(-half, half, degree + 1)
@@ -184,9 +195,12 @@ def _piece_by_radius(mesh, distance, at, radius):
     p0 = closest[0]
     gap = float(np.linalg.norm(at - p0))
     if gap > radius:
+        lo, hi = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
+        box = " x ".join(f"[{a:.4g}, {b:.4g}]" for a, b in zip(lo, hi))
         raise InvalidObject(
-            f"the point {np.round(at, 3).tolist()} is {gap:.3g} mm from the object's outer surface, farther than the "
-            f"radius ({radius:g} mm); give a point on (or near) the outer surface, in mm of the object frame"
+            f"the point {_listed(at)} is {gap:.4g} mm from the object's outer surface, farther than the radius "
+            f"({radius:g} mm); the nearest outer surface point is {_listed(p0)} mm, and the mesh spans {box} mm "
+            "(x, y, z); give a point on (or near) the outer surface, in mm of the object frame"
         )
     seed = int(np.flatnonzero(outer)[outside.closest_faces(p0[None])[0]])
     if distance.signed_distance((p0 + OUTSIDE_STEP_MM * normals[seed])[None])[0] <= 0:
@@ -194,9 +208,17 @@ def _piece_by_radius(mesh, distance, at, radius):
             f"the outer surface point closest to {np.round(at, 3).tolist()} lies where another part of the solid covers "
             "the face (an internal wall of overlapping parts); pick a point elsewhere on the outside"
         )
-    near = (np.linalg.norm(tri - p0, axis=2).min(axis=1) <= radius) & outer & (normals @ normals[seed] > _MIN_COS)
+    reach = np.linalg.norm(tri - p0, axis=2).min(axis=1)
+    near = (reach <= radius) & outer & (normals @ normals[seed] > _MIN_COS)
     near[seed] = True
-    return p0, _connected(mesh, near, seed), tri, normals, areas
+    piece = _connected(mesh, near, seed)
+    away = _connected(mesh, outer, seed) & (normals @ normals[seed] <= _MIN_COS)
+    turns_mm = float(reach[away].min()) if away.any() else float("inf")
+    return p0, piece, tri, normals, areas, turns_mm
+
+
+def _listed(point) -> str:
+    return "[" + ", ".join(f"{x:.4g}" for x in np.asarray(point, float)) + "]"
 
 
 def region_from_mesh(
@@ -226,7 +248,7 @@ def region_from_mesh(
     if faces is None:
         if at is None or radius is None or not (np.isfinite(radius) and radius > 0):
             raise InvalidObject("give a surface point 'at' and a positive 'radius' [mm], or a set of faces")
-        p0, chosen, tri, normals, areas = _piece_by_radius(mesh, distance, at, float(radius))
+        p0, chosen, tri, normals, areas, turns_mm = _piece_by_radius(mesh, distance, at, float(radius))
         half = float(radius) / np.sqrt(2.0)
     else:
         tri, normals, areas = _face_data(mesh)
@@ -237,6 +259,7 @@ def region_from_mesh(
         chosen[idx] = True
         p0 = None
         half = None
+        turns_mm = float("inf")
     n = (normals[chosen] * areas[chosen, None]).sum(axis=0)
     n /= np.linalg.norm(n)
     facing = normals[chosen] @ n
@@ -251,13 +274,21 @@ def region_from_mesh(
         half = float(np.max(np.abs(np.stack([rel @ e1, rel @ e2]))))
     if point:
         region = PointRegion(p0, n)
-        return PickedRegion(region, 0.0, p0, n, int(chosen.sum()), _outward_angle(region, distance, normals))
+        return PickedRegion(region, 0.0, p0, n, int(chosen.sum()), _outward_angle(region, distance, normals), turns_mm)
     e1, e2 = _frame(n)
     lifted = _lifted_grid(distance, p0, e1, e2, half)
     lifted = lifted[distance.signed_distance(lifted + OUTSIDE_STEP_MM * n) > 0]  # not on a thin wall's other side
-    region = _fit(np.concatenate([_samples(tri[chosen]), lifted]), p0, e1, e2, n, half, degree)
+    try:
+        region = _fit(np.concatenate([_samples(tri[chosen]), lifted]), p0, e1, e2, n, half, degree)
+    except (InvalidGeometry, InvalidObject) as exc:
+        if faces is None and float(radius) > turns_mm:
+            raise InvalidObject(
+                f"a radius of {float(radius):g} mm is too large for one patch here: the surface turns more than 84 degrees "
+                f"from the point's normal {turns_mm:.4g} mm away; pick a radius under that ({exc})"
+            ) from None
+        raise
     angle = _outward_angle(region, distance, normals)
-    return PickedRegion(region, _deviation(region, distance), p0, n, int(chosen.sum()), angle)
+    return PickedRegion(region, _deviation(region, distance), p0, n, int(chosen.sum()), angle, turns_mm)
 
 
 def _outward_angle(region: Region, distance: MeshDistance, normals: np.ndarray) -> float:

@@ -79,6 +79,8 @@ def resolve_task(spec: str | Path, **world_options) -> Task:
         return load_task(path)
     if text in builtin_task_names():
         return load_builtin_task(text)
+    if path.is_dir():
+        raise InvalidTask(f"{text} is a folder, not a task; give a task file (.yaml or .world) inside it")
     raise InvalidTask(
         f"{text!r} is neither a built-in task, a task file (.yaml) nor a CuikSuite file (.world); "
         f"built-in tasks are: {', '.join(builtin_task_names())}"

@@ -22,7 +22,7 @@ from typing import Mapping
 
 import numpy as np
 
-from ..errors import InvalidTask, PrehensionError
+from ..errors import InvalidTask, PrehensionError, not_a_file
 from ..frozen import FrozenMap
 from ..hands.kinematics import forward_kinematics
 from ..tasks.model import Configuration, Task
@@ -198,7 +198,7 @@ def load_grasp(spec: str | Path, solution: int | None = None) -> LoadedGrasp:
 
         return LoadedGrasp(resolve_task(spec), None, REFERENCE, str(spec))
     if not path.is_file():
-        raise InvalidTask(f"result file not found: {path}")
+        raise InvalidTask(not_a_file("result file", path))
     from ..results import read_result
 
     task, data = read_result(path)

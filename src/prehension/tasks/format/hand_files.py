@@ -30,7 +30,7 @@ from typing import Annotated
 
 from pydantic import Field, model_validator
 
-from ...errors import InvalidHand, InvalidTask
+from ...errors import InvalidHand, InvalidTask, not_a_file
 from ...hands.files import HAND_SUFFIXES, load_hand_file
 from ...hands.fingertips import TipOverride
 from ...hands.model import Hand
@@ -89,7 +89,7 @@ def hand_from_reference(value: dict, base: Path, source: str, loc: str = "hand")
     fmt = "urdf" if spec.urdf is not None else "mjcf"
     path = base / (spec.urdf or spec.mjcf)
     if not path.is_file():
-        raise fail(source, f"{loc}.{fmt}", f"hand file not found: {path.resolve()}")
+        raise fail(source, f"{loc}.{fmt}", not_a_file("hand file", path.resolve()))
     with located(source, loc):
         return load_hand_file(
             path, format=fmt, root=spec.root, name=spec.name, fingertips=_overrides(spec),
@@ -166,9 +166,12 @@ def resolve_hand(spec: str | os.PathLike) -> Hand:
     suffix = path.suffix.lower()
     if suffix in HAND_SUFFIXES or suffix in (".yaml", ".yml"):
         if not path.is_file():
-            raise InvalidHand(f"hand file not found: {path}")
+            raise InvalidHand(not_a_file("hand file", path))
         return load_hand_file(path) if suffix in HAND_SUFFIXES else _yaml_hand(path)
     aliases = ", ".join(f"{a} ({n})" for a, n in HAND_ALIASES.items())
+    if path.is_dir():
+        found = sorted(p.name for p in path.iterdir() if p.suffix.lower() in HAND_SUFFIXES)[:5]
+        raise InvalidHand(f"{text} is a folder; give the hand file inside it" + (f" (it holds {', '.join(found)})" if found else ""))
     raise InvalidHand(
         f"{text!r} is neither a built-in hand ({', '.join(BUILTIN_HANDS)}; aliases: {aliases}) nor a hand file "
         "(.urdf, .xml/.mjcf for MJCF, .yaml for a hand or task file)"

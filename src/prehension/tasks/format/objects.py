@@ -13,6 +13,7 @@ import dataclasses
 import os
 from pathlib import Path
 
+from ...errors import not_a_file
 from ...objects.model import SURFACE_TOLERANCE_MM, GraspObject
 from ...objects.mesh_io import UNITS
 from ...objects.solid import MeshFileSolid, PrimitiveSolid
@@ -39,7 +40,7 @@ def primitive_from_spec(spec: PrimitiveSpec, source: str, loc: str):
 def _existing(name: str, base: Path, source: str, loc: str) -> str:
     path = (base / name).resolve()
     if not path.is_file():
-        raise fail(source, loc, f"mesh file not found: {path}")
+        raise fail(source, loc, not_a_file("mesh file", path))
     return str(path)
 
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import difflib
 from typing import Annotated, Any, Callable, Literal
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, field_validator, model_validator
+from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field, field_validator, model_validator
 
 from ...hands.model import Hand
 from ...hands.sa_hand import schunk_sa_hand
@@ -37,8 +37,20 @@ def _list_of(n: int, what: str):
     return BeforeValidator(check)
 
 
-Num = Annotated[float, Field(strict=True, allow_inf_nan=False)]
-PosNum = Annotated[float, Field(strict=True, allow_inf_nan=False, gt=0)]
+MAX_MAGNITUDE = 1e9  # mm (1000 km), degrees...: beyond it a 1e-6 mm tolerance is below a double's resolution
+
+
+def _bounded(value: float) -> float:
+    if abs(value) > MAX_MAGNITUDE:
+        raise ValueError(
+            f"must be at most {MAX_MAGNITUDE:g} in size (in mm: 1000 km; beyond it the 1e-6 mm tolerances are "
+            f"below double precision), got {value:g}"
+        )
+    return value
+
+
+Num = Annotated[float, Field(strict=True, allow_inf_nan=False), AfterValidator(_bounded)]
+PosNum = Annotated[float, Field(strict=True, allow_inf_nan=False, gt=0), AfterValidator(_bounded)]
 Vec3 = Annotated[list[Num], _list_of(3, "numbers [x, y, z]")]
 PosVec3 = Annotated[list[PosNum], _list_of(3, "positive numbers")]
 Mat3 = Annotated[list[Vec3], _list_of(3, "rows of 3 numbers")]
