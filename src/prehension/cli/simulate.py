@@ -43,6 +43,9 @@ def add_parser(sub) -> None:
     p.add_argument("--jitter-deg", type=types.finite, default=0.0, metavar="DEG",
                    help="and turned by this angle about a seeded random axis (default 0)")  # fmt: skip
     p.add_argument("--squeeze", type=types.finite, default=None, metavar="MM", help="how far each contact is aimed into the object (default 10)")
+    p.add_argument("--squeeze-kind", choices=("balanced", "uniform"), default=None,
+                   help="balanced (default): each contact squeezed in proportion to its force in a set of contact forces "
+                        "with zero net wrench; uniform: every contact --squeeze mm (DexGraspBench's)")  # fmt: skip
     p.add_argument("--mass", type=types.finite, default=None, metavar="KG", help="object mass (default 0.1)")
     p.add_argument("--friction", type=types.finite, default=None, metavar="MU", help="sliding friction (default 0.6)")
     p.add_argument("--json", action="store_true", help="print the outcome as JSON on stdout")
@@ -89,7 +92,7 @@ def sim_options(args):
     """The :class:`~prehension.sim.SimOptions` the arguments ask for; errors name the flag."""
     from ..sim import SimOptions
 
-    given = {"squeeze_mm": args.squeeze, "mass_kg": args.mass, "friction": args.friction,
+    given = {"squeeze_mm": args.squeeze, "squeeze": getattr(args, "squeeze_kind", None), "mass_kg": args.mass, "friction": args.friction,
              "jitter_mm": args.jitter_mm, "jitter_deg": args.jitter_deg}  # fmt: skip
     try:
         return SimOptions(**{k: v for k, v in given.items() if v is not None})
@@ -149,7 +152,7 @@ def _table(k: int, report) -> Table:
                       f"{p.initial_penetration_mm:.2f}")  # fmt: skip
     o = report.options
     table.caption = (f"object {o.mass_kg:g} kg, friction {o.friction:g}, pushed with {o.push_accel * o.mass_kg:g} N for "
-                     f"{o.hold_s:g} s after a {o.squeeze_mm:g} mm squeeze; held: moved < {o.max_shift_mm:g} mm and "
+                     f"{o.hold_s:g} s after a {o.squeeze_mm:g} mm {o.squeeze} squeeze; held: moved < {o.max_shift_mm:g} mm and "
                      f"turned < {o.max_turn_deg:g} deg\n{_start(report)}")  # fmt: skip
     return table
 

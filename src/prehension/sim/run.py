@@ -17,7 +17,7 @@ from ..geometry.rotations import rotation_about
 from ..tasks.model import Task
 from .options import PUSH_DIRECTIONS, SimOptions
 from .scene import MM, SimScene, build_scene_xml
-from .squeeze import squeeze_targets
+from .squeeze import squeeze_depths, squeeze_targets
 from .start import hand_depth, posed, solver_distance, start_state
 
 __all__ = ["PushOutcome", "PhysicsReport", "simulate_grasp", "require_mujoco", "scene_for"]
@@ -129,7 +129,8 @@ def simulate_grasp(task: Task, solution, options: SimOptions = SimOptions(), see
     scene = scene_for(task, solution, options, seed)
     q = np.asarray(solution.q, dtype=float)
     model, data = posed(mujoco, scene.xml, scene.dof_names, q)
-    q_squeeze = squeeze_targets(task, q, solution.contacts, options.squeeze_mm)
+    depths = squeeze_depths(solution.contacts, options.squeeze_mm, options.squeeze, options.friction)
+    q_squeeze = squeeze_targets(task, q, solution.contacts, options.squeeze_mm, depths)
     sim = _Sim(mujoco, model, data, scene, q, q_squeeze, options)
     depth = sim.reset()
     start = dict(hand_penetration_mm=hand_depth(model, data, solver_distance(task), scene.T_palm_object),
