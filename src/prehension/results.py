@@ -221,12 +221,14 @@ def _solution_to_dict(sol: Solution, quality: dict) -> dict:
     }
 
 
-def result_to_dict(result: SolveResult, quality=None, *, embed_task: bool = True, qualities=None) -> dict:
+def result_to_dict(result: SolveResult, quality=None, *, embed_task: bool = True, qualities=None, physics=None) -> dict:
     """A JSON-ready dict: units in keys, the task embedded (unless ``embed_task`` is false:
     a batch stores each distinct task once and its records refer to it); each solution's
     grasp quality measured with ``quality`` (:class:`prehension.quality.QualityOptions`,
     default ones if ``None``), or given: ``qualities``, one
-    :func:`~prehension.quality.quality_entry` per solution (a batch measures them itself)."""
+    :func:`~prehension.quality.quality_entry` per solution (a batch measures them itself);
+    ``physics``: per solution, its physics verdict (``solve --hold``,
+    :class:`~prehension.sim.PhysicsReport` as a dict, or ``None``), stored as ``"physics"``."""
     from .quality import QualityOptions, quality_entry
     from .tasks.format.embedded import embedded_files
     from .tasks.yaml_io import task_to_dict
@@ -246,6 +248,10 @@ def result_to_dict(result: SolveResult, quality=None, *, embed_task: bool = True
         qualities = [quality_entry(result.task, s.T_palm_object, s.contacts, options) for s in result.solutions]
     elif len(qualities) != len(result.solutions):
         raise PrehensionError(f"result_to_dict: {len(qualities)} quality entries given for {len(result.solutions)} solutions")
+    if physics is None:
+        physics = [None] * len(result.solutions)
+    elif len(physics) != len(result.solutions):
+        raise PrehensionError(f"result_to_dict: {len(physics)} physics verdicts given for {len(result.solutions)} solutions")
     return {
         **head,
         "method": result.method,
@@ -254,14 +260,21 @@ def result_to_dict(result: SolveResult, quality=None, *, embed_task: bool = True
         "message": result.message,
         "seconds": result.seconds,
         "stats": to_plain(dict(result.stats)),
-        "solutions": [_solution_to_dict(s, q) for s, q in zip(result.solutions, qualities)],
+        "solutions": [_with_physics(_solution_to_dict(s, q), p) for s, q, p in zip(result.solutions, qualities, physics)],
         "unverified_boxes": [{"lower": lo.tolist(), "upper": hi.tolist()} for lo, hi in result.unverified_boxes],
     }
 
 
-def write_result(result: SolveResult, path, quality=None) -> None:
-    """Write the result file atomically (never a half-written file); ``quality`` as in :func:`result_to_dict`."""
-    write_json_atomic(path, result_to_dict(result, quality))
+def _with_physics(entry: dict, physics) -> dict:
+    if physics is not None:
+        entry["physics"] = physics
+    return entry
+
+
+def write_result(result: SolveResult, path, quality=None, physics=None) -> None:
+    """Write the result file atomically (never a half-written file); ``quality`` and
+    ``physics`` as in :func:`result_to_dict`."""
+    write_json_atomic(path, result_to_dict(result, quality, physics=physics))
 
 
 def read_result(path) -> tuple[Task, dict]:

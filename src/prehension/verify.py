@@ -15,6 +15,9 @@ each of them from the task the file embeds, and reports one :class:`Finding` per
   normals, distance and angle, and the ``worst`` summary, equal the recomputed ones; the
   grasp quality (force closure, epsilon, volume) equals the one recomputed from those
   contacts with the friction model the file states (:mod:`prehension.quality.stored`);
+  a physics verdict (``"physics"``, written by ``solve --hold``) is re-run -- the same
+  protocol, options and seed -- and must agree push by push on held or not, when MuJoCo
+  is installed; without it the finding says the verdict was not re-run (and holds);
 * ``infeasible``: the proof is run again by the complete solver on the embedded task (so
   it cannot have been computed for another task); without ``reprove`` the claim is only
   restated, never called verified.
@@ -86,16 +89,16 @@ class Verification:
         return self.reproof is not None and self.reproof.status == Status.INFEASIBLE
 
 
-def verify_result_file(path, *, reprove: bool = True, time_limit_s: float | None = 300.0) -> Verification:
+def verify_result_file(path, *, reprove: bool = True, time_limit_s: float | None = 300.0, physics: bool = True) -> Verification:
     """:func:`verify_result` on a result file (``.json``)."""
     path = Path(path)
     return verify_result(read_json(path, "result file"), source=str(path), base_dir=path.parent,
-                         reprove=reprove, time_limit_s=time_limit_s)  # fmt: skip
+                         reprove=reprove, time_limit_s=time_limit_s, physics=physics)  # fmt: skip
 
 
 def verify_result(
     data: Any, *, source: str = "<result>", base_dir: Path | None = None, reprove: bool = True,
-    time_limit_s: float | None = 300.0,
+    time_limit_s: float | None = 300.0, physics: bool = True,
 ) -> Verification:  # fmt: skip
     """Re-derive every claim of a result dict (see the module docstring).
 
@@ -105,6 +108,7 @@ def verify_result(
         base_dir: folder that relative paths of the embedded task are relative to.
         reprove: re-run the proof of a claimed ``infeasible``.
         time_limit_s: limit of that proof (``None``: none).
+        physics: re-run stored physics verdicts (``False``: say they were not re-run).
 
     Raises:
         InvalidTask: not a result file, or its embedded task cannot be read: nothing can
@@ -120,6 +124,8 @@ def verify_result(
         report, found = _solution(task, sol, i, tol)
         reports.append(report)
         findings += found
+        if isinstance(sol, dict) and "physics" in sol and report is not None:
+            findings += _physics(task, sol, report, f"solution {i}", physics)
     findings += _requirement(task, data, reports)
     reproof = None
     if status == Status.INFEASIBLE and not solutions:
@@ -193,6 +199,38 @@ def _solution(task: Task, sol, i: int, tol: Tolerances) -> tuple[ResidualReport 
     found += _worst(report, sol, label)
     found += _quality(task, config, report, sol, label)
     return report, found
+
+
+def _physics(task: Task, sol: dict, report: ResidualReport, label: str, rerun: bool) -> list[Finding]:
+    """The stored physics verdict re-run (same options and seed); it must agree push by push."""
+    what = f"{label}: physics verdict (held in all six pushes: {sol['physics'].get('success') if isinstance(sol['physics'], dict) else '?'})"
+    try:
+        stored = sol["physics"]
+        pushes = [(p["direction"], bool(p["held"])) for p in stored["pushes"]]
+        claim = (bool(stored["success"]), bool(stored["rejected"]), pushes)
+        from .sim import SimOptions
+
+        options, seed = SimOptions(**stored["options"]), int(stored["seed"])
+    except (KeyError, TypeError, ValueError, PrehensionError) as exc:
+        return [Finding(what, False, f"malformed ({type(exc).__name__}: {exc})")]
+    if not rerun:
+        return [Finding(what, True, "not re-run (asked not to)")]
+    try:
+        from .sim import require_mujoco, simulate_grasp
+
+        require_mujoco()
+    except PrehensionError:
+        return [Finding(what, True, 'not re-run: MuJoCo is not installed (pip install "prehension[sim]")')]
+    from types import SimpleNamespace
+
+    grasp = SimpleNamespace(q=np.array([float(sol["joint_angles_rad"][d]) for d in task.hand.dof_names]),
+                            T_palm_object=np.array(sol["T_palm_object"], dtype=float), contacts=report.contacts)  # fmt: skip
+    again = simulate_grasp(task, grasp, options, seed)
+    got = (again.success, again.rejected, [(p.direction, p.held) for p in again.pushes])
+    if got == claim:
+        return [Finding(what, True, f"re-run: {again.describe()}")]
+    return [Finding(what, False, f"re-run disagrees: {again.describe()}; the file says "
+                                 f"{'holds' if claim[0] else 'drops'} ({sum(h for _, h in pushes)} of {len(pushes)} pushes held)")]  # fmt: skip
 
 
 def _tol_name(tol: Tolerances) -> str:
