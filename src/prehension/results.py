@@ -194,7 +194,7 @@ def _solution(task: Task, config: Configuration, pose, report: ResidualReport, t
 
 
 # -- files ------------------------------------------------------------------------------
-def _solution_to_dict(sol: Solution, quality: dict) -> dict:
+def _solution_to_dict(sol: Solution, quality: dict, approach: dict) -> dict:
     return {
         "joint_angles_deg": {k: float(np.degrees(v)) for k, v in sol.joint_angles.items()},
         "joint_angles_rad": dict(sol.joint_angles),
@@ -218,6 +218,7 @@ def _solution_to_dict(sol: Solution, quality: dict) -> dict:
         "tolerances": asdict(sol.tolerances),
         "idle_moved": list(sol.idle_moved),
         "quality": quality,
+        **approach,
     }
 
 
@@ -248,6 +249,9 @@ def result_to_dict(result: SolveResult, quality=None, *, embed_task: bool = True
         qualities = [quality_entry(result.task, s.T_palm_object, s.contacts, options) for s in result.solutions]
     elif len(qualities) != len(result.solutions):
         raise PrehensionError(f"result_to_dict: {len(qualities)} quality entries given for {len(result.solutions)} solutions")
+    from .pregrasp import approach_entries
+
+    approach = [approach_entries(result.task, s) for s in result.solutions]  # pre-grasp and squeeze: docs/quality.md
     if physics is None:
         physics = [None] * len(result.solutions)
     elif len(physics) != len(result.solutions):
@@ -260,7 +264,7 @@ def result_to_dict(result: SolveResult, quality=None, *, embed_task: bool = True
         "message": result.message,
         "seconds": result.seconds,
         "stats": to_plain(dict(result.stats)),
-        "solutions": [_with_physics(_solution_to_dict(s, q), p) for s, q, p in zip(result.solutions, qualities, physics)],
+        "solutions": [_with_physics(_solution_to_dict(s, q, a), p) for s, q, a, p in zip(result.solutions, qualities, approach, physics)],
         "unverified_boxes": [{"lower": lo.tolist(), "upper": hi.tolist()} for lo, hi in result.unverified_boxes],
     }
 

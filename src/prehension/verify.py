@@ -15,6 +15,9 @@ each of them from the task the file embeds, and reports one :class:`Finding` per
   normals, distance and angle, and the ``worst`` summary, equal the recomputed ones; the
   grasp quality (force closure, epsilon, volume) equals the one recomputed from those
   contacts with the friction model the file states (:mod:`prehension.quality.stored`);
+  the pre-grasp's angles judged again (backed-off distances; joint limits, couplings,
+  self- and hand-object collision by the residual function) and the squeeze targets
+  recomputed (:mod:`prehension.pregrasp`);
   a physics verdict (``"physics"``, written by ``solve --hold``) is re-run -- the same
   protocol, options and seed -- and must agree push by push on held or not, when MuJoCo
   is installed; without it the finding says the verdict was not re-run (and holds);
@@ -198,7 +201,15 @@ def _solution(task: Task, sol, i: int, tol: Tolerances) -> tuple[ResidualReport 
     found += _contacts(task, report, sol, label)
     found += _worst(report, sol, label)
     found += _quality(task, config, report, sol, label)
+    found += _approach(task, q, config, report, sol, label)
     return report, found
+
+
+def _approach(task: Task, q, config: Configuration, report: ResidualReport, sol: dict, label: str) -> list[Finding]:
+    """The stored pre-grasp and squeeze targets re-derived (:func:`prehension.pregrasp.check_approach`)."""
+    from .pregrasp import check_approach
+
+    return [Finding(f"{label}: {what}", ok, detail) for what, ok, detail in check_approach(task, q, config.T_palm_object, report.contacts, sol)]
 
 
 def _physics(task: Task, sol: dict, report: ResidualReport, label: str, rerun: bool) -> list[Finding]:

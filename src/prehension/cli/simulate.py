@@ -47,6 +47,9 @@ def add_parser(sub) -> None:
                         "with zero net wrench; uniform: every contact --squeeze mm (DexGraspBench's)")  # fmt: skip
     p.add_argument("--mass", type=types.finite, default=None, metavar="KG", help="object mass (default 0.1)")
     p.add_argument("--friction", type=types.finite, default=None, metavar="MU", help="sliding friction (default 0.6)")
+    p.add_argument("--from-pregrasp", action="store_true",
+                   help="start from the solution's pre-grasp (fingers backed off along the contact normals) and close "
+                        "the hand onto the object first: reports whether the grasp is reached (docs/quality.md)")  # fmt: skip
     p.add_argument("--json", action="store_true", help="print the outcome as JSON on stdout")
 
 
@@ -56,6 +59,7 @@ class StoredGrasp(NamedTuple):
     q: np.ndarray
     T_palm_object: np.ndarray
     contacts: tuple
+    pregrasp_q: np.ndarray | None = None  # the stored pre-grasp's angles (None: the file has none)
 
 
 def stored_grasps(path: Path, index: int | None):
@@ -78,8 +82,11 @@ def stored_grasps(path: Path, index: int | None):
     picked = range(len(solutions)) if index is None else [index]
     grasps = []
     for k in picked:
-        q = np.array([float(solutions[k]["joint_angles_rad"][d]) for d in checked.task.hand.dof_names])
-        grasps.append((k, StoredGrasp(q, np.array(solutions[k]["T_palm_object"], float), checked.reports[k].contacts)))
+        names = checked.task.hand.dof_names
+        q = np.array([float(solutions[k]["joint_angles_rad"][d]) for d in names])
+        pre = solutions[k].get("pregrasp")  # re-derived by the check above when present
+        q_pre = None if pre is None else np.array([float(pre["joint_angles_rad"][d]) for d in names])
+        grasps.append((k, StoredGrasp(q, np.array(solutions[k]["T_palm_object"], float), checked.reports[k].contacts, q_pre)))
     return checked.task, grasps
 
 
@@ -112,7 +119,7 @@ def cmd_simulate(args, console: Console) -> int:
     reports = []
     try:
         for k, g in grasps:  # SIGTERM and SIGHUP arrive as KeyboardInterrupt too (cli.terminate)
-            reports.append((k, simulate_grasp(task, g, options, args.seed)))
+            reports.append((k, simulate_grasp(task, g, options, args.seed, _start_angles(args, task, g))))
     except KeyboardInterrupt:
         _report(args, console, out, task, reports, interrupted=True)
         Console(stderr=True, highlight=False).print(
@@ -122,6 +129,18 @@ def cmd_simulate(args, console: Console) -> int:
         return EXIT_GAVE_UP
     _report(args, console, out, task, reports, interrupted=False)
     return EXIT_OK if all(r.success for _, r in reports) else EXIT_DROPPED
+
+
+def _start_angles(args, task, grasp):
+    """``--from-pregrasp``: the stored pre-grasp's angles (computed as ``solve`` would for
+    a file written before pre-grasps were stored); otherwise ``None``."""
+    if not getattr(args, "from_pregrasp", False):
+        return None
+    if grasp.pregrasp_q is not None:
+        return grasp.pregrasp_q
+    from ..pregrasp import pregrasp
+
+    return pregrasp(task, grasp).q
 
 
 def _report(args, console: Console, out, task, reports, interrupted: bool) -> None:
