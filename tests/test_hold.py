@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import sys
 from pathlib import Path
@@ -18,19 +17,6 @@ from prehension.results import SolveResult, write_result  # noqa: E402
 from prehension.verify import verify_result_file  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
-_spec = importlib.util.spec_from_file_location("box_grasps", ROOT / "examples" / "quality" / "box_grasps.py")
-box_grasps = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(box_grasps)
-
-
-@pytest.fixture(scope="module")
-def four():
-    return box_grasps.four_finger_grasp()
-
-
-@pytest.fixture(scope="module")
-def one_face():
-    return box_grasps.one_face_grasp()
 
 
 def test_the_first_candidate_that_holds_is_the_answer(four, one_face):

@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,16 +13,6 @@ from prehension.hands.kinematics import forward_kinematics
 from prehension.pregrasp import judge_pregrasp, pregrasp
 from prehension.results import SolveResult, write_result
 from prehension.verify import verify_result_file
-
-ROOT = Path(__file__).resolve().parents[1]
-_spec = importlib.util.spec_from_file_location("box_grasps", ROOT / "examples" / "quality" / "box_grasps.py")
-box_grasps = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(box_grasps)
-
-
-@pytest.fixture(scope="module")
-def four():
-    return box_grasps.four_finger_grasp()
 
 
 @pytest.mark.parametrize("back_off", [10.0, 15.0, 20.0])

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,10 +10,6 @@ from prehension.errors import PrehensionError
 from prehension.quality import QualityOptions, contact_quality
 from prehension.sim import SimOptions
 from prehension.sim.squeeze import balanced_normal_forces, squeeze_depths
-
-_spec = importlib.util.spec_from_file_location("box_grasps", Path(__file__).resolve().parents[1] / "examples" / "quality" / "box_grasps.py")
-box_grasps = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(box_grasps)
 
 
 def _net(points, forces):
@@ -46,17 +40,17 @@ def test_force_closure_contacts_get_forces_that_cancel():
     assert closed >= 10  # the draw tests something
 
 
-def test_one_face_contacts_cannot_balance():
-    task, grasp = box_grasps.one_face_grasp()
+def test_one_face_contacts_cannot_balance(one_face):
+    task, grasp = one_face
     points = np.array([c.hand_point for c in grasp.contacts])
     inward = -np.array([c.object_normal for c in grasp.contacts])
     assert balanced_normal_forces(points, inward, 0.6).residual > 0.1
 
 
-def test_the_balanced_squeeze_presses_the_thumb_as_hard_as_three_fingers():
+def test_the_balanced_squeeze_presses_the_thumb_as_hard_as_three_fingers(four):
     """Three fingertips on one face of the box, the thumb opposite: the thumb's depth is
     the largest (the stated squeeze) and the three fingers' depths add up to it."""
-    task, grasp = box_grasps.four_finger_grasp()
+    task, grasp = four
     depths = squeeze_depths(grasp.contacts, 10.0, "balanced")
     thumb = int(np.argmax(depths))
     assert depths[thumb] == pytest.approx(10.0)
