@@ -83,3 +83,9 @@ def test_solve_hold_without_mujoco_names_the_extra(tmp_path, capsys, monkeypatch
     assert main(["solve", task, "--hold", "-o", str(tmp_path / "r.json")]) == EXIT_BAD_INPUT
     assert 'pip install "prehension[sim]"' in capsys.readouterr().err
     assert not (tmp_path / "r.json").exists()
+
+
+def test_solve_hold_says_what_it_cannot_be_combined_with(tmp_path, capsys):
+    task = str(ROOT / "examples" / "quality" / "box-one-face.yaml")
+    assert main(["solve", task, "--hold", "--require", "force-closure", "-o", str(tmp_path / "r.json")]) == EXIT_BAD_INPUT
+    assert "--hold runs the candidates of --best 5" in capsys.readouterr().err

@@ -168,13 +168,17 @@ def cmd_solve(args, console: Console) -> int:
     if args.resume and not args.checkpoint.is_file():
         raise PrehensionError(f"cannot resume: no checkpoint file {args.checkpoint}")
     path = _check_outputs(args, task)
+    implied = args.hold and args.best is None
     if args.hold:
         from ..sim import require_mujoco
 
         require_mujoco()  # before any work: say what to install
-        if args.best is None:
+        if implied:
             args.best = HOLD_CANDIDATES
-    quality, best = quality_options(args), best_options(args, time_limit_s)
+    try:
+        quality, best = quality_options(args), best_options(args, time_limit_s)
+    except PrehensionError as exc:
+        raise PrehensionError(f"--hold runs the candidates of --best {HOLD_CANDIDATES}: {exc}" if implied else str(exc)) from None
     if args.require and args.method == "local":
         raise PrehensionError(f"--require {args.require} needs the complete solver (--method complete, or auto): "
                               "the local solver cannot prove that no such grasp exists")  # fmt: skip
