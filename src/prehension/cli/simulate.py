@@ -119,7 +119,9 @@ def cmd_simulate(args, console: Console) -> int:
     reports = []
     try:
         for k, g in grasps:  # SIGTERM and SIGHUP arrive as KeyboardInterrupt too (cli.terminate)
-            reports.append((k, simulate_grasp(task, g, options, args.seed, _start_angles(args, task, g))))
+            start = _start_angles(args, task, g)
+            extra = () if start is None else (start,)
+            reports.append((k, simulate_grasp(task, g, options, args.seed, *extra)))
     except KeyboardInterrupt:
         _report(args, console, out, task, reports, interrupted=True)
         Console(stderr=True, highlight=False).print(
