@@ -77,3 +77,35 @@ def test_simulate_starts_from_the_pregrasp_and_reaches_the_grasp(tmp_path, capsy
     closing = json.loads(out.read_text())["grasps"][0]["closing"]
     assert closing["reached"] and closing["shift_mm"] < 5.0
     assert "closing from the pre-grasp reaches the grasp" in " ".join(capsys.readouterr().out.split())
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_on_forward_built_tasks_the_pregrasp_is_what_it_says(sa_hand, seed):
+    """Seeded forward-built tasks (every region kind, a palm contact sometimes): each hand
+    point, re-derived from its region at the pre-grasp's angles, stands off its grasp point
+    along the outward normal by the stated ``reached_mm``, never beyond the asked distance;
+    the angles keep limits and couplings; the verdict is the residual function's."""
+    from fk_tasks import build_fk_case
+
+    from prehension.results import make_solution
+    from prehension.tasks.model import Configuration
+    from prehension.tasks.residuals import evaluate
+
+    rng = np.random.default_rng(100 + seed)
+    solution = None
+    while solution is None:  # a draw whose fingers collide is no grasp: draw again
+        case = build_fk_case(sa_hand, rng)
+        solution = make_solution(case.task, case.config)
+    pre = pregrasp(case.task, solution, 15.0)
+    pose = forward_kinematics(sa_hand, pre.q)
+    for contact, state, reached in zip(case.task.contacts, solution.contacts, pre.reached_mm):
+        region = sa_hand.region(contact.hand_region)
+        p_link, _ = region.region.evaluate(state.hand_params[None])
+        moved = pose.points(sa_hand.link_index(region.link), p_link[0])[0] - state.hand_point
+        assert moved @ state.object_normal == pytest.approx(reached, abs=1e-6)
+        assert reached <= 15.0 + 0.01
+    assert np.all(pre.q >= sa_hand.lower - 1e-12) and np.all(pre.q <= sa_hand.upper + 1e-12)
+    report = evaluate(case.task, Configuration(pre.q, solution.T_palm_object, case.config.contact_params))
+    rows = [c for c in report.checks if c.kind in ("joint_limit", "coupling", "collision", "object_collision")]
+    assert pre.collision_free == all(c.ok for c in rows)
+    assert all(c.ok for c in rows if c.kind in ("joint_limit", "coupling"))
