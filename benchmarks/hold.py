@@ -13,7 +13,8 @@ the first solution (``prehension solve --method local``), of the best of ``solve
 5 --ascent-steps 0`` (the distinct solutions of the random starts as found, ranked) and of
 ``solve --best 5`` (each of them then moved along its solution set by the quality ascent,
 re-verified at every step), and the time of ``--best 5`` (wall clock and CPU of this
-process: one core).  With ``--physics`` (needs MuJoCo; 2-8 s per simulated grasp): the
+process: one core); the pre-grasp of the first solution (15 mm asked: collision-free or
+not, the least and largest stand-off of its fingers).  With ``--physics`` (needs MuJoCo; 2-8 s per simulated grasp): the
 physics test of the first solution with the old uniform squeeze (every contact 10 mm in,
 DexGraspBench's) and with the balanced one (the default), and the answer of ``solve
 --hold`` (the candidates of ``--best 5``, balanced squeeze): which candidate held, or
@@ -46,6 +47,7 @@ from prehension.ascent import AscentOptions  # noqa: E402
 from prehension.best import BestOptions, solve_best  # noqa: E402
 from prehension.errors import PrehensionError  # noqa: E402
 from prehension.hold import hold_first  # noqa: E402
+from prehension.pregrasp import pregrasp  # noqa: E402
 from prehension.objects.pick import region_from_mesh  # noqa: E402
 from prehension.quality import QualityOptions, grasp_quality  # noqa: E402
 from prehension.solve import solve  # noqa: E402
@@ -107,6 +109,11 @@ def _physics(task, first, best) -> dict:
     return out
 
 
+def _pre(p) -> str:
+    """The pre-grasp of the first solution: collision-free or not, and the fingers' smallest stand-off."""
+    return "-" if p is None else f"{'free' if p.collision_free else 'COLLIDES'} {p.reached_mm.min():.1f}-{p.reached_mm.max():.1f}"
+
+
 def _verdict(v) -> str:
     return "-" if v is None else ("holds " if v[0] else "drops ") + v[1]
 
@@ -121,7 +128,8 @@ def _measure(task, quality: QualityOptions, n: int, seed: int, physics: bool) ->
     return {"first": _epsilon(task, first, quality), "found": _epsilon(task, found, quality),
             "best": _epsilon(task, best, quality), "wall": wall, "cpu": cpu,
             "steps": f"{sum(a['accepted'] for a in steps)}/{sum(a['tried'] for a in steps)}", "contacts": len(task.contacts),
-            "physics": _physics(task, first, best) if physics else None}  # fmt: skip
+            "physics": _physics(task, first, best) if physics else None,
+            "pregrasp": pregrasp(task, first.solutions[0]) if first.solutions else None}  # fmt: skip
 
 
 def _fmt(eps) -> str:
@@ -146,7 +154,7 @@ def main() -> None:
     table = Table(title=f"first solution vs --best {args.best} (epsilon, mu {quality.friction:g}, "
                         f"{'torsion %g mm' % args.torsion if args.torsion else 'hard fingers'})")  # fmt: skip
     for col in ("task", "contacts", "first", f"best {args.best} as found", f"best {args.best}", "ratio", "ascent steps",
-                "time [s] wall", "cpu", "first: uniform squeeze", "first: balanced", "--hold"):  # fmt: skip
+                "time [s] wall", "cpu", "pre-grasp of first [mm]", "first: uniform squeeze", "first: balanced", "--hold"):  # fmt: skip
         table.add_column(col, justify="left" if col == "task" else "right")
     rows = []
     tasks = [t for t in _tasks(args) if args.tasks is None or args.tasks in t.name][args.skip:]
@@ -155,7 +163,7 @@ def main() -> None:
         rows.append(m)
         ratio = m["best"] / m["first"] if m["first"] and m["best"] is not None else None
         table.add_row(task.name, str(len(task.contacts)), _fmt(m["first"]), _fmt(m["found"]), _fmt(m["best"]),
-                      "-" if ratio is None else f"{ratio:.2f}", m["steps"], f"{m['wall']:.2f}", f"{m['cpu']:.2f}",
+                      "-" if ratio is None else f"{ratio:.2f}", m["steps"], f"{m['wall']:.2f}", f"{m['cpu']:.2f}", _pre(m["pregrasp"]),
                       *(_verdict((m["physics"] or {}).get(k)) for k in ("uniform", "balanced", "hold")))  # fmt: skip
         console.file.flush()
     console.print(table)
@@ -173,6 +181,12 @@ def _summary(console: Console, rows: list) -> None:
         console.print(f"median epsilon ratio, --best vs first, over the {len(closed)} tasks whose first solution is force "
                       f"closure: {statistics.median(ratios):.2f} (as found, without the ascent: {statistics.median(found):.2f})")  # fmt: skip
     console.print(f"first solution not force closure: {opened} become force closure with --best, {still} do not")
+    pres = [m["pregrasp"] for m in rows if m["pregrasp"] is not None]
+    if pres:
+        reached = np.concatenate([p.reached_mm for p in pres])
+        console.print(f"pre-grasps of the {len(pres)} first solutions (15 mm asked): {sum(p.collision_free for p in pres)} "
+                      f"collision-free; {np.mean(reached >= 14.99):.0%} of the fingers back off the full 15 mm, "
+                      f"median {np.median(reached):.1f} mm, least {reached.min():.1f} mm")  # fmt: skip
     judged = [m for m in solved if m["physics"] is not None and m["contacts"] in (3, 4)]
     if judged:
         parts = []

@@ -109,3 +109,22 @@ def test_on_forward_built_tasks_the_pregrasp_is_what_it_says(sa_hand, seed):
     rows = [c for c in report.checks if c.kind in ("joint_limit", "coupling", "collision", "object_collision")]
     assert pre.collision_free == all(c.ok for c in rows)
     assert all(c.ok for c in rows if c.kind in ("joint_limit", "coupling"))
+
+
+def test_a_pregrasp_that_collides_is_tried_closer():
+    """teapot-service's first solution: backed off 15 mm the index's distal link enters the
+    teapot; 10 mm is collision-free, and that is the distance stated."""
+    from prehension.solve import solve
+    from prehension.tasks.library import load_builtin_task
+
+    from prehension.pregrasp import _backed_off
+
+    task = load_builtin_task("teapot-service")
+    solution = solve(task, "local", seed=0).solutions[0]
+    far = _backed_off(task, solution, 15.0)
+    pre = pregrasp(task, solution, 15.0)
+    if far.collision_free:  # the solver's first answer changed: nothing to fall back from
+        assert pre.back_off_mm == 15.0
+        return
+    assert pre.collision_free and pre.back_off_mm == pytest.approx(10.0)
+    assert np.all(pre.reached_mm <= 10.0 + 0.01)

@@ -19,6 +19,7 @@ limits, couplings, self-collision and hand-object collision rows (the contact ro
 not apply: the fingers are meant to be away) must hold with the strict tolerances.
 ``collision_free`` says whether they do; ``reached_mm`` how far each hand point stands
 off the object along its normal (the stated distance unless a joint limit stopped it).
+A pre-grasp that collides is tried again at 2/3 and 1/3 of the distance (:func:`pregrasp`).
 """
 
 from __future__ import annotations
@@ -78,7 +79,25 @@ def _links_and_points(task: Task, q, contacts):
 
 
 def pregrasp(task: Task, solution, back_off_mm: float = DEFAULT_BACK_OFF_MM) -> PreGrasp:
-    """The pre-grasp of ``solution`` (a grasp of ``task``: ``q``, ``T_palm_object``, ``contacts``)."""
+    """The pre-grasp of ``solution`` (a grasp of ``task``: ``q``, ``T_palm_object``, ``contacts``).
+
+    When backing off ``back_off_mm`` collides, 2/3 and 1/3 of it are tried in turn (a
+    finger backed off far may swing a link into a concave object, or into its idle
+    neighbour): the first collision-free one is returned, its ``back_off_mm`` the distance
+    that was used; when none is, the pre-grasp of ``back_off_mm`` itself, its ``failed``
+    rows named.
+    """
+    first = None
+    for distance in (back_off_mm, back_off_mm * 2.0 / 3.0, back_off_mm / 3.0):
+        pre = _backed_off(task, solution, distance)
+        if pre.collision_free:
+            return pre
+        first = first or pre
+    return first
+
+
+def _backed_off(task: Task, solution, back_off_mm: float) -> PreGrasp:
+    """Every participating finger aimed ``back_off_mm`` off (the module docstring), judged."""
     hand = task.hand
     q0 = np.asarray(solution.q, dtype=float)
     contacts = solution.contacts
