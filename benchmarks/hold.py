@@ -13,14 +13,20 @@ the first solution (``prehension solve --method local``), of the best of ``solve
 5 --ascent-steps 0`` (the distinct solutions of the random starts as found, ranked) and of
 ``solve --best 5`` (each of them then moved along its solution set by the quality ascent,
 re-verified at every step), and the time of ``--best 5`` (wall clock and CPU of this
-process: one core).  The physics column waits for ``solve --hold`` (issue 27, items 2-4):
-it reads "-" until then.  Summary: the median ratio best/first over the tasks whose first
-solution is force closure, how many tasks go from not force closure to force closure,
-and the median and largest time.
+process: one core); the pre-grasp of the first solution (15 mm asked, 10 or 5 mm when
+that collides: collision-free or not, the distance used, the least and largest stand-off
+of its fingers).  With ``--physics`` (needs MuJoCo; 2-8 s per simulated grasp): the
+physics test of the first solution with the old uniform squeeze (every contact 10 mm in,
+DexGraspBench's) and with the balanced one (the default), and the answer of ``solve
+--hold`` (the candidates of ``--best 5``, balanced squeeze): which candidate held, or
+"none".  Summary: the median ratio best/first over the tasks whose first solution is
+force closure, how many tasks go from not force closure to force closure, the median and
+largest time, and the hold rates over the solved 3- and 4-contact tasks.
 
     python benchmarks/hold.py                      # every task (~40), a few minutes
     python benchmarks/hold.py --quick              # 2 tasks per mesh, no built-in tasks
     python benchmarks/hold.py --torsion 5          # soft fingers
+    python benchmarks/hold.py --physics --tasks bunny --limit 4    # the physics columns, in parts
 """
 
 from __future__ import annotations
@@ -41,6 +47,8 @@ from objects import SHARED, _patch, mesh_tasks  # noqa: E402  (a sibling benchma
 from prehension.ascent import AscentOptions  # noqa: E402
 from prehension.best import BestOptions, solve_best  # noqa: E402
 from prehension.errors import PrehensionError  # noqa: E402
+from prehension.hold import hold_first  # noqa: E402
+from prehension.pregrasp import pregrasp  # noqa: E402
 from prehension.objects.pick import region_from_mesh  # noqa: E402
 from prehension.quality import QualityOptions, grasp_quality  # noqa: E402
 from prehension.solve import solve  # noqa: E402
@@ -84,7 +92,35 @@ def _epsilon(task, result, quality) -> float | None:
     return grasp_quality(task, result.solutions[0], quality).epsilon if result.solutions else None
 
 
-def _measure(task, quality: QualityOptions, n: int, seed: int) -> dict:
+def _physics(task, first, best) -> dict:
+    """The first solution's physics verdict with either squeeze, and ``--hold``'s answer."""
+    from prehension.sim import SimOptions, simulate_grasp
+
+    out = {}
+    for kind in ("uniform", "balanced"):
+        r = simulate_grasp(task, first.solutions[0], SimOptions(squeeze=kind)) if first.solutions else None
+        out[kind] = None if r is None else (r.success, "rejected" if r.rejected else f"{r.held}/6")
+    if best.solutions:
+        hold = hold_first(best)
+        tried = hold.result.stats["hold"]["tried"]
+        out["hold"] = (hold.held, f"#{tried[-1]['candidate'] + 1} of {len(best.solutions)}" if hold.held
+                       else f"none of {len(best.solutions)}")  # fmt: skip
+    else:
+        out["hold"] = None
+    return out
+
+
+def _pre(p) -> str:
+    """The pre-grasp of the first solution: collision-free or not, and the fingers' smallest stand-off."""
+    return "-" if p is None else (f"{'free' if p.collision_free else 'COLLIDES'} at {p.back_off_mm:g}: "
+                                  f"{p.reached_mm.min():.1f}-{p.reached_mm.max():.1f}")  # fmt: skip
+
+
+def _verdict(v) -> str:
+    return "-" if v is None else ("holds " if v[0] else "drops ") + v[1]
+
+
+def _measure(task, quality: QualityOptions, n: int, seed: int, physics: bool) -> dict:
     first = solve(task, "local", seed=seed)
     found = solve_best(task, BestOptions(n=n, quality=quality, ascent=None), "local", seed=seed)
     wall, cpu = time.perf_counter(), time.process_time()
@@ -93,7 +129,9 @@ def _measure(task, quality: QualityOptions, n: int, seed: int) -> dict:
     steps = [a for a in best.stats["best"]["ascent"] if a is not None]
     return {"first": _epsilon(task, first, quality), "found": _epsilon(task, found, quality),
             "best": _epsilon(task, best, quality), "wall": wall, "cpu": cpu,
-            "steps": f"{sum(a['accepted'] for a in steps)}/{sum(a['tried'] for a in steps)}"}  # fmt: skip
+            "steps": f"{sum(a['accepted'] for a in steps)}/{sum(a['tried'] for a in steps)}", "contacts": len(task.contacts),
+            "physics": _physics(task, first, best) if physics else None,
+            "pregrasp": pregrasp(task, first.solutions[0]) if first.solutions else None}  # fmt: skip
 
 
 def _fmt(eps) -> str:
@@ -108,21 +146,28 @@ def main() -> None:
     parser.add_argument("--torsion", type=float, default=0.0, help="soft fingers: torsional friction [mm] (default 0)")
     parser.add_argument("--quick", action="store_true", help="2 tasks per mesh, no built-in tasks")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--physics", action="store_true", help="the physics columns (needs MuJoCo; 2-8 s per grasp)")
+    parser.add_argument("--tasks", default=None, metavar="TEXT", help="only the tasks whose name contains TEXT")
+    parser.add_argument("--skip", type=int, default=0, metavar="K", help="skip the first K tasks (run in parts)")
+    parser.add_argument("--limit", type=int, default=None, metavar="N", help="at most N tasks")
     args = parser.parse_args()
     quality = QualityOptions(torsion_mm=args.torsion)
     console = Console(width=150)
     table = Table(title=f"first solution vs --best {args.best} (epsilon, mu {quality.friction:g}, "
                         f"{'torsion %g mm' % args.torsion if args.torsion else 'hard fingers'})")  # fmt: skip
     for col in ("task", "contacts", "first", f"best {args.best} as found", f"best {args.best}", "ratio", "ascent steps",
-                "time [s] wall", "cpu", "physics (--hold)"):  # fmt: skip
+                "time [s] wall", "cpu", "pre-grasp of first [mm]", "first: uniform squeeze", "first: balanced", "--hold"):  # fmt: skip
         table.add_column(col, justify="left" if col == "task" else "right")
     rows = []
-    for task in _tasks(args):
-        m = _measure(task, quality, args.best, args.seed)
+    tasks = [t for t in _tasks(args) if args.tasks is None or args.tasks in t.name][args.skip:]
+    for task in tasks[: args.limit]:
+        m = _measure(task, quality, args.best, args.seed, args.physics)
         rows.append(m)
         ratio = m["best"] / m["first"] if m["first"] and m["best"] is not None else None
         table.add_row(task.name, str(len(task.contacts)), _fmt(m["first"]), _fmt(m["found"]), _fmt(m["best"]),
-                      "-" if ratio is None else f"{ratio:.2f}", m["steps"], f"{m['wall']:.2f}", f"{m['cpu']:.2f}", "-")  # fmt: skip
+                      "-" if ratio is None else f"{ratio:.2f}", m["steps"], f"{m['wall']:.2f}", f"{m['cpu']:.2f}", _pre(m["pregrasp"]),
+                      *(_verdict((m["physics"] or {}).get(k)) for k in ("uniform", "balanced", "hold")))  # fmt: skip
+        console.file.flush()
     console.print(table)
     _summary(console, rows)
 
@@ -138,6 +183,20 @@ def _summary(console: Console, rows: list) -> None:
         console.print(f"median epsilon ratio, --best vs first, over the {len(closed)} tasks whose first solution is force "
                       f"closure: {statistics.median(ratios):.2f} (as found, without the ascent: {statistics.median(found):.2f})")  # fmt: skip
     console.print(f"first solution not force closure: {opened} become force closure with --best, {still} do not")
+    pres = [m["pregrasp"] for m in rows if m["pregrasp"] is not None]
+    if pres:
+        full = np.concatenate([p.reached_mm >= p.back_off_mm - 0.01 for p in pres])
+        console.print(f"pre-grasps of the {len(pres)} first solutions (15 mm asked, 10 or 5 when that collides): "
+                      f"{sum(p.collision_free for p in pres)} collision-free ({sum(p.back_off_mm == 15.0 for p in pres)} "
+                      f"at 15 mm); {np.mean(full):.0%} of the fingers back off the whole distance used")  # fmt: skip
+    judged = [m for m in solved if m["physics"] is not None and m["contacts"] in (3, 4)]
+    if judged:
+        parts = []
+        for key, what in (("uniform", "first solution, uniform squeeze"), ("balanced", "first solution, balanced squeeze"),
+                          ("hold", "first answer of --hold")):  # fmt: skip
+            got = [m["physics"][key] for m in judged if m["physics"][key] is not None]
+            parts.append(f"{what}: {sum(v[0] for v in got)}/{len(got)}")
+        console.print(f"holds (all six pushes) over the {len(judged)} solved 3- and 4-contact tasks: " + "; ".join(parts))
     if solved:
         cpu = [m["cpu"] for m in solved]
         wall = [m["wall"] for m in solved]

@@ -86,3 +86,28 @@ def write_jsonl(path, lines) -> str:
     """Write ``lines`` (JSON values) to ``path``, one per line; returns the path as text."""
     path.write_text("".join(json.dumps(line) + "\n" for line in lines))
     return str(path)
+
+
+def _box_grasps():
+    """``examples/quality/box_grasps.py`` (the four-finger and the one-face grasps of a box), loaded once."""
+    import importlib.util
+    import sys
+
+    if "box_grasps" not in sys.modules:
+        spec = importlib.util.spec_from_file_location("box_grasps", Path(__file__).resolve().parents[1] / "examples" / "quality" / "box_grasps.py")
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        sys.modules["box_grasps"] = module
+    return sys.modules["box_grasps"]
+
+
+@pytest.fixture(scope="module")
+def four():
+    """``(task, grasp)``: three fingertips on one face of a box, the thumb on the other (force closure)."""
+    return _box_grasps().four_finger_grasp()
+
+
+@pytest.fixture(scope="module")
+def one_face():
+    """``(task, grasp)``: three fingertips on one face of a box (not force closure)."""
+    return _box_grasps().one_face_grasp()

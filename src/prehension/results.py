@@ -195,7 +195,7 @@ def _solution(task: Task, config: Configuration, pose, report: ResidualReport, t
 
 
 # -- files ------------------------------------------------------------------------------
-def _solution_to_dict(sol: Solution, quality: dict) -> dict:
+def _solution_to_dict(sol: Solution, quality: dict, approach: dict) -> dict:
     return {
         "joint_angles_deg": {k: float(np.degrees(v)) for k, v in sol.joint_angles.items()},
         "joint_angles_rad": dict(sol.joint_angles),
@@ -220,6 +220,7 @@ def _solution_to_dict(sol: Solution, quality: dict) -> dict:
         "tolerances": asdict(sol.tolerances),
         "idle_moved": list(sol.idle_moved),
         "quality": quality,
+        **approach,
     }
 
 
@@ -232,14 +233,16 @@ def _object_depths(report: ResidualReport) -> dict:
     return {"object_depths_mm": {"links": links, "pads": pads}} if links or pads else {}
 
 
-def result_to_dict(result: SolveResult, quality=None, *, embed_task: bool = True, qualities=None) -> dict:
+def result_to_dict(result: SolveResult, quality=None, *, embed_task: bool = True, qualities=None, physics=None) -> dict:
     """A JSON-ready dict: units in keys, the task embedded (unless ``embed_task`` is false:
     a batch stores each distinct task once and its records refer to it); the collision
     geometry that judged it (:func:`~prehension.tasks.geometry_record.collision_geometry`,
     without the per-link table when the task is not embedded); each solution's
     grasp quality measured with ``quality`` (:class:`prehension.quality.QualityOptions`,
     default ones if ``None``), or given: ``qualities``, one
-    :func:`~prehension.quality.quality_entry` per solution (a batch measures them itself)."""
+    :func:`~prehension.quality.quality_entry` per solution (a batch measures them itself);
+    ``physics``: per solution, its physics verdict (``solve --hold``,
+    :class:`~prehension.sim.PhysicsReport` as a dict, or ``None``), stored as ``"physics"``."""
     from .quality import QualityOptions, quality_entry
     from .tasks.format.embedded import embedded_files
     from .tasks.yaml_io import task_to_dict
@@ -259,6 +262,13 @@ def result_to_dict(result: SolveResult, quality=None, *, embed_task: bool = True
         qualities = [quality_entry(result.task, s.T_palm_object, s.contacts, options) for s in result.solutions]
     elif len(qualities) != len(result.solutions):
         raise PrehensionError(f"result_to_dict: {len(qualities)} quality entries given for {len(result.solutions)} solutions")
+    from .pregrasp import approach_entries
+
+    approach = [approach_entries(result.task, s) for s in result.solutions]  # pre-grasp and squeeze: docs/quality.md
+    if physics is None:
+        physics = [None] * len(result.solutions)
+    elif len(physics) != len(result.solutions):
+        raise PrehensionError(f"result_to_dict: {len(physics)} physics verdicts given for {len(result.solutions)} solutions")
     return {
         **head,
         "method": result.method,
@@ -268,14 +278,21 @@ def result_to_dict(result: SolveResult, quality=None, *, embed_task: bool = True
         "seconds": result.seconds,
         "stats": to_plain(dict(result.stats)),
         "collision_geometry": collision_geometry(result.task, compact=not embed_task),
-        "solutions": [_solution_to_dict(s, q) for s, q in zip(result.solutions, qualities)],
+        "solutions": [_with_physics(_solution_to_dict(s, q, a), p) for s, q, a, p in zip(result.solutions, qualities, approach, physics)],
         "unverified_boxes": [{"lower": lo.tolist(), "upper": hi.tolist()} for lo, hi in result.unverified_boxes],
     }
 
 
-def write_result(result: SolveResult, path, quality=None) -> None:
-    """Write the result file atomically (never a half-written file); ``quality`` as in :func:`result_to_dict`."""
-    write_json_atomic(path, result_to_dict(result, quality))
+def _with_physics(entry: dict, physics) -> dict:
+    if physics is not None:
+        entry["physics"] = physics
+    return entry
+
+
+def write_result(result: SolveResult, path, quality=None, physics=None) -> None:
+    """Write the result file atomically (never a half-written file); ``quality`` and
+    ``physics`` as in :func:`result_to_dict`."""
+    write_json_atomic(path, result_to_dict(result, quality, physics=physics))
 
 
 def read_result(path) -> tuple[Task, dict]:

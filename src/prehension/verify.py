@@ -18,6 +18,12 @@ each of them from the task the file embeds, and reports one :class:`Finding` per
 * the ``collision_geometry`` entry (which capsules, fits, exclusions and object solid
   judged collisions; :mod:`prehension.tasks.geometry_record`) equals the one derived from
   the embedded task (a file written before the entry existed is noted, not failed);
+  the pre-grasp's angles judged again (backed-off distances; joint limits, couplings,
+  self- and hand-object collision by the residual function) and the squeeze targets
+  recomputed (:mod:`prehension.pregrasp`);
+  a physics verdict (``"physics"``, written by ``solve --hold``) is re-run -- the same
+  protocol, options and seed -- and must agree push by push on held or not, when MuJoCo
+  is installed; without it the finding says the verdict was not re-run (and holds);
 * ``infeasible``: the proof is run again by the complete solver on the embedded task (so
   it cannot have been computed for another task); without ``reprove`` the claim is only
   restated, never called verified.
@@ -90,16 +96,16 @@ class Verification:
         return self.reproof is not None and self.reproof.status == Status.INFEASIBLE
 
 
-def verify_result_file(path, *, reprove: bool = True, time_limit_s: float | None = 300.0) -> Verification:
+def verify_result_file(path, *, reprove: bool = True, time_limit_s: float | None = 300.0, physics: bool = True) -> Verification:
     """:func:`verify_result` on a result file (``.json``)."""
     path = Path(path)
     return verify_result(read_json(path, "result file"), source=str(path), base_dir=path.parent,
-                         reprove=reprove, time_limit_s=time_limit_s)  # fmt: skip
+                         reprove=reprove, time_limit_s=time_limit_s, physics=physics)  # fmt: skip
 
 
 def verify_result(
     data: Any, *, source: str = "<result>", base_dir: Path | None = None, reprove: bool = True,
-    time_limit_s: float | None = 300.0,
+    time_limit_s: float | None = 300.0, physics: bool = True,
 ) -> Verification:  # fmt: skip
     """Re-derive every claim of a result dict (see the module docstring).
 
@@ -109,6 +115,7 @@ def verify_result(
         base_dir: folder that relative paths of the embedded task are relative to.
         reprove: re-run the proof of a claimed ``infeasible``.
         time_limit_s: limit of that proof (``None``: none).
+        physics: re-run stored physics verdicts (``False``: say they were not re-run).
 
     Raises:
         InvalidTask: not a result file, or its embedded task cannot be read: nothing can
@@ -124,6 +131,8 @@ def verify_result(
         report, found = _solution(task, sol, i, tol)
         reports.append(report)
         findings += found
+        if isinstance(sol, dict) and "physics" in sol and report is not None:
+            findings += _physics(task, sol, report, f"solution {i}", physics)
     findings += _requirement(task, data, reports)
     reproof = None
     if status == Status.INFEASIBLE and not solutions:
@@ -195,7 +204,47 @@ def _solution(task: Task, sol, i: int, tol: Tolerances) -> tuple[ResidualReport 
     found += _worst(report, sol, label)
     found += _object_depths(report, sol, label)
     found += _quality(task, config, report, sol, label)
+    found += _approach(task, q, config, report, sol, label)
     return report, found
+
+
+def _approach(task: Task, q, config: Configuration, report: ResidualReport, sol: dict, label: str) -> list[Finding]:
+    """The stored pre-grasp and squeeze targets re-derived (:func:`prehension.pregrasp.check_approach`)."""
+    from .pregrasp import check_approach
+
+    return [Finding(f"{label}: {what}", ok, detail) for what, ok, detail in check_approach(task, q, config.T_palm_object, report.contacts, sol)]
+
+
+def _physics(task: Task, sol: dict, report: ResidualReport, label: str, rerun: bool) -> list[Finding]:
+    """The stored physics verdict re-run (same options and seed); it must agree push by push."""
+    what = f"{label}: physics verdict (held in all six pushes: {sol['physics'].get('success') if isinstance(sol['physics'], dict) else '?'})"
+    try:
+        stored = sol["physics"]
+        pushes = [(p["direction"], bool(p["held"])) for p in stored["pushes"]]
+        claim = (bool(stored["success"]), bool(stored["rejected"]), pushes)
+        from .sim import SimOptions
+
+        options, seed = SimOptions(**stored["options"]), int(stored["seed"])
+    except (KeyError, TypeError, ValueError, PrehensionError) as exc:
+        return [Finding(what, False, f"malformed ({type(exc).__name__}: {exc})")]
+    if not rerun:
+        return [Finding(what, True, "not re-run (asked not to)")]
+    try:
+        from .sim import require_mujoco, simulate_grasp
+
+        require_mujoco()
+    except PrehensionError:
+        return [Finding(what, True, 'not re-run: MuJoCo is not installed (pip install "prehension[sim]")')]
+    from types import SimpleNamespace
+
+    grasp = SimpleNamespace(q=np.array([float(sol["joint_angles_rad"][d]) for d in task.hand.dof_names]),
+                            T_palm_object=np.array(sol["T_palm_object"], dtype=float), contacts=report.contacts)  # fmt: skip
+    again = simulate_grasp(task, grasp, options, seed)
+    got = (again.success, again.rejected, [(p.direction, p.held) for p in again.pushes])
+    if got == claim:
+        return [Finding(what, True, f"re-run: {again.describe()}")]
+    return [Finding(what, False, f"re-run disagrees: {again.describe()}; the file says "
+                                 f"{'holds' if claim[0] else 'drops'} ({sum(h for _, h in pushes)} of {len(pushes)} pushes held)")]  # fmt: skip
 
 
 def _tol_name(tol: Tolerances) -> str:

@@ -23,11 +23,10 @@ from rich.table import Table
 from ..atomic import check_output_path, write_json_atomic
 from ..errors import InvalidTask, PrehensionError, not_a_file
 from . import args as types
-from .codes import EXIT_GAVE_UP, EXIT_OK
+from .codes import EXIT_DROPPED, EXIT_GAVE_UP, EXIT_OK
 
 __all__ = ["add_parser", "cmd_simulate", "EXIT_DROPPED", "PHYSICS_TAG"]
 
-EXIT_DROPPED = 7  # simulate: a grasp dropped the object (or was rejected for penetration)
 PHYSICS_TAG = "physics/1"
 
 
@@ -43,8 +42,14 @@ def add_parser(sub) -> None:
     p.add_argument("--jitter-deg", type=types.finite, default=0.0, metavar="DEG",
                    help="and turned by this angle about a seeded random axis (default 0)")  # fmt: skip
     p.add_argument("--squeeze", type=types.finite, default=None, metavar="MM", help="how far each contact is aimed into the object (default 10)")
+    p.add_argument("--squeeze-kind", choices=("balanced", "uniform"), default=None,
+                   help="balanced (default): each contact squeezed in proportion to its force in a set of contact forces "
+                        "with zero net wrench; uniform: every contact --squeeze mm (DexGraspBench's)")  # fmt: skip
     p.add_argument("--mass", type=types.finite, default=None, metavar="KG", help="object mass (default 0.1)")
     p.add_argument("--friction", type=types.finite, default=None, metavar="MU", help="sliding friction (default 0.6)")
+    p.add_argument("--from-pregrasp", action="store_true",
+                   help="start from the solution's pre-grasp (fingers backed off along the contact normals) and close "
+                        "the hand onto the object first: reports whether the grasp is reached (docs/quality.md)")  # fmt: skip
     p.add_argument("--json", action="store_true", help="print the outcome as JSON on stdout")
 
 
@@ -54,6 +59,7 @@ class StoredGrasp(NamedTuple):
     q: np.ndarray
     T_palm_object: np.ndarray
     contacts: tuple
+    pregrasp_q: np.ndarray | None = None  # the stored pre-grasp's angles (None: the file has none)
 
 
 def stored_grasps(path: Path, index: int | None):
@@ -62,7 +68,7 @@ def stored_grasps(path: Path, index: int | None):
 
     if not path.is_file():
         raise InvalidTask(not_a_file("result file", path))
-    checked = verify_result_file(path, reprove=False)
+    checked = verify_result_file(path, reprove=False, physics=False)  # the physics test runs next anyway
     if not checked.holds:
         failures = "; ".join(f"{f.what}: {f.detail}" for f in checked.failures[:3])
         raise PrehensionError(f"{path} does not hold (see 'prehension check {path}'): {failures}")
@@ -76,8 +82,11 @@ def stored_grasps(path: Path, index: int | None):
     picked = range(len(solutions)) if index is None else [index]
     grasps = []
     for k in picked:
-        q = np.array([float(solutions[k]["joint_angles_rad"][d]) for d in checked.task.hand.dof_names])
-        grasps.append((k, StoredGrasp(q, np.array(solutions[k]["T_palm_object"], float), checked.reports[k].contacts)))
+        names = checked.task.hand.dof_names
+        q = np.array([float(solutions[k]["joint_angles_rad"][d]) for d in names])
+        pre = solutions[k].get("pregrasp")  # re-derived by the check above when present
+        q_pre = None if pre is None else np.array([float(pre["joint_angles_rad"][d]) for d in names])
+        grasps.append((k, StoredGrasp(q, np.array(solutions[k]["T_palm_object"], float), checked.reports[k].contacts, q_pre)))
     return checked.task, grasps
 
 
@@ -89,7 +98,7 @@ def sim_options(args):
     """The :class:`~prehension.sim.SimOptions` the arguments ask for; errors name the flag."""
     from ..sim import SimOptions
 
-    given = {"squeeze_mm": args.squeeze, "mass_kg": args.mass, "friction": args.friction,
+    given = {"squeeze_mm": args.squeeze, "squeeze": getattr(args, "squeeze_kind", None), "mass_kg": args.mass, "friction": args.friction,
              "jitter_mm": args.jitter_mm, "jitter_deg": args.jitter_deg}  # fmt: skip
     try:
         return SimOptions(**{k: v for k, v in given.items() if v is not None})
@@ -110,7 +119,9 @@ def cmd_simulate(args, console: Console) -> int:
     reports = []
     try:
         for k, g in grasps:  # SIGTERM and SIGHUP arrive as KeyboardInterrupt too (cli.terminate)
-            reports.append((k, simulate_grasp(task, g, options, args.seed)))
+            start = _start_angles(args, task, g)
+            extra = () if start is None else (start,)
+            reports.append((k, simulate_grasp(task, g, options, args.seed, *extra)))
     except KeyboardInterrupt:
         _report(args, console, out, task, reports, interrupted=True)
         Console(stderr=True, highlight=False).print(
@@ -120,6 +131,18 @@ def cmd_simulate(args, console: Console) -> int:
         return EXIT_GAVE_UP
     _report(args, console, out, task, reports, interrupted=False)
     return EXIT_OK if all(r.success for _, r in reports) else EXIT_DROPPED
+
+
+def _start_angles(args, task, grasp):
+    """``--from-pregrasp``: the stored pre-grasp's angles (computed as ``solve`` would for
+    a file written before pre-grasps were stored); otherwise ``None``."""
+    if not getattr(args, "from_pregrasp", False):
+        return None
+    if grasp.pregrasp_q is not None:
+        return grasp.pregrasp_q
+    from ..pregrasp import pregrasp
+
+    return pregrasp(task, grasp).q
 
 
 def _report(args, console: Console, out, task, reports, interrupted: bool) -> None:
@@ -149,7 +172,7 @@ def _table(k: int, report) -> Table:
                       f"{p.initial_penetration_mm:.2f}")  # fmt: skip
     o = report.options
     table.caption = (f"object {o.mass_kg:g} kg, friction {o.friction:g}, pushed with {o.push_accel * o.mass_kg:g} N for "
-                     f"{o.hold_s:g} s after a {o.squeeze_mm:g} mm squeeze; held: moved < {o.max_shift_mm:g} mm and "
+                     f"{o.hold_s:g} s after a {o.squeeze_mm:g} mm {o.squeeze} squeeze; held: moved < {o.max_shift_mm:g} mm and "
                      f"turned < {o.max_turn_deg:g} deg\n{_start(report)}")  # fmt: skip
     return table
 

@@ -26,7 +26,7 @@ from . import args as types
 from .best import (
     add_best_arguments, add_quality_arguments, add_require_argument, best_options, best_table, quality_lines, quality_options,
 )  # fmt: skip
-from .codes import EXIT_APPROXIMATE, EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK
+from .codes import EXIT_APPROXIMATE, EXIT_DROPPED, EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK
 from .hands import print_hand_warnings
 from .progress import LiveProgress
 
@@ -36,6 +36,7 @@ EXIT_OF_STATUS = {
     Status.SOLVED: EXIT_OK, Status.INFEASIBLE: EXIT_INFEASIBLE, Status.GAVE_UP: EXIT_GAVE_UP,
     Status.APPROXIMATE: EXIT_APPROXIMATE,
 }  # fmt: skip
+HOLD_CANDIDATES = 5  # --hold without --best: the candidates of --best 5
 TASK_HELP = "built-in task name, task file (.yaml) or CuikSuite file (.world)"
 
 
@@ -70,6 +71,10 @@ def add_parser(sub) -> None:
     add_quality_arguments(p)
     add_require_argument(p)
     add_best_arguments(p)
+    p.add_argument("--hold", action="store_true",
+                   help="physics in the loop: run the ranked candidates of --best N (--best 5 unless given) through "
+                        "the physics test (prehension simulate) and answer with the first that holds; exit 7 when none "
+                        'does (needs: pip install "prehension[sim]"; docs/quality.md)')  # fmt: skip
     types.add_option_rule(p, _method_options)
 
 
@@ -188,7 +193,17 @@ def cmd_solve(args, console: Console) -> int:
     if args.resume and not args.checkpoint.is_file():
         raise PrehensionError(f"cannot resume: {not_a_file('checkpoint file', args.checkpoint)}")
     path = _check_outputs(args, task)
-    quality, best = quality_options(args), best_options(args, time_limit_s)
+    implied = args.hold and args.best is None
+    if args.hold:
+        from ..sim import require_mujoco
+
+        require_mujoco()  # before any work: say what to install
+        if implied:
+            args.best = HOLD_CANDIDATES
+    try:
+        quality, best = quality_options(args), best_options(args, time_limit_s)
+    except PrehensionError as exc:
+        raise PrehensionError(f"--hold runs the candidates of --best {HOLD_CANDIDATES}: {exc}" if implied else str(exc)) from None
     if args.require and args.method == "local":
         raise PrehensionError(f"--require {args.require} needs the complete solver (--method complete, or auto): "
                               "the local solver cannot prove that no such grasp exists")  # fmt: skip
@@ -215,8 +230,11 @@ def cmd_solve(args, console: Console) -> int:
                     executor=executor, workers=workers, checkpoint=args.checkpoint, resume=args.resume, progress=update,
                     sequence=sequence, time_limit_s=time_limit_s, require=args.require, quality=quality,
                 )  # fmt: skip
+    hold = _hold(console, args, result) if args.hold and result.solutions else None
+    if hold is not None:
+        result = hold.result
     backup = _keep_previous(path)
-    write_result(result, path, quality)
+    write_result(result, path, quality, physics=None if hold is None else hold.physics)
     _report(console, args, result, path, backup)
     if result.solutions and not (args.quiet or args.json):
         console.print(best_table(result) if best is not None else "\n".join(quality_lines(result, quality)))
@@ -224,7 +242,25 @@ def cmd_solve(args, console: Console) -> int:
         _write_view(console, args, result)
     elif not (args.quiet or args.json):
         console.print(f"see it: prehension view {path} -o grasp.html")
+    if hold is not None and not hold.held:
+        return EXIT_DROPPED
     return EXIT_OF_STATUS[result.status]
+
+
+def _hold(console: Console, args, result):
+    """``--hold``: the first candidate that holds in the physics test (:func:`prehension.hold.hold_first`)."""
+    from ..hold import hold_first
+
+    say = None if (args.quiet or args.json) else (lambda line: console.print(line, style="dim"))
+    hold = hold_first(result, seed=args.seed, progress=say)
+    if not (args.quiet or args.json):
+        for t in hold.result.stats["hold"]["tried"]:
+            style = "green" if t["success"] else "red"
+            console.print(f"candidate {t['candidate'] + 1}: [{style}]{escape(t['why'])}[/]")
+        if not hold.held:
+            console.print("[bold red]no candidate holds in the physics test[/]: the solutions are every candidate "
+                          "tried, the one that held the most pushes first (exit code 7)")  # fmt: skip
+    return hold
 
 
 def _write_view(console: Console, args, result) -> None:

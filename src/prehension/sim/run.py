@@ -17,10 +17,10 @@ from ..geometry.rotations import rotation_about
 from ..tasks.model import Task
 from .options import PUSH_DIRECTIONS, SimOptions
 from .scene import MM, SimScene, build_scene_xml
-from .squeeze import squeeze_targets
+from .squeeze import squeeze_depths, squeeze_targets
 from .start import hand_depth, posed, solver_distance, start_state
 
-__all__ = ["PushOutcome", "PhysicsReport", "simulate_grasp", "require_mujoco", "scene_for"]
+__all__ = ["PushOutcome", "PhysicsReport", "Closing", "simulate_grasp", "require_mujoco", "scene_for"]
 
 _INSTALL = 'pip install "prehension[sim]"'
 _BLOCKS = 10  # the push is checked this many times (early stop), as DexGraspBench does
@@ -49,6 +49,28 @@ class PushOutcome:
 
 
 @dataclass(frozen=True)
+class Closing:
+    """The hand closing from the pre-grasp (``simulate --from-pregrasp``): the position
+    targets move from the pre-grasp's angles to the grasp's over ``close_s``, then hold
+    there for as long again.  The grasp is **reached** when the object then stands within
+    ``REACH_MM`` and ``REACH_DEG`` of its solved pose and every joint within
+    ``REACH_JOINT_DEG`` of its solved angle."""
+
+    reached: bool
+    shift_mm: float
+    turn_deg: float
+    joint_error_deg: float
+
+    def describe(self) -> str:
+        return (f"closing from the pre-grasp {'reaches' if self.reached else 'does NOT reach'} the grasp (object moved "
+                f"{self.shift_mm:.1f} mm, turned {self.turn_deg:.1f} deg; joints within {self.joint_error_deg:.1f} deg)")
+
+
+REACH_MM, REACH_DEG, REACH_JOINT_DEG = 5.0, 5.0, 3.0
+CLOSE_S = 0.5  # [s] the closing ramp, then as long again to settle
+
+
+@dataclass(frozen=True)
 class PhysicsReport:
     """The physics test of one grasp.
 
@@ -64,6 +86,9 @@ class PhysicsReport:
         approximation_mm: how far the object's convex pieces stand out of the solver's mesh
             where the hand touches them at the start [mm] (the object's approximation error).
         object_pieces: how many convex pieces made the object (after refining near the hand).
+        closing: the hand closing from the pre-grasp, when the test started there
+            (``None``: it started at the grasp); success then also needs it reached, and
+            each push starts from the state the closing ended in.
     """
 
     success: bool
@@ -75,6 +100,7 @@ class PhysicsReport:
     hand_penetration_mm: float | None = None
     approximation_mm: float = 0.0
     object_pieces: int = 0
+    closing: Closing | None = None
 
     @property
     def held(self) -> int:
@@ -86,6 +112,7 @@ class PhysicsReport:
             "hand_penetration_mm": self.hand_penetration_mm, "approximation_mm": self.approximation_mm,
             "object_pieces": self.object_pieces, "held": self.held, "pushes": [asdict(p) for p in self.pushes],
             "seed": self.seed, "options": self.options.to_dict(),
+            **({} if self.closing is None else {"closing": asdict(self.closing)}),
         }  # fmt: skip
 
     def describe(self) -> str:
@@ -93,7 +120,8 @@ class PhysicsReport:
             return (f"rejected: starts with {self.initial_penetration_mm:.1f} mm of hand-object penetration "
                     f"(limit {self.options.max_penetration_mm:g} mm)")  # fmt: skip
         verdict = "holds" if self.success else "DROPS"
-        return f"{verdict}: held against {self.held} of {len(self.pushes)} pushes"
+        closing = "" if self.closing is None else f"; {self.closing.describe()}"
+        return f"{verdict}: held against {self.held} of {len(self.pushes)} pushes{closing}"
 
 
 def _jittered(T: np.ndarray, centre_mm: np.ndarray, options: SimOptions, seed: int) -> np.ndarray:
@@ -123,21 +151,34 @@ def scene_for(task: Task, solution, options: SimOptions = SimOptions(), seed: in
     return replace(build_scene_xml(task, T, start.pieces, options), approximation_mm=start.approximation_mm)
 
 
-def simulate_grasp(task: Task, solution, options: SimOptions = SimOptions(), seed: int = 0) -> PhysicsReport:
-    """The physics test of ``solution`` (a grasp of ``task``; see the module docstring)."""
+def simulate_grasp(task: Task, solution, options: SimOptions = SimOptions(), seed: int = 0, pregrasp_q=None) -> PhysicsReport:
+    """The physics test of ``solution`` (a grasp of ``task``; see the module docstring).
+
+    ``pregrasp_q``: (n_dof,) angles to start from instead of the grasp's (its pre-grasp,
+    :mod:`prehension.pregrasp`): the hand first closes onto the object (:class:`Closing`).
+    """
     mujoco = require_mujoco()
     scene = scene_for(task, solution, options, seed)
     q = np.asarray(solution.q, dtype=float)
     model, data = posed(mujoco, scene.xml, scene.dof_names, q)
-    q_squeeze = squeeze_targets(task, q, solution.contacts, options.squeeze_mm)
+    depths = squeeze_depths(solution.contacts, options.squeeze_mm, options.squeeze, options.friction)
+    q_squeeze = squeeze_targets(task, q, solution.contacts, options.squeeze_mm, depths)
     sim = _Sim(mujoco, model, data, scene, q, q_squeeze, options)
-    depth = sim.reset()
+    closing = None
+    if pregrasp_q is not None:
+        sim.q = np.asarray(pregrasp_q, dtype=float)
+        depth = sim.reset()
+        if depth <= options.max_penetration_mm:
+            closing = sim.close(q)
+    else:
+        depth = sim.reset()
     start = dict(hand_penetration_mm=hand_depth(model, data, solver_distance(task), scene.T_palm_object),
                  approximation_mm=scene.approximation_mm, object_pieces=len(scene.object_pieces))  # fmt: skip
     if depth > options.max_penetration_mm:
         return PhysicsReport(False, True, depth, (), seed, options, **start)
     pushes = tuple(sim.push(name, np.asarray(d), depth) for name, d in PUSH_DIRECTIONS)
-    return PhysicsReport(all(p.held for p in pushes), False, depth, pushes, seed, options, **start)
+    success = all(p.held for p in pushes) and (closing is None or closing.reached)
+    return PhysicsReport(success, False, depth, pushes, seed, options, **start, closing=closing)
 
 
 class _Sim:
@@ -149,16 +190,36 @@ class _Sim:
         self.act = np.array([model.actuator(f"act:{d}").id for d in scene.dof_names])
         self.body = model.body("object").id
         self.q, self.q_squeeze = q, q_squeeze
+        self.closed = None  # (qpos, qvel, ctrl) where the closing from the pre-grasp ended
 
     def reset(self) -> float:
         """Back to the start; the deepest hand-object penetration there [mm]."""
         mj, m, d = self.mj, self.model, self.data
         mj.mj_resetData(m, d)
-        d.qpos[self.qpos_adr] = self.q
-        d.ctrl[self.act] = self.q
+        if self.closed is not None:
+            d.qpos[:], d.qvel[:], d.ctrl[:] = self.closed
+        else:
+            d.qpos[self.qpos_adr] = self.q
+            d.ctrl[self.act] = self.q
         mj.mj_forward(m, d)
         dists = [d.contact[i].dist for i in range(d.ncon)]
         return max(0.0, -min(dists, default=0.0)) / MM
+
+    def close(self, q_grasp) -> Closing:
+        """Targets from the pre-grasp to ``q_grasp`` over ``CLOSE_S``, then held as long;
+        later pushes start from where this ends (squeezing towards ``q_squeeze``)."""
+        mj, m, d, o = self.mj, self.model, self.data, self.options
+        com0, R0 = d.xipos[self.body].copy(), d.xmat[self.body].reshape(3, 3).copy()
+        steps = max(int(round(CLOSE_S / o.timestep_s)), 1)
+        start = self.q.copy()
+        for k in range(1, 2 * steps + 1):
+            d.ctrl[self.act] = start + (q_grasp - start) * min(k / steps, 1.0)
+            mj.mj_step(m, d)
+        shift, turn = self._moved(com0, R0)
+        error = float(np.degrees(np.max(np.abs(d.qpos[self.qpos_adr] - q_grasp)))) if len(q_grasp) else 0.0
+        self.closed = (d.qpos.copy(), d.qvel.copy(), d.ctrl.copy())
+        self.q = np.asarray(q_grasp, dtype=float)  # the squeeze ramps from the grasp's targets
+        return Closing(bool(shift < REACH_MM and turn < REACH_DEG and error < REACH_JOINT_DEG), shift, turn, error)
 
     def _moved(self, com0, R0) -> tuple[float, float]:
         com, R = self.data.xipos[self.body], self.data.xmat[self.body].reshape(3, 3)

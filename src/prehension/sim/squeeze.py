@@ -1,23 +1,108 @@
-"""The squeeze: joint angles that would carry each contact a little further into the object."""
+"""The squeeze: joint angles that would carry each contact a little further into the object.
+
+Two kinds (``SimOptions.squeeze``):
+
+* ``"uniform"`` (DexGraspBench's): every contact is aimed ``squeeze_mm`` into the object,
+  whatever the balance of forces.  Three fingertips on one face and a thumb on the other
+  then push three times harder one way than the other, and the object turns during the
+  squeeze itself.
+* ``"balanced"`` (the default): each contact is aimed ``squeeze_mm * f_i / max_j f_j``
+  into the object, ``f_i`` its normal force in a set of contact forces that resist each
+  other -- a zero net force and torque -- found by :func:`balanced_normal_forces`.  The
+  position actuators press roughly in proportion to how far their targets lie inside the
+  object, so the squeeze presses the object with forces that cancel, to first order.
+"""
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
-from scipy.optimize import lsq_linear
+from scipy.optimize import linprog, lsq_linear
 
 from ..hands.kinematics import forward_kinematics, point_jacobian
+from ..quality.wrenches import cone_edges
 from ..tasks.model import Task
 
-__all__ = ["squeeze_targets"]
+__all__ = ["squeeze_targets", "squeeze_depths", "balanced_normal_forces", "BalancedForces", "SQUEEZE_KINDS"]
+
+SQUEEZE_KINDS = ("balanced", "uniform")
 
 
-def squeeze_targets(task: Task, q: np.ndarray, contacts, squeeze_mm: float) -> np.ndarray:
+class BalancedForces(NamedTuple):
+    """Normal forces ``(C,)`` of contact forces that resist each other, scaled so the
+    smallest is 1 (unitless), the forces themselves ``(C, 3)`` (same scale, in the
+    normals' frame), and ``residual``: the norm of their net wrench relative to
+    their total normal force (0: exactly balanced; > 0: the best the friction cones
+    allow -- the grasp is not force closure and no balanced set with every contact
+    pressing exists)."""
+
+    normal: np.ndarray
+    forces: np.ndarray
+    residual: float
+
+
+def balanced_normal_forces(points_mm, inward_normals, friction: float, n_edges: int = 8) -> BalancedForces:
+    """Contact forces in the linearised friction cones whose net wrench is smallest.
+
+    The linear program: edge weights ``lambda >= 0`` of every contact's cone edges (each
+    with a unit normal component, :func:`~prehension.quality.wrenches.cone_edges`), every
+    contact's normal force ``sum_j lambda_ij >= 1`` (every contact presses), and a slack
+    ``s >= |sum lambda w|`` per wrench component (force; torque about the contacts' mean
+    point divided by their largest distance from it, so both have force units), minimising
+    ``sum s + 1e-3 * sum lambda`` (the net wrench first, then the smallest such forces, so
+    at least one contact's normal force is 1).  A force-closure grasp reaches a zero net
+    wrench (its positive span holds the origin in its interior); for any other the
+    residual says how far from balanced the best squeeze is.
+
+    Args:
+        points_mm: (C, 3) contact points [mm] (any frame, the normals' frame).
+        inward_normals: (C, 3) unit normals pointing into the object.
+        friction: Coulomb coefficient of the cones.
+        n_edges: edges of each linearised cone.
+    """
+    p = np.asarray(points_mm, dtype=float).reshape(-1, 3)
+    n = np.asarray(inward_normals, dtype=float).reshape(-1, 3)
+    n = n / np.linalg.norm(n, axis=1, keepdims=True)
+    C = len(p)
+    arm = p - p.mean(axis=0)
+    scale = max(float(np.max(np.linalg.norm(arm, axis=1))), 1e-9)
+    edges = cone_edges(n, friction, n_edges)  # (C, E, 3), unit normal component
+    E = edges.shape[1]
+    W = np.concatenate([edges, np.cross(arm[:, None, :], edges) / scale], axis=2).reshape(C * E, 6).T  # (6, C E)
+    nv = C * E
+    # variables: lambda (C E), s (6);  -s <= W lambda <= s;  -sum_j lambda_ij <= -1
+    A_ub = np.block([[W, -np.eye(6)], [-W, -np.eye(6)], [-np.kron(np.eye(C), np.ones((1, E))), np.zeros((C, 6))]])
+    b_ub = np.r_[np.zeros(12), -np.ones(C)]
+    cost = np.r_[1e-3 * np.ones(nv), np.ones(6)]
+    res = linprog(cost, A_ub=A_ub, b_ub=b_ub, bounds=(0, None), method="highs")
+    if res.status != 0:  # cannot happen (lambda = 1 per contact, s = |W lambda| is feasible); fall back to equal forces
+        return BalancedForces(np.ones(C), n.copy(), float("nan"))
+    lam = res.x[:nv].reshape(C, E)
+    normal = lam.sum(axis=1)
+    residual = float(np.linalg.norm(W @ res.x[:nv]) / normal.sum())
+    forces = np.einsum("ce,ced->cd", lam, edges) / normal.min()
+    return BalancedForces(normal / normal.min(), forces, residual if residual > 1e-7 else 0.0)
+
+
+def squeeze_depths(contacts, squeeze_mm: float, kind: str = "balanced", friction: float = 0.6) -> np.ndarray:
+    """How far each contact is aimed into the object [mm] ``(C,)`` (see the module docstring)."""
+    C = len(contacts)
+    if kind == "uniform" or C == 0:
+        return np.full(C, float(squeeze_mm))
+    points = np.array([np.asarray(c.hand_point, float) for c in contacts])
+    inward = -np.array([np.asarray(c.object_normal, float) for c in contacts])
+    normal = balanced_normal_forces(points, inward, friction).normal
+    return squeeze_mm * normal / normal.max()
+
+
+def squeeze_targets(task: Task, q: np.ndarray, contacts, squeeze_mm: float, depths_mm=None) -> np.ndarray:
     """Joint angles ``(n_dof,)`` [rad] that move every contact's hand point ``squeeze_mm``
-    along the object's inward normal, to first order.
+    (or, per contact, ``depths_mm``) along the object's inward normal, to first order.
 
     With ``J`` the stacked Jacobians of the contacts' hand points with respect to the
     independent moving dofs (a coupled dof follows its source), the step is the
-    least-squares one, ``min |J dq - squeeze_mm * n_in|`` within the joint limits
+    least-squares one, ``min |J dq - d * n_in|`` within the joint limits
     (``scipy.optimize.lsq_linear``); coupled dofs follow.  ``contacts`` carry palm-frame ``hand_point`` and
     outward ``object_normal`` (as a :class:`~prehension.results.Solution`'s do).
 
@@ -25,16 +110,18 @@ def squeeze_targets(task: Task, q: np.ndarray, contacts, squeeze_mm: float) -> n
         task: the task.
         q: (n_dof,) the solved angles [rad].
         contacts: the solution's contacts.
-        squeeze_mm: how far into the object [mm].
+        squeeze_mm: how far into the object [mm] (every contact, unless ``depths_mm``).
+        depths_mm: (C,) per contact depths [mm] (:func:`squeeze_depths`), or ``None``.
     """
     hand = task.hand
     q = np.asarray(q, dtype=float)
     pose = forward_kinematics(hand, q)
+    depths = np.full(len(task.contacts), float(squeeze_mm)) if depths_mm is None else np.asarray(depths_mm, float)
     rows, target = [], []
-    for contact, state in zip(task.contacts, contacts):
+    for contact, state, depth in zip(task.contacts, contacts, depths):
         link = hand.link_index(hand.region(contact.hand_region).link)
         rows.append(point_jacobian(hand, pose, link, np.asarray(state.hand_point)[None])[0])  # (3, n_dof) [mm/rad]
-        target.append(-squeeze_mm * np.asarray(state.object_normal, float))
+        target.append(-depth * np.asarray(state.object_normal, float))
     J = np.concatenate(rows)  # (3C, n_dof)
     free = task.active_mask.copy()
     for c in hand.couplings:  # a coupled dof moves with its source

@@ -1,0 +1,91 @@
+"""solve --hold: the first candidate that holds in the physics test; the verdict stored and re-checked."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("mujoco")
+
+from prehension.cli import EXIT_BAD_INPUT, EXIT_OK, main  # noqa: E402
+from prehension.cli.codes import EXIT_CHECK_FAILED, EXIT_DROPPED  # noqa: E402
+from prehension.hold import hold_first  # noqa: E402
+from prehension.results import SolveResult, write_result  # noqa: E402
+from prehension.verify import verify_result_file  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_the_first_candidate_that_holds_is_the_answer(four, one_face):
+    """Candidates: a grasp that drops (every contact on one face), then one that holds."""
+    task, holds = four
+    _, drops = one_face
+    result = SolveResult(task, "local", "solved", "two candidates", (drops, holds))
+    out = hold_first(result)
+    assert out.held and out.result.solutions == (holds,)
+    assert out.physics[0]["success"] and len(out.physics) == 1
+    tried = out.result.stats["hold"]["tried"]
+    assert [t["success"] for t in tried] == [False, True] and tried[0]["why"].startswith("dropped")
+    assert "candidate 2 of 2 holds" in out.result.message
+
+
+def test_when_none_holds_the_answer_says_so_with_every_candidate(one_face):
+    task, drops = one_face
+    result = SolveResult(task, "local", "solved", "one candidate", (drops,))
+    out = hold_first(result)
+    assert not out.held and out.result.solutions == (drops,)
+    assert out.physics[0]["success"] is False and "no candidate holds" in out.result.message
+
+
+def test_the_stored_verdict_is_re_run_by_check(tmp_path, four, one_face, monkeypatch):
+    task, holds = four
+    out = hold_first(SolveResult(task, "local", "solved", "one", (holds,)))
+    path = tmp_path / "held.result.json"
+    write_result(out.result, path, physics=out.physics)
+    checked = verify_result_file(path)
+    physics = [f for f in checked.findings if "physics verdict" in f.what]
+    assert checked.holds and len(physics) == 1 and physics[0].detail.startswith("re-run: holds")
+    data = json.loads(path.read_text())  # a verdict that lies: one push said dropped
+    data["solutions"][0]["physics"]["pushes"][2]["held"] = False
+    data["solutions"][0]["physics"]["success"] = False
+    path.write_text(json.dumps(data))
+    assert not verify_result_file(path).holds
+    assert main(["check", str(path)]) == EXIT_CHECK_FAILED
+    monkeypatch.setitem(sys.modules, "mujoco", None)  # without MuJoCo: said, not re-run
+    skipped = [f for f in verify_result_file(path).findings if "physics verdict" in f.what]
+    assert skipped[0].ok and "MuJoCo is not installed" in skipped[0].detail
+
+
+def test_solve_hold_on_the_command_line(tmp_path, capsys):
+    held = tmp_path / "four.result.json"
+    task = str(ROOT / "examples" / "quality" / "box-four-fingers.yaml")
+    assert main(["solve", task, "--hold", "--best", "2", "--starts", "10", "-o", str(held)]) == EXIT_OK
+    data = json.loads(held.read_text())
+    assert data["stats"]["hold"]["held"] and data["solutions"][0]["physics"]["success"]
+    assert "holds in the physics test" in capsys.readouterr().out
+    dropped = tmp_path / "one.result.json"
+    task = str(ROOT / "examples" / "quality" / "box-one-face.yaml")
+    assert main(["solve", task, "--hold", "--best", "2", "--starts", "10", "-o", str(dropped)]) == EXIT_DROPPED
+    data = json.loads(dropped.read_text())
+    assert data["status"] == "solved" and not data["stats"]["hold"]["held"]
+    assert all(s["physics"]["success"] is False for s in data["solutions"])
+    held_counts = [s["physics"]["held"] for s in data["solutions"]]
+    assert held_counts == sorted(held_counts, reverse=True)
+    assert "no candidate holds" in capsys.readouterr().out
+
+
+def test_solve_hold_without_mujoco_names_the_extra(tmp_path, capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "mujoco", None)
+    task = str(ROOT / "examples" / "quality" / "box-four-fingers.yaml")
+    assert main(["solve", task, "--hold", "-o", str(tmp_path / "r.json")]) == EXIT_BAD_INPUT
+    assert 'pip install "prehension[sim]"' in capsys.readouterr().err
+    assert not (tmp_path / "r.json").exists()
+
+
+def test_solve_hold_says_what_it_cannot_be_combined_with(tmp_path, capsys):
+    task = str(ROOT / "examples" / "quality" / "box-one-face.yaml")
+    assert main(["solve", task, "--hold", "--require", "force-closure", "-o", str(tmp_path / "r.json")]) == EXIT_BAD_INPUT
+    assert "--hold runs the candidates of --best 5" in capsys.readouterr().err
