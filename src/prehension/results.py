@@ -233,7 +233,9 @@ def _object_depths(report: ResidualReport) -> dict:
     return {"object_depths_mm": {"links": links, "pads": pads}} if links or pads else {}
 
 
-def result_to_dict(result: SolveResult, quality=None, *, embed_task: bool = True, qualities=None, physics=None) -> dict:
+def result_to_dict(
+    result: SolveResult, quality=None, *, embed_task: bool = True, qualities=None, physics=None, approach: bool = True,
+) -> dict:  # fmt: skip
     """A JSON-ready dict: units in keys, the task embedded (unless ``embed_task`` is false:
     a batch stores each distinct task once and its records refer to it); the collision
     geometry that judged it (:func:`~prehension.tasks.geometry_record.collision_geometry`,
@@ -242,7 +244,9 @@ def result_to_dict(result: SolveResult, quality=None, *, embed_task: bool = True
     default ones if ``None``), or given: ``qualities``, one
     :func:`~prehension.quality.quality_entry` per solution (a batch measures them itself);
     ``physics``: per solution, its physics verdict (``solve --hold``,
-    :class:`~prehension.sim.PhysicsReport` as a dict, or ``None``), stored as ``"physics"``."""
+    :class:`~prehension.sim.PhysicsReport` as a dict, or ``None``), stored as ``"physics"``;
+    ``approach``: store each solution's pre-grasp and squeeze targets (``"pregrasp"``,
+    ``"squeeze"``; :func:`prehension.pregrasp.approach_entries`)."""
     from .quality import QualityOptions, quality_entry
     from .tasks.format.embedded import embedded_files
     from .tasks.yaml_io import task_to_dict
@@ -264,7 +268,9 @@ def result_to_dict(result: SolveResult, quality=None, *, embed_task: bool = True
         raise PrehensionError(f"result_to_dict: {len(qualities)} quality entries given for {len(result.solutions)} solutions")
     from .pregrasp import approach_entries
 
-    approach = [approach_entries(result.task, s) for s in result.solutions]  # pre-grasp and squeeze: docs/quality.md
+    # pre-grasp and squeeze (docs/quality.md): 3-19 ms a solution on the built-ins, more than a
+    # warm local solve, so a batch record leaves them out (``approach=False``, docs/batch.md)
+    approaches = [approach_entries(result.task, s) if approach else {} for s in result.solutions]
     if physics is None:
         physics = [None] * len(result.solutions)
     elif len(physics) != len(result.solutions):
@@ -278,7 +284,7 @@ def result_to_dict(result: SolveResult, quality=None, *, embed_task: bool = True
         "seconds": result.seconds,
         "stats": to_plain(dict(result.stats)),
         "collision_geometry": collision_geometry(result.task, compact=not embed_task),
-        "solutions": [_with_physics(_solution_to_dict(s, q, a), p) for s, q, a, p in zip(result.solutions, qualities, approach, physics)],
+        "solutions": [_with_physics(_solution_to_dict(s, q, a), p) for s, q, a, p in zip(result.solutions, qualities, approaches, physics)],
         "unverified_boxes": [{"lower": lo.tolist(), "upper": hi.tolist()} for lo, hi in result.unverified_boxes],
     }
 

@@ -73,7 +73,7 @@ def result_line(entry: Mapping[str, Any], method: str, seed: int, result, loaded
     """
     from ..results import result_to_dict
 
-    data = result_to_dict(result, embed_task=False, qualities=qualities)
+    data = result_to_dict(result, embed_task=False, qualities=qualities, approach=False)  # no pre-grasp: docs/batch.md
     fields = dict(status=result.status, seconds=seconds, message=result.message)
     if self_contained:
         head = {k: data[k] for k in ("prehension", "units", "frames")}

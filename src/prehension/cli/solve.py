@@ -276,7 +276,7 @@ def _write_view(console: Console, args, result) -> None:
 
 def _report(console: Console, args, result, path: Path, backup: Path | None) -> None:
     if args.json:
-        summary = {k: v for k, v in result_to_dict(result, embed_task=False).items() if k != "solutions"}  # no task, no mesh
+        summary = {k: v for k, v in result_to_dict(result, embed_task=False, approach=False).items() if k != "solutions"}  # no task, no mesh
         summary["result_file"] = str(path)
         if result.solutions:
             summary["joint_angles_deg"] = {k: float(np.degrees(v)) for k, v in result.solutions[0].joint_angles.items()}
