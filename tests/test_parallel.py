@@ -37,3 +37,27 @@ def test_importing_prehension_does_not_import_dask():
 
     code = "import sys, prehension, prehension.batch, prehension.parallel, prehension.cli; print('distributed' in sys.modules)"
     assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip() == "False"
+
+
+def test_the_interrupted_sync_noise_and_only_it_is_dropped():
+    """distributed's ``sync`` cancel callback failing after a KeyboardInterrupt (a NameError
+    raised in ``cancel`` of distributed/utils.py) is dropped; any other error record is kept."""
+    import logging
+    import sys
+
+    from prehension.parallel import _InterruptedSyncNoise
+
+    def record_of(filename: str, name: str, error: type) -> logging.LogRecord:
+        namespace: dict = {}
+        exec(compile(f"def {name}():\n    raise {error.__name__}('x')\n", filename, "exec"), namespace)
+        try:
+            namespace[name]()
+        except Exception:  # noqa: BLE001 - the record carries it
+            return logging.LogRecord("tornado.application", logging.ERROR, filename, 1, "callback", None, sys.exc_info())
+
+    noise = _InterruptedSyncNoise()
+    assert not noise.filter(record_of("/x/site-packages/distributed/utils.py", "cancel", NameError))
+    assert noise.filter(record_of("/x/site-packages/distributed/utils.py", "cancel", ValueError))
+    assert noise.filter(record_of("/x/site-packages/distributed/utils.py", "other", NameError))
+    assert noise.filter(record_of("/x/mycode.py", "cancel", NameError))
+    assert noise.filter(logging.LogRecord("tornado.application", logging.ERROR, "f", 1, "no exception", None, None))

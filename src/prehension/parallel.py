@@ -82,20 +82,51 @@ def cluster(scheduler: str | None = None, workers: int | None = None, *, dashboa
     """
     check_where(scheduler, workers)
     distributed = _distributed()
-    if scheduler is not None:
-        with _connect(distributed, str(scheduler).strip()) as client:
-            yield client
-        return
-    from ._dask_plugins import IgnoreCtrlC
+    with _without_interrupted_sync_noise():
+        if scheduler is not None:
+            with _connect(distributed, str(scheduler).strip()) as client:
+                yield client
+            return
+        from ._dask_plugins import IgnoreCtrlC
 
-    with _ctrl_c_ignored():  # the worker processes spawned now inherit it (see IgnoreCtrlC)
-        local = distributed.LocalCluster(
-            n_workers=workers or default_workers(), threads_per_worker=1, processes=True,
-            dashboard_address=":8787" if dashboard else ":0", silence_logs=logging.ERROR,
-        )  # fmt: skip
-    with local, distributed.Client(local) as client:
-        client.register_plugin(IgnoreCtrlC())  # and the workers started later, to replace a lost one
-        yield client
+        with _ctrl_c_ignored():  # the worker processes spawned now inherit it (see IgnoreCtrlC)
+            local = distributed.LocalCluster(
+                n_workers=workers or default_workers(), threads_per_worker=1, processes=True,
+                dashboard_address=":8787" if dashboard else ":0", silence_logs=logging.ERROR,
+            )  # fmt: skip
+        with local, distributed.Client(local) as client:
+            client.register_plugin(IgnoreCtrlC())  # and the workers started later, to replace a lost one
+            yield client
+
+
+class _InterruptedSyncNoise(logging.Filter):
+    """Drops the one error record distributed's ``sync`` leaves when a ``KeyboardInterrupt``
+    (Ctrl-C, or SIGTERM/SIGHUP through :mod:`prehension.cli.terminate`) reaches the client
+    while it waits: its ``cancel`` callback then reads a variable not yet assigned and
+    tornado logs ``NameError ... 'future'`` with a traceback (seen with distributed
+    2026.8).  The interrupt itself is handled (the batch keeps what finished); only that
+    traceback, which says nothing to the user, is left out."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        exc = record.exc_info[1] if record.exc_info else None
+        if not isinstance(exc, NameError) or exc.__traceback__ is None:
+            return True
+        tb = exc.__traceback__
+        while tb.tb_next is not None:
+            tb = tb.tb_next
+        code = tb.tb_frame.f_code
+        return not (code.co_name == "cancel" and code.co_filename.replace("\\", "/").endswith("distributed/utils.py"))
+
+
+@contextlib.contextmanager
+def _without_interrupted_sync_noise():
+    """:class:`_InterruptedSyncNoise` on tornado's application logger while inside."""
+    logger, noise = logging.getLogger("tornado.application"), _InterruptedSyncNoise()
+    logger.addFilter(noise)
+    try:
+        yield
+    finally:
+        logger.removeFilter(noise)
 
 
 @contextlib.contextmanager
