@@ -14,13 +14,12 @@ link whose shapes could not all be read is never stored.  Folder and rules:
 from __future__ import annotations
 
 import functools
-import hashlib
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
-from ..disk_cache import code_fingerprint, load_arrays, store_arrays
+from ..disk_cache import code_fingerprint, content_key, load_arrays, store_arrays
 from .model import Capsule
 from .provenance import ShapeFit
 
@@ -39,13 +38,11 @@ def _fingerprint() -> bytes:
 def link_key(shapes, vertices) -> str:
     """The entry name of a link's collision ``shapes`` (:class:`RawShape`), ``vertices``
     the mesh vertices of each (``None`` for a primitive)."""
-    h = hashlib.sha256(_fingerprint())
+    parts = []
     for s, v in zip(shapes, vertices):
-        h.update(repr((s.kind, tuple(float(x) for x in s.size))).encode())
-        h.update(np.ascontiguousarray(s.T_link_shape, dtype=float).tobytes())
-        if v is not None:
-            h.update(np.ascontiguousarray(v, dtype=float).tobytes())
-    return h.hexdigest()
+        parts += [(s.kind, tuple(float(x) for x in s.size)), np.asarray(s.T_link_shape, dtype=float),
+                  None if v is None else np.asarray(v, dtype=float)]  # fmt: skip
+    return content_key(_fingerprint(), *parts)
 
 
 def cached_link_fit(
