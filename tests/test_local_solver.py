@@ -429,7 +429,7 @@ def _colliding_pinch(hand, seed):
 
 @pytest.mark.parametrize("seed", [1, 2, 3])
 def test_a_colliding_answer_is_repaired_into_a_collision_free_strict_one(sa_hand, seed):
-    from prehension.solvers.local.solver import _unknowns_of, run_kernel
+    from prehension.solvers.local.refine import _unknowns_of, run_kernel
     from prehension.tasks.model import Configuration
 
     q, problem = _colliding_pinch(sa_hand, seed)

@@ -26,7 +26,9 @@ from ._linalg import mat_mat, mat_vec, rot
 from .options import LocalOptions
 from .problems import PointProblems
 from .sequence import InitialPoseSequence, default_sequence
-from .solver import _check, _contact_checks_points, _pose_index, run_kernel
+from ._checks import check, contact_checks_points
+from ._starts import pose_index
+from ._waves import run_kernel
 
 __all__ = ["least_squares_batch"]
 
@@ -82,14 +84,14 @@ def least_squares_batch(
     rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(0 if rng is None else rng)
     group = problems.group(options.joint_scale_mm)
     P, nx, nf, imax = len(problems), group.nx, group.nf, options.i_max
-    pidx = _pose_index(group, sequence)
+    pidx = pose_index(group, sequence)
     use = pidx >= 0
     start_only = replace(options, k_max=0, polish=False, repair_iterations=0)
     kopt = options.kernel_options()
     lo, hi = group.layout.lo.copy(), group.layout.hi.copy()
     lo[nf : nf + 6], hi[nf : nf + 6] = -np.inf, np.inf
     hi = np.maximum(hi, lo + 1e-12)
-    check = lambda idx, pose, T, prm: _contact_checks_points(problems, idx, pose, T, prm)  # noqa: E731
+    contacts = lambda idx, pose, T, prm: contact_checks_points(problems, idx, pose, T, prm)  # noqa: E731
     C = len(group.contacts)
     solved_with = np.zeros(P, dtype=np.int64)
     level = np.zeros(P, dtype=np.int64)
@@ -128,7 +130,7 @@ def least_squares_batch(
             _, _, R, t = evaluate(sol.x)
             x = sol.x.copy()
             x[nf : nf + 6] = 0.0
-            lev = _check(group, check, np.array([p]), x[None], R[None], t[None], options)[0][0]
+            lev = check(group, contacts, np.array([p]), x[None], R[None], t[None], options).level[0]
             per_pose_time[p, i] = time.perf_counter() - t_i
             if lev > 0:
                 solved_with[p] = i + 1
