@@ -589,3 +589,21 @@ def test_a_seed_draws_what_the_generator_it_names_draws():
         assert one.stats["per_pose_iterations"] == list(eager[0].per_pose_iterations)
     with pytest.raises(ValueError):
         solve_local(tasks[0], LocalOptions(initial="random"), seed=-1)  # refused as numpy refuses it
+
+
+def test_the_least_squares_baseline_runs_algorithm_1s_outer_loop(sa_hand):
+    """benchmarks/fig9.py's scipy baseline: a pose is tried only while the earlier ones failed,
+    each within max_nfev evaluations, and the same seed gives the same answers."""
+    from prehension.solvers.local.baseline import least_squares_batch
+
+    problems = random_point_problems(6, sa_hand, seed=3)
+    options = LocalOptions(i_max=3)
+    out = least_squares_batch(problems, options, rng=1, max_nfev=40)
+    tried = np.where(out["solved_with"] > 0, out["solved_with"], options.i_max)
+    assert set(out["solved_with"].tolist()) <= {0, 1, 2, 3}
+    np.testing.assert_array_equal(out["level"] > 0, out["solved_with"] > 0)
+    assert np.all(out["nfev"] <= 40 * tried) and np.all(out["nfev"] >= tried)
+    assert np.all(np.diff(out["time_after"]) >= 0.0) and out["time_after"].shape == (3,)
+    again = least_squares_batch(problems, options, rng=1, max_nfev=40)
+    for key in ("solved_with", "level", "nfev"):
+        np.testing.assert_array_equal(out[key], again[key])
