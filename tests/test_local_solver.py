@@ -607,3 +607,26 @@ def test_the_least_squares_baseline_runs_algorithm_1s_outer_loop(sa_hand):
     again = least_squares_batch(problems, options, rng=1, max_nfev=40)
     for key in ("solved_with", "level", "nfev"):
         np.testing.assert_array_equal(out[key], again[key])
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_cone_params_spread_normals_over_the_cap_with_the_rim_share_on_the_rim(seed):
+    """_regions.cone_params (random_point_problems' rim_fraction): every normal within the
+    cone, the asked share exactly on its rim; kinds without a cone of normals get None."""
+    from fk_tasks import height_field_patch
+    from prehension.geometry.regions import PointRegion
+
+    rng = np.random.default_rng(seed)
+    axis = rng.normal(size=3)
+    cap = SphereCap(rng.normal(size=3), rng.uniform(5.0, 20.0), axis / np.linalg.norm(axis), rng.uniform(20, 170) * DEG)
+    params = RG.cone_params(cap, rng, 400, 0.25)
+    assert params.shape == (400, 2) and np.all(cap.domain_violation(params) <= 1e-9)
+    _, normals = cap.evaluate(params)
+    cos_axis = normals @ cap.axis
+    assert np.all(cos_axis >= np.cos(cap.half_angle) - 1e-9)
+    on_rim = np.isclose(cos_axis, np.cos(cap.half_angle), atol=1e-9)
+    assert 0.15 < on_rim.mean() < 0.35
+    assert RG.virtual_joints(cap)
+    patch = BezierRegion(height_field_patch(rng, 3, 2, jitter=0.2))
+    for other in (PointRegion((0.0, 0.0, 0.0), (0.0, 0.0, 1.0)), patch):
+        assert RG.cone_params(other, rng, 5, 0.5) is None and not RG.virtual_joints(other)
