@@ -54,11 +54,11 @@ def complete(task, options, client):
 
 
 def offline(client, M: int, N: int, imax: int):
-    from prehension.solvers.local.offline import offline_sequence
+    from prehension.solvers.local.offline import OfflineSearch, offline_sequence
 
     executor = DaskExecutor(client) if client is not None else None
     started = time.perf_counter()
-    seq = offline_sequence(None, M, N, imax, executor, seed=0)
+    seq = offline_sequence(None, OfflineSearch(M=M, N=N, imax=imax, seed=0), executor=executor)
     return time.perf_counter() - started, tuple(map(tuple, np.round(seq.lambdas, 12).tolist()))
 
 

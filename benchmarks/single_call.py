@@ -67,7 +67,8 @@ def point_rows(n: int) -> list[tuple[str, float]]:
     from prehension.solvers.local import LocalOptions, random_point_problems, solve_local
     from prehension.solvers.local.problems import group_from_tasks
     from prehension.solvers.local.sequence import default_sequence
-    from prehension.solvers.local.solver import _place_poses, run_kernel
+    from prehension.solvers.local._starts import place_poses as _place_poses
+    from prehension.solvers.local.solver import run_kernel
     from prehension.tasks.residuals import evaluate
 
     problems = random_point_problems(n, schunk_sa_hand(), seed=0)

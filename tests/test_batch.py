@@ -236,11 +236,11 @@ def test_the_cli_on_a_running_scheduler(client, twenty_tasks, tmp_path):
 def test_the_offline_search_on_the_cluster_gives_the_same_sequence(client, sa_hand):
     from prehension.parallel import DaskExecutor
     from prehension.solvers.local import LocalOptions
-    from prehension.solvers.local.offline import offline_sequence
+    from prehension.solvers.local.offline import OfflineSearch, offline_sequence
 
-    kw = dict(M=8, N=3, imax=2, seed=5, n_samples=200, options=LocalOptions(k_max=20))
-    inline = offline_sequence(sa_hand, **kw)
-    on_cluster = offline_sequence(sa_hand, executor=DaskExecutor(client), **kw)
+    search = OfflineSearch(M=8, N=3, imax=2, seed=5, n_samples=200, options=LocalOptions(k_max=20))
+    inline = offline_sequence(sa_hand, search)
+    on_cluster = offline_sequence(sa_hand, search, executor=DaskExecutor(client))
     np.testing.assert_array_equal(inline.lambdas, on_cluster.lambdas)
     for a, b in zip(inline.success, on_cluster.success):
         np.testing.assert_array_equal(a, b)

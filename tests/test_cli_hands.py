@@ -123,9 +123,9 @@ def test_offline_any_hand_and_solve_with_the_sequence(tmp_path, capsys):
 
 def test_batch_uses_the_sequence_of_each_tasks_hand(sa_hand):
     from prehension.batch.solving import BatchOptions, solve_chunk
-    from prehension.solvers.local import offline_sequence
+    from prehension.solvers.local import OfflineSearch, offline_sequence
 
-    seq = offline_sequence(sa_hand, M=6, N=2, imax=1, seed=1)
+    seq = offline_sequence(sa_hand, OfflineSearch(M=6, N=2, imax=1, seed=1))
     entry = {"id": "a", "name": "lid", "source": "x", "payload": {"kind": "builtin", "name": "teapot-lid-lifting"}}
     (record,) = [json.loads(r.line) for r in solve_chunk([entry], BatchOptions(method="local", sequences=(seq.to_dict(),))).records]
     assert record["result"]["stats"]["sequence"].startswith("offline_sequence(M=6, N=2, imax=1, seed=1)")
@@ -138,10 +138,10 @@ def test_batch_uses_the_sequence_of_each_tasks_hand(sa_hand):
 def test_batch_command_line_reads_the_sequence_files(tmp_path, sa_hand):
     from prehension.cli import build_parser
     from prehension.cli.batch import _sequences
-    from prehension.solvers.local import offline_sequence
+    from prehension.solvers.local import OfflineSearch, offline_sequence
 
     path = tmp_path / "sa.json"
-    offline_sequence(sa_hand, M=6, N=2, imax=1, seed=1).save(path)
+    offline_sequence(sa_hand, OfflineSearch(M=6, N=2, imax=1, seed=1)).save(path)
     args = build_parser().parse_args(["batch", "in.jsonl", "-o", "out.jsonl", "--sequence", str(path)])
     (data,) = _sequences(args.sequence)
     assert data["hand"] == "schunk-sa" and len(data["lambdas"]) == 1

@@ -4,22 +4,21 @@ from __future__ import annotations
 
 import json
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from prehension.errors import PrehensionError
 from prehension.solvers.local import PAPER_TABLE1, InitialPoseSequence, LocalOptions, default_sequence
-from prehension.solvers.local.offline import compare_with_paper, grid_values, offline_sequence
+from prehension.solvers.local.offline import OfflineSearch, compare_with_paper, grid_values, offline_sequence
 from prehension.solvers.local.sequence import SEQUENCE_TAG, pose_space, principal_directions, sample_poses, shipped_sequence
 
 
 def test_a_tiny_offline_search_runs_and_round_trips(tmp_path, sa_hand):
     calls = []
-    seq = offline_sequence(
-        sa_hand, M=12, N=3, imax=2, progress=lambda d, t, m: calls.append((d, t, m)), seed=1, n_samples=300,
-        options=LocalOptions(k_max=30),
-    )  # fmt: skip
+    search = OfflineSearch(M=12, N=3, imax=2, seed=1, n_samples=300, options=LocalOptions(k_max=30))
+    seq = offline_sequence(sa_hand, search, progress=lambda d, t, m: calls.append((d, t, m)))
     assert len(seq) == 2 and seq.lambdas.shape == (2, 2)
     assert set(np.round(seq.lambdas.ravel(), 12)) <= {0.0, 0.5, 1.0}
     assert len(seq.success) == 2 and all(s.shape == (3, 3) for s in seq.success)
@@ -40,10 +39,10 @@ def test_a_tiny_offline_search_runs_and_round_trips(tmp_path, sa_hand):
 
 
 def test_the_search_runs_on_an_executor_with_the_same_answer(sa_hand):
-    kw = dict(M=8, N=2, imax=1, seed=3, n_samples=200, options=LocalOptions(k_max=20))
-    inline = offline_sequence(sa_hand, **kw)
+    search = OfflineSearch(M=8, N=2, imax=1, seed=3, n_samples=200, options=LocalOptions(k_max=20))
+    inline = offline_sequence(sa_hand, search)
     with ThreadPoolExecutor(max_workers=2) as ex:
-        pooled = offline_sequence(sa_hand, executor=ex, chunks_per_step=3, **kw)
+        pooled = offline_sequence(sa_hand, replace(search, chunks_per_step=3), executor=ex)
     np.testing.assert_array_equal(inline.lambdas, pooled.lambdas)
     np.testing.assert_array_equal(inline.success[0], pooled.success[0])
 
@@ -84,7 +83,7 @@ def test_comparison_with_table1():
 
 def test_bad_inputs_are_reported(tmp_path, sa_hand):
     with pytest.raises(PrehensionError, match="M must be an integer >= 1"):
-        offline_sequence(sa_hand, M=0)
+        OfflineSearch(M=0)
     with pytest.raises(PrehensionError, match="N >= 2"):
         grid_values(1)
     bad = tmp_path / "bad.json"
@@ -107,12 +106,12 @@ def test_cli_offline_writes_the_file_and_prints_table1(tmp_path):
 
     out = tmp_path / "sa.json"
     buf = io.StringIO()
-    seq = cli_offline("schunk-sa", out, M=6, N=2, imax=1, console=Console(file=buf, width=120))
+    seq = cli_offline("schunk-sa", out, OfflineSearch(M=6, N=2, imax=1), console=Console(file=buf, width=120))
     assert out.is_file() and InitialPoseSequence.load(out).lambdas.shape == (1, 2)
     text = buf.getvalue()
     assert "Table 1" in text and "0.517" in text and f"wrote {out}" in text
     with pytest.raises(PrehensionError, match="already exists"):
-        cli_offline("schunk-sa", out, M=6, N=2, imax=1, console=Console(file=buf))
+        cli_offline("schunk-sa", out, OfflineSearch(M=6, N=2, imax=1), console=Console(file=buf))
     with pytest.raises(PrehensionError, match="'allegro' is neither a built-in hand"):
         cli_offline("allegro", tmp_path / "x.json", console=Console(file=buf))
     assert len(seq) == 1

@@ -429,7 +429,7 @@ def _colliding_pinch(hand, seed):
 
 @pytest.mark.parametrize("seed", [1, 2, 3])
 def test_a_colliding_answer_is_repaired_into_a_collision_free_strict_one(sa_hand, seed):
-    from prehension.solvers.local.solver import _unknowns_of, run_kernel
+    from prehension.solvers.local.refine import _unknowns_of, run_kernel
     from prehension.tasks.model import Configuration
 
     q, problem = _colliding_pinch(sa_hand, seed)
@@ -589,3 +589,44 @@ def test_a_seed_draws_what_the_generator_it_names_draws():
         assert one.stats["per_pose_iterations"] == list(eager[0].per_pose_iterations)
     with pytest.raises(ValueError):
         solve_local(tasks[0], LocalOptions(initial="random"), seed=-1)  # refused as numpy refuses it
+
+
+def test_the_least_squares_baseline_runs_algorithm_1s_outer_loop(sa_hand):
+    """benchmarks/fig9.py's scipy baseline: a pose is tried only while the earlier ones failed,
+    each within max_nfev evaluations, and the same seed gives the same answers."""
+    from prehension.solvers.local.baseline import least_squares_batch
+
+    problems = random_point_problems(6, sa_hand, seed=3)
+    options = LocalOptions(i_max=3)
+    out = least_squares_batch(problems, options, rng=1, max_nfev=40)
+    tried = np.where(out["solved_with"] > 0, out["solved_with"], options.i_max)
+    assert set(out["solved_with"].tolist()) <= {0, 1, 2, 3}
+    np.testing.assert_array_equal(out["level"] > 0, out["solved_with"] > 0)
+    assert np.all(out["nfev"] <= 40 * tried) and np.all(out["nfev"] >= tried)
+    assert np.all(np.diff(out["time_after"]) >= 0.0) and out["time_after"].shape == (3,)
+    again = least_squares_batch(problems, options, rng=1, max_nfev=40)
+    for key in ("solved_with", "level", "nfev"):
+        np.testing.assert_array_equal(out[key], again[key])
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_cone_params_spread_normals_over_the_cap_with_the_rim_share_on_the_rim(seed):
+    """_regions.cone_params (random_point_problems' rim_fraction): every normal within the
+    cone, the asked share exactly on its rim; kinds without a cone of normals get None."""
+    from fk_tasks import height_field_patch
+    from prehension.geometry.regions import PointRegion
+
+    rng = np.random.default_rng(seed)
+    axis = rng.normal(size=3)
+    cap = SphereCap(rng.normal(size=3), rng.uniform(5.0, 20.0), axis / np.linalg.norm(axis), rng.uniform(20, 170) * DEG)
+    params = RG.cone_params(cap, rng, 400, 0.25)
+    assert params.shape == (400, 2) and np.all(cap.domain_violation(params) <= 1e-9)
+    _, normals = cap.evaluate(params)
+    cos_axis = normals @ cap.axis
+    assert np.all(cos_axis >= np.cos(cap.half_angle) - 1e-9)
+    on_rim = np.isclose(cos_axis, np.cos(cap.half_angle), atol=1e-9)
+    assert 0.15 < on_rim.mean() < 0.35
+    assert RG.virtual_joints(cap)
+    patch = BezierRegion(height_field_patch(rng, 3, 2, jitter=0.2))
+    for other in (PointRegion((0.0, 0.0, 0.0), (0.0, 0.0, 1.0)), patch):
+        assert RG.cone_params(other, rng, 5, 0.5) is None and not RG.virtual_joints(other)

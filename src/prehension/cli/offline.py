@@ -11,6 +11,7 @@ default); the sequence is the same either way for the same ``--seed``.  ``solve
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 from rich.console import Console
@@ -21,8 +22,7 @@ from ..errors import PrehensionError
 from . import args as types
 from .codes import EXIT_GAVE_UP, EXIT_OK
 
-__all__ = ["add_parser", "cmd_offline", "cli_offline", "fingertip_regions"]
-
+__all__ = ["add_parser", "cmd_offline", "cli_offline"]
 
 
 def add_parser(sub) -> None:
@@ -45,14 +45,17 @@ def add_parser(sub) -> None:
 
 
 def cmd_offline(args, console: Console) -> int:
+    from ..solvers.local.offline import OfflineSearch
+
     regions = tuple(r.strip() for r in args.regions.split(",") if r.strip()) if args.regions else None
-    seq = cli_offline(args.hand, args.output, M=args.M, N=args.N, imax=args.imax, workers=args.workers,
-                      scheduler=args.scheduler, seed=args.seed, force=args.force, console=console,
-                      regions=regions, time_limit_s=types.time_limit(args.time_limit, "--time-limit"))  # fmt: skip
+    search = OfflineSearch(M=args.M, N=args.N, imax=args.imax, seed=args.seed, hand_regions=regions,
+                           time_limit_s=types.time_limit(args.time_limit, "--time-limit"))  # fmt: skip
+    seq = cli_offline(args.hand, args.output, search, workers=args.workers, scheduler=args.scheduler, force=args.force,
+                      console=console)  # fmt: skip
     return EXIT_GAVE_UP if seq.meta.get("stopped") else EXIT_OK
 
 
-def _search(hand, regions, M, N, imax, seed, executor, console: Console, time_limit_s=None):
+def _search(hand, search, executor, console: Console):
     from ..solvers.local.offline import offline_sequence
 
     with Progress(
@@ -64,7 +67,7 @@ def _search(hand, regions, M, N, imax, seed, executor, console: Console, time_li
         def progress(done, total, message):
             bar.update(task_id, completed=done, total=total, description=f"off-line search, {message}")
 
-        return offline_sequence(hand, M, N, imax, executor, progress, seed, hand_regions=regions, time_limit_s=time_limit_s)
+        return offline_sequence(hand, search, executor=executor, progress=progress)
 
 
 def _table(seq, M: int, N: int) -> Table:
@@ -96,36 +99,19 @@ def _plain_table(seq, M: int, N: int) -> Table:
     return table
 
 
-def fingertip_regions(hand) -> tuple[str, ...]:
-    """The hand's ``<finger>_tip`` sphere caps, the opposing finger's first (the SA hand:
-    the paper's thumb, index, middle, ring)."""
-    from ..geometry.regions import SphereCap
-    from ..solvers.local.problems import SA_FOUR_TIPS
-
-    if hand.name == "schunk-sa" and set(SA_FOUR_TIPS) <= set(hand.regions):
-        return SA_FOUR_TIPS
-    order = sorted(hand.fingers, key=lambda f: f.name != hand.opposing_finger)
-    tips = [f"{f.name}_tip" for f in order]
-    tips = [t for t in tips if t in hand.regions and isinstance(hand.regions[t].region, SphereCap)]
-    if len(tips) < 2:
-        raise PrehensionError(
-            f"hand {hand.name!r} has {len(tips)} fingertip region(s); the off-line search needs at least two "
-            "(give --regions A,B,...)"
-        )
-    return tuple(tips)
-
-
-def cli_offline(hand_name: str, output, *, M: int = 5000, N: int = 30, imax: int = 12, workers: int | None = None,
-                scheduler: str | None = None, seed: int = 0, force: bool = False, console=None,
-                regions: tuple[str, ...] | None = None, time_limit_s: float | None = None):  # fmt: skip
+def cli_offline(hand_name: str, output, search=None, *, workers: int | None = None, scheduler: str | None = None,
+                force: bool = False, console=None):  # fmt: skip
     """What ``prehension offline HAND`` does: search with a rich progress bar (on a Dask
     cluster when ``scheduler`` or ``workers > 1``), write the file, print the sequence
     (beside the paper's Table 1 for the SA hand).  Returns the :class:`InitialPoseSequence`.
 
-    With ``time_limit_s`` the search stops at it: the poses found by then are written (the
-    sequence's ``meta["stopped"]`` says so); none found raises
-    :class:`~prehension.deadline.TimeLimitReached` and writes nothing."""
+    ``search`` is an :class:`~prehension.solvers.local.offline.OfflineSearch` (default: the
+    paper's parameters on the hand's fingertips).  With its ``time_limit_s`` the search
+    stops at it: the poses found by then are written (the sequence's ``meta["stopped"]``
+    says so); none found raises :class:`~prehension.deadline.TimeLimitReached` and writes
+    nothing."""
     from ..parallel import executor_for
+    from ..solvers.local.offline import OfflineSearch
     from ..tasks.format.hand_files import resolve_hand
     from .hands import print_hand_warnings
 
@@ -138,13 +124,14 @@ def cli_offline(hand_name: str, output, *, M: int = 5000, N: int = 30, imax: int
         raise PrehensionError(f"{output} already exists; pass --force to overwrite it")
     hand = resolve_hand(hand_name)
     print_hand_warnings(console, hand)
-    regions = tuple(regions) if regions else fingertip_regions(hand)
-    for r in regions:
+    search = search or OfflineSearch()
+    search = replace(search, hand_regions=search.regions_of(hand))
+    for r in search.hand_regions:
         hand.region(r)  # an unknown name: an error listing the hand's regions
     with executor_for(scheduler, workers) as executor:
-        seq = _search(hand, regions, M, N, imax, seed, executor, console, time_limit_s)
+        seq = _search(hand, search, executor, console)
     seq.save(output)
-    console.print(_table(seq, M, N))
+    console.print(_table(seq, search.M, search.N))
     console.print(f"wrote {output} ({seq.meta['seconds']:.0f} s)")
     if seq.meta.get("stopped"):
         Console(stderr=True, highlight=False).print(f"gave up: {seq.meta['stopped']}; the poses found are written",

@@ -7,7 +7,8 @@ Public API:
 * :class:`LocalOptions` -- the paper's parameters (``i_max``, ``k_max``, ``d_min``...) and ours;
 * :class:`PointProblems`, :func:`random_point_problems` -- the compact batch form and the
   paper's random feasible problems;
-* :class:`InitialPoseSequence`, :func:`default_sequence`, :func:`offline_sequence` -- sec. 3.2;
+* :class:`InitialPoseSequence`, :func:`default_sequence`, :func:`offline_sequence` (with
+  :class:`OfflineSearch`) -- sec. 3.2;
 * :func:`compile_pending`, :func:`warm_up` -- the first run compiles the kernel once.
 
 See ``docs/local-solver.md``.
@@ -32,6 +33,7 @@ __all__ = [
     "InitialPoseSequence",
     "default_sequence",
     "offline_sequence",
+    "OfflineSearch",
     "PAPER_TABLE1",
     "compile_pending",
     "warm_up",
@@ -40,8 +42,8 @@ __all__ = [
 
 
 def __getattr__(name):  # the off-line search loads only when asked for
-    if name == "offline_sequence":
-        from .offline import offline_sequence
+    if name in ("offline_sequence", "OfflineSearch"):
+        from . import offline
 
-        return offline_sequence
+        return getattr(offline, name)
     raise AttributeError(name)

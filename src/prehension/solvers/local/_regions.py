@@ -1,9 +1,12 @@
 """Region kinds for the kernel: each kind's data layout (named offsets) and its compiled code.
 
-One place per region kind: a new kind adds its layout, :func:`pack` / :func:`code` /
-:func:`reference_point` / :func:`size` / :func:`unknown_box` entries and its two compiled
-adapters (``_<kind>_eval``, ``_<kind>_project``), and the dispatchers :func:`evaluate`,
-:func:`project` and :func:`rim_gradient` route to them.
+The local solver's one place per region kind: a new kind adds its layout, :func:`pack` /
+:func:`code` / :func:`reference_point` / :func:`size` / :func:`unknown_box` entries (and,
+if its parameters are virtual fingertip joints or it has a cone of normals,
+:func:`virtual_joints` / :func:`cone_params`) and its two compiled adapters
+(``_<kind>_eval``, ``_<kind>_project``), and the dispatchers :func:`evaluate`,
+:func:`project` and :func:`rim_gradient` route to them.  The rest of the local solver
+asks these functions and never tests a region's kind itself.
 
 Layouts (one row of a problem's ``data`` per region, starting at its offset ``off``):
 
@@ -29,7 +32,7 @@ from ._jit import njit
 
 __all__ = [
     "K_POINT", "K_CAP", "K_BEZIER", "MAX_DEGREE", "code", "pack", "reference_point", "size", "unknown_box",
-    "evaluate", "project", "rim_gradient", "start_params", "RegionScratch",
+    "evaluate", "project", "rim_gradient", "start_params", "RegionScratch", "virtual_joints", "cone_params",
 ]  # fmt: skip
 
 K_POINT, K_CAP, K_BEZIER = 0, 1, 2
@@ -116,6 +119,29 @@ def unknown_box(region: Region) -> tuple[np.ndarray, np.ndarray, bool, np.ndarra
             lo, hi = np.array([-np.pi, -np.pi / 2]), np.array([np.pi, np.pi / 2])
         return lo, hi, False, np.zeros(2)
     return np.zeros(0), np.zeros(0), False, np.zeros(0)
+
+
+def virtual_joints(region: Region) -> bool:
+    """Whether a region's parameters are the paper's virtual fingertip joints ``(alpha,
+    gamma)``: a sphere cap.  Such a region on a finger's tip link is part of the hand's
+    pose space (:func:`.sequence.pose_space`) and a fingertip of the off-line search."""
+    return isinstance(region, SphereCap)
+
+
+def cone_params(region: Region, rng, n: int, rim_fraction: float) -> np.ndarray | None:
+    """``n`` parameter vectors of a region whose normals are uniform over its cone of
+    normals (a sphere cap's area), a share ``rim_fraction`` of them exactly on its rim
+    (the cone's boundary), (n, 2); ``None`` for a kind without such a cone (points, patches)."""
+    if not isinstance(region, SphereCap):
+        return None
+    h = min(region.half_angle, np.pi)
+    cos_t = rng.uniform(np.cos(h), 1.0, n)
+    cos_t[rng.uniform(0.0, 1.0, n) < rim_fraction] = np.cos(h)
+    phi = rng.uniform(0.0, 2.0 * np.pi, n)
+    sin_t = np.sqrt(np.maximum(1.0 - cos_t**2, 0.0))
+    e1, e2, m = region.frame.T
+    normals = cos_t[:, None] * m + sin_t[:, None] * (np.cos(phi)[:, None] * e1 + np.sin(phi)[:, None] * e2)
+    return region.params_for_normal(normals)
 
 
 class RegionScratch(NamedTuple):

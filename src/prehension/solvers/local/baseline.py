@@ -26,7 +26,9 @@ from ._linalg import mat_mat, mat_vec, rot
 from .options import LocalOptions
 from .problems import PointProblems
 from .sequence import InitialPoseSequence, default_sequence
-from .solver import _check, _contact_checks_points, _pose_index, run_kernel
+from ._checks import check, contact_checks_points
+from ._starts import pose_index
+from ._waves import run_kernel
 
 __all__ = ["least_squares_batch"]
 
@@ -80,55 +82,20 @@ def least_squares_batch(
     """
     sequence = sequence if sequence is not None else default_sequence(problems.hand)
     rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(0 if rng is None else rng)
-    group = problems.group(options.joint_scale_mm)
-    P, nx, nf, imax = len(problems), group.nx, group.nf, options.i_max
-    pidx = _pose_index(group, sequence)
-    use = pidx >= 0
-    start_only = replace(options, k_max=0, polish=False, repair_iterations=0)
-    kopt = options.kernel_options()
-    lo, hi = group.layout.lo.copy(), group.layout.hi.copy()
-    lo[nf : nf + 6], hi[nf : nf + 6] = -np.inf, np.inf
-    hi = np.maximum(hi, lo + 1e-12)
-    check = lambda idx, pose, T, prm: _contact_checks_points(problems, idx, pose, T, prm)  # noqa: E731
-    C = len(group.contacts)
+    fit = _Fit(problems, options, sequence, max_nfev)
+    P, imax = len(problems), options.i_max
     solved_with = np.zeros(P, dtype=np.int64)
     level = np.zeros(P, dtype=np.int64)
     seconds = np.zeros(P)
     nfev = np.zeros(P, dtype=np.int64)
     per_pose_time = np.zeros((P, imax))
     for p in range(P):
-        data = group.pdata[p]
-        piv = data[group.layout.pivot_offset : group.layout.pivot_offset + 3]
         t_p = time.perf_counter()
         for i in range(imax):
             t_i = time.perf_counter()
             lam = sequence.lambdas[i : i + 1] if (options.initial == "sequence" and i < len(sequence)) else rng.uniform(0, 1, (1, 2))
-            x0 = group.x_default[None].copy()
-            x0[:, use] = sequence.poses(lam)[:, pidx[use]]
-            init = run_kernel(group, np.array([p]), x0, start_only)
-            R0 = init.R[0].copy()
-            cp0 = R0 @ piv + init.t[0]
-            z0 = np.clip(init.x[0], lo, hi)
-            buffers = (np.zeros(6 * C), np.zeros((6 * C, nx)), np.zeros((3, 3)), np.zeros(3))
-            cache = {}
-
-            def evaluate(z):
-                key = z.tobytes()
-                if key not in cache:
-                    cache.clear()
-                    _fun_jac(z, R0, cp0, data, (group.arrays, group.layout, kopt, group.obj), buffers)
-                    cache[key] = tuple(b.copy() for b in buffers)
-                return cache[key]
-
-            sol = least_squares(
-                lambda z: evaluate(z)[0], z0, jac=lambda z: evaluate(z)[1], bounds=(lo, hi), method="trf",
-                xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=max_nfev,
-            )  # fmt: skip
-            nfev[p] += sol.nfev
-            _, _, R, t = evaluate(sol.x)
-            x = sol.x.copy()
-            x[nf : nf + 6] = 0.0
-            lev = _check(group, check, np.array([p]), x[None], R[None], t[None], options)[0][0]
+            lev, evaluations = fit.run(p, lam)
+            nfev[p] += evaluations
             per_pose_time[p, i] = time.perf_counter() - t_i
             if lev > 0:
                 solved_with[p] = i + 1
@@ -139,3 +106,56 @@ def least_squares_batch(
     # first min(s, i) poses; an unsolved one its first i
     time_after = np.array([per_pose_time[:, : i + 1].sum(axis=1).mean() for i in range(imax)])
     return {"solved_with": solved_with, "level": level, "seconds": seconds, "nfev": nfev, "time_after": time_after}
+
+
+class _Fit:
+    """One ``least_squares`` run of one problem from one initial pose, judged by the local
+    solver's checks (:func:`._checks.check`)."""
+
+    def __init__(self, problems: PointProblems, options: LocalOptions, sequence: InitialPoseSequence, max_nfev: int):
+        self.problems, self.options, self.sequence, self.max_nfev = problems, options, sequence, max_nfev
+        self.group = group = problems.group(options.joint_scale_mm)
+        self.pidx = pose_index(group, sequence)
+        self.use = self.pidx >= 0
+        self.start_only = replace(options, k_max=0, polish=False, repair_iterations=0)
+        self.kopt = options.kernel_options()
+        nf = group.nf
+        lo, hi = group.layout.lo.copy(), group.layout.hi.copy()
+        lo[nf : nf + 6], hi[nf : nf + 6] = -np.inf, np.inf
+        self.lo, self.hi = lo, np.maximum(hi, lo + 1e-12)
+
+    def contacts(self, idx, pose, T, prm):
+        return contact_checks_points(self.problems, idx, pose, T, prm)
+
+    def run(self, p: int, lam: np.ndarray) -> tuple[int, int]:
+        """``(level, function evaluations)`` of problem ``p`` from the pose of ``lam`` (1, 2)."""
+        group, lo, hi = self.group, self.lo, self.hi
+        nx, nf, C = group.nx, group.nf, len(group.contacts)
+        data = group.pdata[p]
+        piv = data[group.layout.pivot_offset : group.layout.pivot_offset + 3]
+        x0 = group.x_default[None].copy()
+        x0[:, self.use] = self.sequence.poses(lam)[:, self.pidx[self.use]]
+        init = run_kernel(group, np.array([p]), x0, self.start_only)
+        R0 = init.R[0].copy()
+        cp0 = R0 @ piv + init.t[0]
+        z0 = np.clip(init.x[0], lo, hi)
+        buffers = (np.zeros(6 * C), np.zeros((6 * C, nx)), np.zeros((3, 3)), np.zeros(3))
+        cache = {}
+
+        def evaluate(z):
+            key = z.tobytes()
+            if key not in cache:
+                cache.clear()
+                _fun_jac(z, R0, cp0, data, (group.arrays, group.layout, self.kopt, group.obj), buffers)
+                cache[key] = tuple(b.copy() for b in buffers)
+            return cache[key]
+
+        sol = least_squares(
+            lambda z: evaluate(z)[0], z0, jac=lambda z: evaluate(z)[1], bounds=(lo, hi), method="trf",
+            xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=self.max_nfev,
+        )  # fmt: skip
+        _, _, R, t = evaluate(sol.x)
+        x = sol.x.copy()
+        x[nf : nf + 6] = 0.0
+        lev = check(group, self.contacts, np.array([p]), x[None], R[None], t[None], self.options).level[0]
+        return lev, sol.nfev

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import time
 from concurrent.futures import Executor
-from dataclasses import asdict, replace
+from dataclasses import asdict, dataclass, replace
 from typing import Callable
 
 import numpy as np
@@ -36,11 +36,12 @@ import numpy as np
 from ...deadline import TimeLimitReached, check_deadline, deadline_after, seconds_left
 from ...errors import PrehensionError
 from ...hands.model import Hand
+from ._regions import virtual_joints
 from .options import LocalOptions
 from .problems import SA_FOUR_TIPS, PointProblems, random_point_problems
 from .sequence import PAPER_TABLE1, InitialPoseSequence, principal_directions, sample_poses
 
-__all__ = ["offline_sequence", "grid_values", "compare_with_paper"]
+__all__ = ["offline_sequence", "OfflineSearch", "fingertip_regions", "grid_values", "compare_with_paper"]
 
 Progress = Callable[[int, int, str], None]
 
@@ -50,6 +51,74 @@ def grid_values(N: int) -> np.ndarray:
     if N < 2:
         raise PrehensionError(f"the lambda grid needs N >= 2 values, got N = {N}")
     return np.arange(N) / (N - 1)
+
+
+@dataclass(frozen=True)
+class OfflineSearch:
+    """What the off-line search does (sec. 3.2): the paper's ``M``, ``N``, ``i_max`` and ours.
+
+    Attributes:
+        M: random unsolved problems per step.
+        N: grid values per lambda (``N^2`` candidate poses per step).
+        imax: length of the sequence.
+        seed: seed of the pose samples and of the problems.
+        hand_regions: the contacts of the random problems; ``None`` (or empty): the hand's fingertips
+            (:func:`fingertip_regions`: the SA hand's four, as in the paper).
+        options: solver options for the single-pose runs (``i_max`` is set to 1).
+        n_samples: hand poses sampled for the PCA.
+        chunks_per_step: chunks the grid is split into (default: ``4 x`` the executor's
+            workers, or 1 inline); the answer does not depend on it.
+        max_candidates: random problems drawn at most per step to find ``M`` unsolved ones.
+        time_limit_s: stop after this long [s] (see the module docstring).
+
+    Raises:
+        PrehensionError: ``M``, ``N``, ``imax`` or ``n_samples`` is not an integer of at
+            least 1, 2, 1, 3.
+    """
+
+    M: int = 5000
+    N: int = 30
+    imax: int = 12
+    seed: int = 0
+    hand_regions: tuple[str, ...] | None = None
+    options: LocalOptions = LocalOptions()
+    n_samples: int = 5000
+    chunks_per_step: int | None = None
+    max_candidates: int = 2_000_000
+    time_limit_s: float | None = None
+
+    def __post_init__(self):
+        for name, lo in (("M", 1), ("N", 2), ("imax", 1), ("n_samples", 3)):
+            v = getattr(self, name)
+            if not isinstance(v, (int, np.integer)) or v < lo:
+                raise PrehensionError(f"offline search: {name} must be an integer >= {lo}, got {v!r}")
+        if self.hand_regions is not None:
+            object.__setattr__(self, "hand_regions", tuple(self.hand_regions))
+
+    def regions_of(self, hand: Hand) -> tuple[str, ...]:
+        """The hand regions of the random problems on ``hand``."""
+        return self.hand_regions if self.hand_regions else fingertip_regions(hand)
+
+
+def fingertip_regions(hand: Hand) -> tuple[str, ...]:
+    """The hand's ``<finger>_tip`` regions whose parameters are virtual fingertip joints
+    (sphere caps, :func:`._regions.virtual_joints`), the opposing finger's first (the SA
+    hand: the paper's thumb, index, middle, ring).
+
+    Raises:
+        PrehensionError: fewer than two such regions (then name the regions to use).
+    """
+    if hand.name == "schunk-sa" and set(SA_FOUR_TIPS) <= set(hand.regions):
+        return SA_FOUR_TIPS
+    order = sorted(hand.fingers, key=lambda f: f.name != hand.opposing_finger)
+    tips = [f"{f.name}_tip" for f in order]
+    tips = [t for t in tips if t in hand.regions and virtual_joints(hand.regions[t].region)]
+    if len(tips) < 2:
+        raise PrehensionError(
+            f"hand {hand.name!r} has {len(tips)} fingertip region(s); the off-line search needs at least two "
+            "(give --regions A,B,... or OfflineSearch(hand_regions=...))"
+        )
+    return tuple(tips)
 
 
 # -- hands across processes ----------------------------------------------------------------
@@ -103,10 +172,11 @@ def _executor_workers(executor: Executor) -> int:
     return max(int(workers), 1)
 
 
-def _unsolved_problems(hand, regions, M, base, lambdas, options, rng, max_candidates, deadline=None):
-    """``M`` random problems that the poses ``lambdas`` do not solve, and the fraction unsolved."""
+def _unsolved_problems(hand, search: OfflineSearch, regions, base, lambdas, rng, deadline=None):
+    """``search.M`` random problems on ``regions`` that the poses ``lambdas`` do not solve, and the fraction unsolved."""
     from .solver import solve_local_batch
 
+    M, options, max_candidates = search.M, search.options, search.max_candidates
     kept_p, kept_n = [], []
     n_kept = n_tried = 0
     batch_size = max(M, 500)
@@ -140,38 +210,15 @@ def _left(deadline: float | None) -> float | None:
     return None if left is None else max(left, 1e-3)
 
 
-def offline_sequence(
-    hand: Hand | None = None,
-    M: int = 5000,
-    N: int = 30,
-    imax: int = 12,
-    executor: Executor | None = None,
-    progress: Progress | None = None,
-    seed: int = 0,
-    *,
-    options: LocalOptions = LocalOptions(),
-    n_samples: int = 5000,
-    hand_regions=SA_FOUR_TIPS,
-    chunks_per_step: int | None = None,
-    max_candidates: int = 2_000_000,
-    time_limit_s: float | None = None,
-) -> InitialPoseSequence:
-    """Search a sequence of ``imax`` initial poses (sec. 3.2); see the module docstring.
+def offline_sequence(hand: Hand | None = None, search: OfflineSearch = OfflineSearch(), *,
+                     executor: Executor | None = None, progress: Progress | None = None) -> InitialPoseSequence:  # fmt: skip
+    """Search a sequence of ``search.imax`` initial poses (sec. 3.2); see the module docstring.
 
     Args:
         hand: the hand (default: the SA hand).
-        M: random unsolved problems per step.
-        N: grid values per lambda (``N^2`` candidate poses per step).
-        imax: length of the sequence.
+        search: what to search (:class:`OfflineSearch`: ``M``, ``N``, ``imax``, ``seed``...).
         executor: runs the chunks (``submit``); ``None`` runs them inline.
         progress: ``progress(done, total, message)`` after each chunk.
-        seed: seed of the pose samples and of the problems.
-        options: solver options for the single-pose runs (``i_max`` is set to 1).
-        n_samples: hand poses sampled for the PCA.
-        hand_regions: the contacts of the random problems.
-        chunks_per_step: chunks the grid is split into (default: ``4 x`` the executor's
-            workers, or 1 inline); the answer does not depend on it.
-        time_limit_s: stop after this long [s] (see the module docstring).
 
     Returns:
         An :class:`InitialPoseSequence` with the lambdas, the success grid of every step
@@ -179,70 +226,94 @@ def offline_sequence(
     """
     from ...hands.sa_hand import schunk_sa_hand
 
-    for name, v, lo in (("M", M, 1), ("N", N, 2), ("imax", imax, 1), ("n_samples", n_samples, 3)):
-        if not isinstance(v, (int, np.integer)) or v < lo:
-            raise PrehensionError(f"offline_sequence: {name} must be an integer >= {lo}, got {v!r}")
     t0 = time.perf_counter()
-    deadline = deadline_after(time_limit_s, t0)
+    deadline = deadline_after(search.time_limit_s, t0)
     hand = schunk_sa_hand() if hand is None else hand
-    rng = np.random.default_rng(seed)
-    names, samples = sample_poses(hand, n_samples, rng, deadline=deadline)
+    regions = search.regions_of(hand)
+    rng = np.random.default_rng(search.seed)
+    names, samples = sample_poses(hand, search.n_samples, rng, deadline=deadline)
     mean, comps, sig = principal_directions(samples)
     base = InitialPoseSequence(hand.name, names, mean, comps, sig, np.zeros((0, 2)))
-    values = grid_values(N)
-    grid = np.array([(a, b) for a in values for b in values])
-    if chunks_per_step is None:
-        chunks_per_step = 1 if executor is None else 4 * _executor_workers(executor)
-    chunks = [c for c in np.array_split(np.arange(len(grid)), min(chunks_per_step, len(grid))) if len(c)]
-    total = imax * len(chunks)
-    done = 0
-    spec = _hand_spec(hand)
-    lambdas: list = []
-    tables, rates, unsolved_frac = [], [], []
-    stopped = ""
-
-    def tick(message: str) -> None:
-        nonlocal done
-        done += 1
-        if progress:
-            progress(done, total, message)
-
-    for i in range(imax):
+    chunks = _chunks(search, executor)
+    steps = _Steps(search, len(chunks), progress)
+    for i in range(search.imax):
         try:
-            points, normals, frac = _unsolved_problems(
-                hand, tuple(hand_regions), M, base, lambdas, options, rng, max_candidates, deadline
-            )
+            points, normals, frac = _unsolved_problems(hand, search, regions, base, steps.lambdas, rng, deadline)
             payload_base = {
-                "hand": spec, "regions": tuple(hand_regions), "points": points, "normals": normals,
-                "sequence": base.to_dict(), "options": options, "seconds_left": _left(deadline),
+                "hand": _hand_spec(hand), "regions": regions, "points": points, "normals": normals,
+                "sequence": base.to_dict(), "options": search.options, "seconds_left": _left(deadline),
             }  # fmt: skip
-            counts = _step_counts(executor, chunks, grid, payload_base, deadline, lambda: tick(f"pose {i + 1}/{imax}"))
+            counts = _step_counts(executor, chunks, steps.grid, payload_base, deadline,
+                                  lambda: steps.tick(f"pose {i + 1}/{search.imax}"))  # fmt: skip
         except TimeLimitReached:
-            if not lambdas:
-                raise TimeLimitReached(f"off-line search of hand {hand.name!r} (no pose found in {time_limit_s:g} s)") from None
-            stopped = f"time limit ({time_limit_s:g} s) reached after {len(lambdas)} of {imax} poses"
+            steps.stop(hand)
             break
-        unsolved_frac.append(frac)
+        steps.add(counts, frac)
+    meta = steps.meta(regions, time.perf_counter() - t0)
+    return base.with_lambdas(np.array(steps.lambdas), steps.tables, **meta)
+
+
+def _chunks(search: OfflineSearch, executor: Executor | None) -> list[np.ndarray]:
+    """The grid points' indices split into the chunks of one step."""
+    n = search.N * search.N
+    per_step = search.chunks_per_step
+    if per_step is None:
+        per_step = 1 if executor is None else 4 * _executor_workers(executor)
+    return [c for c in np.array_split(np.arange(n), min(per_step, n)) if len(c)]
+
+
+class _Steps:
+    """What the steps of :func:`offline_sequence` found so far, and its progress."""
+
+    def __init__(self, search: OfflineSearch, n_chunks: int, progress: Progress | None):
+        self.search, self.progress = search, progress
+        values = grid_values(search.N)
+        self.grid = np.array([(a, b) for a in values for b in values])
+        self.total, self.done = search.imax * n_chunks, 0
+        self.lambdas: list = []
+        self.tables: list = []
+        self.rates: list = []
+        self.unsolved_frac: list = []
+        self.stopped = ""
+
+    def tick(self, message: str) -> None:
+        self.done += 1
+        if self.progress:
+            self.progress(self.done, self.total, message)
+
+    def add(self, counts: np.ndarray, frac: float) -> None:
+        """Append the grid point solving the most (ties: the first in grid order)."""
+        M, N = self.search.M, self.search.N
+        self.unsolved_frac.append(frac)
         best = int(np.argmax(counts))
-        lambdas.append(grid[best].tolist())
-        tables.append((counts / M).reshape(N, N))
-        rates.append(float(counts[best] / M))
-    # success on fresh problems after i poses: the fraction left unsolved before step i
-    # times the fraction of those the i-th pose does not solve
-    cumulative = [1.0 - u * (1.0 - e) for u, e in zip(unsolved_frac, rates)]
-    seconds = time.perf_counter() - t0
-    meta = {
-        "origin": f"offline_sequence(M={M}, N={N}, imax={imax}, seed={seed})",
-        "M": M, "N": N, "imax": imax, "seed": seed, "n_samples": n_samples,
-        "hand_regions": list(hand_regions), "seconds": seconds,
-        "best_rate_per_step": rates,
-        "unsolved_fraction_per_step": unsolved_frac,
-        "estimated_cumulative_success": cumulative,
-        "options": {k: v for k, v in asdict(options).items() if k != "tolerances"},
-    }  # fmt: skip
-    if stopped:
-        meta["stopped"] = stopped
-    return base.with_lambdas(np.array(lambdas), tables, **meta)
+        self.lambdas.append(self.grid[best].tolist())
+        self.tables.append((counts / M).reshape(N, N))
+        self.rates.append(float(counts[best] / M))
+
+    def stop(self, hand: Hand) -> None:
+        """The time limit passed: keep the poses found, or raise when there is none."""
+        limit, imax = self.search.time_limit_s, self.search.imax
+        if not self.lambdas:
+            raise TimeLimitReached(f"off-line search of hand {hand.name!r} (no pose found in {limit:g} s)") from None
+        self.stopped = f"time limit ({limit:g} s) reached after {len(self.lambdas)} of {imax} poses"
+
+    def meta(self, regions, seconds: float) -> dict:
+        s = self.search
+        # success on fresh problems after i poses: the fraction left unsolved before step i
+        # times the fraction of those the i-th pose does not solve
+        cumulative = [1.0 - u * (1.0 - e) for u, e in zip(self.unsolved_frac, self.rates)]
+        meta = {
+            "origin": f"offline_sequence(M={s.M}, N={s.N}, imax={s.imax}, seed={s.seed})",
+            "M": s.M, "N": s.N, "imax": s.imax, "seed": s.seed, "n_samples": s.n_samples,
+            "hand_regions": list(regions), "seconds": seconds,
+            "best_rate_per_step": self.rates,
+            "unsolved_fraction_per_step": self.unsolved_frac,
+            "estimated_cumulative_success": cumulative,
+            "options": {k: v for k, v in asdict(s.options).items() if k != "tolerances"},
+        }  # fmt: skip
+        if self.stopped:
+            meta["stopped"] = self.stopped
+        return meta
 
 
 def _step_counts(executor: Executor | None, chunks, grid: np.ndarray, payload_base: dict, deadline,

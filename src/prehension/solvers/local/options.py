@@ -51,7 +51,10 @@ from ...errors import PrehensionError
 from ...tasks.residuals import Tolerances
 from . import _kernel as K
 
-__all__ = ["LocalOptions"]
+__all__ = ["LocalOptions", "STRICT"]
+
+#: The tolerances of a solution (status ``"solved"``): the strict defaults.
+STRICT = Tolerances()
 
 
 @dataclass(frozen=True)

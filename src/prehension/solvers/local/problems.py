@@ -25,7 +25,7 @@ import numpy as np
 from ...deadline import check_deadline
 from ...errors import InvalidTask, SamplingError
 from ...frozen import cached_per_value
-from ...geometry.regions import BezierRegion, PointRegion, SphereCap
+from ...geometry.regions import PointRegion
 from ...hands.collision import max_penetration
 from ...hands.kinematics import forward_kinematics
 from ...hands.model import Hand
@@ -149,8 +149,9 @@ def random_params(region, rng, n: int, *, deadline: float | None = None) -> np.n
     k = region.n_params
     if k == 0:
         return np.zeros((n, 0))
-    if isinstance(region, BezierRegion):
-        return rng.uniform(0.0, 1.0, (n, 2))
+    lo, hi, boxed, _ = RG.unknown_box(region)
+    if boxed:  # the box is the domain (patches): nothing to reject
+        return rng.uniform(lo, hi, (n, k))
     lo, hi = region.param_bounds()
     out, drawn = np.empty((0, k)), 0
     while out.shape[0] < n:
@@ -165,19 +166,6 @@ def random_params(region, rng, n: int, *, deadline: float | None = None) -> np.n
         ok = region.domain_violation(cand) == 0.0
         out = np.concatenate([out, cand[ok]])
     return out[:n]
-
-
-def cone_params(cap, rng, n: int, rim_fraction: float) -> np.ndarray:
-    """``n`` sphere-cap parameters whose normals are uniform over the cap's area, a share
-    ``rim_fraction`` of them exactly on its rim (the cone's boundary), (n, 2)."""
-    h = min(cap.half_angle, np.pi)
-    cos_t = rng.uniform(np.cos(h), 1.0, n)
-    cos_t[rng.uniform(0.0, 1.0, n) < rim_fraction] = np.cos(h)
-    phi = rng.uniform(0.0, 2.0 * np.pi, n)
-    sin_t = np.sqrt(np.maximum(1.0 - cos_t**2, 0.0))
-    e1, e2, m = cap.frame.T
-    normals = cos_t[:, None] * m + sin_t[:, None] * (np.cos(phi)[:, None] * e1 + np.sin(phi)[:, None] * e2)
-    return cap.params_for_normal(normals)
 
 
 def random_rotations(rng, n: int) -> np.ndarray:
@@ -275,7 +263,7 @@ def random_point_problems(
         object_offset_mm: the object frame is a random rotation and a translation of up to
             this much (each coordinate) away from the palm frame.
         rim_fraction: ``None``: cap parameters uniform in their box, kept inside the cone;
-            a number: normals uniform over each cap's area (:func:`cone_params`), that
+            a number: normals uniform over each cap's area (:func:`._regions.cone_params`), that
             share of them exactly on the rim.
         deadline: stop at this :func:`time.perf_counter` instant
             (:class:`~prehension.deadline.TimeLimitReached`).
@@ -295,13 +283,33 @@ def random_point_problems(
     )
     q = random_hand_configurations(hand, fingers, n, rng, collision_free, deadline=deadline)
     pose = forward_kinematics(hand, q)
-    params = [
-        cone_params(h.region, rng, n, rim_fraction)
-        if rim_fraction is not None and isinstance(h.region, SphereCap) else random_params(h.region, rng, n, deadline=deadline)
-        for h in hregs
-    ]  # fmt: skip
+    params = [_contact_params(h.region, rng, n, rim_fraction, deadline) for h in hregs]
     R = random_rotations(rng, n)
     t = rng.uniform(-object_offset_mm, object_offset_mm, (n, 3))
+    T = np.zeros((n, 4, 4))
+    T[:, :3, :3] = R
+    T[:, :3, 3] = t
+    T[:, 3, 3] = 1.0
+    pts, nrm = _object_contacts(hand, hregs, params, pose, R, t)
+    k = max((h.region.n_params for h in hregs), default=0)
+    hp = np.zeros((n, len(hregs), k))
+    for c, prm in enumerate(params):
+        hp[:, c, : prm.shape[1]] = prm
+    return PointProblems(hand, hand_regions, pts, nrm, {"q": q, "T_palm_object": T, "hand_params": hp})
+
+
+def _contact_params(region, rng, n: int, rim_fraction: float | None, deadline: float | None) -> np.ndarray:
+    """A hand region's random parameters for :func:`random_point_problems`: with
+    ``rim_fraction``, normals uniform over its cone (:func:`._regions.cone_params`) when it
+    has one; else :func:`random_params`."""
+    cone = RG.cone_params(region, rng, n, rim_fraction) if rim_fraction is not None else None
+    return cone if cone is not None else random_params(region, rng, n, deadline=deadline)
+
+
+def _object_contacts(hand: Hand, hregs, params, pose, R, t) -> tuple[np.ndarray, np.ndarray]:
+    """The contact points and outward object normals (P, C, 3) in the object frames ``(R, t)``
+    (palm -> object) of the hand regions ``hregs`` at ``params`` in the hand ``pose``."""
+    n = R.shape[0]
     pts, nrm = [], []
     for h, prm in zip(hregs, params):
         p_link, n_link = h.region.evaluate(prm) if h.region.n_params else h.region.evaluate(np.zeros((n, 0)))
@@ -310,18 +318,7 @@ def random_point_problems(
         nn = pose.directions(li, n_link)
         pts.append(np.einsum("bji,bj->bi", R, p - t))  # R^T (p - t)
         nrm.append(-np.einsum("bji,bj->bi", R, nn))
-    T = np.zeros((n, 4, 4))
-    T[:, :3, :3] = R
-    T[:, :3, 3] = t
-    T[:, 3, 3] = 1.0
-    k = max((h.region.n_params for h in hregs), default=0)
-    hp = np.zeros((n, len(hregs), k))
-    for c, prm in enumerate(params):
-        hp[:, c, : prm.shape[1]] = prm
-    return PointProblems(
-        hand, hand_regions, np.stack(pts, axis=1), np.stack(nrm, axis=1),
-        {"q": q, "T_palm_object": T, "hand_params": hp},
-    )  # fmt: skip
+    return np.stack(pts, axis=1), np.stack(nrm, axis=1)
 
 
 # -- tasks ------------------------------------------------------------------------------

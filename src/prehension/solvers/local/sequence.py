@@ -31,8 +31,8 @@ import numpy as np
 
 from ...atomic import read_json, to_plain, write_json_atomic
 from ...errors import InvalidTask
-from ...geometry.regions import SphereCap
 from ...hands.model import Hand
+from ._regions import virtual_joints
 
 __all__ = [
     "InitialPoseSequence",
@@ -173,7 +173,7 @@ def pose_space(hand: Hand, fingers=None) -> tuple[tuple[str, ...], list, list]:
     tips = []
     for f in fingers:
         tip = hand.finger(f).tip_link
-        cap = next((r.region for r in hand.regions.values() if r.link == tip and isinstance(r.region, SphereCap)), None)
+        cap = next((r.region for r in hand.regions.values() if r.link == tip and virtual_joints(r.region)), None)
         if cap is not None:
             tips.append((f, cap))
     names = tuple(hand.dof_names[d] for d in free) + tuple(n for f, _ in tips for n in (f"{f}.tip.alpha", f"{f}.tip.gamma"))
