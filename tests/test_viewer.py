@@ -19,8 +19,8 @@ from prehension.tasks.library import builtin_task_names, load_builtin_task
 from prehension.tasks.model import Configuration
 from prehension.viewer import build_scene, load_grasp, scene_to_html, write_html
 from prehension.viewer.grasp import reference_angles
-from prehension.viewer.scene import BACKGROUND
-from prehension.viewer.tessellate import REGION_LIFT_MM, capsule_mesh, region_mesh
+from prehension.viewer.model import BACKGROUND
+from prehension.tessellation import REGION_LIFT_MM, capsule_mesh, region_mesh
 from tiny_tasks import pincer_task
 
 
