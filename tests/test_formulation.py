@@ -132,3 +132,14 @@ def test_hand_patches_and_points_embed_as_solution_points(sa_hand, kind):
         _assert_is_solution_point(form, x)
         back = configuration_from_point(form, x)
         assert evaluate(case.task, back, ANY_COLLISION).ok
+
+
+def test_a_region_kind_the_system_cannot_express_is_refused_by_name():
+    from prehension.geometry.regions import Region
+    from prehension.system.regions import form_of
+
+    class Blob(Region):
+        pass
+
+    with pytest.raises(TypeError, match="Blob"):
+        form_of(Blob())

@@ -169,7 +169,8 @@ def test_idle_finger_through_the_object_is_moved_clear():
 
 
 def test_viewer_paints_penetrating_links_red(scalpel):
-    from prehension.viewer.scene import PENETRATION_COLOR, build_scene
+    from prehension.viewer import build_scene
+    from prehension.viewer.model import PENETRATION_COLOR
 
     task, config = scalpel
     T = np.eye(4)
@@ -229,7 +230,8 @@ def test_colliding_builtin_answers_clear_the_mesh_at_sampled_capsule_points(name
 def test_viewer_draws_pads_in_their_colour_and_a_sunk_pad_red(scalpel):
     """Each fingertip cap's ball is drawn in the pad colour; pushing the object 3 mm into
     the hand along a contact's normal sinks that pad: red, and named in the caption."""
-    from prehension.viewer.scene import CONTACT_COLORS, PAD_COLOR, PENETRATION_COLOR, build_scene
+    from prehension.viewer import build_scene
+    from prehension.viewer.model import CONTACT_COLORS, PAD_COLOR, PENETRATION_COLOR
 
     assert PAD_COLOR not in CONTACT_COLORS + (PENETRATION_COLOR,)
     task, config = scalpel

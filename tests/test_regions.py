@@ -358,3 +358,50 @@ def test_evaluate_regions_gives_each_regions_own_evaluate_checked_bit_for_bit(rn
             np.testing.assert_array_equal(normals[:, c], n)
             np.testing.assert_array_equal(violation[:, c], v)
         assert np.any(violation > 0) and np.any(violation == 0)
+
+
+def _every_kind(rng):
+    return [random_bezier_region(rng, 2, 3), random_cap(rng, rng.choice(HALF_ANGLES_DEG)),
+            PointRegion(rng.uniform(-50, 50, 3), rng.normal(size=3))]  # fmt: skip
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_transformed_regions_move_their_points_and_turn_their_normals(seed):
+    rng = np.random.default_rng(seed)
+    R, t = random_rotation(rng), rng.uniform(-100, 100, 3)
+    for region in _every_kind(rng):
+        params = region.sample_params(5)
+        moved = region.transformed(R, t)
+        p0, n0 = region.evaluate(params)
+        # a cap's parameters are angles in a frame of its own axis: the moved cap's differ
+        p1, n1 = moved.evaluate(moved.params_for_normal(n0 @ R.T) if isinstance(moved, SphereCap) else params)
+        assert type(moved) is type(region)
+        assert np.allclose(p1, p0 @ R.T + t, atol=1e-9) and np.allclose(n1, n0 @ R.T, atol=1e-12)
+        assert np.allclose(moved.centroid(), R @ region.centroid() + t, atol=1e-9)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_sample_params_lie_inside_the_domain_and_a_ball_holds_its_region(seed):
+    rng = np.random.default_rng(seed)
+    for region in _every_kind(rng):
+        params = region.sample_params(7)
+        assert params.shape[1] == region.n_params and len(params) >= 1
+        assert np.all(region.domain_violation(params) <= 0)
+        ball = region.ball()
+        assert (ball is None) == (not isinstance(region, SphereCap))
+        if ball is not None:
+            points, _ = region.evaluate(params)
+            assert np.allclose(np.linalg.norm(points - ball[0], axis=1), ball[1])
+
+
+@pytest.mark.parametrize("half", HALF_ANGLES_DEG)
+def test_cap_cone_margin_is_the_cone_test_and_its_gradient_matches_finite_differences(rng, half):
+    cap = random_cap(rng, half)
+    for ag in random_params_in_box(cap, rng, 20):
+        value, grad = cap.cone_margin(ag)
+        n = cap.normals(ag[None])[0]
+        assert np.isclose(value, n @ cap.axis - np.cos(cap.half_angle), atol=1e-12)
+        assert (value >= -1e-12) == (cap.domain_violation(ag[None])[0] <= 1e-9)
+        fd = [(cap.cone_margin(ag + h)[0] - cap.cone_margin(ag - h)[0]) / (2 * FD_STEP) for h in FD_STEP * np.eye(2)]
+        assert np.allclose(grad, fd, atol=1e-6)
+    assert random_bezier_region(rng, 1, 1).cone_margin(np.full(2, 0.5)) is None

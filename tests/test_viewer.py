@@ -17,10 +17,10 @@ from prehension.results import read_result, write_result
 from prehension.solve import solve
 from prehension.tasks.library import builtin_task_names, load_builtin_task
 from prehension.tasks.model import Configuration
+from prehension.tessellation import REGION_LIFT_MM, capsule_mesh, region_mesh, region_solid
 from prehension.viewer import build_scene, load_grasp, scene_to_html, write_html
 from prehension.viewer.grasp import reference_angles
-from prehension.viewer.scene import BACKGROUND
-from prehension.viewer.tessellate import REGION_LIFT_MM, capsule_mesh, region_mesh
+from prehension.viewer.model import BACKGROUND
 from tiny_tasks import pincer_task
 
 
@@ -277,3 +277,14 @@ def test_a_hand_alone_can_be_viewed(tmp_path, capsys):
     out = tmp_path / "sa.html"
     assert main(["view", "sa", "-o", str(out)]) == EXIT_OK
     assert "schunk-sa" in out.read_text()
+
+
+def test_a_region_kind_the_scene_does_not_know_is_drawn_as_nothing_and_has_no_solid():
+    from prehension.geometry.regions import Region
+
+    class Blob(Region):
+        pass
+
+    assert region_mesh(Blob()).faces.shape == (0, 3)
+    with pytest.raises(TypeError, match="Blob"):
+        region_solid(Blob())

@@ -20,7 +20,7 @@ from prehension.results import write_result
 from prehension.solve import solve
 from prehension.tasks.library import load_builtin_task
 from prehension.viewer import build_scene, write_html
-from prehension.viewer.scene import BACKGROUND
+from prehension.viewer.model import BACKGROUND
 
 CHROMIUM = next((shutil.which(n) for n in ("chromium", "chromium-browser") if shutil.which(n)), None)
 pytestmark = pytest.mark.skipif(

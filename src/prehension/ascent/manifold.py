@@ -39,7 +39,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..geometry.regions import SphereCap
 from ..geometry.rotations import axis_angle_to_matrix
 from ..hands.kinematics import forward_kinematics
 from ..tasks.model import Configuration, Task
@@ -72,9 +71,10 @@ class GraspChart:
         lo, hi: (nz,) bounds of ``z`` (joint limits [rad], region parameter boxes).
         scale: (nz + 6,) mm per unit of each unknown, the twist's last.
         pivot: (3,) the point the object turns about (palm frame) [mm].
-        cones: per sphere-cap region, ``(index of its first parameter in z, cos(half
-            angle))``: its normal must stay within the cap's cone, ``cos(g) cos(a) >=
-            cos(half angle)`` (the parameter box only bounds it).
+        cones: per region whose normals must stay within a cone (a sphere cap), ``(index
+            of its first parameter in z, region)``: the parameter box only bounds it, the
+            region's :meth:`~prehension.geometry.regions.Region.cone_margin` (``cos(g)
+            cos(a) - cos(half angle)`` for a cap) must stay >= 0.
     """
 
     task: Task
@@ -102,8 +102,8 @@ class GraspChart:
                 a, b = region.param_bounds()
                 lo.append(a), hi.append(b), z.append(u)
                 scale.append(_param_scale(region, u))
-                if isinstance(region, SphereCap):
-                    cones.append((at, float(np.cos(region.half_angle))))
+                if region.cone_margin(u) is not None:
+                    cones.append((at, region))
                 span.append((at, u.size))
                 at += u.size
             spans.append(tuple(span))
@@ -257,14 +257,12 @@ class GraspChart:
         return out, self._cone_rows(target)[0] < 0.0
 
     def _cone_rows(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Per sphere cap (:attr:`cones`): how far inside its cone the contact lies,
-        ``cos(g) cos(a) - cos(half angle)`` (>= 0 inside), and its gradient per scaled
+        """Per cone (:attr:`cones`): how far inside it the contact lies (the region's
+        ``cone_margin``, >= 0 inside), and its gradient per scaled
         unknown ((n_cones, nz + 6))."""
         value, rows = np.zeros(len(self.cones)), np.zeros((len(self.cones), self.nz + 6))
-        for i, (k, cos_half) in enumerate(self.cones):
-            a, g = z[k], z[k + 1]
-            value[i] = np.cos(g) * np.cos(a) - cos_half
-            rows[i, k], rows[i, k + 1] = -np.cos(g) * np.sin(a), -np.sin(g) * np.cos(a)
+        for i, (k, region) in enumerate(self.cones):
+            value[i], rows[i, k : k + 2] = region.cone_margin(z[k : k + 2])
         return value, rows / self.scale
 
     def configuration(self, z: np.ndarray, T: np.ndarray) -> Configuration:

@@ -86,6 +86,36 @@ class Region:
         """A small grid of parameters inside the domain, shape (S, k), for local searches."""
         raise NotImplementedError
 
+    def sample_params(self, n: int = 7) -> np.ndarray:
+        """Parameters ``(S, k)`` spread over the whole region (about ``n`` per parameter),
+        every one inside the domain: the samples that check a region against its object's
+        surface.  By default the :meth:`seed_params` grid inside the domain."""
+        params = self.seed_params(n)
+        return params[self.domain_violation(params) <= 0]
+
+    def ball(self) -> tuple[np.ndarray, float] | None:
+        """The sphere the region lies on, ``(centre (3,) [mm], radius [mm])``, or ``None``
+        when it lies on none.  On a hand link this ball is the region's pad: the solid
+        that touches the object (a fingertip)."""
+        return None
+
+    def cone_margin(self, params) -> tuple[float, np.ndarray] | None:
+        """How far inside the cone of allowed normals the parameters ``params (k,)`` lie,
+        as a smooth function (>= 0 inside), and its gradient ``(k,)``; ``None`` when the
+        region's domain is its parameter box (no cone)."""
+        return None
+
+    def transformed(self, R: np.ndarray, t: np.ndarray) -> "Region":
+        """The region moved rigidly, ``x -> R x + t`` (its normals turn with it)."""
+        raise NotImplementedError
+
+    def centroid(self) -> np.ndarray:
+        """The mean of the points that define the region (3,) [mm]: a centre to turn it about."""
+        raise NotImplementedError
+
+    #: What to tell a user whose region's normal points into its object (its kind's usual cause).
+    inward_hint: str = ""
+
     def describe(self) -> str:
         raise NotImplementedError
 
@@ -135,6 +165,19 @@ class BezierRegion(Region):
         t = (np.arange(n) + 0.5) / n
         uu, vv = np.meshgrid(t, t, indexing="ij")
         return np.stack([uu.ravel(), vv.ravel()], axis=1)
+
+    def sample_params(self, n: int = 7):
+        """The ``n x n`` grid of the unit square, its edges included."""
+        t = np.linspace(0.0, 1.0, n)
+        return np.stack(np.meshgrid(t, t, indexing="ij"), -1).reshape(-1, 2)
+
+    def transformed(self, R, t):
+        return BezierRegion(self.patch.transformed(R, t))
+
+    def centroid(self):
+        return self.patch.control_points.reshape(-1, 3).mean(axis=0)
+
+    inward_hint = " (a patch's outward normal is p_u x p_v: list its control points in the other order along one direction)"
 
     def describe(self) -> str:
         M, N = self.patch.degree
@@ -226,6 +269,22 @@ class SphereCap(Region):
         alpha = np.arctan2(-(n @ e2), n @ m)
         return np.stack([alpha, gamma], axis=1)
 
+    def ball(self):
+        return self.center, self.radius
+
+    def cone_margin(self, params):
+        """``n . m - cos(half_angle) = cos(gamma) cos(alpha) - cos(half_angle)`` and its gradient."""
+        a, g = params[0], params[1]
+        value = np.cos(g) * np.cos(a) - float(np.cos(self.half_angle))
+        return value, np.array([-np.cos(g) * np.sin(a), -np.sin(g) * np.cos(a)])
+
+    def transformed(self, R, t):
+        R = np.asarray(R, dtype=float)
+        return SphereCap(R @ self.center + t, self.radius, R @ self.axis, self.half_angle)
+
+    def centroid(self):
+        return self.center.copy()
+
     def seed_params(self, n: int = 3):
         lo, hi = self.param_bounds()
         t = (np.arange(n) + 0.5) / n
@@ -267,6 +326,13 @@ class PointRegion(Region):
 
     def seed_params(self, n: int = 3):
         return np.zeros((1, 0))
+
+    def transformed(self, R, t):
+        R = np.asarray(R, dtype=float)
+        return PointRegion(R @ self.point + t, R @ self.normal)
+
+    def centroid(self):
+        return self.point.copy()
 
     def describe(self) -> str:
         return "point with normal"

@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InvalidObject
-from ..geometry.regions import BezierRegion, PointRegion, Region, SphereCap
+from ..geometry.regions import Region
 
 __all__ = ["region_samples", "region_surface_report", "check_regions_on_surface"]
 
@@ -29,17 +29,9 @@ GRID = 7
 
 
 def region_samples(region: Region) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Sample ``params (S, k)``, points (S, 3) [mm] and outward normals (S, 3) of a region."""
-    if isinstance(region, PointRegion):
-        params = np.zeros((1, 0))
-    elif isinstance(region, BezierRegion):
-        t = np.linspace(0.0, 1.0, GRID)
-        params = np.stack(np.meshgrid(t, t, indexing="ij"), -1).reshape(-1, 2)
-    elif isinstance(region, SphereCap):
-        params = region.seed_params(GRID)
-        params = params[region.domain_violation(params) <= 0]
-    else:
-        params = region.seed_params(GRID)
+    """Sample ``params (S, k)`` (:meth:`~prehension.geometry.regions.Region.sample_params`),
+    points (S, 3) [mm] and outward normals (S, 3) of a region."""
+    params = region.sample_params(GRID)
     points, normals = region.evaluate(params)
     return params, points, normals
 
@@ -74,11 +66,7 @@ def check_regions_on_surface(name: str, regions, distance, tolerance_mm: float, 
                 f"every region must lie on the surface within {tolerance_mm:g} mm (surface_tolerance_mm)"
             )
         if rep["inward_fraction"] > 0.5:
-            hint = (
-                " (a patch's outward normal is p_u x p_v: list its control points in the other order along one direction)"
-                if isinstance(region, BezierRegion) else ""
-            )  # fmt: skip
             raise InvalidObject(
                 f"object {name!r}: region {rname!r} has its normal pointing into the object "
-                f"at {100 * rep['inward_fraction']:.0f}% of its points; region normals must point outwards{hint}"
+                f"at {100 * rep['inward_fraction']:.0f}% of its points; region normals must point outwards{region.inward_hint}"
             )

@@ -29,7 +29,7 @@ from scipy.spatial import ConvexHull, QhullError
 
 from ..errors import InvalidObject
 from ..frozen import cached_per_value
-from ..geometry.regions import PointRegion, Region, SphereCap
+from ..geometry.regions import Region
 from ..geometry.rotations import orthonormal_frame
 from ..objects.meshes import Mesh, Torus
 from ..objects.model import GraspObject
@@ -119,13 +119,14 @@ def _region_points(obj: GraspObject) -> np.ndarray:
 
 
 def _samples(region: Region) -> np.ndarray:
-    if isinstance(region, PointRegion):
-        return region.point[None]
+    """Points of ``region`` at a grid over its parameter box, those inside its domain (one
+    point for a region without parameters)."""
     lo, hi = region.param_bounds()
+    if not len(lo):
+        return region.evaluate(np.zeros((1, 0)))[0]
     t = np.linspace(0.0, 1.0, _REGION_SAMPLES)
     grid = np.stack(np.meshgrid(*[lo[i] + t * (hi[i] - lo[i]) for i in range(len(lo))], indexing="ij"), -1).reshape(-1, len(lo))
-    if isinstance(region, SphereCap):
-        grid = grid[region.domain_violation(grid) <= 0.0]
+    grid = grid[region.domain_violation(grid) <= 0.0]
     points, _ = region.evaluate(grid)
     return points
 

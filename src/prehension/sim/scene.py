@@ -24,10 +24,10 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from ..geometry.regions import BezierRegion, PointRegion, SphereCap
 from ..objects.meshes import Mesh
-from ..quality.solid import hull_mesh, mass_properties, object_solid
+from ..quality.solid import mass_properties, object_solid
 from ..tasks.model import Task
+from ..tessellation import region_solid
 from .options import SimOptions
 
 __all__ = ["SimScene", "build_scene_xml", "MM"]
@@ -170,17 +170,11 @@ def _link_geoms(mjcf: _Mjcf, hand, link: str, regions, indent: str) -> list[str]
 
 def _region_geom(mjcf: _Mjcf, region, indent: str) -> str:
     """The solid a hand region is the surface of (see the module docstring)."""
-    if isinstance(region, SphereCap):
-        return f'{indent}<geom type="sphere" pos="{_num(region.center * MM)}" size="{_num(region.radius * MM)}" {_HAND}/>'
-    if isinstance(region, PointRegion):
-        centre = (region.point - region.normal) * MM  # a 1 mm ball whose surface passes through the point
-        return f'{indent}<geom type="sphere" pos="{_num(centre)}" size="{_num(MM)}" {_HAND}/>'
-    if isinstance(region, BezierRegion):
-        t = np.linspace(0, 1, 7)
-        p, n = region.evaluate(np.stack(np.meshgrid(t, t, indexing="ij"), -1).reshape(-1, 2))
-        name = mjcf.mesh("hand_region", hull_mesh(np.concatenate([p, p - 2.0 * n])))
-        return f'{indent}<geom type="mesh" mesh={quoteattr(name)} {_HAND}/>'
-    raise TypeError(f"no physics shape for a {type(region).__name__} hand region")
+    solid = region_solid(region)
+    if isinstance(solid, Mesh):
+        return f'{indent}<geom type="mesh" mesh={quoteattr(mjcf.mesh("hand_region", solid))} {_HAND}/>'
+    centre, radius = solid
+    return f'{indent}<geom type="sphere" pos="{_num(centre * MM)}" size="{_num(radius * MM)}" {_HAND}/>'
 
 
 def _object(mjcf: _Mjcf, task: Task, T: np.ndarray, pieces) -> str:

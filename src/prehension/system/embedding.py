@@ -14,12 +14,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..geometry.regions import BezierRegion, SphereCap
 from ..geometry.rotations import signed_angle
 from ..hands.kinematics import forward_kinematics
 from ..tasks.model import Configuration
 from .formulation import Formulation
-from .keys import BaseKey, ContactVariables, NormalLength, PalmOrigin, PatchParameter, RotationEntry, Side
+from .keys import BaseKey, ContactVariables, PalmOrigin, PatchParameter, RotationEntry, Side
+from .regions import form_of
 
 __all__ = ["embed", "configuration_from_point"]
 
@@ -31,13 +31,6 @@ def _object_frame_pose(form: Formulation, config: Configuration) -> tuple[dict, 
     R_palm_object, p_object_in_palm = config.T_palm_object[:3, :3], config.T_palm_object[:3, 3]
     R_object_link = {link: R_palm_object.T @ pose.R_palm_link[0, hand.link_index(link)] for link in form.links}
     return R_object_link, R_palm_object.T @ (-p_object_in_palm)
-
-
-def _patch_values(patch, st: np.ndarray) -> tuple[np.ndarray, float]:
-    """Unit normal and ``|p_u x p_v|`` of a patch at ``(s, t)``."""
-    N = patch.normal_patch().evaluate(st[0:1], st[1:2])[0]
-    mu = float(np.linalg.norm(N))
-    return N / mu, mu
 
 
 def embed(form: Formulation, config: Configuration) -> np.ndarray:
@@ -61,10 +54,7 @@ def _base_value(key: BaseKey, R_object_link: dict, p_palm_in_object: np.ndarray,
     if isinstance(key, PatchParameter):
         return float(params[key.index])
     region = task.object_region(contact) if key.side == Side.OBJECT else task.hand_region(contact).region
-    if isinstance(region, SphereCap):  # an object cap: its normal, no patch
-        return float(region.normals(params[None])[0][key.axis])
-    nu, mu = _patch_values(region.patch, params)
-    return mu if isinstance(key, NormalLength) else float(nu[key.axis])
+    return form_of(region).normal_value(region, params, key)
 
 
 def _orthonormal(R: np.ndarray) -> np.ndarray:
@@ -113,25 +103,13 @@ def configuration_from_point(form: Formulation, x: np.ndarray) -> Configuration:
 
 def _object_params(form: Formulation, contact, variables: ContactVariables, x) -> np.ndarray:
     region = form.task.object_region(contact)
-    if isinstance(region, BezierRegion):
-        return np.clip(x[list(variables.object_params)], 0.0, 1.0)
-    if isinstance(region, SphereCap):
-        nu = x[list(variables.object_normal)]
-        return np.zeros(2) if np.linalg.norm(nu) < 1e-6 else region.params_for_normal(nu)[0]
-    return np.zeros(0)
+    return form_of(region).object_params(region, variables, x)
 
 
 def _hand_params(form: Formulation, contact, variables: ContactVariables, x, R_object_link) -> np.ndarray:
     hreg = form.task.hand_region(contact)
-    region = hreg.region
-    if isinstance(region, BezierRegion):
-        return np.clip(x[list(variables.hand_params)], 0.0, 1.0)
-    if isinstance(region, SphereCap):
-        nu = _object_normal(form, contact, variables, x)
-        if np.linalg.norm(nu) < 1e-6:  # no direction in this point: the cap's axis
-            return np.zeros(2)
-        return region.params_for_normal(R_object_link[hreg.link].T @ -nu)[0]
-    return np.zeros(0)
+    nu = _object_normal(form, contact, variables, x)
+    return form_of(hreg.region).hand_params(hreg.region, variables, x, nu, R_object_link[hreg.link])
 
 
 def _object_normal(form: Formulation, contact, variables: ContactVariables, x) -> np.ndarray:

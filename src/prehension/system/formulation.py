@@ -39,19 +39,19 @@ point of the system is turned back into a configuration.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
 
-from ..geometry.regions import BezierRegion, PointRegion, SphereCap
 from ..hands.model import Joint
 from ..hands.reach import span_bound_mm
 from ..tasks.model import Task
 from .builder import Builder, Lin, lin_sum
 from .canonical import System
 from .couplings import add_coupling
-from .keys import BaseKey, ContactVariables, NormalLength, PalmOrigin, PatchParameter, RotationEntry, Side, UnitNormal
+from .keys import BaseKey, ContactVariables, PalmOrigin, RotationEntry, Side, UnitNormal
+from .regions import form_of
 
 __all__ = ["Formulation", "DofAngle", "build_system"]
 
@@ -262,71 +262,14 @@ class _Formulator:
         self.b.equation(lin_sum(Lin.var(self.b.square(i)) for i in nu) - Lin.constant(1.0))
         return nu
 
-    def object_side(self, ci: int, region) -> tuple[list[Lin], list[Lin], ContactVariables]:
-        """Object point and unit outward normal (object frame) of contact ``ci``."""
-        b = self.b
-        if isinstance(region, PointRegion):
-            return [Lin.constant(x) for x in region.point], [Lin.constant(x) for x in region.normal], ContactVariables()
-        if isinstance(region, SphereCap):
-            nu = self.unit_vector(ci, Side.OBJECT, f"onu{ci}")
-            b.inequality(Lin.constant(np.cos(region.half_angle)) - lin_sum(Lin.var(i, m) for i, m in zip(nu, region.axis)))
-            o = [Lin.constant(region.center[r]) + Lin.var(nu[r], region.radius) for r in range(3)]
-            return o, [Lin.var(i) for i in nu], ContactVariables(object_normal=tuple(nu))
-        p, nu, st = self._patch(ci, region.patch, Side.OBJECT)
-        return [Lin.var(i) for i in p], [Lin.var(i) for i in nu], ContactVariables(st, tuple(nu))
-
-    def _patch(self, ci: int, patch, side: Side):
-        """Bernstein point, unit normal and ``(s, t)`` of a Bézier patch (in its own frame)."""
-        b, tag = self.b, "o" if side == Side.OBJECT else "h"
-        s = self.base(PatchParameter(ci, side, 0), f"{tag}s{ci}", 0.0, 1.0)
-        t = self.base(PatchParameter(ci, side, 1), f"{tag}t{ci}", 0.0, 1.0)
-        cp, ncp = patch.control_points, patch.normal_patch().control_points
-        p = [b.bernstein_var(f"{tag}p{ci}[{r}]", s, t, cp[:, :, r]) for r in range(3)]
-        N = [b.bernstein_var(f"{tag}N{ci}[{r}]", s, t, ncp[:, :, r]) for r in range(3)]
-        nu = self.unit_vector(ci, side, f"{tag}nu{ci}")
-        mu = self.base(NormalLength(ci, side), f"{tag}mu{ci}", 0.0, float(np.linalg.norm(ncp, axis=2).max()))
-        for r in range(3):
-            b.equation(Lin.var(N[r]) - Lin.var(b.product(mu, nu[r])))  # N = mu nu (22-25)
-        return p, nu, (s, t)
-
     def add_contact(self, ci: int, contact) -> None:
-        task, b = self.task, self.b
-        hreg = task.hand_region(contact)
-        o, nu, info = self.object_side(ci, task.object_region(contact))
+        hreg, oreg = self.task.hand_region(contact), self.task.object_region(contact)
+        o, nu, info = form_of(oreg).object_side(self, ci, oreg)
         self.object_points.append(o)
-        link, region = hreg.link, hreg.region
-        pos, nh = self.origin_in_object(link), [n * -1.0 for n in nu]  # hand normal = -object normal
-        if isinstance(region, SphereCap):  # the cap's centre, o - r n_hand, has no slack
-            self.reach_points.append([o[r] + nu[r] * region.radius for r in range(3)])
-        else:
-            self.reach_points.append(o)
-        if isinstance(region, SphereCap):
-            cw = self.in_object(link, region.center)
-            for r in range(3):
-                b.equation(pos[r] + cw[r] + nh[r] * region.radius - o[r])  # (15) on the sphere
-            if region.half_angle < np.pi:
-                m = self.in_object(link, region.axis)
-                b.inequality(Lin.constant(np.cos(region.half_angle)) - self.dot_lin(nh, m, f"m{ci}"))
-        elif isinstance(region, PointRegion):
-            pw, nw = self.in_object(link, region.point), self.in_object(link, region.normal)
-            for r in range(3):
-                b.equation(pos[r] + pw[r] - o[r])
-                b.equation(nw[r] - nh[r])
-        else:
-            info = replace(info, hand_params=self._hand_patch(ci, link, region.patch, pos, o, nh))
-        self.contact_vars.append(info)
-
-    def _hand_patch(self, ci, link, patch, pos, o, nh) -> tuple[int, int]:
-        """A hand patch's contact equations; returns its ``(s, t)`` variables."""
-        b = self.b
-        hp, hn, st = self._patch(ci, patch, Side.HAND)
-        R = self.R_object_link[link]
-        for r in range(3):
-            point = lin_sum(Lin.var(b.product(R[r, c], hp[c])) for c in range(3))  # R_k h
-            normal = lin_sum(Lin.var(b.product(R[r, c], hn[c])) for c in range(3))  # R_k m
-            b.equation(pos[r] + point - o[r])
-            b.equation(normal - nh[r])
-        return st
+        hand = form_of(hreg.region)
+        pos, nh = self.origin_in_object(hreg.link), [n * -1.0 for n in nu]  # hand normal = -object normal
+        self.reach_points.append(hand.reach_point(hreg.region, o, nu))
+        self.contact_vars.append(hand.hand_side(self, ci, hreg.link, hreg.region, pos, o, nh, info))
 
     def add_reach_constraints(self) -> None:
         """Redundant distance bounds between the hand balls of the contacts and the palm.
@@ -366,8 +309,9 @@ def reach_ball(task: Task, a: int, *, exact_caps: bool = True) -> tuple[str, np.
     slack [mm])``.  The slack is the ball's radius, or 0 for a sphere cap when
     ``exact_caps`` (the system knows the cap's centre exactly: ``o + r nu``)."""
     region = task.hand_region(task.contacts[a])
-    centre, radius = _region_ball(region.region)
-    exact = exact_caps and isinstance(region.region, SphereCap)
+    form = form_of(region.region)
+    centre, radius = form.ball(region.region)
+    exact = exact_caps and form.exact_centre
     return region.link, centre, 0.0 if exact else radius
 
 
@@ -384,7 +328,7 @@ def contact_reach(task: Task, a: int, b: int | None = None) -> float:
     ``b`` (``b=None``: between contact ``a`` and the palm origin), over all configurations
     within the joint limits.
 
-    Each hand region lies in a ball fixed to its link (:func:`_region_ball`); the distance
+    Each hand region lies in a ball fixed to its link (:meth:`.regions.RegionForm.ball`); the distance
     between the ball centres is bounded by branch and bound over the joint angles
     (:func:`prehension.hands.reach.max_point_distance`: within 1 mm of the true maximum,
     or looser when its box budget runs out; remembered per hand), plus the radii.
@@ -397,27 +341,8 @@ def _palm_reach(task: Task) -> float:
     return max(contact_reach(task, a) for a in range(len(task.contacts)))
 
 
-def _region_ball(region) -> tuple[np.ndarray, float]:
-    """A ball (centre in the link frame [mm], radius [mm]) holding every point of a hand region."""
-    if isinstance(region, SphereCap):
-        return np.asarray(region.center, dtype=float), float(region.radius)
-    if isinstance(region, PointRegion):
-        return np.asarray(region.point, dtype=float), 0.0
-    points = region.patch.control_points.reshape(-1, 3)  # the patch lies in their convex hull
-    centre = 0.5 * (points.min(axis=0) + points.max(axis=0))
-    return centre, float(np.linalg.norm(points - centre, axis=1).max())
-
-
 def _object_box(task: Task) -> tuple[np.ndarray, np.ndarray]:
-    pts = []
-    for c in task.contacts:
-        reg = task.object_region(c)
-        if isinstance(reg, BezierRegion):
-            pts.append(reg.patch.control_points.reshape(-1, 3))
-        elif isinstance(reg, SphereCap):
-            pts.append(np.array([reg.center - reg.radius, reg.center + reg.radius]))
-        else:
-            pts.append(reg.point[None])
+    pts = [form_of(region).box_points(region) for region in map(task.object_region, task.contacts)]
     allp = np.concatenate(pts)
     return allp.min(axis=0), allp.max(axis=0)
 

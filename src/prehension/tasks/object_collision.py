@@ -54,7 +54,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..geometry.regions import SphereCap
 from ..hands.collision import collision_pairs
 from ..hands.kinematics import HandPose
 from .model import Task
@@ -82,13 +81,15 @@ def capsule_segments(task: Task, pose: HandPose, T_palm_object: np.ndarray):
 def pad_radius(hand_region) -> float:
     """The radius ``rho`` of a contact's pad [mm]: a sphere cap's radius, 0 for a point or
     patch hand region (no volume; see the module docstring)."""
-    return float(hand_region.region.radius) if isinstance(hand_region.region, SphereCap) else 0.0
+    ball = hand_region.region.ball()
+    return 0.0 if ball is None else float(ball[1])
 
 
 def pad_centre_in_link(hand_region) -> np.ndarray | None:
     """A sphere cap's centre in its link's frame [mm]; ``None`` for a point or patch region
     (its pad is the hand point of the contact)."""
-    return np.asarray(hand_region.region.center, dtype=float) if isinstance(hand_region.region, SphereCap) else None
+    ball = hand_region.region.ball()
+    return None if ball is None else np.asarray(ball[0], dtype=float)
 
 
 def pad_solids(task: Task, pose: HandPose, T_palm_object, contact_points_object) -> list[tuple[int, np.ndarray, float]]:

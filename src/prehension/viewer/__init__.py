@@ -8,6 +8,7 @@ network), :func:`render_png` the picture (matplotlib, the ``plot`` extra).
 from .grasp import GraspPose, LoadedGrasp, load_grasp
 from .html import scene_to_html, write_html
 from .render import render_png
-from .scene import Layer, Scene, build_hand_scene, build_scene
+from .model import Layer, Scene
+from .scene import build_hand_scene, build_scene
 
 __all__ = ["build_scene", "build_hand_scene", "Scene", "Layer", "GraspPose", "LoadedGrasp", "load_grasp", "scene_to_html", "write_html", "render_png"]

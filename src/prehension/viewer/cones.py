@@ -15,7 +15,7 @@ import numpy as np
 from ..geometry.rotations import orthonormal_frame
 from ..objects.meshes import Mesh
 from ..quality.options import DEFAULT_FRICTION
-from . import scene as S
+from . import model as S
 from .grasp import GraspPose
 
 __all__ = ["friction_cone_layer", "cone_mesh", "CONE_OPACITY"]

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..atomic import write_text_atomic
 from ..errors import PrehensionError
-from .scene import AMBIENT, BACKGROUND, LIGHT_IN_CAMERA, Layer, Scene
+from .model import AMBIENT, BACKGROUND, LIGHT_IN_CAMERA, Layer, Scene
 
 __all__ = ["scene_to_dict", "scene_to_html", "write_html"]
 

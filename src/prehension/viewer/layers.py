@@ -1,7 +1,7 @@
 """The layers of a grasp scene, one function each (palm frame, mm).
 
 Each function takes the task and the poses (``T_palm_link`` by link name, ``T_palm_object``)
-and returns a :class:`~prehension.viewer.scene.Layer`.
+and returns a :class:`~prehension.viewer.model.Layer`.
 """
 
 from __future__ import annotations
@@ -10,13 +10,12 @@ from typing import Mapping
 
 import numpy as np
 
-from ..geometry.regions import SphereCap
 from ..hands.model import Capsule, Hand
 from ..objects.meshes import Mesh
 from ..tasks.model import Task
-from . import scene as S
+from . import model as S
 from .grasp import GraspPose
-from .tessellate import capsule_mesh, region_center, region_mesh
+from ..tessellation import capsule_mesh, region_center, region_mesh
 
 __all__ = [
     "hand_layer", "object_layer", "hand_region_layer", "object_region_layer", "contact_layer", "frame_layer",
@@ -101,9 +100,11 @@ def pad_layer(task: Task, T_palm_link: Mapping[str, np.ndarray], sunk: Mapping[s
     own, red = [], []
     for contact in task.contacts:
         hr = task.hand_region(contact)
-        if isinstance(hr.region, SphereCap):
-            ball = capsule_mesh(Capsule(hr.region.center, hr.region.center, hr.region.radius))
-            (red if contact.name in sunk else own).append(ball.transformed(T_palm_link[hr.link]))
+        pad = hr.region.ball()
+        if pad is not None:
+            centre, radius = pad
+            mesh = capsule_mesh(Capsule(centre, centre, radius))
+            (red if contact.name in sunk else own).append(mesh.transformed(T_palm_link[hr.link]))
     meshes = (_merged(own, S.PAD_COLOR, 0.35, closed=True), _merged(red, S.PENETRATION_COLOR, 0.6, closed=True))
     return S.Layer("pads", "pads", tuple(m for m in meshes if m is not None))
 

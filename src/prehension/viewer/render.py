@@ -3,7 +3,7 @@
 Needs the ``plot`` extra (``pip install "prehension[plot]"``).  No pyplot and no global
 backend switch: the figure is drawn on its own Agg canvas.  Every visible triangle goes
 into one ``Poly3DCollection`` (so that matplotlib sorts them all back to front together),
-shaded as in the HTML viewer (:func:`~prehension.viewer.scene.shade_faces`); markers of
+shaded as in the HTML viewer (:func:`~prehension.viewer.model.shade_faces`); markers of
 "on top" layers are drawn over it.  The projection is orthographic with equal scales.
 """
 
@@ -17,7 +17,7 @@ import numpy as np
 
 from ..atomic import write_bytes_atomic
 from ..errors import PrehensionError
-from .scene import BACKGROUND, Layer, Scene, camera_basis, shade_faces
+from .model import BACKGROUND, Layer, Scene, camera_basis, shade_faces
 
 __all__ = ["render_png", "render_image", "require_matplotlib", "IMAGE_FORMATS"]
 

@@ -1,21 +1,30 @@
-"""Triangle meshes of the shapes a grasp scene draws: capsules, sphere caps, Bézier patches.
+"""The shapes of a grasp scene: triangle meshes to draw, solids to simulate.
 
-Every function returns a :class:`~prehension.objects.meshes.Mesh` in the frame of the
-body that carries the shape (a link or the object), in mm.  Closed shapes (capsules) are
-oriented outwards (counter-clockwise seen from outside), so a renderer may cull their
-back faces; region surfaces are open and must be drawn two-sided.
+The tessellation/scene stage's one module that knows the region kinds, shared by the
+viewer (:mod:`prehension.viewer`) and the physics scene (:mod:`prehension.sim.scene`):
+a new region kind adds its drawing and its solid here.
+
+* :func:`capsule_mesh`: a link's collision capsule; :func:`region_mesh`: the surface of a
+  contact region (a Bézier patch, a sphere cap, a disc on a point); :func:`region_center`:
+  a marker point and normal of a region.  Every mesh is a
+  :class:`~prehension.objects.meshes.Mesh` in the frame of the body that carries the shape
+  (a link or the object), in mm.  Closed shapes (capsules) are oriented outwards
+  (counter-clockwise seen from outside), so a renderer may cull their back faces; region
+  surfaces are open and must be drawn two-sided.
+* :func:`region_solid`: the solid a hand region is the surface of, for a simulator.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..geometry.regions import BezierRegion, PointRegion, Region, SphereCap
-from ..geometry.rotations import orthonormal_frame
-from ..hands.model import Capsule
-from ..objects.meshes import Mesh
+from .geometry.regions import BezierRegion, PointRegion, Region, SphereCap
+from .geometry.rotations import orthonormal_frame
+from .hands.model import Capsule
+from .objects.meshes import Mesh
+from .quality.solid import hull_mesh
 
-__all__ = ["grid_faces", "capsule_mesh", "region_mesh", "region_center", "drop_degenerate"]
+__all__ = ["grid_faces", "capsule_mesh", "region_mesh", "region_center", "region_solid", "drop_degenerate"]
 
 CAPSULE_SEGMENTS = 16  # around the axis
 CAPSULE_RINGS = 5  # per hemisphere, pole excluded
@@ -120,3 +129,21 @@ def region_center(region: Region) -> tuple[np.ndarray, np.ndarray]:
     lo, hi = region.param_bounds()
     point, normal = region.evaluate(((lo + hi) / 2)[None, :])
     return point[0], normal[0]
+
+
+def region_solid(region: Region) -> tuple[np.ndarray, float] | Mesh:
+    """The solid a hand region is the surface of, for a physics scene (link frame, mm).
+
+    A ball ``(centre (3,), radius)``: a sphere cap's sphere, or for a point region a 1 mm
+    ball whose surface passes through the point; else a closed convex :class:`Mesh`: for a
+    Bézier patch the hull of its 7 x 7 samples and of the same samples 2 mm inside along
+    its normals.  A kind without a solid is refused by name (``TypeError``).
+    """
+    if isinstance(region, SphereCap):
+        return region.ball()
+    if isinstance(region, PointRegion):
+        return region.point - region.normal, 1.0
+    if isinstance(region, BezierRegion):
+        p, n = region.evaluate(region.sample_params(7))
+        return hull_mesh(np.concatenate([p, p - 2.0 * n]))
+    raise TypeError(f"no physics shape for a {type(region).__name__} hand region")
