@@ -43,7 +43,7 @@ from ..geometry.regions import SphereCap
 from ..geometry.rotations import axis_angle_to_matrix
 from ..hands.kinematics import forward_kinematics
 from ..tasks.model import Configuration, Task
-from ..tasks.residuals import contact_residuals
+from ..verification.residuals import contact_residuals
 
 __all__ = ["GraspChart", "JOINT_SCALE_MM", "NORMAL_WEIGHT_MM"]
 

@@ -48,7 +48,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ...errors import PrehensionError
-from ...tasks.residuals import Tolerances
+from ...verification.residuals import Tolerances
 from . import _kernel as K
 
 __all__ = ["LocalOptions"]

@@ -42,7 +42,7 @@ from ...hands.collision import max_penetration
 from ...hands.kinematics import HandPose, forward_kinematics
 from ...results import Solution, SolveResult, Status, first_solution, make_solution
 from ...tasks.model import Configuration, Task
-from ...tasks.residuals import Tolerances, contact_residuals, coupling_violations, limit_violations
+from ...verification.residuals import Tolerances, contact_residuals, coupling_violations, limit_violations
 from . import _kernel as K
 from ._layout import S_K, S_X, Group
 from .options import LocalOptions
