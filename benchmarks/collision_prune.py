@@ -44,7 +44,7 @@ from prehension.solvers.complete.search import BranchAndPruneOptions, solve_comp
 from prehension.solve import solve
 from prehension.system.embedding import embed
 from prehension.system.formulation import build_system
-from prehension.tasks.residuals import Tolerances
+from prehension.verification.residuals import Tolerances
 from prehension.tasks.library import builtin_task_names, load_builtin_task
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))

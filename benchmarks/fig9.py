@@ -54,7 +54,7 @@ from prehension.solvers.local import (  # noqa: E402
 )
 from prehension.solvers.local.problems import SA_FOUR_TIPS  # noqa: E402
 from prehension.solvers.local.baseline import least_squares_batch  # noqa: E402
-from prehension.tasks.residuals import Tolerances  # noqa: E402
+from prehension.verification.residuals import Tolerances  # noqa: E402
 
 # Fig. 9 of the paper gives these points in its text (sec. 4.2): success [%] and mean time [ms].
 PAPER_FIG9 = {1: (62.0, 5.0), 2: (80.0, 7.5), 12: (97.0, 15.0)}

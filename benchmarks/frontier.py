@@ -79,7 +79,7 @@ from prehension.solvers.local import LocalOptions, solve_local
 from prehension.solvers.local.solver import refine_local
 from prehension.tasks.library import load_builtin_task
 from prehension.tasks.model import Configuration, Contact, Task
-from prehension.tasks.residuals import Tolerances, contact_residuals, evaluate
+from prehension.verification.residuals import Tolerances, contact_residuals, evaluate
 
 HANDS = Path(__file__).resolve().parents[2] / "shared" / "hands"
 OFFSETS_MM = (-1.0, -0.5, 0.5, 1.0, 2.0, 4.0)

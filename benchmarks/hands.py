@@ -44,7 +44,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 
 from prehension.hands.mjcf import hand_from_mjcf, urdf_to_mjcf  # noqa: E402
 from prehension.hands.urdf import hand_from_urdf  # noqa: E402
-from prehension.solve import solve  # noqa: E402
+from prehension.solve import SolveOptions, solve  # noqa: E402
 from prehension.solvers.complete.search import BranchAndPruneOptions  # noqa: E402
 from prehension.solvers.local.problems import random_point_problems  # noqa: E402
 
@@ -88,7 +88,7 @@ def _run(tasks, method: str, limit: float) -> tuple[str, float, float]:
     options = BranchAndPruneOptions(time_limit_s=limit)
     for task in tasks:
         t0 = time.perf_counter()
-        result = solve(task, method, complete_options=options, seed=0)
+        result = solve(task, SolveOptions(method=method, complete_options=options, seed=0))
         times.append(time.perf_counter() - t0)
         statuses.append(result.status)
     warm = 1000.0 * statistics.median(times[1:]) if len(times) > 1 else float("nan")

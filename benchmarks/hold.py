@@ -51,7 +51,7 @@ from prehension.hold import hold_first  # noqa: E402
 from prehension.pregrasp import pregrasp  # noqa: E402
 from prehension.objects.pick import region_from_mesh  # noqa: E402
 from prehension.quality import QualityOptions, grasp_quality  # noqa: E402
-from prehension.solve import solve  # noqa: E402
+from prehension.solve import SolveOptions, solve  # noqa: E402
 from prehension.tasks.library import builtin_task_names, load_builtin_task, resolve_task  # noqa: E402
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "quality"
@@ -121,10 +121,10 @@ def _verdict(v) -> str:
 
 
 def _measure(task, quality: QualityOptions, n: int, seed: int, physics: bool) -> dict:
-    first = solve(task, "local", seed=seed)
-    found = solve_best(task, BestOptions(n=n, quality=quality, ascent=None), "local", seed=seed)
+    first = solve(task, SolveOptions(method="local", seed=seed))
+    found = solve_best(task, BestOptions(n=n, quality=quality, ascent=None), SolveOptions(method="local", seed=seed))
     wall, cpu = time.perf_counter(), time.process_time()
-    best = solve_best(task, BestOptions(n=n, quality=quality, ascent=AscentOptions()), "local", seed=seed)
+    best = solve_best(task, BestOptions(n=n, quality=quality, ascent=AscentOptions()), SolveOptions(method="local", seed=seed))
     wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
     steps = [a for a in best.stats["best"]["ascent"] if a is not None]
     return {"first": _epsilon(task, first, quality), "found": _epsilon(task, found, quality),

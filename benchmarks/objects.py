@@ -59,10 +59,10 @@ from prehension.objects.mesh_io import load_mesh
 from prehension.objects.model import GraspObject
 from prehension.objects.pick import region_from_mesh
 from prehension.objects.solid import MeshFileSolid
-from prehension.solve import solve
+from prehension.solve import SolveOptions, solve
 from prehension.tasks.library import builtin_task_names, load_builtin_task
 from prehension.tasks.model import Contact, Task
-from prehension.tasks.residuals import evaluate
+from prehension.verification.residuals import evaluate
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from remeasure import deepest  # noqa: E402
@@ -155,7 +155,7 @@ def _run(task: Task, method: str, collide: bool, time_limit: float):
 
     variant = replace(task, object=replace(task.object, collisions=collide))
     t0 = time.perf_counter()
-    result = solve(variant, method, complete_options=BranchAndPruneOptions(time_limit_s=time_limit))
+    result = solve(variant, SolveOptions(method=method, complete_options=BranchAndPruneOptions(time_limit_s=time_limit)))
     return result, time.perf_counter() - t0
 
 

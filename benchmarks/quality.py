@@ -31,7 +31,7 @@ from prehension.errors import PrehensionError
 from prehension.quality import QualityOptions, grasp_quality, object_reference
 from prehension.quality.grasp import clear_memo
 from prehension.sim import SimOptions, simulate_grasp
-from prehension.solve import solve
+from prehension.solve import SolveOptions, solve
 from prehension.tasks.library import builtin_task_names, load_builtin_task, resolve_task
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "quality"
@@ -109,10 +109,10 @@ def run(tasks, args) -> None:
         except PrehensionError:
             solid_ms = "none"
         t0 = time.perf_counter()
-        first = solve(task, "auto", seed=args.seed)
+        first = solve(task, SolveOptions(seed=args.seed))
         f = _measure(task, first.solutions[0] if first.solutions else None, quality, sim, time.perf_counter() - t0, args.seed)
         t0 = time.perf_counter()
-        best = solve_best(task, best_options, "auto", seed=args.seed)
+        best = solve_best(task, best_options, SolveOptions(seed=args.seed))
         b = _measure(task, best.solutions[0] if best.solutions else None, quality, sim, time.perf_counter() - t0, args.seed)
         held_n = "-"
         if sim is not None and best.solutions:

@@ -10,7 +10,7 @@ with the same initial-pose sequence (the SA hand's shipped one), so only the geo
 differs.  Per task and hand:
 
 * the local (and complete) solver's status and time, and whether ``check`` holds
-  (:func:`prehension.verify.verify_result` on the result dict);
+  (:func:`prehension.verification.verify_result` on the result dict);
 * **pads rule**: an independent re-measure of the solution (capsule axes sampled every
   0.5 mm, signed distance to the object's mesh; on a contact's link a capsule ball is
   excused only inside that pad's sphere, ``|s - c| <= rho - r``; each pad itself
@@ -34,11 +34,12 @@ from prehension.geometry.regions import SphereCap
 from prehension.hands.kinematics import forward_kinematics
 from prehension.hands.sa_enclosing import with_enclosing_capsules
 from prehension.results import result_to_dict
-from prehension.solve import solve
+from prehension.quality import quality_entries
+from prehension.solve import SolveOptions, solve
 from prehension.solvers.local.sequence import shipped_sequence
 from prehension.tasks.library import builtin_task_names, load_builtin_task
-from prehension.tasks.residuals import evaluate
-from prehension.verify import verify_result
+from prehension.verification.residuals import evaluate
+from prehension.verification import verify_result
 
 STEP_MM = 0.5
 
@@ -94,11 +95,11 @@ def run(task, method: str, sequence, time_limit: float):
 
     t = time.perf_counter()
     if method == "local":
-        result = solve(task, "local", sequence=sequence)
+        result = solve(task, SolveOptions(method="local", sequence=sequence))
     else:
-        result = solve(task, "complete", complete_options=BranchAndPruneOptions(time_limit_s=time_limit))
+        result = solve(task, SolveOptions(method="complete", complete_options=BranchAndPruneOptions(time_limit_s=time_limit)))
     seconds = time.perf_counter() - t
-    holds = verify_result(result_to_dict(result), reprove=False).holds
+    holds = verify_result(result_to_dict(result, quality_entries(result)), reprove=False).holds
     return result, seconds, holds
 
 

@@ -69,7 +69,7 @@ def point_rows(n: int) -> list[tuple[str, float]]:
     from prehension.solvers.local.sequence import default_sequence
     from prehension.solvers.local._starts import place_poses as _place_poses
     from prehension.solvers.local.solver import run_kernel
-    from prehension.tasks.residuals import evaluate
+    from prehension.verification.residuals import evaluate
 
     problems = random_point_problems(n, schunk_sa_hand(), seed=0)
     tasks = [problems.task(i) for i in range(n)]
@@ -128,7 +128,8 @@ from prehension.solve import solve
 result = solve(task, "auto")
 t.append(time.perf_counter())
 from prehension.results import write_result
-write_result(result, sys.argv[2])
+from prehension.quality import quality_entries
+write_result(result, sys.argv[2], quality_entries(result))
 t.append(time.perf_counter())
 print(json.dumps([b - a for a, b in zip(t, t[1:])] + [result.status]))
 """

@@ -14,9 +14,9 @@ from prehension.best import BestOptions, solve_best
 from prehension.errors import PrehensionError
 from prehension.quality import QualityOptions, grasp_quality, hull_facets, primitive_wrenches, torque_reference
 from prehension.quality.measures import force_closure, hull_measures
-from prehension.solve import solve
+from prehension.solve import SolveOptions, solve
 from prehension.tasks.library import load_builtin_task
-from prehension.tasks.residuals import evaluate
+from prehension.verification.residuals import evaluate
 
 
 
@@ -150,8 +150,8 @@ def test_bad_ascent_options_are_refused(kwargs, message):
 
 def test_best_of_many_improves_what_it_finds(box):
     task, _ = box
-    found = solve_best(task, BestOptions(n=3, starts=30, ascent=None), method="local", seed=2)
-    improved = solve_best(task, BestOptions(n=3, starts=30, ascent=AscentOptions(steps=8)), method="local", seed=2)
+    found = solve_best(task, BestOptions(n=3, starts=30, ascent=None), SolveOptions(method="local", seed=2))
+    improved = solve_best(task, BestOptions(n=3, starts=30, ascent=AscentOptions(steps=8)), SolveOptions(method="local", seed=2))
     eps = improved.stats["best"]["epsilon"]
     assert eps == sorted(eps, reverse=True) and eps[0] >= found.stats["best"]["epsilon"][0]
     for s, up in zip(improved.solutions, improved.stats["best"]["ascent"]):

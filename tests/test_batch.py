@@ -18,7 +18,7 @@ from prehension.batch import BatchOptions, read_inputs, read_records, run_batch,
 from prehension.batch.journal import open_journal
 from prehension.cli import EXIT_BAD_INPUT, EXIT_GAVE_UP, EXIT_OK, main
 from prehension.errors import PrehensionError
-from prehension.solve import solve
+from prehension.solve import SolveOptions, solve
 from prehension.tasks.library import builtin_task_names
 from prehension.tasks.yaml_io import dumps_task, task_to_dict
 from conftest import write_jsonl
@@ -40,7 +40,7 @@ def solved_alone(entry, method="local", seed=0) -> dict:
     """What solving the entry's task in this process gives: status and joint angles."""
     from prehension.batch.inputs import entry_task
 
-    result = solve(entry_task(entry.payload), method, seed=task_seed(seed, entry.id))
+    result = solve(entry_task(entry.payload), SolveOptions(method=method, seed=task_seed(seed, entry.id)))
     return {"status": result.status, "q": [s.q for s in result.solutions]}
 
 

@@ -11,6 +11,7 @@ import pytest
 from prehension.batch import BatchOptions, read_inputs, read_records, run_batch, task_seed
 from prehension.batch.inputs import entry_task
 from prehension.best import BestOptions, solve_best
+from prehension.solve import SolveOptions
 from prehension.cli import EXIT_OK, main
 from prehension.quality import QualityOptions
 from prehension.sim import SimOptions, simulate_grasp
@@ -36,7 +37,7 @@ def test_best_of_n_per_task_is_what_solving_alone_gives(client, tasks, tmp_path)
     by_id = {r["id"]: r for r in read_records(out)}
     for entry in read_inputs(tasks):
         record = by_id[entry.id]
-        alone = solve_best(entry_task(entry.payload), best, "local", seed=task_seed(0, entry.id))
+        alone = solve_best(entry_task(entry.payload), best, SolveOptions(method="local", seed=task_seed(0, entry.id)))
         assert record["status"] == alone.status
         stored = [list(s["joint_angles_rad"].values()) for s in record["result"]["solutions"]]
         assert len(stored) == len(alone.solutions) <= 2
@@ -57,7 +58,7 @@ def test_the_physics_test_runs_with_each_task(client, tasks, tmp_path):
     task = entry_task(entry.payload)
     from prehension.solve import solve
 
-    alone = solve(task, "local", seed=task_seed(0, entry.id))
+    alone = solve(task, SolveOptions(method="local", seed=task_seed(0, entry.id)))
     again = simulate_grasp(task, alone.solutions[0], SimOptions(), task_seed(0, entry.id)).to_dict()
     assert box["physics"][0] == dict(solution=0, **again)  # the same numbers on a worker as here
     assert "unavailable" in records["pincer-40"]["physics"][0]  # two points: no solid to simulate

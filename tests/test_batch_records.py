@@ -168,7 +168,7 @@ def test_auto_solves_a_chunk_with_the_local_solver_then_alone_what_it_did_not_so
     each record is what ``solve(task, "auto")`` gives alone."""
     from prehension.batch.inputs import entry_task
     from prehension.batch.solving import task_seed
-    from prehension.solve import solve
+    from prehension.solve import SolveOptions, solve
 
     bad = dict(task_to_dict(pincer_task(40.0)), name="broken", contacts=[{"hand": "tip", "object": "nowhere"}])
     path = write_jsonl(tmp_path / "t.jsonl", [task_to_dict(pincer_task(40.0)), task_to_dict(pincer_task(60.0)), bad])
@@ -177,12 +177,36 @@ def test_auto_solves_a_chunk_with_the_local_solver_then_alone_what_it_did_not_so
     records = {json.loads(r.line)["task"]: json.loads(r.line) for r in solve_chunk([_wire(e) for e in entries], options).records}
     assert {k: r["status"] for k, r in records.items()} == {"pincer-40": "solved", "pincer-60": "infeasible", "broken": "invalid"}
     for entry in entries[:2]:
-        alone = solve(entry_task(entry.payload), "auto", seed=task_seed(0, entry.id))
+        alone = solve(entry_task(entry.payload), SolveOptions(seed=task_seed(0, entry.id)))
         mine = records[entry.name]
         assert (mine["message"], mine["result"]["method"]) == (alone.message, alone.method)
         assert [s["joint_angles_rad"] for s in mine["result"]["solutions"]] == [s.joint_angles for s in alone.solutions]
         # a record leaves out the pre-grasp and squeeze a result file has (docs/batch.md: their cost)
         assert not any({"pregrasp", "squeeze"} & set(s) for s in mine["result"]["solutions"])
+
+
+def test_auto_solves_a_task_the_local_solver_fails_with_the_local_solver_once(tmp_path, monkeypatch):
+    """Issue 29: batch follows the one ``auto`` policy (:func:`prehension.solve.complete_after_local`);
+    a task the local solver fails goes on to the complete solver from the chunk's local answer,
+    it is not solved by the local solver a second time (it was, before: twice)."""
+    import prehension.solvers.local as local
+    from prehension.solvers.local import solver
+
+    calls = []
+    real = solver.solve_local_batch
+
+    def counted(problems, *args, **kwargs):
+        calls.append([p.name for p in problems])
+        return real(problems, *args, **kwargs)
+
+    monkeypatch.setattr(solver, "solve_local_batch", counted)
+    monkeypatch.setattr(local, "solve_local_batch", counted)
+    path = write_jsonl(tmp_path / "t.jsonl", [task_to_dict(pincer_task(40.0)), task_to_dict(pincer_task(60.0))])
+    records = solve_chunk([_wire(e) for e in read_inputs(path)], BatchOptions(method="auto")).records
+    assert [r.status for r in records] == ["solved", "infeasible"]
+    assert sum("pincer-60" in names for names in calls) == 1 and sum("pincer-40" in names for names in calls) == 1
+    message = json.loads(records[1].line)["message"]
+    assert message.startswith("the local solver found no solution (") and "complete solver: " in message
 
 
 def test_a_chunk_whose_batch_call_fails_is_solved_task_by_task(tmp_path, monkeypatch):

@@ -13,9 +13,10 @@ from prehension.cli import EXIT_BAD_INPUT, EXIT_OK, main
 from prehension.errors import PrehensionError
 from prehension.quality import QualityOptions, grasp_quality
 from prehension.results import Status
+from prehension.solve import SolveOptions
 from prehension.solvers.complete.search import BranchAndPruneOptions
 from prehension.tasks.library import load_builtin_task
-from prehension.tasks.residuals import evaluate
+from prehension.verification.residuals import evaluate
 from tiny_tasks import pincer_task
 
 SOFT = QualityOptions(torsion_mm=5.0)
@@ -28,7 +29,7 @@ def lid():
 
 @pytest.fixture(scope="module")
 def best_lid(lid):
-    return solve_best(lid, BestOptions(n=4, starts=40, quality=SOFT), seed=3)
+    return solve_best(lid, BestOptions(n=4, starts=40, quality=SOFT), SolveOptions(seed=3))
 
 
 def test_the_best_are_verified_distinct_and_ranked_by_epsilon(lid, best_lid):
@@ -47,21 +48,21 @@ def test_the_best_are_verified_distinct_and_ranked_by_epsilon(lid, best_lid):
 
 
 def test_the_same_seed_gives_the_same_grasps(lid, best_lid):
-    again = solve_best(lid, BestOptions(n=4, starts=40, quality=SOFT), seed=3)
+    again = solve_best(lid, BestOptions(n=4, starts=40, quality=SOFT), SolveOptions(seed=3))
     assert [s.q.tolist() for s in again.solutions] == [s.q.tolist() for s in best_lid.solutions]
 
 
 def test_other_rankings(lid):
-    by_volume = solve_best(lid, BestOptions(n=3, starts=30, rank="volume", quality=SOFT), seed=1)
+    by_volume = solve_best(lid, BestOptions(n=3, starts=30, rank="volume", quality=SOFT), SolveOptions(seed=1))
     volumes = [grasp_quality(lid, s, SOFT).volume for s in by_volume.solutions]
     assert volumes == sorted(volumes, reverse=True)
-    found = solve_best(lid, BestOptions(n=3, starts=30, rank="found", quality=SOFT), seed=1)
+    found = solve_best(lid, BestOptions(n=3, starts=30, rank="found", quality=SOFT), SolveOptions(seed=1))
     assert found.stats["best"]["sources"][0] == "local solver (off-line sequence)"
 
 
 def test_a_looser_distinctness_keeps_fewer(lid):
-    strict = solve_best(lid, BestOptions(n=50, starts=30), seed=2)
-    loose = solve_best(lid, BestOptions(n=50, starts=30, joint_deg=40.0, position_mm=80.0, rotation_deg=60.0), seed=2)
+    strict = solve_best(lid, BestOptions(n=50, starts=30), SolveOptions(seed=2))
+    loose = solve_best(lid, BestOptions(n=50, starts=30, joint_deg=40.0, position_mm=80.0, rotation_deg=60.0), SolveOptions(seed=2))
     assert strict.stats["best"]["candidates"] == loose.stats["best"]["candidates"]
     assert len(loose.solutions) < len(strict.solutions)
 
@@ -86,8 +87,8 @@ def test_no_solution_is_proven_or_given_up():
 
 
 def test_the_complete_solvers_solution_set():
-    result = solve_best(pincer_task(40.0), BestOptions(n=3, starts=0, time_limit_s=12), "complete",
-                        complete_options=BranchAndPruneOptions(sigma=0.5))  # fmt: skip
+    result = solve_best(pincer_task(40.0), BestOptions(n=3, starts=0, time_limit_s=12), SolveOptions(method="complete",
+                        complete_options=BranchAndPruneOptions(sigma=0.5)))  # fmt: skip
     assert result.method == "complete" and result.solutions
     assert set(result.stats["best"]["sources"]) == {"complete solver (solution set)"}
     for s in result.solutions:

@@ -12,11 +12,12 @@ import pytest
 from prehension.cli import EXIT_BAD_INPUT, main
 from prehension.errors import PrehensionError
 from prehension.results import Status, result_to_dict
+from prehension.quality import quality_entries
 from prehension.solvers.complete.checkpoint import SearchState, _content_digest, save_state, search_fingerprint
 from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
 from prehension.system.formulation import build_system
 from prehension.tasks.yaml_io import dumps_task
-from prehension.verify import verify_result
+from prehension.verification import verify_result
 from tiny_tasks import pincer_task
 
 NO_PAIR = BranchAndPruneOptions(pair_test_boxes=0, time_limit_s=120)
@@ -161,7 +162,7 @@ def test_a_forged_checkpoint_says_so_in_the_result_and_check_re_proves_it(tmp_pa
     resumed = solve_complete(task, NO_PAIR, checkpoint=forged, resume=True)
     assert resumed.status == Status.INFEASIBLE  # what the forged checkpoint makes it say ...
     assert f"resumed from checkpoint {forged}: 5 of these boxes were pruned" in resumed.message  # ... and says why
-    data = result_to_dict(resumed)
+    data = result_to_dict(resumed, quality_entries(resumed))
     assert data["stats"]["resumed"]["checkpoint"] == str(forged)
     restated = verify_result(data, reprove=False)
     assert "resumed from checkpoint" in restated.findings[-1].detail and not restated.infeasibility_reproved
@@ -171,7 +172,7 @@ def test_a_forged_checkpoint_says_so_in_the_result_and_check_re_proves_it(tmp_pa
 
 
 def test_a_resumed_infeasibility_is_re_proved_and_names_its_checkpoint(resumed):
-    data = result_to_dict(resumed)
+    data = result_to_dict(resumed, quality_entries(resumed))
     checked = verify_result(data, time_limit_s=120)
     assert checked.holds and checked.infeasibility_reproved
     assert "resumed from checkpoint" in checked.findings[-1].detail and "does not read it" in checked.findings[-1].detail

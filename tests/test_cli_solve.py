@@ -101,9 +101,11 @@ def test_error_messages_keep_square_brackets(capsys):
 
 def test_check_reverifies_every_record_of_a_batch_output(tmp_path, capsys):
     from prehension.results import result_to_dict
-    from prehension.solve import solve
+    from prehension.quality import quality_entries
+    from prehension.solve import SolveOptions, solve
 
-    good = result_to_dict(solve(pincer_task(30.0), "complete"))
+    result = solve(pincer_task(30.0), "complete")
+    good = result_to_dict(result, quality_entries(result))
     records = [{"id": "a", "status": "solved", "result": good}, {"id": "b", "status": "invalid", "result": None}]
     out = tmp_path / "results.jsonl"
     out.write_text("".join(json.dumps(r) + "\n" for r in records))
@@ -119,21 +121,21 @@ def test_check_reverifies_every_record_of_a_batch_output(tmp_path, capsys):
 
 
 def test_auto_makes_the_complete_solvers_options_only_when_it_falls_back():
-    """``solve(complete_options=callable)``: called only if the complete solver runs (the
+    """``SolveOptions(complete_options=callable)``: called only if the complete solver runs (the
     command line passes one, so that ``auto`` does not import the complete solver when
     the local one succeeds)."""
-    from prehension.solve import solve
+    from prehension.solve import SolveOptions, solve
     from prehension.solvers.complete.search import BranchAndPruneOptions
 
     def never():
         raise AssertionError("the complete solver's options were made")
 
-    assert solve(pincer_task(30.0), "auto", complete_options=never).status == "solved"  # the local solver answered
+    assert solve(pincer_task(30.0), SolveOptions(complete_options=never)).status == "solved"  # the local solver answered
     made = []
 
     def options():
         made.append(True)
         return BranchAndPruneOptions(sigma=0.05)
 
-    result = solve(pincer_task(60.0), "auto", complete_options=options)  # the local solver fails; the complete one proves
+    result = solve(pincer_task(60.0), SolveOptions(complete_options=options))  # the local solver fails; the complete one proves
     assert made == [True] and result.status == "infeasible"

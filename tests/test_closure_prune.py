@@ -11,13 +11,13 @@ from prehension.cli import EXIT_BAD_INPUT, EXIT_INFEASIBLE, EXIT_OK, main
 from prehension.errors import PrehensionError
 from prehension.quality import QualityOptions, configuration_quality, primitive_wrenches, torque_reference
 from prehension.results import Status
-from prehension.solve import solve
+from prehension.solve import SolveOptions, solve
 from prehension.solvers.complete.closure import CERTIFICATE_MARGIN, certified_bound, closure_prune, contact_enclosures
 from prehension.solvers.complete.contract import contract
 from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
 from prehension.system.embedding import embed
 from prehension.system.formulation import build_system
-from prehension.verify import verify_result_file
+from prehension.verification import verify_result_file
 
 REQUIRE = BranchAndPruneOptions(require="force-closure")
 MODELS = (QualityOptions(), QualityOptions(friction=0.3, torsion_mm=5.0), QualityOptions(friction=1.0, cone_edges=4))
@@ -161,9 +161,9 @@ def test_auto_drops_the_local_answers_that_are_not_force_closure():
     """The one-face task: the local solver finds grasps, none force closure; auto then proves none."""
     task = box_grasps.one_face_task()
     assert solve(task, "local").success
-    result = solve(task, "auto", require="force-closure")
+    result = solve(task, SolveOptions(require="force-closure"))
     assert result.status == Status.INFEASIBLE and "no force-closure grasp" in result.message
-    assert solve(task, "local", require="force-closure").status == Status.GAVE_UP
+    assert solve(task, SolveOptions(method="local", require="force-closure")).status == Status.GAVE_UP
 
 
 def test_the_requirement_is_checked_and_stated():

@@ -17,6 +17,7 @@ from prehension.objects.meshes import Sphere
 from prehension.objects.model import GraspObject
 from prehension.objects.solid import PrimitiveSolid
 from prehension.results import Status, write_result
+from prehension.quality import quality_entries
 from prehension.solvers.complete.collision import collision_probes, collision_prune, probe_enclosures
 from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
 from prehension.system.embedding import embed
@@ -24,8 +25,8 @@ from prehension.system.formulation import build_system
 from prehension.tasks.idle import settle_idle_fingers
 from prehension.tasks.model import Configuration, Task
 from prehension.tasks.object_collision import link_penetrations
-from prehension.tasks.residuals import Tolerances, evaluate
-from prehension.verify import verify_result_file
+from prehension.verification.residuals import Tolerances, evaluate
+from prehension.verification import verify_result_file
 
 TOLS = Tolerances()  # strict, as every verified solution
 TOL = TOLS.object_penetration_mm  # 0.5 mm
@@ -202,7 +203,7 @@ def test_a_task_infeasible_only_through_the_object_is_certified_and_re_proved(tm
     assert "no penetration-free solution" in result.message and result.stats["collision_pruned"] > 0
     assert f"{result.stats['collision_pruned']} of them because every configuration" in result.message
     out = tmp_path / "pit.json"
-    write_result(result, out)
+    write_result(result, out, quality_entries(result))
     assert json.loads(out.read_text())["stats"]["collision_pruned"] == result.stats["collision_pruned"]
     assert main(["check", str(out)]) == EXIT_INFEASIBLE
     assert "the proof was run again on the embedded task and holds" in capsys.readouterr().out

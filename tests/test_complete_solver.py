@@ -15,7 +15,7 @@ from prehension.system.embedding import embed
 from prehension.system.formulation import build_system
 from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
 from prehension.solvers.complete.shrink import ShrinkOptions, shrink_box
-from prehension.tasks.residuals import Tolerances
+from prehension.verification.residuals import Tolerances
 from tiny_tasks import FEASIBLE_UP_TO_MM, pincer_task
 
 FAST = BranchAndPruneOptions(time_limit_s=120)

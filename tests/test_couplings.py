@@ -18,14 +18,14 @@ from conftest import random_angles
 from fk_tasks import build_fk_case
 from prehension.hands.model import Coupling
 from prehension.results import Status
-from prehension.solve import solve
+from prehension.solve import SolveOptions, solve
 from prehension.solvers.complete.couplings import angle_hull, contract_couplings, cos_sin_ranges, coupling_rows
 from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
 from prehension.system import build_system, embed
 from prehension.system.builder import Builder
 from prehension.system.canonical import AngleCoupling
 from prehension.system.couplings import exact_ratio, multiple_angle
-from prehension.tasks.residuals import Tolerances, evaluate
+from prehension.verification.residuals import Tolerances, evaluate
 from tiny_tasks import pincer_task
 
 ANY_COLLISION = Tolerances(penetration_mm=float("inf"))
@@ -194,8 +194,8 @@ def test_coupled_pincer_is_solved_at_its_reach_and_certified_past_it(ratio):
 
 def test_auto_solve_on_a_coupled_hand_never_raises():
     """Issue 13: auto used to crash with InvalidTask on a ratio other than +-1."""
-    result = solve(_coupled_pincer(0.7311, _coupled_pincer_reach(0.7311) + 3.0), "auto",
-                   complete_options=BranchAndPruneOptions(time_limit_s=60))  # fmt: skip
+    result = solve(_coupled_pincer(0.7311, _coupled_pincer_reach(0.7311) + 3.0),
+                   SolveOptions(complete_options=BranchAndPruneOptions(time_limit_s=60)))  # fmt: skip
     assert result.status == Status.INFEASIBLE and "complete solver" in result.message
 
 

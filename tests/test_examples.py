@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from prehension.verify import verify_result_file
+from prehension.verification import verify_result_file
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 RESULTS = sorted(EXAMPLES.rglob("*.result.json"))

@@ -11,7 +11,7 @@ from prehension.system.formulation import build_system
 from prehension.system.keys import NormalLength, PalmOrigin, PatchParameter, RotationEntry, Side, UnitNormal
 from prehension.tasks.library import load_builtin_task
 from prehension.tasks.model import Task
-from prehension.tasks.residuals import Tolerances, evaluate
+from prehension.verification.residuals import Tolerances, evaluate
 
 ANY_COLLISION = Tolerances(penetration_mm=float("inf"))
 

@@ -20,7 +20,7 @@ import pytest
 
 from prehension.results import Status, make_solution
 from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
-from prehension.tasks.residuals import Tolerances
+from prehension.verification.residuals import Tolerances
 
 SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "frontier.py"
 NO_SELF_COLLISION = Tolerances(penetration_mm=float("inf"))  # as the complete solver's system

@@ -143,10 +143,12 @@ def test_an_edited_hand_file_is_written_inline(tmp_path):
 @requires_hands
 def test_result_files_hold_the_hand_and_stand_alone(tmp_path, rng):
     from prehension.results import SolveResult, read_result, write_result
+    from prehension.quality import quality_entries
 
     urdf = _copy_allegro(tmp_path)
     task = load_task(_task_file(tmp_path, "{urdf: hands/allegro/allegro_hand_right.urdf}"))
-    write_result(SolveResult(task, "local", "gave_up", "test"), tmp_path / "r.json")
+    result = SolveResult(task, "local", "gave_up", "test")
+    write_result(result, tmp_path / "r.json", quality_entries(result))
     shutil.rmtree(urdf.parent)  # the hand file is gone: the result still reads
     again, data = read_result(tmp_path / "r.json")
     assert data["task"]["hand"]["source"]["path"] == str(urdf.resolve())

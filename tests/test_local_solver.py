@@ -15,7 +15,7 @@ from prehension.objects.model import GraspObject
 from prehension.results import Status, make_solution
 from prehension.tasks.library import load_builtin_task
 from prehension.tasks.model import Task
-from prehension.tasks.residuals import Tolerances, coupling_violations, evaluate, limit_violations
+from prehension.verification.residuals import Tolerances, coupling_violations, evaluate, limit_violations
 from prehension.solvers.local import (
     LocalOptions,
     PointProblems,

@@ -16,7 +16,7 @@ from prehension.tasks.idle import idle_fingers, settle_idle_fingers
 from prehension.tasks.library import load_builtin_task
 from prehension.tasks.model import Configuration, Contact, Task
 from prehension.tasks.object_collision import _kept_pieces, batch_link_depths, link_penetrations, pad_penetrations
-from prehension.tasks.residuals import Tolerances, evaluate
+from prehension.verification.residuals import Tolerances, evaluate
 
 
 def _boxes(pieces: int):
@@ -252,12 +252,13 @@ def test_result_file_carries_each_link_and_pad_depth_and_check_re_derives_them(t
     import json
 
     from prehension.results import write_result
-    from prehension.verify import verify_result_file
+    from prehension.quality import quality_entries
+    from prehension.verification import verify_result_file
 
     task = load_builtin_task("scalpel-upholding")
     result = solve(task, "local")
     path = tmp_path / "r.json"
-    write_result(result, path)
+    write_result(result, path, quality_entries(result))
     data = json.loads(path.read_text())
     depths = data["solutions"][0]["object_depths_mm"]
     report = result.solutions[0].report

@@ -19,7 +19,7 @@ from prehension.solvers.local._layout import S_K, S_X
 from prehension.solvers.local.problems import group_from_tasks
 from prehension.tasks.library import builtin_task_names, load_builtin_task
 from prehension.tasks.object_collision import link_penetrations, moving_links, pad_penetrations, pad_solids
-from prehension.tasks.residuals import evaluate
+from prehension.verification.residuals import evaluate
 
 MARGIN_ALL = 1e4  # a margin that makes a row of every checked capsule [mm]
 

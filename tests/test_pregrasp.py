@@ -12,7 +12,8 @@ from prehension.cli.codes import EXIT_CHECK_FAILED, EXIT_OK
 from prehension.hands.kinematics import forward_kinematics
 from prehension.pregrasp import judge_pregrasp, pregrasp
 from prehension.results import SolveResult, write_result
-from prehension.verify import verify_result_file
+from prehension.quality import quality_entries
+from prehension.verification import verify_result_file
 
 
 @pytest.mark.parametrize("back_off", [10.0, 15.0, 20.0])
@@ -46,7 +47,8 @@ def test_judging_a_pregrasp_reads_the_residual_functions_collision_rows(four):
 def test_every_solution_stores_its_pregrasp_and_squeeze_and_check_re_derives_them(tmp_path, four):
     task, grasp = four
     path = tmp_path / "r.result.json"
-    write_result(SolveResult(task, "local", "solved", "test", (grasp,)), path)
+    result = SolveResult(task, "local", "solved", "test", (grasp,))
+    write_result(result, path, quality_entries(result))
     data = json.loads(path.read_text())
     sol = data["solutions"][0]
     assert sol["pregrasp"]["collision_free"] and sol["pregrasp"]["back_off_mm"] == 15.0
@@ -71,7 +73,8 @@ def test_simulate_starts_from_the_pregrasp_and_reaches_the_grasp(tmp_path, capsy
     pytest.importorskip("mujoco")
     task, grasp = four
     path = tmp_path / "r.result.json"
-    write_result(SolveResult(task, "local", "solved", "test", (grasp,)), path)
+    result = SolveResult(task, "local", "solved", "test", (grasp,))
+    write_result(result, path, quality_entries(result))
     out = tmp_path / "physics.json"
     assert main(["simulate", str(path), "--from-pregrasp", "-o", str(out)]) == EXIT_OK
     closing = json.loads(out.read_text())["grasps"][0]["closing"]
@@ -89,7 +92,7 @@ def test_on_forward_built_tasks_the_pregrasp_is_what_it_says(sa_hand, seed):
 
     from prehension.results import make_solution
     from prehension.tasks.model import Configuration
-    from prehension.tasks.residuals import evaluate
+    from prehension.verification.residuals import evaluate
 
     rng = np.random.default_rng(100 + seed)
     solution = None
@@ -116,13 +119,13 @@ def test_a_pregrasp_that_collides_is_tried_closer():
     pre-grasp is the first collision-free one of 15, 10 and 5 mm, that distance stated; when
     none is, the 15 mm one with its failed rows named.  (Which case holds depends on the
     solver's first answer: both are checked against the distances tried one by one.)"""
-    from prehension.solve import solve
+    from prehension.solve import SolveOptions, solve
     from prehension.tasks.library import load_builtin_task
 
     from prehension.pregrasp import _backed_off
 
     task = load_builtin_task("teapot-service")
-    solution = solve(task, "local", seed=0).solutions[0]
+    solution = solve(task, SolveOptions(method="local", seed=0)).solutions[0]
     tried = [_backed_off(task, solution, d) for d in (15.0, 10.0, 5.0)]
     pre = pregrasp(task, solution, 15.0)
     free = [t for t in tried if t.collision_free]

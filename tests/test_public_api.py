@@ -80,7 +80,7 @@ def test_version_is_the_installed_distributions():
 def test_public_names_are_the_objects_of_their_modules():
     from prehension.results import make_solution
     from prehension.solve import solve
-    from prehension.tasks.residuals import evaluate
+    from prehension.verification.residuals import evaluate
 
     assert prehension.evaluate is evaluate and prehension.make_solution is make_solution
     assert prehension.solve is solve  # the function, not the submodule of the same name

@@ -1,4 +1,4 @@
-"""The residual function (prehension.tasks.residuals) on tasks built by forward kinematics.
+"""The residual function (prehension.verification.residuals) on tasks built by forward kinematics.
 
 Core property: for random configurations built by forward kinematics (random joint angles
 within limits, the object placed so that the contacts hold) every residual is ~0, while
@@ -29,7 +29,7 @@ from prehension.hands.collision import capsule_clearances, segment_distance
 from prehension.hands.kinematics import forward_kinematics
 from prehension.objects.model import GraspObject
 from prehension.tasks.model import Configuration, Contact, Task
-from prehension.tasks.residuals import (
+from prehension.verification.residuals import (
     Check,
     ResidualReport,
     Tolerances,
@@ -621,7 +621,7 @@ def test_a_report_judged_with_other_tolerances_is_evaluate_with_them(cases):
     from dataclasses import fields
 
     from prehension.results import first_solution, make_solution
-    from prehension.tasks.residuals import TOLERANCE_OF_KIND
+    from prehension.verification.residuals import TOLERANCE_OF_KIND
 
     names = {f.name for f in fields(Tolerances)}
     assert set(TOLERANCE_OF_KIND.values()) <= names

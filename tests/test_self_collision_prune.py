@@ -16,13 +16,14 @@ from prehension.hands.collision import capsule_clearances, collision_pairs
 from prehension.hands.kinematics import forward_kinematics
 from prehension.objects.model import GraspObject
 from prehension.results import Status, write_result
+from prehension.quality import quality_entries
 from prehension.solvers.complete.search import BranchAndPruneOptions, process_box, solve_complete
 from prehension.solvers.complete.self_collision import pair_distance_bounds, self_collision_pairs, self_collision_prune
 from prehension.system.embedding import embed
 from prehension.system.formulation import build_system
 from prehension.tasks.model import Contact, Task
-from prehension.tasks.residuals import Tolerances, evaluate
-from prehension.verify import verify_result_file
+from prehension.verification.residuals import Tolerances, evaluate
+from prehension.verification import verify_result_file
 
 TOLS = Tolerances()  # strict: no self-penetration at all
 SEEDS = tuple(range(9100, 9124))
@@ -168,7 +169,7 @@ def test_a_task_infeasible_only_through_self_collision_is_certified_and_re_prove
     assert result.status == Status.INFEASIBLE and not result.solutions
     assert "no self-collision-free solution" in result.message and result.stats["self_collision_pruned"] > 0
     out = tmp_path / "crossed.json"
-    write_result(result, out)
+    write_result(result, out, quality_entries(result))
     assert json.loads(out.read_text())["stats"]["self_collision_pruned"] == result.stats["self_collision_pruned"]
     assert main(["check", str(out)]) == EXIT_INFEASIBLE
     capsys.readouterr()

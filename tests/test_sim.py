@@ -20,6 +20,7 @@ from prehension.hands.kinematics import forward_kinematics
 from prehension.objects.model import GraspObject
 from prehension.quality import mass_properties, object_solid
 from prehension.results import SolveResult, write_result
+from prehension.quality import quality_entries
 from prehension.sim import SimOptions, convex_pieces, require_mujoco, scene_for, simulate_grasp, squeeze_targets
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "quality" / "box_grasps.py"
@@ -182,7 +183,8 @@ def test_without_mujoco_the_message_says_what_to_install(monkeypatch, tmp_path, 
 # -- the command ----------------------------------------------------------------------------
 def _result_file(tmp_path, task, grasp, name):
     path = tmp_path / f"{name}.json"
-    write_result(SolveResult(task, "local", "solved", "test", (grasp,)), path)
+    result = SolveResult(task, "local", "solved", "test", (grasp,))
+    write_result(result, path, quality_entries(result))
     return path
 
 
@@ -251,7 +253,8 @@ def test_simulate_interrupted_writes_the_grasps_it_finished(tmp_path, capsys, mo
 
     task, grasp = four
     path = tmp_path / "three.json"
-    write_result(SolveResult(task, "local", "solved", "test", (grasp, grasp, grasp)), path)
+    result = SolveResult(task, "local", "solved", "test", (grasp, grasp, grasp))
+    write_result(result, path, quality_entries(result))
     calls = []
 
     def fake(task, solution, options, seed):

@@ -261,7 +261,7 @@ def test_load_task_from_file_and_docs_example(tmp_path):
     np.testing.assert_allclose(normal[0] / np.linalg.norm(normal[0]), [0.0, 1.0, 0.0], atol=0.05)  # +y, as the comment says
     from prehension import solve
 
-    result = solve(doc_task, method="local")  # the example is a grasp that exists, penetration-free
+    result = solve(doc_task, "local")  # the example is a grasp that exists, penetration-free
     assert result.status == "solved", result.message
     from prehension.tasks.format.hand_files import HandFileSpec
 

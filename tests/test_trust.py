@@ -11,11 +11,12 @@ import pytest
 
 from prehension.cli import EXIT_BAD_INPUT, EXIT_CHECK_FAILED, EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK, main
 from prehension.results import Status, result_to_dict, write_result
-from prehension.solve import solve
+from prehension.quality import quality_entries
+from prehension.solve import SolveOptions, solve
 from prehension.solvers.local import LocalOptions
 from prehension.tasks.library import load_builtin_task
 from prehension.tasks.yaml_io import dumps_task
-from prehension.verify import verify_result
+from prehension.verification import verify_result
 from tiny_tasks import FEASIBLE_UP_TO_MM, pincer_task
 
 
@@ -24,7 +25,7 @@ def solved_lid():
     """A solved built-in task (a moving index and thumb, idle middle and ring fingers)."""
     result = solve(load_builtin_task("teapot-lid-lifting"), "local")
     assert result.success
-    return result_to_dict(result)
+    return result_to_dict(result, quality_entries(result))
 
 
 # -- solve and check never disagree --------------------------------------------------------------
@@ -61,12 +62,12 @@ def test_an_approximate_answer_is_never_called_solved(tmp_path):
     """Just out of reach, the local solver alone finds only a d_min answer: returned under
     its own status when asked for, re-checked with the tolerances it states."""
     task = pincer_task(FEASIBLE_UP_TO_MM + 0.3)
-    loose = solve(task, "local", local_options=LocalOptions(approximate=True))
+    loose = solve(task, SolveOptions(method="local", local_options=LocalOptions(approximate=True)))
     strict = solve(task, "local")
     assert strict.status == Status.GAVE_UP and not strict.solutions
     assert loose.status == Status.APPROXIMATE and not loose.success and loose.solutions
     path = tmp_path / "a.json"
-    write_result(loose, path)
+    write_result(loose, path, quality_entries(loose))
     assert main(["check", str(path)]) == 6  # EXIT_APPROXIMATE: holds, but only within the stated tolerances
     data = json.loads(path.read_text())
     data["status"], data["success"] = "solved", True  # claiming "solved" for it is caught
@@ -245,10 +246,10 @@ def test_malformed_solutions_are_findings_not_tracebacks(solved_lid):
 def test_a_gave_up_result_writes_strict_json(tmp_path):
     """No literal NaN in a result file: other programs' JSON readers refuse it."""
     far = pincer_task(80.0)
-    result = solve(far, "local", local_options=LocalOptions(i_max=2, k_max=5))
+    result = solve(far, SolveOptions(method="local", local_options=LocalOptions(i_max=2, k_max=5)))
     assert result.status == Status.GAVE_UP
     path = tmp_path / "g.json"
-    write_result(result, path)
+    write_result(result, path, quality_entries(result))
 
     def refuse(name):
         raise ValueError(f"non-standard JSON constant {name}")

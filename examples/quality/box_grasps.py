@@ -104,12 +104,14 @@ def one_face_grasp():
 def write_files(folder: Path = HERE) -> list[Path]:
     """The two task files and the two result files (stored grasps, method 'local')."""
     from prehension import dump_task, write_result
+    from prehension.quality import quality_entries
 
     written = []
     for task, solution in (four_finger_grasp(), one_face_grasp()):
         dump_task(task, folder / f"{task.name}.yaml")
         note = "the stored grasp of examples/quality/box_grasps.py, re-verified by make_solution"
-        write_result(SolveResult(task, "local", "solved", note, (solution,)), folder / f"{task.name}.result.json")
+        result = SolveResult(task, "local", "solved", note, (solution,))
+        write_result(result, folder / f"{task.name}.result.json", quality_entries(result))
         written += [folder / f"{task.name}.yaml", folder / f"{task.name}.result.json"]
     return written
 

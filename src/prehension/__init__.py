@@ -39,12 +39,12 @@ _SOURCES = {
     ".objects.model": ("GraspObject",),
     ".objects.pick": ("PickedRegion", "region_from_mesh"),
     ".objects.solid": ("MeshFileSolid", "PrimitiveSolid"),
-    ".quality": ("GraspQuality", "QualityOptions", "grasp_quality"),
+    ".quality": ("GraspQuality", "QualityOptions", "grasp_quality", "quality_entries"),
     ".results": ("Solution", "SolveResult", "Status", "make_solution", "read_result", "write_result"),
     ".tasks.cuik_import": ("import_world",),
     ".tasks.library": ("builtin_task_names", "load_builtin_task", "resolve_task"),
     ".tasks.model": ("Configuration", "Contact", "Task"),
-    ".tasks.residuals": ("ResidualReport", "Tolerances", "evaluate"),
+    ".verification.residuals": ("ResidualReport", "Tolerances", "evaluate"),
     ".tasks.variants": ("move_object_region", "turn_object_region"),
     ".tasks.yaml_io": ("dump_task", "dumps_task", "load_task", "loads_task"),
 }
@@ -52,7 +52,7 @@ _MODULE_OF = {name: module for module, names in _SOURCES.items() for name in nam
 
 # ``solve`` is both a submodule and the function it defines: imported now, so that
 # ``prehension.solve`` is the function whichever of them is imported first.
-from .solve import solve  # noqa: E402
+from .solve import SolveOptions, solve  # noqa: E402
 
 
 __all__ = [
@@ -72,9 +72,9 @@ __all__ = [
     "load_task", "loads_task", "dump_task", "dumps_task", "import_world",
     "builtin_task_names", "load_builtin_task", "resolve_task", "move_object_region", "turn_object_region",
     # solving and results
-    "solve", "SolveResult", "Solution", "Status", "make_solution", "write_result", "read_result",
+    "solve", "SolveOptions", "SolveResult", "Solution", "Status", "make_solution", "write_result", "read_result",
     # does the grasp hold? (the physics test: prehension.sim, extra "sim")
-    "grasp_quality", "QualityOptions", "GraspQuality", "solve_best", "BestOptions",
+    "grasp_quality", "QualityOptions", "GraspQuality", "quality_entries", "solve_best", "BestOptions",
 ]  # fmt: skip
 
 

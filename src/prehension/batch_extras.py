@@ -17,20 +17,20 @@ from .tasks.model import Task
 __all__ = ["solve_task", "physics_records"]
 
 
-def solve_task(task: Task, method: str, seed: int, time_limit_s: float | None, best=None, sequence=None) -> SolveResult:
-    """``solve`` (``best is None``) or :func:`~prehension.best.solve_best` with ``best``
-    (:class:`~prehension.best.BestOptions`), each bounded by ``time_limit_s``, the local
-    solver starting from ``sequence`` (``None``: the hand's default)."""
+def solve_task(task: Task, options, best=None) -> SolveResult:
+    """``solve(task, options)`` (``best is None``), or :func:`~prehension.best.solve_best`
+    with ``best`` (:class:`~prehension.best.BestOptions`) bounded by the options' time
+    limit (``options``: a :class:`~prehension.solve.SolveOptions`)."""
     from .solve import solve
+
+    if best is None:
+        return solve(task, options)
+    from .best import solve_best
     from .solvers.complete.search import BranchAndPruneOptions
 
-    complete = BranchAndPruneOptions(time_limit_s=time_limit_s)
-    if best is None:
-        return solve(task, method, complete_options=complete, seed=seed, sequence=sequence, time_limit_s=time_limit_s)
-    from .best import solve_best
-
-    return solve_best(task, replace(best, time_limit_s=time_limit_s), method, seed=seed, complete_options=complete,
-                      sequence=sequence)  # fmt: skip
+    limit = options.time_limit_s
+    return solve_best(task, replace(best, time_limit_s=limit),
+                      replace(options, complete_options=BranchAndPruneOptions(time_limit_s=limit)))  # fmt: skip
 
 
 def physics_records(task: Task, result: SolveResult, options, seed: int) -> list[dict]:

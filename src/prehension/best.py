@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field, replace
-from typing import Callable, Literal
+from typing import Literal
 
 import numpy as np
 
@@ -43,6 +43,7 @@ from .errors import PrehensionError
 from .geometry.rotations import angle_between
 from .quality import GraspQuality, QualityOptions, configuration_quality, grasp_quality
 from .results import Solution, SolveResult, Status, make_solution
+from .solve import SolveOptions, check_sequence, complete_options_of
 from .tasks.model import Configuration, Task
 
 __all__ = ["BestOptions", "solve_best", "distinct", "RANKINGS"]
@@ -168,15 +169,15 @@ def _local_phase(task: Task, options: BestOptions, seed: int, deadline: float | 
     return found, {"random_starts_tried": tried}
 
 
-def _complete_phase(task: Task, deadline: float | None, complete_options, executor, workers: int, progress):
-    from .solvers.complete.search import BranchAndPruneOptions, solve_complete
+def _complete_phase(task: Task, deadline: float | None, options: SolveOptions):
+    from .solvers.complete.search import solve_complete
 
-    base = complete_options or BranchAndPruneOptions()
+    base = complete_options_of(options)
     limit = None if deadline is None else max(deadline - time.perf_counter(), 1.0)
     if base.time_limit_s is not None:
         limit = base.time_limit_s if limit is None else min(limit, base.time_limit_s)
-    options = replace(base, all_solutions=True, order="breadth", time_limit_s=limit)
-    return solve_complete(task, options, executor=executor, workers=workers, progress=progress)
+    complete = replace(base, all_solutions=True, order="breadth", time_limit_s=limit)
+    return solve_complete(task, complete, executor=options.executor, workers=options.workers, progress=options.progress)
 
 
 def _key(c: _Candidate, rank: str) -> tuple:
@@ -208,21 +209,16 @@ def _ranked(candidates: list[_Candidate], task: Task, options: BestOptions, most
     return kept, n_distinct
 
 
-def solve_best(
-    task: Task,
-    options: BestOptions = BestOptions(),
-    method: Literal["auto", "local", "complete"] = "auto",
-    *,
-    seed: int = 0,
-    complete_options=None,
-    executor=None,
-    workers: int = 1,
-    progress: Callable[[dict], None] | None = None,
-    sequence=None,
-) -> SolveResult:
+def solve_best(task: Task, options: BestOptions = BestOptions(), solving: SolveOptions | str = SolveOptions()) -> SolveResult:
     """Up to ``options.n`` distinct verified solutions of ``task``, best first (module docstring).
 
-    ``sequence``: the local solver's off-line initial poses (default: the hand's own).
+    ``solving``: a :class:`~prehension.solve.SolveOptions` (or a method name alone): its
+    ``method``, ``seed``, ``sequence`` (the local solver's off-line initial poses),
+    ``complete_options``, ``executor``, ``workers`` and ``progress`` are used as
+    :func:`~prehension.solve.solve` uses them, and its ``time_limit_s`` bounds the run
+    with ``options.time_limit_s`` (the shorter of the two).  Its ``require``,
+    ``quality``, ``local_options``, ``checkpoint`` and ``resume`` are not used here: the
+    ranking measures with ``options.quality``.
 
     Returns a :class:`~prehension.results.SolveResult` whose ``solutions`` are ranked and
     whose ``stats["best"]`` says how they were collected (candidates, distinct ones,
@@ -230,30 +226,31 @@ def solve_best(
     complete solver's (``"infeasible"`` with its proof, or ``"gave_up"``), or
     ``"gave_up"`` for ``method="local"``.
     """
-    if method not in ("auto", "local", "complete"):
-        raise PrehensionError(f"method must be 'auto', 'local' or 'complete', got {method!r}")
+    solving = SolveOptions(method=solving) if isinstance(solving, str) else solving
     started = time.perf_counter()
-    deadline = None if options.time_limit_s is None else started + options.time_limit_s
+    limits = [t for t in (options.time_limit_s, solving.time_limit_s) if t is not None]
+    deadline = started + min(limits) if limits else None
     found, stats = [], {}
-    if method in ("auto", "local"):
-        if progress is not None:
-            progress({"stage": f"best of {options.n}: local solver from {options.starts} random starts"})
-        if sequence is not None:
-            from .solve import check_sequence
-
-            check_sequence(sequence, task.hand)
-        found, stats = _local_phase(task, options, seed, deadline, sequence)
+    if solving.method in ("auto", "local"):
+        _say(solving, f"best of {options.n}: local solver from {options.starts} random starts")
+        if solving.sequence is not None:
+            check_sequence(solving.sequence, task.hand)
+        found, stats = _local_phase(task, options, solving.seed, deadline, solving.sequence)
     complete = None
-    if method == "complete" or (method == "auto" and not found):
-        if progress is not None:
-            progress({"stage": f"best of {options.n}: complete solver (solution set)"})
-        complete = _complete_phase(task, deadline, complete_options, executor, workers, progress)
+    if solving.method == "complete" or (solving.method == "auto" and not found):
+        _say(solving, f"best of {options.n}: complete solver (solution set)")
+        complete = _complete_phase(task, deadline, solving)
         found += [(s, "complete solver (solution set)") for s in complete.solutions]
     candidates = [_candidate(task, grasp, source, i, options.quality) for i, (grasp, source) in enumerate(found)]
     kept, n_distinct = _ranked(candidates, task, options, options.n if options.ascent is None else 2 * options.n)
     if options.ascent is not None:
         kept = _improved(kept, task, options, deadline)
     return _result(task, options, kept, n_distinct, len(candidates), stats, complete, time.perf_counter() - started)
+
+
+def _say(solving: SolveOptions, stage: str) -> None:
+    if solving.progress is not None:
+        solving.progress({"stage": stage})
 
 
 def _improved(pool: list[_Candidate], task: Task, options: BestOptions, deadline: float | None) -> list[_Candidate]:

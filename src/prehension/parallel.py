@@ -207,7 +207,7 @@ def executor_for(scheduler: str | None, workers: int | None) -> Iterator[DaskExe
     Example (``prehension solve --scheduler``)::
 
         with executor_for(args.scheduler, args.workers) as ex:
-            result = solve(task, "complete", executor=ex, workers=ex.max_workers if ex else 1)
+            result = solve(task, SolveOptions(method="complete", executor=ex, workers=ex.max_workers if ex else 1))
     """
     check_where(scheduler, workers)
     if scheduler is None and (workers is None or workers == 1):

@@ -14,7 +14,7 @@ least squares on the stacked point Jacobians,
 the step clipped to the joint limits, a coupled dof following its source, for at most
 100 steps or until every point is within 0.01 mm of its target.  Idle fingers stay where
 the grasp holds them.  The pre-grasp is then judged by the one residual function
-(:func:`~prehension.tasks.residuals.evaluate`) at the grasp's object pose: its joint
+(:func:`~prehension.verification.residuals.evaluate`) at the grasp's object pose: its joint
 limits, couplings, self-collision and hand-object collision rows (the contact rows do
 not apply: the fingers are meant to be away) must hold with the strict tolerances.
 ``collision_free`` says whether they do; ``reached_mm`` how far each hand point stands
@@ -30,7 +30,7 @@ import numpy as np
 
 from .hands.kinematics import forward_kinematics, point_jacobian
 from .tasks.model import Configuration, Task
-from .tasks.residuals import Tolerances, evaluate
+from .verification.residuals import Tolerances, evaluate
 
 __all__ = ["PreGrasp", "pregrasp", "judge_pregrasp", "DEFAULT_BACK_OFF_MM", "PREGRASP_KINDS"]
 

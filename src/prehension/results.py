@@ -4,7 +4,7 @@ A :class:`SolveResult` is shaped like scipy's ``OptimizeResult`` (``success``, `
 ``message``, counters) plus what a grasp needs.  Each :class:`Solution` holds the joint
 angles by name, the object pose, **every link's pose in the palm frame** and each
 contact's points, normals and region parameters, and the residual report that verified
-it (:func:`prehension.tasks.residuals.evaluate`): a solver never returns a configuration
+it (:func:`prehension.verification.residuals.evaluate`): a solver never returns a configuration
 that has not passed it.
 
 Result files are JSON (``prehension: result/1``) and embed the task (as in a task file),
@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
@@ -25,7 +25,7 @@ from .hands.kinematics import forward_kinematics
 from .tasks.geometry_record import collision_geometry
 from .tasks.idle import settle_idle_fingers
 from .tasks.model import Configuration, Task
-from .tasks.residuals import ResidualReport, Tolerances, _evaluate
+from .verification.residuals import ResidualReport, Tolerances, _evaluate
 
 __all__ = [
     "Status",
@@ -234,20 +234,23 @@ def _object_depths(report: ResidualReport) -> dict:
 
 
 def result_to_dict(
-    result: SolveResult, quality=None, *, embed_task: bool = True, qualities=None, physics=None, approach: bool = True,
+    result: SolveResult, qualities: Sequence[Mapping], *, embed_task: bool = True, physics=None, approach: bool = True,
 ) -> dict:  # fmt: skip
     """A JSON-ready dict: units in keys, the task embedded (unless ``embed_task`` is false:
     a batch stores each distinct task once and its records refer to it); the collision
     geometry that judged it (:func:`~prehension.tasks.geometry_record.collision_geometry`,
-    without the per-link table when the task is not embedded); each solution's
-    grasp quality measured with ``quality`` (:class:`prehension.quality.QualityOptions`,
-    default ones if ``None``), or given: ``qualities``, one
-    :func:`~prehension.quality.quality_entry` per solution (a batch measures them itself);
-    ``physics``: per solution, its physics verdict (``solve --hold``,
-    :class:`~prehension.sim.PhysicsReport` as a dict, or ``None``), stored as ``"physics"``;
-    ``approach``: store each solution's pre-grasp and squeeze targets (``"pregrasp"``,
-    ``"squeeze"``; :func:`prehension.pregrasp.approach_entries`)."""
-    from .quality import QualityOptions, quality_entry
+    without the per-link table when the task is not embedded).
+
+    Args:
+        qualities: each solution's ``"quality"`` entry, measured by the caller
+            (:func:`prehension.quality.quality_entries`; a result file stores what was
+            measured, it measures nothing itself).
+        physics: per solution, its physics verdict (``solve --hold``,
+            :class:`~prehension.sim.PhysicsReport` as a dict, or ``None``), stored as
+            ``"physics"``.
+        approach: store each solution's pre-grasp and squeeze targets (``"pregrasp"``,
+            ``"squeeze"``; :func:`prehension.pregrasp.approach_entries`).
+    """
     from .tasks.format.embedded import embedded_files
     from .tasks.yaml_io import task_to_dict
 
@@ -261,11 +264,7 @@ def result_to_dict(
         files = embedded_files(head["task"])  # ... also elsewhere: the object's mesh travels with it
         if files:
             head["files"] = files
-    if qualities is None:
-        options = quality or QualityOptions()
-        qualities = [quality_entry(result.task, s.T_palm_object, s.contacts, options) for s in result.solutions]
-    elif len(qualities) != len(result.solutions):
-        raise PrehensionError(f"result_to_dict: {len(qualities)} quality entries given for {len(result.solutions)} solutions")
+    _one_per_solution(qualities, result, "quality entries")
     from .pregrasp import approach_entries
 
     # pre-grasp and squeeze (docs/quality.md): 3-19 ms a solution on the built-ins, more than a
@@ -273,8 +272,7 @@ def result_to_dict(
     approaches = [approach_entries(result.task, s) if approach else {} for s in result.solutions]
     if physics is None:
         physics = [None] * len(result.solutions)
-    elif len(physics) != len(result.solutions):
-        raise PrehensionError(f"result_to_dict: {len(physics)} physics verdicts given for {len(result.solutions)} solutions")
+    _one_per_solution(physics, result, "physics verdicts")
     return {
         **head,
         "method": result.method,
@@ -289,16 +287,26 @@ def result_to_dict(
     }
 
 
+def _one_per_solution(entries, result: SolveResult, what: str) -> None:
+    """Raise unless ``entries`` is a sequence of one entry per solution of ``result``."""
+    if isinstance(entries, (list, tuple)) and len(entries) == len(result.solutions):
+        return
+    given = f"{len(entries)} {what}" if isinstance(entries, (list, tuple)) else f"{type(entries).__name__} as {what}"
+    raise PrehensionError(f"result_to_dict: {given} given for {len(result.solutions)} solutions (a list: one per "
+                          "solution; prehension.quality.quality_entries(result) measures the quality entries)")  # fmt: skip
+
+
 def _with_physics(entry: dict, physics) -> dict:
     if physics is not None:
         entry["physics"] = physics
     return entry
 
 
-def write_result(result: SolveResult, path, quality=None, physics=None) -> None:
-    """Write the result file atomically (never a half-written file); ``quality`` and
+def write_result(result: SolveResult, path, qualities: Sequence[Mapping], physics=None) -> None:
+    """Write the result file atomically (never a half-written file); ``qualities`` (each
+    solution's quality entry, e.g. :func:`prehension.quality.quality_entries`) and
     ``physics`` as in :func:`result_to_dict`."""
-    write_json_atomic(path, result_to_dict(result, quality, physics=physics))
+    write_json_atomic(path, result_to_dict(result, qualities, physics=physics))
 
 
 def read_result(path) -> tuple[Task, dict]:

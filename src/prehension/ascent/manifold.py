@@ -11,7 +11,7 @@ with ``z = (q_free, u_h, u_o)``: the joint angles the task moves (a coupled angl
 its source), the hand regions' and the object regions' parameters, and ``T`` the object
 pose (palm frame).  ``p``, ``n`` are the contact points [mm] and outward normals of
 eqs. 15-16 -- the rows of the local solver (Claret & Suárez), computed by the one residual
-function's batch core :func:`~prehension.tasks.residuals.contact_residuals`; ``w_n`` [mm]
+function's batch core :func:`~prehension.verification.residuals.contact_residuals`; ``w_n`` [mm]
 weighs the normals like the points.
 
 The object moves by a twist ``tau = (omega, v)`` about the contacts' centroid ``c``:
@@ -42,7 +42,7 @@ import numpy as np
 from ..geometry.rotations import axis_angle_to_matrix
 from ..hands.kinematics import forward_kinematics
 from ..tasks.model import Configuration, Task
-from ..tasks.residuals import contact_residuals
+from ..verification.residuals import contact_residuals
 
 __all__ = ["GraspChart", "JOINT_SCALE_MM", "NORMAL_WEIGHT_MM"]
 

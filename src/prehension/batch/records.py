@@ -13,7 +13,7 @@ from typing import Any, Mapping, NamedTuple, Sequence
 
 from .journal import RECORD_TAG
 
-__all__ = ["ChunkOutput", "RecordLine", "STAGES", "record_dict", "encode", "result_line", "error_line"]
+__all__ = ["ChunkOutput", "RecordLine", "RecordHead", "STAGES", "encode", "result_line", "error_line"]
 
 STAGES = ("load", "solve", "quality", "record")  # where a worker's time on a chunk goes (ChunkOutput.stages)
 
@@ -44,42 +44,51 @@ def encode(data: Mapping[str, Any]) -> bytes:
     return (json.dumps(data, separators=(",", ":"), check_circular=False) + "\n").encode("utf-8")  # a tree: no cycles
 
 
-def record_dict(entry: Mapping[str, Any], method: str, seed: int, **fields) -> dict:
-    """A record's fields in their order (see :mod:`.journal`)."""
-    return {
-        "prehension": RECORD_TAG, "id": entry["id"], "task": entry["name"], "source": entry["source"],
-        "method": method, "seed": seed, **fields,
-    }  # fmt: skip
+class RecordHead(NamedTuple):
+    """Whom a record is about: the batch entry (``{"id", "name", "source", ...}``), and the
+    method and seed its task was solved with."""
+
+    entry: Mapping[str, Any]
+    method: str
+    seed: int
+
+    def record(self, **fields) -> dict:
+        """A record's fields in their order (see :mod:`.journal`)."""
+        entry = self.entry
+        return {
+            "prehension": RECORD_TAG, "id": entry["id"], "task": entry["name"], "source": entry["source"],
+            "method": self.method, "seed": self.seed, **fields,
+        }  # fmt: skip
 
 
-def error_line(entry: Mapping[str, Any], method: str, seed: int, status: str, message: str, seconds: float) -> RecordLine:
+def error_line(head: RecordHead, status: str, message: str, seconds: float) -> RecordLine:
     """The record of a task that could not be solved (``invalid`` or ``error``): no result."""
-    data = record_dict(entry, method, seed, status=status, seconds=seconds, message=message, result=None)
-    return RecordLine(entry["id"], status, None, encode(data))
+    data = head.record(status=status, seconds=seconds, message=message, result=None)
+    return RecordLine(head.entry["id"], status, None, encode(data))
 
 
-def result_line(entry: Mapping[str, Any], method: str, seed: int, result, loaded, seconds: float,
-                self_contained: bool, qualities: Sequence[dict], extra: Mapping[str, Any] | None = None) -> RecordLine:  # fmt: skip
+def result_line(head: RecordHead, result, loaded, seconds: float, qualities: Sequence[dict],
+                extra: Mapping[str, Any] | None = None, self_contained: bool = False) -> RecordLine:  # fmt: skip
     """The record of a solved (or given up, or proven infeasible) task.
 
     Args:
         result: its :class:`~prehension.results.SolveResult`.
         loaded: its :class:`~.loading.LoadedTask` (the task dict and ref, built once).
         seconds: the task's time on the worker [s].
-        self_contained: embed the task in the result, else refer to its task line.
         qualities: the ``"quality"`` entry of each solution
-            (:func:`~prehension.quality.quality_entry`), measured by the caller.
+            (:func:`~prehension.quality.quality_entries`), measured by the caller.
         extra: fields after ``result`` (``physics``).
+        self_contained: embed the task in the result, else refer to its task line.
     """
     from ..results import result_to_dict
 
-    data = result_to_dict(result, embed_task=False, qualities=qualities, approach=False)  # no pre-grasp: docs/batch.md
+    data = result_to_dict(result, qualities, embed_task=False, approach=False)  # no pre-grasp: docs/batch.md
     fields = dict(status=result.status, seconds=seconds, message=result.message)
+    entry_id = head.entry["id"]
     if self_contained:
-        head = {k: data[k] for k in ("prehension", "units", "frames")}
+        top = {k: data[k] for k in ("prehension", "units", "frames")}
         carried = {"files": loaded.files} if loaded.files else {}  # self-contained: its own copy of the mesh
-        whole = {**head, "task": loaded.task_dict, **carried, **data}
-        record = record_dict(entry, method, seed, **fields, result=whole, **(extra or {}))
-        return RecordLine(entry["id"], result.status, None, encode(record))
-    record = record_dict(entry, method, seed, **fields, task_ref=loaded.ref, result=data, **(extra or {}))
-    return RecordLine(entry["id"], result.status, loaded.ref, encode(record))
+        whole = {**top, "task": loaded.task_dict, **carried, **data}
+        return RecordLine(entry_id, result.status, None, encode(head.record(**fields, result=whole, **(extra or {}))))
+    record = head.record(**fields, task_ref=loaded.ref, result=data, **(extra or {}))
+    return RecordLine(entry_id, result.status, loaded.ref, encode(record))

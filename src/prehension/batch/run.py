@@ -25,7 +25,7 @@ from ..errors import PrehensionError
 from ..parallel import worker_count
 from .inputs import TASK_SUFFIXES, BatchEntry, read_inputs
 from .journal import Appender, is_done, open_journal
-from .records import ChunkOutput, error_line
+from .records import ChunkOutput, RecordHead, error_line
 from .solving import BatchOptions, solve_chunk, task_seed
 
 __all__ = ["BatchProgress", "BatchSummary", "run_batch", "check_output"]
@@ -93,7 +93,7 @@ def _output(future, chunk: list[dict], options: BatchOptions) -> ChunkOutput:
     except Exception as exc:  # e.g. KilledWorker: the chunk killed several workers
         message = f"the Dask task failed: {type(exc).__name__}: {exc}"
         seed = options.seed
-        return ChunkOutput([error_line(e, options.method, task_seed(seed, e["id"]), "error", message, 0.0) for e in chunk], {})
+        return ChunkOutput([error_line(RecordHead(e, options.method, task_seed(seed, e["id"])), "error", message, 0.0) for e in chunk], {})
 
 
 class _WorkerCount:

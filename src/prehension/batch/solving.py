@@ -9,9 +9,12 @@ task and every task draws from its own generator, so a task's answer is, bit for
 the one :func:`prehension.solve.solve` gives it alone with that seed: it depends neither
 on the worker, nor on the order, nor on the other tasks of its chunk.  Each answer is
 re-verified by :meth:`~prehension.solvers.local.LocalRecord.to_result` (the residual
-function, strict tolerances) before it becomes a record.  ``"auto"`` then solves the tasks
-the local solver did not solve with :func:`~prehension.solve.solve`, one at a time (the
-complete solver); ``"complete"`` solves every task that way.
+function, strict tolerances) before it becomes a record.  ``"auto"`` then hands each answer
+that is not a solution to :func:`prehension.solve.complete_after_local` -- the one ``auto``
+policy, which :func:`~prehension.solve.solve` follows too: the complete solver runs on the
+task, the answer carrying the local one's message and stats, and the local solver never
+runs twice on a task; ``"complete"`` solves every task
+with :func:`~prehension.solve.solve`, one at a time.
 
 **Parsed once.**  Tasks are parsed once per worker process (:mod:`.loading`) and their
 records are serialised here (:mod:`.records`), the task stored once per distinct task.
@@ -33,7 +36,7 @@ from functools import lru_cache
 from typing import Any, Mapping, Sequence
 
 from ..errors import PrehensionError
-from .records import STAGES, ChunkOutput, RecordLine, error_line, result_line
+from .records import STAGES, ChunkOutput, RecordHead, RecordLine, error_line, result_line
 
 __all__ = ["BatchOptions", "task_seed", "solve_chunk"]
 
@@ -51,7 +54,8 @@ class BatchOptions:
         time_limit_s: give up on a task after this long [s]: the local solver's call on a
             chunk stops after this long times its tasks, and a task the local solver did not
             solve gets what is left of its own limit for ``auto`` (its share of that call
-            deducted; nothing left: its record is the local solver's ``gave_up``).
+            deducted; nothing left: its record is the local solver's ``gave_up``, its
+            message saying so).
         chunk_size: tasks per Dask task (default: see :meth:`chunk_size_for`).
         retry_gave_up: solve again the tasks whose record says ``gave_up``.
         max_tasks: solve at most this many tasks in this run (then stop; re-run to go on).
@@ -153,6 +157,9 @@ class _Chunk:
     def seed(self, entry) -> int:
         return task_seed(self.options.seed, entry["id"])
 
+    def head(self, entry) -> RecordHead:
+        return RecordHead(entry, self.options.method, self.seed(entry))
+
     def sequence(self, hand_name: str):
         """The initial-pose sequence given for this hand (``--sequence``), else ``None``;
         read once per chunk and hand."""
@@ -160,14 +167,24 @@ class _Chunk:
             self._sequences[hand_name] = self.options.sequence_for(hand_name)
         return self._sequences[hand_name]
 
+    def solve_options(self, entry, loaded):
+        """The :class:`~prehension.solve.SolveOptions` of one task: the batch's method and
+        time limit, the task's seed and initial-pose sequence."""
+        from ..solve import SolveOptions
+
+        return SolveOptions(method=self.options.method, seed=self.seed(entry), time_limit_s=self.options.time_limit_s,
+                            sequence=self.sequence(loaded.task.hand.name))  # fmt: skip
+
     def fail(self, entry, exc: Exception, seconds: float) -> None:
         status, message = _failure(exc)
-        self.records.append(error_line(entry, self.options.method, self.seed(entry), status, message, seconds))
+        self.records.append(error_line(self.head(entry), status, message, seconds))
 
     def add(self, entry, loaded, result, seconds: float) -> None:
         """The record of ``result`` (its ``seconds`` set to the task's time so far): the
         physics test (``simulate``, counted as solving), the quality of every solution,
         then the JSON line."""
+        from ..quality import quality_entries
+
         started = _clock()
         try:
             extra = {}
@@ -177,11 +194,10 @@ class _Chunk:
                 extra["physics"] = physics_records(loaded.task, result, self.options.simulate, self.seed(entry))
                 seconds += self.spent("solve", started)
                 started = _clock()
-            qualities = _qualities(loaded.task, result, self.options.quality)
+            qualities = quality_entries(result, self.options.quality)
             seconds += self.spent("quality", started)
             started = _clock()
-            line = result_line(entry, self.options.method, self.seed(entry), result, loaded,
-                               seconds, self.options.self_contained, qualities, extra)  # fmt: skip
+            line = result_line(self.head(entry), result, loaded, seconds, qualities, extra, self.options.self_contained)
             if line.task_ref is not None:
                 self.tasks.setdefault(line.task_ref, loaded.task_line)
                 self.files.update(loaded.file_lines)
@@ -198,14 +214,6 @@ class _Chunk:
 def _clock() -> tuple[float, float]:
     """``(wall, CPU of this thread)`` now [s], for :meth:`_Chunk.spent`."""
     return time.perf_counter(), time.thread_time()
-
-
-def _qualities(task, result, options) -> list[dict]:
-    """The stored quality of each solution of ``result`` (default options if ``None``)."""
-    from ..quality import QualityOptions, quality_entry
-
-    options = options if options is not None else QualityOptions()
-    return [quality_entry(task, s.T_palm_object, s.contacts, options) for s in result.solutions]
 
 
 def _load(chunk: _Chunk, entries) -> list[tuple[Mapping, Any, float]]:
@@ -226,18 +234,14 @@ def _load(chunk: _Chunk, entries) -> list[tuple[Mapping, Any, float]]:
     return out
 
 
-def _solve_alone(chunk: _Chunk, entry, loaded, seconds: float, time_limit_s: float | None = None) -> None:
+def _solve_alone(chunk: _Chunk, entry, loaded, seconds: float) -> None:
     """One task as ``prehension solve`` (or ``solve --best N``) solves it: the complete
-    solver, ``best``, or a fallback (:func:`prehension.batch_extras.solve_task`), within
-    ``time_limit_s`` (default: the batch's)."""
+    solver, ``best``, or a fallback (:func:`prehension.batch_extras.solve_task`)."""
     from ..batch_extras import solve_task
 
-    options = chunk.options
     started = _clock()
-    limit = options.time_limit_s if time_limit_s is None else time_limit_s
     try:
-        result = solve_task(loaded.task, options.method, chunk.seed(entry), limit, options.best,
-                            chunk.sequence(loaded.task.hand.name))  # fmt: skip
+        result = solve_task(loaded.task, chunk.solve_options(entry, loaded), chunk.options.best)
     except Exception as exc:
         chunk.fail(entry, exc, seconds + chunk.spent("solve", started))
         return
@@ -308,7 +312,10 @@ def _by_sequence(chunk: _Chunk, todo) -> dict:
 
 def _solve_local_first(chunk: _Chunk, todo) -> None:
     """``local`` and ``auto``: the local solver on the whole chunk (one call per initial-pose
-    sequence), then (``auto``) each task it did not solve alone, with the complete solver."""
+    sequence), then (``auto``) the complete solver on each task it did not solve, from its
+    answer (:func:`prehension.solve.complete_after_local`: the one ``auto`` policy)."""
+    from ..solve import complete_after_local
+
     for sequence, group in _by_sequence(chunk, todo).values():
         solved = _local_batch(chunk, group, sequence)
         if solved is None:
@@ -319,15 +326,12 @@ def _solve_local_first(chunk: _Chunk, todo) -> None:
             started = _clock()
             try:
                 result = _verified(record, loaded.task, sequence, share)
+                if chunk.options.method == "auto":
+                    result = complete_after_local(loaded.task, result, chunk.solve_options(entry, loaded))
             except Exception as exc:
                 chunk.fail(entry, exc, seconds + share + chunk.spent("solve", started))
                 continue
-            spent = seconds + share + chunk.spent("solve", started)
-            left = None if chunk.options.time_limit_s is None else chunk.options.time_limit_s - share
-            if chunk.options.method == "auto" and not result.success and (left is None or left > 0):
-                _solve_alone(chunk, entry, loaded, spent, left)  # solve(auto) runs the local solver first: same answer
-            else:
-                chunk.add(entry, loaded, result, spent)
+            chunk.add(entry, loaded, result, seconds + share + chunk.spent("solve", started))
 
 
 def solve_chunk(entries: Sequence[Mapping[str, Any]], options: BatchOptions) -> ChunkOutput:

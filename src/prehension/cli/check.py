@@ -1,4 +1,4 @@
-"""``prehension check``: re-derive everything a result file claims (:mod:`prehension.verify`).
+"""``prehension check``: re-derive everything a result file claims (:mod:`prehension.verification.claims`).
 
 Exit code: 5 when any claim does not hold; otherwise the code ``prehension solve`` gives
 for the file's status (0 solved, 3 infeasible -- re-proved, 4 gave up, or an infeasibility
@@ -40,7 +40,7 @@ def cmd_check(args, console: Console) -> int:
     limit = time_limit(args.time_limit, "--time-limit")
     if path.suffix.lower() == ".jsonl":
         return _check_batch(path, console, not args.no_reprove, limit)
-    from ..verify import verify_result_file
+    from ..verification.claims import verify_result_file
 
     if not path.is_file():
         raise InvalidTask(not_a_file("result file", path))
@@ -104,7 +104,7 @@ def _check_batch(path, console: Console, reprove: bool, limit) -> int:
     """Re-derive every result of a batch output; one row per record (a compact record's
     task is read from the task line it refers to)."""
     from ..batch.journal import TaskLines, with_task
-    from ..verify import verify_result
+    from ..verification.claims import verify_result
 
     table = Table(title=f"{path}: every task's result re-derived", title_justify="left")
     for col in ("id", "status", "solutions", "contact [mm]", "normal [deg]", "verdict"):
@@ -138,7 +138,7 @@ def _check_batch(path, console: Console, reprove: bool, limit) -> int:
 def _with_finding(checked, what: str, detail: str):
     from dataclasses import replace
 
-    from ..verify import Finding
+    from ..verification.claims import Finding
 
     return replace(checked, findings=checked.findings + (Finding(what, False, detail),))
 

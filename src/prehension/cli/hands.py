@@ -176,7 +176,7 @@ def cmd_export_hand(args, console: Console) -> int:
     from ..tasks.format.hand_files import resolve_hand
 
     from ..atomic import check_output_path
-    from .solve import task_inputs
+    from .outputs import task_inputs
 
     suffix = args.output.suffix.lower()
     if suffix not in _EXPORTS:

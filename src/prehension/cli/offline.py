@@ -116,7 +116,7 @@ def cli_offline(hand_name: str, output, search=None, *, workers: int | None = No
     from .hands import print_hand_warnings
 
     from ..atomic import check_output_path
-    from .solve import task_inputs
+    from .outputs import task_inputs
 
     console = console or Console()
     output = check_output_path(output, "sequence file", inputs=task_inputs(hand_name), suffixes=(".json",))

@@ -1,7 +1,7 @@
 """``prehension simulate RESULT``: does the grasp hold in a physics engine?
 
 Every solution of the result file (or the one ``--solution`` names) is first re-derived
-as ``prehension check`` would (:func:`prehension.verify.verify_result_file`): a file whose
+as ``prehension check`` would (:func:`prehension.verification.claims.verify_result_file`): a file whose
 claims do not hold is refused, never simulated.  Then the DexGraspBench protocol runs
 (:mod:`prehension.sim`).  Exit code: 0 when every simulated grasp holds, 7 when one drops
 or is rejected (too much penetration at the start), 2 on bad input -- including a
@@ -64,7 +64,7 @@ class StoredGrasp(NamedTuple):
 
 def stored_grasps(path: Path, index: int | None):
     """``(task, [(k, StoredGrasp)])`` of a result file whose claims hold."""
-    from ..verify import verify_result_file
+    from ..verification.claims import verify_result_file
 
     if not path.is_file():
         raise InvalidTask(not_a_file("result file", path))

@@ -9,9 +9,9 @@ none) and visible (:mod:`.progress`).
 from __future__ import annotations
 
 import json
-import os
 import re
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -28,9 +28,10 @@ from .best import (
 )  # fmt: skip
 from .codes import EXIT_APPROXIMATE, EXIT_DROPPED, EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK
 from .hands import print_hand_warnings
+from .outputs import files_of_task, keep_previous, task_inputs
 from .progress import LiveProgress
 
-__all__ = ["add_parser", "cmd_solve", "EXIT_OF_STATUS", "task_inputs", "files_of_task"]
+__all__ = ["add_parser", "cmd_solve", "EXIT_OF_STATUS"]
 
 EXIT_OF_STATUS = {
     Status.SOLVED: EXIT_OK, Status.INFEASIBLE: EXIT_INFEASIBLE, Status.GAVE_UP: EXIT_GAVE_UP,
@@ -93,35 +94,10 @@ def _method_options(args) -> str | None:
     return None
 
 
-def task_inputs(text: str) -> list[Path]:
-    """The files a task argument names (none for a built-in task name)."""
-    path = Path(text)
-    return [path] if path.is_file() else []
-
-
 def _default_output(task_name: str) -> Path:
     """``NAME.result.json`` in the current folder, with the name made a safe, visible file name."""
     stem = re.sub(r"[^A-Za-z0-9._+-]+", "_", task_name).lstrip("._") or "task"
     return Path(f"{stem}.result.json")
-
-
-def _keep_previous(path: Path) -> Path | None:
-    """Move an existing file aside as ``path.~N~`` so nothing a user saved is lost."""
-    if not path.is_file():
-        return None
-    n = 1
-    while Path(f"{path}.~{n}~").exists():
-        n += 1
-    backup = Path(f"{path}.~{n}~")
-    os.replace(path, backup)
-    return backup
-
-
-def files_of_task(task) -> list[Path]:
-    """The files a loaded task reads: its object's mesh and display mesh, its hand's file."""
-    solid, hand_source = getattr(task.object, "solid", None), getattr(task.hand, "source", None)
-    names = (getattr(solid, "path", None), task.object.mesh_file, getattr(hand_source, "path", None))
-    return [Path(name) for name in names if name]
 
 
 def _check_outputs(args, task) -> Path:
@@ -180,14 +156,47 @@ def _local_options(args):
 
 def cmd_solve(args, console: Console) -> int:
     from ..parallel import check_where, executor_for
-    from ..solve import solve
     from ..tasks.library import resolve_task
 
     task = resolve_task(args.task)
     print_hand_warnings(console, task.hand)
-    sequence = _sequence(args)
-    complete_options = _options(args)
-    time_limit_s = types.time_limit(args.time_limit)
+    path, options, best = _checked(args, task)
+    where = (args.scheduler, args.workers if args.workers > 1 else None)
+    check_where(*where)
+    if args.method == "local":  # the cluster only serves the complete solver's boxes
+        where = (None, None)
+    _say_if_compiling(args)
+    with executor_for(*where) as executor:
+        with LiveProgress(console, enabled=not (args.quiet or args.json), time_limit_s=types.time_limit(args.time_limit)) as update:
+            workers = executor.max_workers if executor is not None else 1
+            result = _solve(task, replace(options, executor=executor, workers=workers, progress=update), best)
+    hold = _hold(console, args, result) if args.hold and result.solutions else None
+    return _save(console, args, result if hold is None else hold.result, hold, options.quality, path, best is not None)
+
+
+def _save(console: Console, args, result, hold, quality, path: Path, best: bool) -> int:
+    """Write the result file (its quality measured here), report, write ``--html``; the exit code."""
+    from ..quality import quality_entries
+
+    qualities = quality_entries(result, quality)  # measured once: the file and the --json summary
+    backup = keep_previous(path)
+    write_result(result, path, qualities, physics=None if hold is None else hold.physics)
+    _report(console, args, result, qualities, path, backup)
+    if result.solutions and not (args.quiet or args.json):
+        console.print(best_table(result) if best else "\n".join(quality_lines(result, quality)))
+    if args.html is not None:
+        _write_view(console, args, result)
+    elif not (args.quiet or args.json):
+        console.print(f"see it: prehension view {path} -o grasp.html")
+    if hold is not None and not hold.held:
+        return EXIT_DROPPED
+    return EXIT_OF_STATUS[result.status]
+
+
+def _checked(args, task):
+    """Every argument and output checked before any work: ``(result file, solve options
+    without their executor and progress, best options or None)``."""
+    sequence, complete = _sequence(args), _options(args)
     if args.resume and args.checkpoint is None:
         raise PrehensionError("--resume needs --checkpoint FILE (the file the interrupted run saved)")
     if args.resume and not args.checkpoint.is_file():
@@ -201,50 +210,45 @@ def cmd_solve(args, console: Console) -> int:
         if implied:
             args.best = HOLD_CANDIDATES
     try:
-        quality, best = quality_options(args), best_options(args, time_limit_s)
+        quality, best = quality_options(args), best_options(args, types.time_limit(args.time_limit))
     except PrehensionError as exc:
         raise PrehensionError(f"--hold runs the candidates of --best {HOLD_CANDIDATES}: {exc}" if implied else str(exc)) from None
     if args.require and args.method == "local":
         raise PrehensionError(f"--require {args.require} needs the complete solver (--method complete, or auto): "
                               "the local solver cannot prove that no such grasp exists")  # fmt: skip
-    where = (args.scheduler, args.workers if args.workers > 1 else None)
-    check_where(*where)
-    if args.method == "local":  # the cluster only serves the complete solver's boxes
-        where = (None, None)
+    return path, _solve_options(args, quality, sequence, complete), best
+
+
+def _say_if_compiling(args) -> None:
+    """The local solver's kernels compile on first use (minutes): say so on stderr."""
     if args.method in ("local", "auto"):
         from ..solvers.local import COMPILING_MESSAGE, compile_pending
 
         if compile_pending():
             print(COMPILING_MESSAGE, file=sys.stderr, flush=True)
-    with executor_for(*where) as executor:
-        with LiveProgress(console, enabled=not (args.quiet or args.json), time_limit_s=time_limit_s) as update:
-            workers = executor.max_workers if executor is not None else 1
-            if best is not None:
-                from ..best import solve_best
 
-                result = solve_best(task, best, args.method, seed=args.seed, complete_options=complete_options(),
-                                    executor=executor, workers=workers, progress=update, sequence=sequence)  # fmt: skip
-            else:
-                result = solve(
-                    task, args.method, complete_options=complete_options, local_options=_local_options(args), seed=args.seed,
-                    executor=executor, workers=workers, checkpoint=args.checkpoint, resume=args.resume, progress=update,
-                    sequence=sequence, time_limit_s=time_limit_s, require=args.require, quality=quality,
-                )  # fmt: skip
-    hold = _hold(console, args, result) if args.hold and result.solutions else None
-    if hold is not None:
-        result = hold.result
-    backup = _keep_previous(path)
-    write_result(result, path, quality, physics=None if hold is None else hold.physics)
-    _report(console, args, result, path, backup)
-    if result.solutions and not (args.quiet or args.json):
-        console.print(best_table(result) if best is not None else "\n".join(quality_lines(result, quality)))
-    if args.html is not None:
-        _write_view(console, args, result)
-    elif not (args.quiet or args.json):
-        console.print(f"see it: prehension view {path} -o grasp.html")
-    if hold is not None and not hold.held:
-        return EXIT_DROPPED
-    return EXIT_OF_STATUS[result.status]
+
+def _solve_options(args, quality, sequence, complete):
+    """The :class:`~prehension.solve.SolveOptions` of the command line (the executor and
+    the progress display are added when they exist)."""
+    from ..solve import SolveOptions
+
+    return SolveOptions(
+        method=args.method, seed=args.seed, time_limit_s=types.time_limit(args.time_limit), require=args.require,
+        quality=quality, sequence=sequence, local_options=_local_options(args), complete_options=complete,
+        checkpoint=args.checkpoint, resume=args.resume,
+    )  # fmt: skip
+
+
+def _solve(task, options, best):
+    """``solve`` (:func:`prehension.solve.solve`), or ``solve --best N`` (:func:`prehension.best.solve_best`)."""
+    if best is None:
+        from ..solve import solve
+
+        return solve(task, options)
+    from ..best import solve_best
+
+    return solve_best(task, best, options)
 
 
 def _hold(console: Console, args, result):
@@ -274,9 +278,10 @@ def _write_view(console: Console, args, result) -> None:
         console.print(f"3-D view written to {html} (open it in a browser; it works offline)")
 
 
-def _report(console: Console, args, result, path: Path, backup: Path | None) -> None:
+def _report(console: Console, args, result, qualities, path: Path, backup: Path | None) -> None:
     if args.json:
-        summary = {k: v for k, v in result_to_dict(result, embed_task=False, approach=False).items() if k != "solutions"}  # no task, no mesh
+        data = result_to_dict(result, qualities, embed_task=False, approach=False)
+        summary = {k: v for k, v in data.items() if k != "solutions"}  # no task, no mesh
         summary["result_file"] = str(path)
         if result.solutions:
             summary["joint_angles_deg"] = {k: float(np.degrees(v)) for k, v in result.solutions[0].joint_angles.items()}

@@ -11,7 +11,7 @@ from ..errors import PrehensionError
 from ..atomic import check_output_path
 from .args import finite
 from .codes import EXIT_OK
-from .solve import task_inputs
+from .outputs import task_inputs
 
 INPUT_HELP = ("result file (.json) written by 'prehension solve', a task (built-in name, .yaml or .world file), "
               "or a hand alone (built-in hand, .urdf, .xml/.mjcf)")

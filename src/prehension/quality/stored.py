@@ -22,7 +22,7 @@ from ..tasks.model import Task
 from .grasp import contacts_quality
 from .options import QualityOptions
 
-__all__ = ["quality_entry", "check_quality_entry", "QUALITY_TOLERANCE"]
+__all__ = ["quality_entry", "quality_entries", "check_quality_entry", "QUALITY_TOLERANCE"]
 
 QUALITY_TOLERANCE = 1e-9  # largest relative gap between a stored measure and the recomputed one
 
@@ -33,6 +33,14 @@ def quality_entry(task: Task, T_palm_object, contacts, options: QualityOptions =
         return contacts_quality(task, T_palm_object, contacts, options).to_dict()
     except PrehensionError as exc:
         return {"unavailable": str(exc), "options": options.to_dict()}
+
+
+def quality_entries(result, options: QualityOptions | None = None) -> list[dict]:
+    """The ``"quality"`` entry of each solution of ``result`` (a
+    :class:`~prehension.results.SolveResult`), measured with ``options`` (``None``: the
+    defaults): what :func:`~prehension.results.write_result` stores with each solution."""
+    options = options if options is not None else QualityOptions()
+    return [quality_entry(result.task, s.T_palm_object, s.contacts, options) for s in result.solutions]
 
 
 def check_quality_entry(task: Task, T_palm_object, contacts, stored) -> tuple[bool, str]:

@@ -8,7 +8,7 @@ files hold unused fingers with zero-width ranges.
 
 A :class:`Configuration` is a candidate answer: every joint angle, the object pose in the
 palm frame and, optionally, the contact parameters of each contact (where on each region
-the contact is made).  :func:`prehension.tasks.residuals.evaluate` decides whether it is a
+the contact is made).  :func:`prehension.verification.residuals.evaluate` decides whether it is a
 solution.
 """
 

@@ -112,7 +112,7 @@ def beside_the_hand(hand_lo_mm, hand_hi_mm, object_lo_mm, object_hi_mm, gap_mm: 
 
 def pose_from_configuration(task: Task, config: Configuration, note: str = "configuration") -> GraspPose:
     """Any configuration: forward kinematics, and the contacts as the residual function finds them."""
-    from ..tasks.residuals import evaluate
+    from ..verification.residuals import evaluate
 
     report = evaluate(task, config)
     contacts = tuple(

@@ -50,7 +50,7 @@ from ...errors import PrehensionError
 from ...results import make_solution
 from ...system import Formulation
 from ...tasks.model import Configuration, Task
-from ...tasks.residuals import Tolerances
+from ...verification.residuals import Tolerances
 
 __all__ = ["SearchState", "search_fingerprint", "load_state", "save_state", "FORMAT"]
 

@@ -76,7 +76,7 @@ from ...frozen import cached_per_value
 from ...geometry.regions import PointRegion, SphereCap
 from ...system.formulation import Formulation
 from ...tasks.object_collision import SAMPLE_MM, pad_centre_in_link, pad_radius
-from ...tasks.residuals import Tolerances
+from ...verification.residuals import Tolerances
 
 __all__ = ["CollisionProbes", "CollisionProof", "ContactAnchor", "collision_probes", "probe_enclosures", "collision_prune",
            "PROBE_SPACING_MM", "FLOAT_MARGIN_MM"]  # fmt: skip

@@ -41,7 +41,7 @@ from ...deadline import deadline_after, scope
 from ...errors import PrehensionError
 from ...results import Solution, SolveResult, Status, make_solution
 from ...tasks.model import Task
-from ...tasks.residuals import Tolerances
+from ...verification.residuals import Tolerances
 from ..local.options import LocalOptions
 from ..local.solver import refine_local
 from ...system.embedding import configuration_from_point, embed

@@ -57,7 +57,7 @@ from ...frozen import cached_per_value
 from ...geometry.regions import PointRegion, SphereCap
 from ...hands.collision import collision_pairs
 from ...system.formulation import Formulation
-from ...tasks.residuals import Tolerances
+from ...verification.residuals import Tolerances
 from .collision import FLOAT_MARGIN_MM, ContactAnchor, _affine_hull, _anchor_interval, _compressed, _point_rows
 
 __all__ = ["SelfCollisionPairs", "SelfCollisionProof", "self_collision_pairs", "pair_distance_bounds", "self_collision_prune",

@@ -3,9 +3,9 @@
 A local solution of the kernel (its contacts within ``d_min``) is judged with the
 foundation's own batch functions (:func:`~prehension.hands.kinematics.forward_kinematics`,
 :func:`~prehension.hands.collision.max_penetration` -- the paper's Check_Collisions --,
-:func:`~prehension.tasks.residuals.limit_violations`,
-:func:`~prehension.tasks.residuals.coupling_violations` and the contact residuals of
-:mod:`prehension.tasks.residuals`): :func:`check` for point problems (contact residuals
+:func:`~prehension.verification.residuals.limit_violations`,
+:func:`~prehension.verification.residuals.coupling_violations` and the contact residuals of
+:mod:`prehension.verification.residuals`): :func:`check` for point problems (contact residuals
 vectorised over problems, :func:`contact_checks_points`), :func:`check_tasks` for tasks
 (the residual function itself, through :func:`~prehension.results.make_solution`).
 Both return :class:`Verdicts`.
@@ -22,7 +22,7 @@ from ...hands.collision import max_penetration
 from ...hands.kinematics import HandPose, forward_kinematics
 from ...results import first_solution
 from ...tasks.model import Configuration, Task
-from ...tasks.residuals import Tolerances, contact_residuals, coupling_violations, limit_violations
+from ...verification.residuals import Tolerances, contact_residuals, coupling_violations, limit_violations
 from ._layout import Group
 from .options import STRICT, LocalOptions
 from .problems import PointProblems

@@ -28,7 +28,7 @@ spherical fingertip and also makes sense for regions that are not spheres.
 **Acceptance.**  A configuration whose contacts are within ``d_min`` is a *local*
 solution in the paper's sense; the solver then *polishes* it with a few Gauss-Newton
 iterations, which usually drive the contacts to ~1e-10 mm.  Only a configuration that
-passes the **strict** default :class:`~prehension.tasks.residuals.Tolerances` is a
+passes the **strict** default :class:`~prehension.verification.residuals.Tolerances` is a
 solution (status ``"solved"``); a local solution that polishing could not make strict is
 not one, and the solver goes on to its next initial pose.
 
@@ -48,7 +48,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ...errors import PrehensionError
-from ...tasks.residuals import Tolerances
+from ...verification.residuals import Tolerances
 from . import _kernel as K
 
 __all__ = ["LocalOptions", "STRICT"]

@@ -9,13 +9,13 @@ of initial poses the paper's algorithm would give it, while the compiled kernel
 local solutions are checked with the foundation's own batch functions
 (:func:`~prehension.hands.kinematics.forward_kinematics`,
 :func:`~prehension.hands.collision.max_penetration` -- the paper's Check_Collisions --,
-:func:`~prehension.tasks.residuals.limit_violations`,
-:func:`~prehension.tasks.residuals.coupling_violations` and the contact residuals of
-:mod:`prehension.tasks.residuals`); a problem whose local solution fails them goes on to
+:func:`~prehension.verification.residuals.limit_violations`,
+:func:`~prehension.verification.residuals.coupling_violations` and the contact residuals of
+:mod:`prehension.verification.residuals`); a problem whose local solution fails them goes on to
 its next initial pose, as in the paper after a collision.
 
 A problem is *solved* only by a configuration that meets the strict default
-:class:`~prehension.tasks.residuals.Tolerances`.  A configuration that meets only the
+:class:`~prehension.verification.residuals.Tolerances`.  A configuration that meets only the
 paper's ``d_min`` tolerances (:attr:`LocalOptions.acceptance`) is returned, with the status
 ``"approximate"``, only when :attr:`LocalOptions.approximate` asks for it; otherwise it is
 the problem's *closest miss*, reported in ``stats``.  :meth:`LocalRecord.to_result`
