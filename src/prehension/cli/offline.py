@@ -126,7 +126,7 @@ def cli_offline(hand_name: str, output, *, M: int = 5000, N: int = 30, imax: int
     sequence's ``meta["stopped"]`` says so); none found raises
     :class:`~prehension.deadline.TimeLimitReached` and writes nothing."""
     from ..parallel import executor_for
-    from ..tasks.format.hand_files import resolve_hand
+    from ..tasks.format.tasks import resolve_hand
     from .hands import print_hand_warnings
 
     from ..atomic import check_output_path
