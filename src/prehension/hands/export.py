@@ -16,7 +16,8 @@ that the file read back (:func:`~prehension.hands.urdf.hand_from_urdf`,
   capsules as ``capsule`` geoms (``fromto``); couplings as ``<equality><joint>`` with
   ``polycoef="offset ratio 0 0 0"``; collision exclusions as ``<contact><exclude>``; each
   body gets a small explicit inertia (MuJoCo needs a mass on moving bodies).
-* In both, each sphere-cap region becomes a named frame (URDF: a fixed child link; MJCF:
+* In both, each region with a frame of its own (:attr:`~prehension.geometry.regions.Region.frame`:
+  the sphere caps) becomes a named frame (URDF: a fixed child link; MJCF:
   a site) at the cap's centre with its z axis along the cap axis, named after the region
   (``<region>__region`` when a link has that name), so that the fingertip fit of the hand
   read back finds the tips where they were.
@@ -29,7 +30,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..geometry.regions import SphereCap
 from ..geometry.rotations import orthonormal_frame
 from .model import Capsule, Coupling, Hand, Joint
 
@@ -142,9 +142,9 @@ def region_frame_name(hand: Hand, region: str) -> str:
 
 def _region_frame(hand: Hand, name: str) -> tuple[str, np.ndarray, np.ndarray] | None:
     reg = hand.regions[name]
-    if not isinstance(reg.region, SphereCap):
+    if reg.region.frame is None:  # a region without a frame of its own is not marked
         return None
-    return reg.link, orthonormal_frame(reg.region.axis), reg.region.center
+    return reg.link, reg.region.frame, reg.region.center
 
 
 def hand_to_urdf(hand: Hand) -> str:
