@@ -8,8 +8,11 @@ import numpy as np
 import pytest
 
 from conftest import random_angles
+from prehension.geometry.bezier import BezierPatch
+from prehension.geometry.regions import BezierRegion, PointRegion, SphereCap
 from prehension.hands.export import hand_to_mjcf, hand_to_urdf, region_frame_name
 from prehension.hands.kinematics import forward_kinematics
+from prehension.hands.model import HandRegion
 from prehension.hands.urdf import hand_from_urdf
 
 COUPLED = Path(__file__).resolve().parent / "data" / "coupled_hand.xml"
@@ -87,3 +90,27 @@ def test_joint_centres_off_the_child_frame_export(tmp_path, rng):
     again = hand_from_mjcf(tmp_path / "h.xml")
     _same_kinematics(hand, again, rng)
     assert set(hand.collision_exclusions) <= set(again.collision_exclusions)
+
+
+def test_only_regions_with_a_frame_of_their_own_are_marked(sa_hand, tmp_path):
+    """A point and a Bézier region have no frame (Region.frame is None): nothing is
+    written for them; a sphere cap is marked by its frame, in URDF and in MJCF."""
+    cap = SphereCap((5.0, 1.0, 2.0), 7.0, (0.2, 0.9, 0.1), 0.7)
+    flat = BezierPatch.bilinear((0.0, 0.0, 0.0), (0.0, 10.0, 0.0), (10.0, 0.0, 1.0), (10.0, 10.0, 0.0))
+    hand = sa_hand.with_regions({
+        "pt": HandRegion("palm", PointRegion((1.0, 2.0, 3.0), (0.0, 0.3, 1.0))),
+        "bz": HandRegion("palm", BezierRegion(flat)),
+        "cap2": HandRegion("palm", cap),
+    })  # fmt: skip
+    assert hand.regions["pt"].region.frame is None and hand.regions["bz"].region.frame is None
+    np.testing.assert_allclose(cap.frame[:, 2], cap.axis, atol=1e-15)
+    urdf, mjcf = hand_to_urdf(hand), hand_to_mjcf(hand)
+    for name in ("pt", "bz"):
+        assert f'"{name}"' not in urdf and f'"{name}"' not in mjcf
+    assert 'link name="cap2"' in urdf and 'site name="cap2"' in mjcf
+    path = tmp_path / "h.urdf"
+    path.write_text(urdf)
+    frame = hand_from_urdf(path).frames["cap2"]
+    assert frame.link == "palm"
+    np.testing.assert_allclose(frame.origin, cap.center, atol=1e-12)
+    np.testing.assert_allclose(frame.T_link_frame[:3, 2], cap.axis, atol=1e-12)

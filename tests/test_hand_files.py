@@ -13,7 +13,7 @@ import pytest
 from conftest import HANDS_DIR, random_angles
 from prehension.errors import InvalidHand, InvalidTask
 from prehension.hands.kinematics import forward_kinematics
-from prehension.tasks.format.hand_files import resolve_hand
+from prehension.tasks.format.tasks import resolve_hand
 from prehension.tasks.yaml_io import dumps_task, load_task, loads_task, task_to_dict
 
 ALLEGRO = HANDS_DIR / "allegro_hand" / "allegro_hand_right.urdf"

@@ -34,7 +34,7 @@ def add_parsers(sub) -> None:
 def hand_named(spec: str):
     """The hand ``spec`` names, or None when it names a task (a built-in task, a task file)."""
     from ..hands.files import HAND_SUFFIXES
-    from ..tasks.format.hand_files import HAND_ALIASES, resolve_hand
+    from ..tasks.format.tasks import HAND_ALIASES, resolve_hand
     from ..tasks.format.schema import BUILTIN_HANDS
 
     path = Path(spec)
@@ -173,7 +173,7 @@ def show_hand(hand, console: Console) -> int:
 def cmd_export_hand(args, console: Console) -> int:
     from ..atomic import write_text_atomic
     from ..hands.export import hand_to_mjcf, hand_to_urdf
-    from ..tasks.format.hand_files import resolve_hand
+    from ..tasks.format.tasks import resolve_hand
 
     from ..atomic import check_output_path
     from .outputs import task_inputs

@@ -112,7 +112,7 @@ def cli_offline(hand_name: str, output, search=None, *, workers: int | None = No
     nothing."""
     from ..parallel import executor_for
     from ..solvers.local.offline import OfflineSearch
-    from ..tasks.format.hand_files import resolve_hand
+    from ..tasks.format.tasks import resolve_hand
     from .hands import print_hand_warnings
 
     from ..atomic import check_output_path

@@ -53,7 +53,7 @@ def _rounded(value, decimals: int = 4):
 def cmd_region(args, console: Console) -> int:
     from ..objects.mesh_io import load_mesh, scale_of
     from ..objects.pick import region_from_mesh
-    from ..tasks.format.write import region_to_dict
+    from ..tasks.format.regions import region_to_dict
     from ..tasks.format.yaml_text import dump_yaml
 
     at = _point(args.at)

@@ -11,53 +11,36 @@ A contact region is the tensor-product Bézier patch (Rosales et al., IJRR 2011,
 
 with the Bernstein basis :math:`B_{i,n}(t) = \binom{n}{i} t^i (1-t)^{n-i}` and control
 points :math:`b_{ij} \in \mathbb{R}^D` (``D = 3`` for geometric patches, in mm;
-``D = 1`` for scalar Bernstein polynomials).
+``D = 1`` for scalar Bernstein polynomials).  The univariate algebra (basis,
+derivatives, products, subdivision matrices; eqs. 19 and 33) is
+:mod:`prehension.geometry.bernstein`, whose public names this module re-exports.
 
-*Derivatives.*  :math:`\frac{d^k}{dt^k} B_{i,n} = \frac{n!}{(n-k)!}
-\sum_{j=0}^{k} (-1)^{k-j}\binom{k}{j} B_{i-j,n-k}`.  In particular the partial
-:math:`p_u` is a Bézier patch of degree :math:`(M-1, N)` with control points
-:math:`M (b_{i+1,j} - b_{ij})`, and :math:`p_v` one of degree :math:`(M, N-1)` with
-control points :math:`N (b_{i,j+1} - b_{ij})`.
+*Derivatives.*  The partial :math:`p_u` is a Bézier patch of degree :math:`(M-1, N)` with
+control points :math:`M (b_{i+1,j} - b_{ij})`, and :math:`p_v` one of degree
+:math:`(M, N-1)` with control points :math:`N (b_{i,j+1} - b_{ij})`.
 
-*Normal patch* (eq. 19, Yamaguchi 1997).  The product of two Bernstein polynomials of
-degrees :math:`m_1, m_2` is one of degree :math:`m_1 + m_2`:
+*Normal patch* (eq. 19).  By the product rule of Bernstein polynomials,
+:math:`n = p_u \times p_v` is *exactly* a Bézier patch of degree :math:`(2M-1, 2N-1)`
+whose control points are the correspondingly weighted sums of the cross products of the
+control points of :math:`p_u` and :math:`p_v`.
 
-.. math::
+*Subdivision* (eq. 33): the subdivision matrices act on each parameter separately.
 
-    B_{i_1,m_1} B_{i_2,m_2} = \frac{\binom{m_1}{i_1}\binom{m_2}{i_2}}
-    {\binom{m_1+m_2}{i_1+i_2}} B_{i_1+i_2, m_1+m_2},
-
-so :math:`n = p_u \times p_v` is *exactly* a Bézier patch of degree
-:math:`(2M-1, 2N-1)` whose control points are the correspondingly weighted sums of the
-cross products of the control points of :math:`p_u` and :math:`p_v`.
-
-*Subdivision* (eq. 33).  Restricting a degree-:math:`n` Bernstein polynomial to
-:math:`[a, b]` and re-parameterising to :math:`[0, 1]` keeps the degree; by blossoming,
-the new control points are :math:`c_k = \sum_i S_{ki} b_i` with
-
-.. math::
-
-    S_{ki} = \sum_{j} B_{j,n-k}(a)\, B_{i-j,k}(b),
-
-which is valid for any real :math:`a \ne b` (and reverses the direction if
-:math:`a > b`).  For a patch the matrices act on each parameter separately.
-
-*Regularity certificate.*  By the convex-hull property, if some unit vector
-:math:`w` satisfies :math:`w \cdot c > 0` for every control point :math:`c` of the
-normal patch restricted to a box, the normal cannot vanish on that box.
-:meth:`BezierPatch.check_nondegenerate` covers :math:`[0, 1]^2` with such boxes by
-recursive subdivision.
+*Regularity certificate.*  :meth:`BezierPatch.check_nondegenerate` shows that the normal
+does not vanish on :math:`[0, 1]^2` by the convex-hull property on recursively
+subdivided boxes (:mod:`prehension.geometry.regularity`).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
-from math import comb
 
 import numpy as np
 
 from prehension.errors import DegeneratePatch, InvalidGeometry
+
+from .bernstein import bernstein, bernstein_derivative, check_degree, cross_nets, subdivide_nets, subdivision_matrix
+from .regularity import certify_normal
 
 __all__ = [
     "bernstein",
@@ -69,132 +52,7 @@ __all__ = [
     "ensure_regular",
 ]
 
-_EPS = np.finfo(np.float64).eps
-_REGULARITY_ADVICE = (
-    "a contact region needs a regular patch (its corners must not coincide and its "
-    "control net must not fold)"
-)
 
-
-# ----------------------------------------------------------------------------------
-# Univariate Bernstein basis
-# ----------------------------------------------------------------------------------
-def _check_degree(degree: int, name: str = "degree") -> int:
-    if isinstance(degree, bool) or not isinstance(degree, (int, np.integer)) or degree < 0:
-        raise InvalidGeometry(f"{name} must be a non-negative integer, got {degree!r}")
-    return int(degree)
-
-
-@lru_cache(maxsize=None)
-def _binomials(n: int) -> np.ndarray:
-    """Binomial coefficients C(n, i), i = 0..n, shape (n+1,) (cached; read-only)."""
-    out = np.array([comb(n, i) for i in range(n + 1)], dtype=np.float64)
-    out.setflags(write=False)
-    return out
-
-
-@lru_cache(maxsize=None)
-def _difference(n: int, k: int) -> tuple[float, np.ndarray]:
-    """``(n!/(n-k)!, D)`` of the k-th derivative of degree-n Bernstein polynomials, with
-    ``D (n-k+1, n+1)`` the signed binomial difference matrix (cached; read-only)."""
-    diff = np.zeros((n - k + 1, n + 1))
-    rows = np.arange(n - k + 1)
-    for j in range(k + 1):
-        diff[rows, rows + j] = (-1.0) ** (k - j) * comb(k, j)
-    diff.setflags(write=False)
-    return comb(n, k) * np.prod(np.arange(1, k + 1), dtype=np.float64), diff
-
-
-def bernstein(degree: int, t: np.ndarray) -> np.ndarray:
-    """Bernstein basis polynomials of one degree at a batch of parameters.
-
-    Args:
-        degree: Polynomial degree ``n >= 0``.
-        t: Parameters, shape ``(B,)`` (any shape ``(...)`` is accepted), unitless.
-            Values outside ``[0, 1]`` evaluate the polynomial extension.
-
-    Returns:
-        Array of shape ``(B, n+1)`` (``(..., n+1)``) with entry ``[b, i] =
-        B_{i,n}(t[b]) = C(n, i) t^i (1 - t)^(n - i)``.
-    """
-    n = _check_degree(degree)
-    t = np.asarray(t, dtype=np.float64)[..., None]
-    i, rest = _exponents(n)
-    return _binomials(n) * t**i * (1.0 - t) ** rest
-
-
-@lru_cache(maxsize=None)
-def _exponents(n: int) -> tuple[np.ndarray, np.ndarray]:
-    """``(i, n - i)`` for i = 0..n (cached; read-only)."""
-    i = np.arange(n + 1)
-    rest = n - i
-    i.setflags(write=False)
-    rest.setflags(write=False)
-    return i, rest
-
-
-def bernstein_derivative(degree: int, t: np.ndarray, order: int = 1) -> np.ndarray:
-    """Derivatives of the Bernstein basis polynomials with respect to the parameter.
-
-    Uses ``d^k/dt^k B_{i,n} = n!/(n-k)! * sum_j (-1)^(k-j) C(k, j) B_{i-j, n-k}``.
-
-    Args:
-        degree: Polynomial degree ``n >= 0``.
-        t: Parameters, shape ``(B,)`` (any shape ``(...)`` is accepted), unitless.
-        order: Derivative order ``k >= 0`` (0 returns :func:`bernstein`).
-
-    Returns:
-        Array of shape ``(B, n+1)`` with entry ``[b, i] = d^k B_{i,n} / dt^k (t[b])``;
-        identically zero when ``k > n``.
-    """
-    n = _check_degree(degree)
-    k = _check_degree(order, "order")
-    t = np.asarray(t, dtype=np.float64)
-    if k > n:
-        return np.zeros(t.shape + (n + 1,))
-    lower = bernstein(n - k, t)
-    scale, diff = _difference(n, k)
-    return scale * (lower @ diff)
-
-
-@lru_cache(maxsize=None)
-def _sum_index_tensor(p: int, q: int) -> np.ndarray:
-    """One-hot tensor ``E[i, j, i + j] = 1``, shape ``(p+1, q+1, p+q+1)`` (cached; read-only:
-    every patch check of a task file asks for the same few degrees)."""
-    e = np.zeros((p + 1, q + 1, p + q + 1))
-    i, j = np.meshgrid(np.arange(p + 1), np.arange(q + 1), indexing="ij")
-    e[i, j, i + j] = 1.0
-    e.setflags(write=False)
-    return e
-
-
-def subdivision_matrix(degree: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Change of basis restricting Bernstein polynomials to ``[a, b]``.
-
-    If ``f(t) = sum_i c_i B_{i,n}(t)`` then ``f(a + s (b - a)) = sum_k c'_k B_{k,n}(s)``
-    with ``c' = S @ c``.  Exact (blossoming) for any real ``a, b``.
-
-    Args:
-        degree: Polynomial degree ``n >= 0``.
-        a: Interval starts, shape ``(K,)`` (or scalar), unitless.
-        b: Interval ends, shape ``(K,)`` (or scalar), unitless.
-
-    Returns:
-        Array ``S`` of shape ``(K, n+1, n+1)`` (``(n+1, n+1)`` for scalar ``a, b``),
-        ``S[..., k, i] = sum_j B_{j,n-k}(a) B_{i-j,k}(b)``.
-    """
-    n = _check_degree(degree)
-    a, b = np.broadcast_arrays(np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64))
-    rows = []
-    for k in range(n + 1):
-        outer = bernstein(n - k, a)[..., :, None] * bernstein(k, b)[..., None, :]
-        rows.append(np.einsum("...jl,jli->...i", outer, _sum_index_tensor(n - k, k)))
-    return np.stack(rows, axis=-2)
-
-
-# ----------------------------------------------------------------------------------
-# Helpers on control nets
-# ----------------------------------------------------------------------------------
 def _as_params(u, v) -> tuple[np.ndarray, np.ndarray]:
     """Broadcast parameters to two ``(B,)`` float arrays (scalars give ``B = 1``)."""
     try:
@@ -210,53 +68,6 @@ def _as_params(u, v) -> tuple[np.ndarray, np.ndarray]:
     return u, v
 
 
-def _cross_nets(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Control net of the cross product of two 3-D Bézier patches.
-
-    Args:
-        a: Control net of degree ``(ma, na)``, shape ``(ma+1, na+1, 3)``.
-        b: Control net of degree ``(mb, nb)``, shape ``(mb+1, nb+1, 3)``.
-
-    Returns:
-        Control net of ``a x b``, degree ``(ma+mb, na+nb)``, shape
-        ``(ma+mb+1, na+nb+1, 3)``.
-    """
-    ma, na = a.shape[0] - 1, a.shape[1] - 1
-    mb, nb = b.shape[0] - 1, b.shape[1] - 1
-    a_w = a * np.multiply.outer(_binomials(ma), _binomials(na))[..., None]
-    b_w = b * np.multiply.outer(_binomials(mb), _binomials(nb))[..., None]
-    pairs = np.cross(a_w[:, :, None, None, :], b_w[None, None, :, :, :])
-    summed = np.einsum(
-        "ajbkd,abx,jky->xyd", pairs, _sum_index_tensor(ma, mb), _sum_index_tensor(na, nb)
-    )
-    return summed / np.multiply.outer(_binomials(ma + mb), _binomials(na + nb))[..., None]
-
-
-def subdivide_nets(net: np.ndarray, boxes: np.ndarray) -> np.ndarray:
-    """Control nets of one patch restricted to a batch of parameter boxes.
-
-    Args:
-        net: Control net, shape ``(M+1, N+1, D)``.
-        boxes: Boxes ``(u0, u1, v0, v1)``, shape ``(K, 4)``.
-
-    Returns:
-        Restricted control nets, shape ``(K, M+1, N+1, D)``.
-    """
-    su = subdivision_matrix(net.shape[0] - 1, boxes[:, 0], boxes[:, 1])
-    sv = subdivision_matrix(net.shape[1] - 1, boxes[:, 2], boxes[:, 3])
-    rows = (su @ net.reshape(net.shape[0], -1)).reshape(len(boxes), su.shape[1], net.shape[1], net.shape[2])
-    return sv[:, None] @ rows  # two matrix products: several times faster than one einsum
-
-
-def _unit(x: np.ndarray) -> np.ndarray:
-    """Normalise the last axis; zero vectors stay zero.  Shape preserved."""
-    norm = np.linalg.norm(x, axis=-1, keepdims=True)
-    return np.divide(x, norm, out=np.zeros_like(x), where=norm > 0)
-
-
-# ----------------------------------------------------------------------------------
-# Patch
-# ----------------------------------------------------------------------------------
 @dataclass(frozen=True, eq=False)
 class PatchDerivatives:
     """Values and partial derivatives of a patch at a batch of parameters.
@@ -419,7 +230,7 @@ class BezierPatch:
         net = self.control_points
         d_u = m * (net[1:] - net[:-1])
         d_v = n * (net[:, 1:] - net[:, :-1])
-        return BezierPatch(_cross_nets(d_u, d_v))
+        return BezierPatch(cross_nets(d_u, d_v))
 
     def subdivide(self, u0: float, u1: float, v0: float, v1: float) -> BezierPatch:
         """The patch restricted to ``[u0, u1] x [v0, v1]``, re-parameterised to ``[0, 1]^2``.
@@ -500,21 +311,10 @@ class BezierPatch:
                 certified after ``max_depth`` levels.
             InvalidGeometry: If ``D != 3`` or ``max_depth`` is invalid.
         """
-        depth_limit = _check_degree(max_depth, "max_depth")
+        depth_limit = check_degree(max_depth, "max_depth")
         normal = self.normal_patch()
         lo, hi = self.bounds()
-        tiny = 1e-12 * float(np.linalg.norm(hi - lo)) ** 2
-        net = normal.control_points
-        margin = tiny + 256.0 * _EPS * float(np.max(np.linalg.norm(net, axis=-1)))
-        boxes = np.array([[0.0, 1.0, 0.0, 1.0]])
-        for depth in range(depth_limit + 1):
-            centres = _reject_vanishing_samples(normal, boxes, tiny)
-            boxes = boxes[~_certified_boxes(net, boxes, centres, margin)]
-            if len(boxes) == 0:
-                return
-            if depth < depth_limit:
-                boxes = _split_boxes(boxes)
-        _raise_uncertified(normal, boxes, depth_limit)
+        certify_normal(normal, float(np.linalg.norm(hi - lo)), depth_limit)
 
     @classmethod
     def bilinear(cls, P00, P01, P10, P11) -> BezierPatch:
@@ -538,85 +338,6 @@ class BezierPatch:
                 f"{[c.shape for c in corners]}"
             )
         return cls(np.array([[corners[0], corners[1]], [corners[2], corners[3]]]))
-
-
-# ----------------------------------------------------------------------------------
-# Regularity certificate internals
-# ----------------------------------------------------------------------------------
-_SAMPLE_OFFSETS = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0], [0.5, 0.5]])
-
-
-def _reject_vanishing_samples(normal: BezierPatch, boxes: np.ndarray, tiny: float) -> np.ndarray:
-    """Raise if the normal is tiny at a box corner or centre.
-
-    Args:
-        normal: Normal patch, ``D = 3``.
-        boxes: Boxes ``(u0, u1, v0, v1)``, shape ``(K, 4)``.
-        tiny: Threshold on ``|n|``, mm^2.
-
-    Returns:
-        Normals at the box centres, shape ``(K, 3)``.
-    """
-    u = boxes[:, None, 0] + _SAMPLE_OFFSETS[None, :, 0] * (boxes[:, None, 1] - boxes[:, None, 0])
-    v = boxes[:, None, 2] + _SAMPLE_OFFSETS[None, :, 1] * (boxes[:, None, 3] - boxes[:, None, 2])
-    values = normal.evaluate(u.ravel(), v.ravel()).reshape(len(boxes), len(_SAMPLE_OFFSETS), 3)
-    norms = np.linalg.norm(values, axis=-1)
-    bad = np.argwhere(norms <= tiny)
-    if len(bad):
-        k, s = bad[0]
-        raise DegeneratePatch(
-            f"Bézier patch normal p_u x p_v vanishes near (u, v) = ({u[k, s]:.2f}, {v[k, s]:.2f}); "
-            + _REGULARITY_ADVICE
-        )
-    return values[:, -1]
-
-
-def _certified_boxes(net: np.ndarray, boxes: np.ndarray, centres: np.ndarray, margin: float) -> np.ndarray:
-    """Convex-hull test of the normal on each box.
-
-    Args:
-        net: Normal-patch control net, shape ``(2M, 2N, 3)``, mm^2.
-        boxes: Boxes, shape ``(K, 4)``.
-        centres: Normals at the box centres, shape ``(K, 3)``, mm^2.
-        margin: Required positive margin of ``w . c``, mm^2.
-
-    Returns:
-        Boolean mask, shape ``(K,)``: True where the box is certified.
-    """
-    sub = subdivide_nets(net, boxes).reshape(len(boxes), -1, 3)
-    w_centre = _unit(centres)
-    ok = np.all(np.einsum("kpd,kd->kp", sub, w_centre) > margin, axis=1)
-    w_mean = _unit(_unit(sub).mean(axis=1))
-    ok |= np.all(np.einsum("kpd,kd->kp", sub, w_mean) > margin, axis=1)
-    return ok
-
-
-def _split_boxes(boxes: np.ndarray) -> np.ndarray:
-    """Split each box into four at its midpoint: ``(K, 4) -> (4K, 4)``."""
-    um = 0.5 * (boxes[:, 0] + boxes[:, 1])
-    vm = 0.5 * (boxes[:, 2] + boxes[:, 3])
-    u0, u1, v0, v1 = boxes.T
-    quads = [
-        np.stack([u0, um, v0, vm], axis=1),
-        np.stack([um, u1, v0, vm], axis=1),
-        np.stack([u0, um, vm, v1], axis=1),
-        np.stack([um, u1, vm, v1], axis=1),
-    ]
-    return np.concatenate(quads, axis=0)
-
-
-def _raise_uncertified(normal: BezierPatch, boxes: np.ndarray, depth: int) -> None:
-    """Raise :class:`DegeneratePatch` naming the uncertified box with the smallest normal."""
-    uc = 0.5 * (boxes[:, 0] + boxes[:, 1])
-    vc = 0.5 * (boxes[:, 2] + boxes[:, 3])
-    norms = np.linalg.norm(normal.evaluate(uc, vc), axis=-1)
-    k = int(np.argmin(norms))
-    raise DegeneratePatch(
-        "Bézier patch normal p_u x p_v could not be shown to be non-zero on [0, 1]^2 "
-        f"after {depth} subdivision levels ({len(boxes)} boxes left; smallest sampled "
-        f"|p_u x p_v| = {norms[k]:.3g} near (u, v) = ({uc[k]:.2f}, {vc[k]:.2f})); "
-        + _REGULARITY_ADVICE
-    )
 
 
 def ensure_regular(patch: BezierPatch, max_depth: int = 8) -> BezierPatch:

@@ -56,6 +56,11 @@ class Region:
 
     kind: str = "region"
     n_params: int = 0
+    #: The region's own frame about its ``center`` [mm]: columns ``(e1, e2, m)``, ``m``
+    #: its axis; ``None`` for a kind without one (a sphere cap has one).  Files that hold
+    #: frames but no regions (URDF/MJCF hands, :mod:`prehension.hands.export`) mark a
+    #: region by it.
+    frame: np.ndarray | None = None
 
     def param_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Box ``(lower (k,), upper (k,))`` that contains the parameter domain."""

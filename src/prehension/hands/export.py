@@ -16,7 +16,8 @@ that the file read back (:func:`~prehension.hands.urdf.hand_from_urdf`,
   capsules as ``capsule`` geoms (``fromto``); couplings as ``<equality><joint>`` with
   ``polycoef="offset ratio 0 0 0"``; collision exclusions as ``<contact><exclude>``; each
   body gets a small explicit inertia (MuJoCo needs a mass on moving bodies).
-* In both, each sphere-cap region becomes a named frame (URDF: a fixed child link; MJCF:
+* In both, each region with a frame of its own (:attr:`~prehension.geometry.regions.Region.frame`:
+  the sphere caps) becomes a named frame (URDF: a fixed child link; MJCF:
   a site) at the cap's centre with its z axis along the cap axis, named after the region
   (``<region>__region`` when a link has that name), so that the fingertip fit of the hand
   read back finds the tips where they were.
@@ -25,12 +26,12 @@ that the file read back (:func:`~prehension.hands.urdf.hand_from_urdf`,
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
+from dataclasses import dataclass
 
 import numpy as np
 
-from ..geometry.regions import SphereCap
 from ..geometry.rotations import orthonormal_frame
-from .model import Capsule, Hand, Joint
+from .model import Capsule, Coupling, Hand, Joint
 
 __all__ = ["hand_to_urdf", "hand_to_mjcf", "region_frame_name"]
 
@@ -85,16 +86,33 @@ def _capsule_urdf(link: ET.Element, cap: Capsule) -> None:
             ET.SubElement(ET.SubElement(elem, "geometry"), "sphere", radius=_num(cap.radius * _M))
 
 
-def _urdf_joint(robot, name, parent, child, R, t, axis, limits, mimic=None) -> None:
-    j = ET.SubElement(robot, "joint", name=name, type="revolute" if axis is not None else "fixed")
-    ET.SubElement(j, "parent", link=parent)
-    ET.SubElement(j, "child", link=child)
-    _origin(j, R, t)
-    if axis is not None:
-        ET.SubElement(j, "axis", xyz=_vec(axis))
-        ET.SubElement(j, "limit", lower=_num(limits[0]), upper=_num(limits[1]), effort="0", velocity="0")
-    if mimic is not None:
-        ET.SubElement(j, "mimic", joint=mimic.source, multiplier=_num(mimic.ratio), offset=_num(mimic.offset))
+@dataclass(frozen=True)
+class _UrdfJoint:
+    """One URDF ``<joint>``: ``child`` at ``(R, t)`` [mm] in ``parent``; revolute about
+    ``axis`` (child frame) within ``limits`` [rad] and following ``mimic`` (a coupling),
+    or fixed when ``axis`` is None."""
+
+    name: str
+    parent: str
+    child: str
+    R: np.ndarray
+    t: np.ndarray
+    axis: np.ndarray | None = None
+    limits: tuple[float, float] | None = None
+    mimic: Coupling | None = None
+
+    def write(self, robot: ET.Element) -> None:
+        j = ET.SubElement(robot, "joint", name=self.name, type="revolute" if self.axis is not None else "fixed")
+        ET.SubElement(j, "parent", link=self.parent)
+        ET.SubElement(j, "child", link=self.child)
+        _origin(j, self.R, self.t)
+        if self.axis is not None:
+            ET.SubElement(j, "axis", xyz=_vec(self.axis))
+            lower, upper = self.limits
+            ET.SubElement(j, "limit", lower=_num(lower), upper=_num(upper), effort="0", velocity="0")
+        if self.mimic is not None:
+            m = self.mimic
+            ET.SubElement(j, "mimic", joint=m.source, multiplier=_num(m.ratio), offset=_num(m.offset))
 
 
 def _urdf_joints(robot, joint: Joint, coupled: dict) -> list[str]:
@@ -105,15 +123,15 @@ def _urdf_joints(robot, joint: Joint, coupled: dict) -> list[str]:
     extra = [f"{joint.child}__{joint.dof_names[0]}"] if joint.kind == "universal" else []
     first_child = extra[0] if extra else last
     d0 = joint.dof_names[0]
-    _urdf_joint(robot, d0, joint.parent, first_child, R0, P, R0.T @ joint.axis_in_parent,
-                (joint.lower[0], joint.upper[0]), coupled.get(d0))  # fmt: skip
+    _UrdfJoint(d0, joint.parent, first_child, R0, P, R0.T @ joint.axis_in_parent,
+               (joint.lower[0], joint.upper[0]), coupled.get(d0)).write(robot)  # fmt: skip
     if extra:
         d1 = joint.dof_names[1]
-        _urdf_joint(robot, d1, extra[0], last, np.eye(3), np.zeros(3), joint.axis_in_child,
-                    (joint.lower[1], joint.upper[1]), coupled.get(d1))  # fmt: skip
+        _UrdfJoint(d1, extra[0], last, np.eye(3), np.zeros(3), joint.axis_in_child,
+                   (joint.lower[1], joint.upper[1]), coupled.get(d1)).write(robot)  # fmt: skip
     if has_q:
         extra.append(last)
-        _urdf_joint(robot, f"{joint.child}__fixed", last, joint.child, np.eye(3), -Q, None, None)
+        _UrdfJoint(f"{joint.child}__fixed", last, joint.child, np.eye(3), -Q).write(robot)
     return extra
 
 
@@ -124,9 +142,9 @@ def region_frame_name(hand: Hand, region: str) -> str:
 
 def _region_frame(hand: Hand, name: str) -> tuple[str, np.ndarray, np.ndarray] | None:
     reg = hand.regions[name]
-    if not isinstance(reg.region, SphereCap):
+    if reg.region.frame is None:  # a region without a frame of its own is not marked
         return None
-    return reg.link, orthonormal_frame(reg.region.axis), reg.region.center
+    return reg.link, reg.region.frame, reg.region.center
 
 
 def hand_to_urdf(hand: Hand) -> str:
@@ -148,7 +166,7 @@ def hand_to_urdf(hand: Hand) -> str:
         frame, name = _region_frame(hand, region), region_frame_name(hand, region)
         if frame is not None and name not in extras:
             ET.SubElement(robot, "link", name=name)
-            _urdf_joint(robot, f"{name}__frame", frame[0], name, frame[1], frame[2], None, None)
+            _UrdfJoint(f"{name}__frame", frame[0], name, frame[1], frame[2]).write(robot)
     return '<?xml version="1.0"?>\n' + _pretty(robot)
 
 

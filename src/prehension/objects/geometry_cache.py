@@ -44,23 +44,15 @@ def _fingerprint() -> bytes:
 
 
 def geometry_key(solid, closed: bool) -> str | None:
-    """The entry name of ``(solid, closed)``: a hex SHA-256; ``None`` if it has none
-    (an unreadable file: building it reports the problem)."""
-    from .solid import MeshFileSolid, PrimitiveSolid
-
+    """The entry name of ``(solid, closed)``: a hex SHA-256 of what the solid is made from
+    (its ``content()``: a mesh file's scale and bytes, or the primitives' values); ``None``
+    if it has none (an unreadable file: building it reports the problem)."""
+    content = solid.content()
+    if content is None:
+        return None
     h = hashlib.sha256(_fingerprint())
     h.update(repr((type(solid).__name__, bool(closed))).encode())
-    if isinstance(solid, MeshFileSolid):
-        try:
-            data = Path(solid.path).read_bytes()
-        except OSError:
-            return None
-        h.update(repr(float(solid.scale)).encode())
-        h.update(data)
-    elif isinstance(solid, PrimitiveSolid):
-        h.update(repr(solid.primitives).encode())  # frozen dataclasses of floats: repr is exact
-    else:
-        return None
+    h.update(content)
     return h.hexdigest()
 
 

@@ -37,7 +37,7 @@ between the patch's normal and the closest face's is reported (``max_angle_deg``
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
@@ -221,6 +221,74 @@ def _listed(point) -> str:
     return "[" + ", ".join(f"{x:.4g}" for x in np.asarray(point, float)) + "]"
 
 
+class _Piece(NamedTuple):
+    """The faces a region is fitted to: ``tri (F, 3, 3)``, ``normals (F, 3)``, ``areas (F,)``
+    of every face, ``chosen (F,)`` the piece's; its surface point ``p0`` and mean normal
+    ``n``, the patch's half-size ``half`` [mm] and how far away the surface turns
+    (``turns_mm``, inf for given faces)."""
+
+    tri: np.ndarray
+    normals: np.ndarray
+    areas: np.ndarray
+    chosen: np.ndarray
+    p0: np.ndarray
+    n: np.ndarray
+    half: float
+    turns_mm: float
+
+
+def _mean_normal(normals, areas, chosen) -> np.ndarray:
+    n = (normals[chosen] * areas[chosen, None]).sum(axis=0)
+    n /= np.linalg.norm(n)
+    return n
+
+
+def _piece_at(mesh: Mesh, distance: MeshDistance, at, radius) -> _Piece:
+    """The piece within ``radius`` of the surface point nearest ``at``."""
+    if at is None or radius is None or not (np.isfinite(radius) and radius > 0):
+        raise InvalidObject("give a surface point 'at' and a positive 'radius' [mm], or a set of faces")
+    p0, chosen, tri, normals, areas, turns_mm = _piece_by_radius(mesh, distance, at, float(radius))
+    n = _mean_normal(normals, areas, chosen)
+    chosen &= normals @ n > _MIN_COS  # other side of a thin part: dropped
+    return _Piece(tri, normals, areas, chosen, p0, n, float(radius) / np.sqrt(2.0), turns_mm)
+
+
+def _piece_of(mesh: Mesh, distance: MeshDistance, faces) -> _Piece:
+    """The piece of the given faces (a height field over their mean tangent plane)."""
+    tri, normals, areas = _face_data(mesh)
+    chosen = np.zeros(len(mesh.faces), bool)
+    idx = np.asarray(faces, dtype=int).ravel()
+    if idx.size == 0 or idx.min() < 0 or idx.max() >= len(mesh.faces):
+        raise InvalidObject(f"faces must be indices 0..{len(mesh.faces) - 1}, got {idx.size} indices")
+    chosen[idx] = True
+    n = _mean_normal(normals, areas, chosen)
+    if (normals[chosen] @ n).min() <= _MIN_COS:
+        raise InvalidObject("the faces do not form a height field over their mean tangent plane; give fewer faces")
+    p0 = (tri[chosen].mean(axis=1) * areas[chosen, None]).sum(axis=0) / areas[chosen].sum()
+    p0 = distance.signed_distance(p0[None], closest=True)[1][0]
+    e1, e2 = _frame(n)
+    rel = tri[chosen].reshape(-1, 3) - p0
+    half = float(np.max(np.abs(np.stack([rel @ e1, rel @ e2]))))
+    return _Piece(tri, normals, areas, chosen, p0, n, half, float("inf"))
+
+
+def _patch(piece: _Piece, distance: MeshDistance, degree: int, radius: float | None) -> BezierRegion:
+    """The Bézier patch fitted to the piece's samples and the surface lifted over its plane."""
+    e1, e2 = _frame(piece.n)
+    lifted = _lifted_grid(distance, piece.p0, e1, e2, piece.half)
+    lifted = lifted[distance.signed_distance(lifted + OUTSIDE_STEP_MM * piece.n) > 0]  # not on a thin wall's other side
+    points = np.concatenate([_samples(piece.tri[piece.chosen]), lifted])
+    try:
+        return _fit(points, piece.p0, e1, e2, piece.n, piece.half, degree)
+    except (InvalidGeometry, InvalidObject) as exc:
+        if radius is not None and float(radius) > piece.turns_mm:
+            raise InvalidObject(
+                f"a radius of {float(radius):g} mm is too large for one patch here: the surface turns more than 84 degrees "
+                f"from the point's normal {piece.turns_mm:.4g} mm away; pick a radius under that ({exc})"
+            ) from None
+        raise
+
+
 def region_from_mesh(
     mesh: Mesh, *, at=None, radius: float | None = None, faces=None, degree: int = 2, point: bool = False,
     distance: MeshDistance | None = None,
@@ -245,50 +313,14 @@ def region_from_mesh(
         from .distance import MeshDistance
 
         distance = MeshDistance(mesh.vertices, mesh.faces)
-    if faces is None:
-        if at is None or radius is None or not (np.isfinite(radius) and radius > 0):
-            raise InvalidObject("give a surface point 'at' and a positive 'radius' [mm], or a set of faces")
-        p0, chosen, tri, normals, areas, turns_mm = _piece_by_radius(mesh, distance, at, float(radius))
-        half = float(radius) / np.sqrt(2.0)
-    else:
-        tri, normals, areas = _face_data(mesh)
-        chosen = np.zeros(len(mesh.faces), bool)
-        idx = np.asarray(faces, dtype=int).ravel()
-        if idx.size == 0 or idx.min() < 0 or idx.max() >= len(mesh.faces):
-            raise InvalidObject(f"faces must be indices 0..{len(mesh.faces) - 1}, got {idx.size} indices")
-        chosen[idx] = True
-        p0 = None
-        half = None
-        turns_mm = float("inf")
-    n = (normals[chosen] * areas[chosen, None]).sum(axis=0)
-    n /= np.linalg.norm(n)
-    facing = normals[chosen] @ n
-    chosen &= normals @ n > _MIN_COS if faces is None else chosen  # other side of a thin part: dropped
-    if faces is not None and facing.min() <= _MIN_COS:
-        raise InvalidObject("the faces do not form a height field over their mean tangent plane; give fewer faces")
-    if p0 is None:
-        p0 = (tri[chosen].mean(axis=1) * areas[chosen, None]).sum(axis=0) / areas[chosen].sum()
-        p0 = distance.signed_distance(p0[None], closest=True)[1][0]
-        e1, e2 = _frame(n)
-        rel = tri[chosen].reshape(-1, 3) - p0
-        half = float(np.max(np.abs(np.stack([rel @ e1, rel @ e2]))))
+    piece = _piece_at(mesh, distance, at, radius) if faces is None else _piece_of(mesh, distance, faces)
+    size = int(piece.chosen.sum())
     if point:
-        region = PointRegion(p0, n)
-        return PickedRegion(region, 0.0, p0, n, int(chosen.sum()), _outward_angle(region, distance, normals), turns_mm)
-    e1, e2 = _frame(n)
-    lifted = _lifted_grid(distance, p0, e1, e2, half)
-    lifted = lifted[distance.signed_distance(lifted + OUTSIDE_STEP_MM * n) > 0]  # not on a thin wall's other side
-    try:
-        region = _fit(np.concatenate([_samples(tri[chosen]), lifted]), p0, e1, e2, n, half, degree)
-    except (InvalidGeometry, InvalidObject) as exc:
-        if faces is None and float(radius) > turns_mm:
-            raise InvalidObject(
-                f"a radius of {float(radius):g} mm is too large for one patch here: the surface turns more than 84 degrees "
-                f"from the point's normal {turns_mm:.4g} mm away; pick a radius under that ({exc})"
-            ) from None
-        raise
-    angle = _outward_angle(region, distance, normals)
-    return PickedRegion(region, _deviation(region, distance), p0, n, int(chosen.sum()), angle, turns_mm)
+        region = PointRegion(piece.p0, piece.n)
+        return PickedRegion(region, 0.0, piece.p0, piece.n, size, _outward_angle(region, distance, piece.normals), piece.turns_mm)
+    region = _patch(piece, distance, degree, radius if faces is None else None)
+    angle = _outward_angle(region, distance, piece.normals)
+    return PickedRegion(region, _deviation(region, distance), piece.p0, piece.n, size, angle, piece.turns_mm)
 
 
 def _outward_angle(region: Region, distance: MeshDistance, normals: np.ndarray) -> float:

@@ -47,6 +47,15 @@ class MeshFileSolid:
     def mesh(self, closed: bool = True) -> Mesh:
         return load_mesh(self.path, self.scale, closed=closed)
 
+    def content(self) -> bytes | None:
+        """What the solid's mesh is made from: the scale and the file's bytes (``None``
+        if the file cannot be read; building the mesh reports the problem)."""
+        try:
+            data = Path(self.path).read_bytes()
+        except OSError:
+            return None
+        return repr(float(self.scale)).encode() + data
+
     def describe(self) -> str:
         return f"mesh file {self.path} (x{self.scale:g} mm per unit)"
 
@@ -64,6 +73,11 @@ class PrimitiveSolid:
 
     def mesh(self, closed: bool = True) -> Mesh:
         return _union([primitive_solid_mesh(p) for p in self.primitives])
+
+    def content(self) -> bytes:
+        """What the solid's mesh is made from: the primitives' exact values (frozen
+        dataclasses of floats: their repr is exact)."""
+        return repr(self.primitives).encode()
 
     def describe(self) -> str:
         return f"union of {len(self.primitives)} primitives"

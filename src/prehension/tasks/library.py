@@ -34,7 +34,7 @@ def builtin_regions() -> dict[str, dict]:
     Read from the files' YAML alone (no mesh is read), so that
     ``scripts/make_builtin_meshes.py`` can make the meshes the regions must lie on.
     """
-    from .format.read import region_from_dict
+    from .format.regions import region_from_dict
     from .format.yaml_text import parse_yaml
 
     out: dict[str, dict] = {}

@@ -91,9 +91,10 @@ dict.
 Reading refuses duplicate keys in a mapping (plain ``yaml.safe_load`` silently keeps the
 last one).  See ``docs/task-format.md`` for a complete example.
 
-The format is implemented by job in :mod:`prehension.tasks.format` (``schema``, ``read``,
-``write``, ``yaml_text``, ``errors``); this module is the public entry point: it reads and
-writes YAML text and files, and re-exports the rest.
+The format is implemented by kind in :mod:`prehension.tasks.format` (``regions``,
+``hands``, ``hand_files``, ``task_hands``, ``objects``, ``tasks``: each reads and writes
+its kind, on top of ``schema``, ``values``, ``yaml_text`` and ``errors``); this module is
+the public entry point: it reads and writes YAML text and files, and re-exports the rest.
 """
 
 from __future__ import annotations
@@ -101,9 +102,10 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..atomic import write_text_atomic
-from .format.read import hand_from_dict, region_from_dict, task_from_dict
+from .format.hands import hand_from_dict, hand_to_dict
+from .format.regions import region_from_dict, region_to_dict
 from .format.schema import BUILTIN_HANDS, FORMAT_TAG
-from .format.write import hand_to_dict, region_to_dict, task_to_dict
+from .format.tasks import task_from_dict, task_to_dict
 from .format.yaml_text import dump_yaml, parse_yaml, read_text
 from .model import Task
 

@@ -211,7 +211,7 @@ def _system_digest(form: Formulation) -> "hashlib._Hash":
 
 
 def _task_mapping(task: Task) -> dict:
-    from ...tasks.format.write import task_to_dict
+    from ...tasks.format.tasks import task_to_dict
 
     data = task_to_dict(task)
     data.pop("name", None)

@@ -40,6 +40,14 @@ def kind_of(value) -> str:
     return names.get(type(value), type(value).__name__)
 
 
+def check_mapping(data, source: str, what: str) -> None:
+    """Refuse an empty file or one whose top level is not a mapping; ``what`` says what belongs there."""
+    if data is None:
+        raise fail(source, "", f"the file is empty; {what}")
+    if not isinstance(data, dict):
+        raise fail(source, "", f"the top level must be a mapping (key: value pairs), got {kind_of(data)}; {what}")
+
+
 def _pydantic_message(err: dict) -> str:
     """One pydantic error as plain words (no pydantic jargon, no URLs)."""
     kind, ctx, value = err["type"], err.get("ctx") or {}, err.get("input")

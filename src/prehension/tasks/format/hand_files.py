@@ -1,6 +1,7 @@
-"""Hands named by file in a task file: ``hand: {urdf: PATH}``, ``hand: {mjcf: PATH}``.
+"""Hands named by file in a task file: ``hand: {file: PATH}`` (a hand YAML file),
+``hand: {urdf: PATH}``, ``hand: {mjcf: PATH}``; read and written.
 
-Reading::
+Reading (a hand YAML file holds one inline hand mapping, :mod:`.hands`)::
 
     hand:
       urdf: hands/allegro_hand_right.urdf   # or mjcf: hands/shadow_hand.xml; relative to the task file
@@ -17,31 +18,30 @@ built-in hand; when the file no longer gives the same hand (edited, moved), the 
 written inline instead.  Result files always hold the hand inline, with a ``source``
 entry (the file's absolute path, SHA-256 and options), so that they can be re-checked
 alone: see ``docs/hands.md``.
-
-:func:`resolve_hand` turns what a user names on the command line (a built-in name, a
-URDF / MJCF / hand YAML / task file) into a hand.
 """
 
 from __future__ import annotations
 
 import os
+from dataclasses import replace
 from pathlib import Path
 from typing import Annotated
 
 from pydantic import Field, model_validator
 
 from ...errors import InvalidHand, InvalidTask, not_a_file
-from ...hands.files import HAND_SUFFIXES, load_hand_file
+from ...hands.files import load_hand_file
 from ...hands.fingertips import TipOverride
 from ...hands.model import Hand
-from ...hands.provenance import HandSource
-from .errors import fail, located, validate
-from .schema import BUILTIN_HANDS, Name, PosNum, Vec3, _Spec
+from ...hands.provenance import HandSource, file_sha256
+from .errors import check_mapping, fail, located, validate
+from .hands import hand_from_data, hand_to_dict
+from .schema import Name, PosNum, Vec3, _Spec
+from .yaml_text import parse_yaml, read_text
 
-__all__ = ["HandFileSpec", "TipSpec", "is_hand_reference", "hand_from_reference", "reference_entries",
-           "resolve_hand", "HAND_ALIASES", "source_hand"]  # fmt: skip
+__all__ = ["HandFileSpec", "TipSpec", "hand_file", "hand_from_file_entry", "is_hand_reference",
+           "hand_from_reference", "reference_entries", "source_hand"]  # fmt: skip
 
-HAND_ALIASES = {"sa": "schunk-sa"}
 FILE_KEYS = ("urdf", "mjcf")
 
 
@@ -66,6 +66,26 @@ class HandFileSpec(_Spec):
         if (self.urdf is None) == (self.mjcf is None):
             raise ValueError("give exactly one of urdf, mjcf (the hand file, relative to the task file)")
         return self
+
+
+def hand_file(path: Path, where: str) -> Hand:
+    """The hand of a YAML hand file (one inline hand mapping), its source recorded."""
+    text = read_text(path, where)
+    data = parse_yaml(text, where)
+    check_mapping(data, where, "a hand file holds one inline hand mapping (name, links, joints, ...)")
+    hand = hand_from_data(data, where, "")
+    if hand.source is not None:  # an inline hand that says where it came from
+        return hand
+    resolved = path.resolve()
+    return replace(hand, source=HandSource("yaml", str(resolved), file_sha256(resolved)))
+
+
+def hand_from_file_entry(value: dict, base: Path, source: str) -> Hand:
+    """The hand of a ``hand: {file: hand.yaml}`` entry (path relative to ``base``)."""
+    if set(value) != {"file"} or not isinstance(value["file"], str) or not value["file"]:
+        raise fail(source, "hand", "a hand file reference is {file: path/to/hand.yaml} with no other key")
+    path = base / value["file"]
+    return hand_file(path, f"{source}: hand.file: {path}")
 
 
 def is_hand_reference(value) -> bool:
@@ -115,8 +135,6 @@ def reference_value(source: HandSource, base_dir) -> dict | str:
 
 def source_hand(source: HandSource) -> Hand | None:
     """The hand ``source`` gives today (None when the file is gone or no longer a hand)."""
-    from .read import hand_file  # read imports this module
-
     try:
         if source.format == "yaml":
             return hand_file(Path(source.path), f"hand file {source.path}")
@@ -130,49 +148,7 @@ def reference_entries(hand: Hand, full: dict, base_dir, compare) -> dict | None:
     """``hand: {urdf: ...}`` plus the task's differences from the file's hand, or None when
     the file no longer gives that hand.  ``compare(value, full, base_full)`` is the writer's
     difference function (the one built-in hands use)."""
-    from .write import hand_to_dict
-
     base = source_hand(hand.source)
     if base is None:
         return None
     return compare(reference_value(hand.source, base_dir), full, hand_to_dict(base))
-
-
-# -- the command line ------------------------------------------------------------------------
-def _yaml_hand(path: Path) -> Hand:
-    from .read import hand_file
-    from .yaml_text import parse_yaml, read_text
-
-    data = parse_yaml(read_text(path, str(path)), str(path))
-    if isinstance(data, dict) and "prehension" in data:  # a task file: its hand
-        from ..yaml_io import load_task
-
-        return load_task(path).hand
-    return hand_file(path, str(path))
-
-
-def resolve_hand(spec: str | os.PathLike) -> Hand:
-    """A hand from a built-in name (or alias), a URDF (``.urdf``), an MJCF (``.xml``,
-    ``.mjcf``), a hand YAML file or a task file (its hand).
-
-    Raises:
-        InvalidHand: naming what was given and what would be valid.
-    """
-    text = str(spec)
-    name = HAND_ALIASES.get(text, text)
-    if name in BUILTIN_HANDS:
-        return BUILTIN_HANDS[name]()
-    path = Path(text)
-    suffix = path.suffix.lower()
-    if suffix in HAND_SUFFIXES or suffix in (".yaml", ".yml"):
-        if not path.is_file():
-            raise InvalidHand(not_a_file("hand file", path))
-        return load_hand_file(path) if suffix in HAND_SUFFIXES else _yaml_hand(path)
-    aliases = ", ".join(f"{a} ({n})" for a, n in HAND_ALIASES.items())
-    if path.is_dir():
-        found = sorted(p.name for p in path.iterdir() if p.suffix.lower() in HAND_SUFFIXES)[:5]
-        raise InvalidHand(f"{text} is a folder; give the hand file inside it" + (f" (it holds {', '.join(found)})" if found else ""))
-    raise InvalidHand(
-        f"{text!r} is neither a built-in hand ({', '.join(BUILTIN_HANDS)}; aliases: {aliases}) nor a hand file "
-        "(.urdf, .xml/.mjcf for MJCF, .yaml for a hand or task file)"
-    )

@@ -13,12 +13,14 @@ import dataclasses
 import os
 from pathlib import Path
 
-from ...errors import not_a_file
+from ...errors import InvalidTask, not_a_file
 from ...objects.model import SURFACE_TOLERANCE_MM, GraspObject
 from ...objects.mesh_io import UNITS
 from ...objects.solid import MeshFileSolid, PrimitiveSolid
 from .errors import fail, join_path, located
+from .regions import region_from_spec, region_to_dict
 from .schema import PRIMITIVES, DisplaySpec, ObjectSpec, PrimitiveSpec
+from .values import plain_floats
 
 __all__ = ["object_from_spec", "object_to_dict", "primitive_from_spec", "primitive_to_dict"]
 
@@ -56,12 +58,10 @@ def _solid(spec: ObjectSpec, base: Path, source: str):
 
 def object_from_spec(spec: ObjectSpec, base: Path, source: str) -> GraspObject:
     """The object of a checked ``object:`` mapping; errors name ``source`` and the field."""
-    from .read import _region  # one region reader for hand and object regions
-
     regions = {}
     for name, r in spec.regions.items():
         with located(source, join_path("object.regions", name)):
-            regions[name] = _region(r)
+            regions[name] = region_from_spec(r)
     display = spec.display or DisplaySpec()
     prims = [primitive_from_spec(p, source, join_path("object.display.primitives", i)) for i, p in enumerate(display.primitives)]
     mesh_file = _existing(display.mesh_file, base, source, "object.display.mesh_file") if display.mesh_file else None
@@ -73,8 +73,6 @@ def object_from_spec(spec: ObjectSpec, base: Path, source: str) -> GraspObject:
 
 # -- writing ----------------------------------------------------------------------------
 def primitive_to_dict(prim) -> dict:
-    from .write import _floats
-
     for key, (_, cls) in PRIMITIVES.items():
         if type(prim) is cls:
             fields = {}
@@ -82,10 +80,8 @@ def primitive_to_dict(prim) -> dict:
                 value = getattr(prim, f.name)
                 if f.default is not dataclasses.MISSING and value == f.default:
                     continue
-                fields[f.name] = int(value) if f.name == "resolution" else _floats(value)
+                fields[f.name] = int(value) if f.name == "resolution" else plain_floats(value)
             return {key: fields}
-    from ...errors import InvalidTask
-
     raise InvalidTask(f"cannot write a display primitive of type {type(prim).__name__}; use {', '.join(PRIMITIVES)}")
 
 
@@ -117,8 +113,6 @@ def _solid_entries(obj: GraspObject, base_dir) -> dict:
 
 def object_to_dict(obj: GraspObject, base_dir) -> dict:
     """The ``object:`` mapping of ``obj`` (inverse of :func:`object_from_spec`)."""
-    from .write import region_to_dict
-
     out: dict = {"name": obj.name, "regions": {name: region_to_dict(r) for name, r in obj.regions.items()}}
     out.update(_solid_entries(obj, base_dir))
     display: dict = {}

@@ -1,7 +1,7 @@
 """The schema of a task file (pydantic v2): one model a mapping, ``extra="forbid"``.
 
-Besides the models, the names a file may use: the format tag, the built-in hands that
-``hand:`` may name, and the display primitives of ``object.display.primitives``.
+Besides the models, the names a file may use: the format tag, the built-in hands (and
+their aliases) that ``hand:`` may name, and the display primitives of ``object.display.primitives``.
 """
 
 from __future__ import annotations
@@ -26,6 +26,7 @@ def _sa_enclosing() -> Hand:
 
 
 BUILTIN_HANDS: dict[str, Callable[[], Hand]] = {"schunk-sa": schunk_sa_hand, "schunk-sa-enclosing": _sa_enclosing}
+HAND_ALIASES = {"sa": "schunk-sa"}  # other names ``hand:`` (and the command line) accept for a built-in hand
 
 
 def _list_of(n: int, what: str):
