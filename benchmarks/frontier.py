@@ -73,7 +73,7 @@ from prehension.hands.kinematics import forward_kinematics
 from prehension.hands.model import Hand, HandRegion
 from prehension.objects.model import GraspObject
 from prehension.results import Status, make_solution
-from prehension.solvers.complete.congruence import congruence_test
+from prehension.solvers.complete.pair import congruence_test
 from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
 from prehension.solvers.local import LocalOptions, solve_local
 from prehension.solvers.local.solver import refine_local

@@ -73,10 +73,11 @@ def test_half_a_millimetre_inside_is_solved_and_two_outside_certified(scalpel):
 
 
 def test_the_span_test_proves_a_task_past_the_distance_limit_and_never_one_just_inside(scalpel):
-    """The object-side span test (congruence.prove_out_of_span): the scalpel family 1 mm past
+    """The object-side span test (pair.span.prove_out_of_span): the scalpel family 1 mm past
     t* is proved (its regions are then farther apart than the hand's span), and never the
     tasks just inside the frontier, which have a known solution."""
-    from prehension.solvers.complete.congruence import pair_problem, prove_out_of_span
+    from prehension.solvers.complete.pair import pair_problem
+    from prehension.solvers.complete.pair.span import prove_out_of_span
 
     family, found = scalpel
     hand = family.base.hand
@@ -89,8 +90,8 @@ def test_the_span_test_proves_a_task_past_the_distance_limit_and_never_one_just_
 def test_the_lid_a_millimetre_past_its_frontier_is_proved_by_matching_ranges(frontier_module):
     """The teapot lid's knob moved to ``t* + 1 mm`` (``t*`` = 163.911 mm, benchmarks/README.md):
     the pair test by matching ranges proves it (the product search does not in 2 M boxes)."""
-    from prehension.solvers.complete.congruence import pair_problem
-    from prehension.solvers.complete.matching import prove_pair_by_matching
+    from prehension.solvers.complete.pair import pair_problem
+    from prehension.solvers.complete.pair.matching import prove_pair_by_matching
 
     family = frontier_module.families(["lid"])[0]
     outcome = prove_pair_by_matching(pair_problem(family.task_at(163.911 + 1.0), 0, 1), max_boxes=40_000)
@@ -109,8 +110,8 @@ def test_guitar_tuning_a_millimetre_past_its_frontier_is_proved_by_matching_rang
     the fingertips) at ``t* + 1 mm``: the hand stage against the object side's extremes leaves
     only configurations near the hand's widest, and the matching (twist included) proves it;
     before the extremes and the patches' local remainders, 200,000 boxes did not."""
-    from prehension.solvers.complete.congruence import pair_problem
-    from prehension.solvers.complete.matching import prove_pair_by_matching
+    from prehension.solvers.complete.pair import pair_problem
+    from prehension.solvers.complete.pair.matching import prove_pair_by_matching
 
     family, found = tuning
     assert abs(found.t_mm - 174.660) < 0.01  # benchmarks/README.md
@@ -125,7 +126,7 @@ def test_guitar_tuning_just_inside_its_frontier_is_never_proved(frontier_module,
     (checked), the hand stage keeps its angles, and the pair test by matching does not prove
     the pair infeasible."""
     from prehension.solvers.complete import matching as mt
-    from prehension.solvers.complete.congruence import pair_problem
+    from prehension.solvers.complete.pair import pair_problem
 
     family, found = tuning
     task = family.task_at(found.t_mm - eps_mm)

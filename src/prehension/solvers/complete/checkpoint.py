@@ -69,7 +69,7 @@ class SearchState:
     solutions: list = field(default_factory=list)
     small: list = field(default_factory=list)
     best: tuple = (float("inf"), float("inf"))  # closest miss (contact_mm, normal_deg) so far
-    pair_test: object = None  # the pair test's result once run (.congruence.CongruenceResult)
+    pair_test: object = None  # the pair test's result once run (.pair.CongruenceResult)
     collision_pruned: int = 0  # boxes pruned because every configuration in them penetrates the object
     self_collision_pruned: int = 0  # boxes pruned because every solution in them collides with the hand itself
     closure_pruned: int = 0  # boxes pruned because no configuration in them is force closure (require)

@@ -51,7 +51,7 @@ from .checkpoint import SearchState, load_state, save_state, search_fingerprint
 from .closure import closure_prune
 from .collision import collision_prune
 from .self_collision import self_collision_prune
-from .congruence import congruence_test
+from .pair import congruence_test
 from .contract import contract
 from .shrink import ShrinkOptions, shrink_box
 
@@ -90,7 +90,7 @@ class BranchAndPruneOptions:
         refine: options of the local iterations that verify a box.
         tolerances: what counts as a verified solution (strict by default).
         pair_test_boxes: box budget of the pose-free pair test
-            (:func:`.congruence.congruence_test`): a proof that two contacts cannot be
+            (:func:`.pair.congruence_test`): a proof that two contacts cannot be
             made together whatever the object's pose ends the search as infeasible.  It
             runs with a tenth of this budget when the first box holds no verified
             solution, and again with all of it after :data:`PAIR_TEST_LATE` boxes
