@@ -433,20 +433,10 @@ def prove_pair_by_matching(pp: PairProblem, *, max_boxes: int = 200_000, time_li
     h_dims, o_dims = pp.slices[0], slice(pp.slices[1].start, pp.n_dims)
     h_scale = np.maximum(pp.upper[h_dims] - pp.lower[h_dims], 1e-12)
     o_scale = np.maximum(pp.upper[o_dims] - pp.lower[o_dims], 1e-12)
-    # first the hand alone against the object side's extremes (their own budget; the hand at
-    # most a quarter of ``max_boxes``: refined further, its boxes only multiply the pairs
-    # the matching must then make -- guitar-tuning at t* + 1 mm: proved in 18,779 boxes
-    # with 10,000 for the hand alone, in 23,461 with 20,000, in 77,401 with 100,000)
-    h_lo, h_hi = pp.lower[None, h_dims].copy(), pp.upper[None, h_dims].copy()
     o_lo, o_hi = pp.lower[None, o_dims].copy(), pp.upper[None, o_dims].copy()
-    tight, boxes, extra = None, 2, 0
-    if max_boxes >= EXTREMES_FROM:
-        tight, extra = object_extremes(pp, max_boxes=min(EXTREME_BOXES, max_boxes // 8), distance_floor_mm=distance_floor_mm)
-        half_time = None if time_limit_s is None else 0.5 * time_limit_s
-        proved, h_lo, h_hi, used = hand_against(pp, tight, max_boxes=max_boxes // 4, time_limit_s=half_time, started=started)
-        boxes = extra + used + 1  # the extremes' boxes are reported, not counted in ``max_boxes``
-        if proved:
-            return PairOutcome(True, boxes, time.perf_counter() - started)
+    proved, tight, h_lo, h_hi, boxes, extra = _hand_first(pp, max_boxes, time_limit_s, distance_floor_mm, started)
+    if proved:
+        return PairOutcome(True, boxes, time.perf_counter() - started)
     clip = (lambda r: r) if tight is None else (lambda r: clip_to(r, tight))  # noqa: E731
     h_rng, h_score = hand_ranges(pp, h_lo, h_hi)
     o_rng, o_score = object_ranges(pp, o_lo, o_hi)
@@ -467,16 +457,39 @@ def prove_pair_by_matching(pp: PairProblem, *, max_boxes: int = 200_000, time_li
         if boxes - extra + more > max_boxes or pairs > max_pairs or (time_limit_s is not None and time.perf_counter() - started > time_limit_s):
             return PairOutcome(False, boxes, time.perf_counter() - started, "budget")
         if split_hand:
-            h_lo, h_hi, h_score = _narrowed(pp, h_lo, h_hi, h_score, hull_of(o_rng, betas), hand=True)
-            h_lo, h_hi = halves(h_lo, h_hi, h_score, h_scale)
-            h_rng, h_score = hand_ranges(pp, h_lo, h_hi)
+            h_lo, h_hi, h_rng, h_score = _refined(pp, h_lo, h_hi, h_score, hull_of(o_rng, betas), h_scale, hand=True)
             boxes += len(h_lo)
         else:
-            o_lo, o_hi, o_score = _narrowed(pp, o_lo, o_hi, o_score, hull_of(h_rng, betas), hand=False)
-            o_lo, o_hi = halves(o_lo, o_hi, o_score, o_scale)
-            o_rng, o_score = object_ranges(pp, o_lo, o_hi)
+            o_lo, o_hi, o_rng, o_score = _refined(pp, o_lo, o_hi, o_score, hull_of(h_rng, betas), o_scale, hand=False)
             o_rng = clip(o_rng)
             boxes += len(o_lo)
+
+
+def _hand_first(pp: PairProblem, max_boxes: int, time_limit_s: float | None, distance_floor_mm: float | None,
+                started: float) -> tuple[bool, SideRanges | None, np.ndarray, np.ndarray, int, int]:  # fmt: skip
+    """The first stage of :func:`prove_pair_by_matching`: ``(proved, extremes, h_lo, h_hi, boxes,
+    extra)``.  From a budget of :data:`EXTREMES_FROM`, the hand alone against the object
+    side's extremes (their own budget, ``extra`` boxes; the hand at most a quarter of
+    ``max_boxes``: refined further, its boxes only multiply the pairs the matching must then
+    make -- guitar-tuning at t* + 1 mm: proved in 18,779 boxes with 10,000 for the hand
+    alone, in 23,461 with 20,000, in 77,401 with 100,000); below it, the hand's whole box."""
+    h_dims = pp.slices[0]
+    h_lo, h_hi = pp.lower[None, h_dims].copy(), pp.upper[None, h_dims].copy()
+    if max_boxes < EXTREMES_FROM:
+        return False, None, h_lo, h_hi, 2, 0
+    tight, extra = object_extremes(pp, max_boxes=min(EXTREME_BOXES, max_boxes // 8), distance_floor_mm=distance_floor_mm)
+    half_time = None if time_limit_s is None else 0.5 * time_limit_s
+    proved, h_lo, h_hi, used = hand_against(pp, tight, max_boxes=max_boxes // 4, time_limit_s=half_time, started=started)
+    return proved, tight, h_lo, h_hi, extra + used + 1, extra  # the extremes' boxes are reported, not counted in ``max_boxes``
+
+
+def _refined(pp: PairProblem, lo: np.ndarray, hi: np.ndarray, score: np.ndarray, hull: Hull, scale: np.ndarray, *,
+             hand: bool) -> tuple[np.ndarray, np.ndarray, SideRanges, np.ndarray]:  # fmt: skip
+    """One side's boxes narrowed to the other side's hull, split, and their new ranges and scores."""
+    lo, hi, score = _narrowed(pp, lo, hi, score, hull, hand=hand)
+    lo, hi = halves(lo, hi, score, scale)
+    ranges, score = hand_ranges(pp, lo, hi) if hand else object_ranges(pp, lo, hi)
+    return lo, hi, ranges, score
 
 
 def _narrowed(pp: PairProblem, lo: np.ndarray, hi: np.ndarray, score: np.ndarray, hull: Hull, *, hand: bool):
