@@ -20,6 +20,7 @@ from prehension.solvers.complete.pair import span as ps
 from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
 from prehension.tasks.library import load_builtin_task
 from prehension.tasks.model import Contact, Task
+from prehension.solvers.local.verifier import LocalVerifier
 
 
 # -- affine forms --------------------------------------------------------------------------------
@@ -277,7 +278,7 @@ def test_a_pinch_past_reach_is_proved_and_ends_the_search_as_infeasible():
     proof = product.prove_pair_infeasible(cg.pair_problem(_pinch_task(180.0), 0, 1), max_boxes=50_000)
     assert proof.proved
     seen = []
-    result = solve_complete(_pinch_task(180.0), BranchAndPruneOptions(max_boxes=50), progress=seen.append)
+    result = solve_complete(_pinch_task(180.0), BranchAndPruneOptions(verifier=LocalVerifier(), max_boxes=50), progress=seen.append)
     assert result.status == Status.INFEASIBLE
     assert "cannot be made together whatever the object's pose" in result.message
     assert result.stats["pair_test"]["proved"]

@@ -21,6 +21,7 @@ import pytest
 from prehension.results import Status, make_solution
 from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
 from prehension.tasks.residuals import Tolerances
+from prehension.solvers.local.verifier import LocalVerifier
 
 SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "frontier.py"
 NO_SELF_COLLISION = Tolerances(penetration_mm=float("inf"))  # as the complete solver's system
@@ -57,7 +58,7 @@ def test_tasks_just_inside_the_frontier_are_never_called_infeasible(frontier_mod
     task = family.task_at(found.t_mm - eps_mm)
     witness = frontier_module.solution_at(family, found.configuration, found.t_mm, found.t_mm - eps_mm)
     assert witness is not None and make_solution(task, witness, NO_SELF_COLLISION) is not None  # feasible
-    result = solve_complete(task, BranchAndPruneOptions(max_boxes=4))
+    result = solve_complete(task, BranchAndPruneOptions(verifier=LocalVerifier(), max_boxes=4))
     assert result.status in (Status.SOLVED, Status.GAVE_UP)
     for solution in result.solutions:
         assert make_solution(result.task, solution.configuration()) is not None
@@ -65,9 +66,9 @@ def test_tasks_just_inside_the_frontier_are_never_called_infeasible(frontier_mod
 
 def test_half_a_millimetre_inside_is_solved_and_two_outside_certified(scalpel):
     family, found = scalpel
-    inside = solve_complete(family.task_at(found.t_mm - 0.5), BranchAndPruneOptions(max_boxes=20))
+    inside = solve_complete(family.task_at(found.t_mm - 0.5), BranchAndPruneOptions(verifier=LocalVerifier(), max_boxes=20))
     assert inside.status == Status.SOLVED
-    outside = solve_complete(family.task_at(found.t_mm + 2.0), BranchAndPruneOptions(max_boxes=20))
+    outside = solve_complete(family.task_at(found.t_mm + 2.0), BranchAndPruneOptions(verifier=LocalVerifier(), max_boxes=20))
     assert outside.status == Status.INFEASIBLE
     assert "boxes pruned" in outside.message
 
@@ -146,7 +147,7 @@ def test_guitar_tuning_a_millimetre_past_its_frontier_is_certified_at_the_first_
     ``NEAR_FRONTIER_MM`` of the hand's span), so the first pair test gives the matching its
     whole budget and certifies the task before a second box is processed."""
     family, found = tuning
-    result = solve_complete(family.task_at(found.t_mm + 1.0), BranchAndPruneOptions(max_boxes=2))
+    result = solve_complete(family.task_at(found.t_mm + 1.0), BranchAndPruneOptions(verifier=LocalVerifier(), max_boxes=2))
     assert result.status == Status.INFEASIBLE
     assert "cannot be made together" in result.message
 
@@ -167,7 +168,7 @@ def test_random_families_just_inside_their_frontier_are_never_called_infeasible(
     task = family.task_at(t)
     witness = frontier_module.solution_at(family, found.frontier.configuration, found.frontier.t_mm, t)
     assert witness is not None and make_solution(task, witness) is not None  # feasible, no self-collision
-    result = solve_complete(task, BranchAndPruneOptions(max_boxes=3))
+    result = solve_complete(task, BranchAndPruneOptions(verifier=LocalVerifier(), max_boxes=3))
     assert result.status in (Status.SOLVED, Status.GAVE_UP), result.message
     for solution in result.solutions:
         assert make_solution(result.task, solution.configuration()) is not None

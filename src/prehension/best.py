@@ -170,12 +170,13 @@ def _local_phase(task: Task, options: BestOptions, seed: int, deadline: float | 
 
 def _complete_phase(task: Task, deadline: float | None, complete_options, executor, workers: int, progress):
     from .solvers.complete.search import BranchAndPruneOptions, solve_complete
+    from .solvers.local.verifier import LocalVerifier
 
     base = complete_options or BranchAndPruneOptions()
     limit = None if deadline is None else max(deadline - time.perf_counter(), 1.0)
     if base.time_limit_s is not None:
         limit = base.time_limit_s if limit is None else min(limit, base.time_limit_s)
-    options = replace(base, all_solutions=True, order="breadth", time_limit_s=limit)
+    options = replace(base, all_solutions=True, order="breadth", time_limit_s=limit, verifier=base.verifier or LocalVerifier())
     return solve_complete(task, options, executor=executor, workers=workers, progress=progress)
 
 

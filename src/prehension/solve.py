@@ -84,6 +84,7 @@ def solve(
         if local.success or method == "local":
             return local
     from .solvers.complete.search import BranchAndPruneOptions, solve_complete
+    from .solvers.local.verifier import LocalVerifier
 
     if callable(complete_options):
         complete_options = complete_options()
@@ -91,6 +92,8 @@ def solve(
     if complete_options is None and method == "auto":
         note = f"{local.message}; the time limit ({time_limit_s:g} s) was reached before the complete solver could start"
         return replace(local, message=note, seconds=time.perf_counter() - started)
+    if complete_options.verifier is None:  # the complete solver verifies its boxes with the local solver's iterations
+        complete_options = replace(complete_options, verifier=LocalVerifier())
     if require is not None:
         complete_options = replace(complete_options, require=require, quality=quality or complete_options.quality)
     if progress is not None:
