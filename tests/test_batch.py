@@ -249,7 +249,7 @@ def test_the_offline_search_on_the_cluster_gives_the_same_sequence(client, sa_ha
 
 def test_the_complete_solver_runs_its_boxes_on_the_cluster(client):
     from prehension.parallel import DaskExecutor
-    from prehension.solvers.complete.search import solve_complete
+    from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
 
     executor = DaskExecutor(client)
     for d, status in ((40.0, "solved"), (60.0, "infeasible")):
