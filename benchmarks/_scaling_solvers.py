@@ -100,18 +100,20 @@ def add_rows(table: Table, workload: str, size: float, unit: str, results: dict,
 
 def _warm_process() -> None:
     """Load numba's compiled kernels and both solvers' caches in this process."""
-    from prehension.solvers.complete.search import solve_complete
+    from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
     from prehension.solvers.local import random_point_problems
+    from prehension.solvers.local.verifier import LocalVerifier
     from prehension.tasks.library import load_builtin_task
 
     p = random_point_problems(20, seed=1)
     _solve_points(p.points, p.normals)
-    solve_complete(load_builtin_task("guitar-holding"))
+    solve_complete(load_builtin_task("guitar-holding"), BranchAndPruneOptions(verifier=LocalVerifier()))
 
 
 def run_all(args, clients) -> Table:
     from prehension.solvers.complete.search import BranchAndPruneOptions
     from prehension.solvers.local import random_point_problems
+    from prehension.solvers.local.verifier import LocalVerifier
     from prehension.tasks.library import load_builtin_task
 
     _warm_process()  # not timed: the first solve in a process loads kernels and builds caches
@@ -126,10 +128,10 @@ def run_all(args, clients) -> Table:
     add_rows(table, f"local solver, {args.problems} problems, chunks of {args.chunk}", args.problems, "problems/s", res,
              lambda s: f"{100 * s:.2f}% solved")  # fmt: skip
     guitar = load_builtin_task("guitar-holding")
-    res = measure(lambda c: complete(guitar, BranchAndPruneOptions(), c), clients, args.repeats)
+    res = measure(lambda c: complete(guitar, BranchAndPruneOptions(verifier=LocalVerifier()), c), clients, args.repeats)
     add_rows(table, "complete solver, guitar-holding", 1, "tasks/s", res, lambda s: f"{s[0]}, {s[1]} boxes")
     hard = moved(load_builtin_task("teapot-lid-lifting"), "knob_back", (0, 0, args.hard_mm))
-    res = measure(lambda c: complete(hard, BranchAndPruneOptions(max_boxes=args.boxes), c), clients, args.repeats)
+    res = measure(lambda c: complete(hard, BranchAndPruneOptions(verifier=LocalVerifier(), max_boxes=args.boxes), c), clients, args.repeats)
     add_rows(table, f"complete solver, {hard.name}, {args.boxes} boxes", args.boxes, "boxes/s", res,
              lambda s: f"{s[0]}, {s[1]} boxes")  # fmt: skip
     M, N, imax = args.offline

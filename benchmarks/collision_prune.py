@@ -41,6 +41,7 @@ from rich.table import Table
 
 from prehension.solvers.complete.collision import collision_probes, collision_prune
 from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
+from prehension.solvers.local.verifier import LocalVerifier
 from prehension.solve import solve
 from prehension.system.embedding import embed
 from prehension.system.formulation import build_system
@@ -82,7 +83,7 @@ def run_builtin(console: Console, limit: float, repeats: int) -> None:
     table = _table(f"Built-in tasks: first verified solution (depth first, sigma = 0.1, one process; median of {repeats})")
     times_on, times_off = [], []
     for name in builtin_task_names():
-        on, off = _both(load_builtin_task(name), BranchAndPruneOptions(time_limit_s=limit), repeats)
+        on, off = _both(load_builtin_task(name), BranchAndPruneOptions(verifier=LocalVerifier(), time_limit_s=limit), repeats)
         table.add_row(name, *_cells(on, off))
         times_on.append(on.seconds), times_off.append(off.seconds)
     console.print(table)
@@ -93,7 +94,7 @@ def run_builtin(console: Console, limit: float, repeats: int) -> None:
 def run_solution_sets(console: Console, boxes: int) -> None:
     table = _table(f"Solution-set mode: the first {boxes} boxes (breadth first, sigma = 0.1)")
     for name in SOLUTION_SET_TASKS:
-        options = BranchAndPruneOptions(all_solutions=True, order="breadth", max_boxes=boxes)
+        options = BranchAndPruneOptions(verifier=LocalVerifier(), all_solutions=True, order="breadth", max_boxes=boxes)
         table.add_row(name, *_cells(*_both(load_builtin_task(name), options)))
     console.print(table)
 
@@ -102,9 +103,9 @@ def run_pits(console: Console) -> None:
     table = _table("The pit: the pad on the floor, the palm 10 mm above it (palm 100 mm long)")
     for width in (20.0, 30.0, 40.0, 240.0):
         task = pit_task(width / 2)
-        solve_complete(task, BranchAndPruneOptions(max_boxes=1))  # warm-up
-        on = solve_complete(task, BranchAndPruneOptions(time_limit_s=60))
-        off_options = BranchAndPruneOptions(max_boxes=3 * on.stats["boxes"], time_limit_s=60, collision_prune=False)
+        solve_complete(task, BranchAndPruneOptions(verifier=LocalVerifier(), max_boxes=1))  # warm-up
+        on = solve_complete(task, BranchAndPruneOptions(verifier=LocalVerifier(), time_limit_s=60))
+        off_options = BranchAndPruneOptions(verifier=LocalVerifier(), max_boxes=3 * on.stats["boxes"], time_limit_s=60, collision_prune=False)
         table.add_row(f"pit {width:g} mm wide", *_cells(on, solve_complete(task, off_options)))
     console.print(table)
 

@@ -73,8 +73,9 @@ from prehension.hands.kinematics import forward_kinematics
 from prehension.hands.model import Hand, HandRegion
 from prehension.objects.model import GraspObject
 from prehension.results import Status, make_solution
-from prehension.solvers.complete.congruence import congruence_test
+from prehension.solvers.complete.pair import congruence_test
 from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
+from prehension.solvers.local.verifier import LocalVerifier
 from prehension.solvers.local import LocalOptions, solve_local
 from prehension.solvers.local.solver import refine_local
 from prehension.tasks.library import load_builtin_task
@@ -590,7 +591,7 @@ def run_family(console: Console, family: Family, frontier: Frontier, limit: floa
     for delta in offsets:
         task = family.task_at(frontier.t_mm + delta)
         try:
-            result = solve_complete(task, BranchAndPruneOptions(time_limit_s=limit, max_boxes=max_boxes))
+            result = solve_complete(task, BranchAndPruneOptions(verifier=LocalVerifier(), time_limit_s=limit, max_boxes=max_boxes))
         except PrehensionError as exc:  # e.g. a version of the solver that refuses the task
             table.add_row(f"{delta:+g}", f"error: {exc}", "", "", "", "")
             continue
@@ -697,7 +698,7 @@ def run_random(console: Console, args) -> list[dict]:
             task = family.task_at(t_star + delta)
             load = os.getloadavg()[0]
             limit = None if args.time_limit == float("inf") else args.time_limit
-            result = solve_complete(task, BranchAndPruneOptions(time_limit_s=limit, max_boxes=args.max_boxes))
+            result = solve_complete(task, BranchAndPruneOptions(verifier=LocalVerifier(), time_limit_s=limit, max_boxes=args.max_boxes))
             s = result.stats
             best = s.get("best_residual")
             record = {"kind": "run", **key, "name": family.name, "t_star": t_star, "status": str(result.status),

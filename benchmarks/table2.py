@@ -29,6 +29,7 @@ from prehension.paper import CUIK_FILE_TASKS, TABLE2
 from prehension.system.embedding import embed
 from prehension.system.formulation import build_system
 from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
+from prehension.solvers.local.verifier import LocalVerifier
 from prehension.tasks.cuik_import import import_world
 from prehension.tasks.library import builtin_task_names, load_builtin_task
 from prehension.tasks.model import Task
@@ -59,7 +60,7 @@ def run_feasible(console: Console, include_shared: bool, limit: float) -> list[t
         table.add_column(col, justify="right" if col not in ("task", "status") else "left")
     timings = []
     for label, task, paper_name in _tasks(include_shared):
-        result = solve_complete(task, BranchAndPruneOptions(time_limit_s=limit))
+        result = solve_complete(task, BranchAndPruneOptions(verifier=LocalVerifier(), time_limit_s=limit))
         paper = TABLE2[paper_name]
         s = result.stats
         table.add_row(
@@ -126,7 +127,7 @@ def run_infeasible(console: Console, limit: float) -> list[tuple[str, Task, floa
     families += [(t, "facing away") for t in facing_away_variants()]
     certified = []
     for task, kind in families:
-        result = solve_complete(task, BranchAndPruneOptions(time_limit_s=limit))
+        result = solve_complete(task, BranchAndPruneOptions(verifier=LocalVerifier(), time_limit_s=limit))
         s = result.stats
         table.add_row(task.name, kind, result.status, str(s["boxes"]), str(s["lps"]), f"{result.seconds:.2f}",
                       _closest_miss(result))  # fmt: skip
@@ -211,10 +212,10 @@ def main() -> None:
     hardest = max(variants, key=lambda row: row[2])
     slowest = max(timings, key=lambda row: row[2])
     run_speedup(console, [
-        (f"certify {hardest[0]}", hardest[1], BranchAndPruneOptions(time_limit_s=limit)),
-        (f"first solution, {slowest[0]}", slowest[1], BranchAndPruneOptions(time_limit_s=limit)),
+        (f"certify {hardest[0]}", hardest[1], BranchAndPruneOptions(verifier=LocalVerifier(), time_limit_s=limit)),
+        (f"first solution, {slowest[0]}", slowest[1], BranchAndPruneOptions(verifier=LocalVerifier(), time_limit_s=limit)),
         ("all solutions of scalpel-upholding, 40 boxes", load_builtin_task("scalpel-upholding"),
-         BranchAndPruneOptions(order="breadth", all_solutions=True, max_boxes=40)),
+         BranchAndPruneOptions(verifier=LocalVerifier(), order="breadth", all_solutions=True, max_boxes=40)),
     ])  # fmt: skip
 
 

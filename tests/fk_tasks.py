@@ -22,6 +22,7 @@ from prehension.geometry.rotations import make_transform, orthonormal_frame, rot
 from prehension.hands.kinematics import forward_kinematics
 from prehension.objects.model import GraspObject
 from prehension.tasks.model import Configuration, Contact, Task
+from prehension.solvers.local.verifier import LocalVerifier
 
 DEG = np.pi / 180.0
 OTHER_FINGERS = ("index", "middle", "ring")
@@ -217,7 +218,7 @@ def search_path(form, x, depth: int = 4):
     without verifying, ``sigma`` 0.3), each :class:`BoxOutcome`, the child holding ``x`` next."""
     from prehension.solvers.complete.search import BranchAndPruneOptions, process_box
 
-    options = BranchAndPruneOptions(all_solutions=True, sigma=0.3)
+    options = BranchAndPruneOptions(verifier=LocalVerifier(), all_solutions=True, sigma=0.3)
     lower, upper = form.system.lower.copy(), form.system.upper.copy()
     for d in range(depth):
         out = process_box(form, lower, upper, d, options)

@@ -21,6 +21,7 @@ from prehension.errors import PrehensionError
 from prehension.solve import SolveOptions, solve
 from prehension.tasks.library import builtin_task_names
 from prehension.tasks.yaml_io import dumps_task, task_to_dict
+from prehension.solvers.local.verifier import LocalVerifier
 from conftest import write_jsonl
 from tiny_tasks import pincer_task
 
@@ -248,11 +249,11 @@ def test_the_offline_search_on_the_cluster_gives_the_same_sequence(client, sa_ha
 
 def test_the_complete_solver_runs_its_boxes_on_the_cluster(client):
     from prehension.parallel import DaskExecutor
-    from prehension.solvers.complete.search import solve_complete
+    from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
 
     executor = DaskExecutor(client)
     for d, status in ((40.0, "solved"), (60.0, "infeasible")):
-        result = solve_complete(pincer_task(d), executor=executor, workers=executor.max_workers)
+        result = solve_complete(pincer_task(d), BranchAndPruneOptions(verifier=LocalVerifier()), executor=executor, workers=executor.max_workers)
         assert result.status == status
 
 
@@ -292,7 +293,7 @@ def test_complete_box_search_on_the_cluster_is_the_one_process_search(client):
     from prehension.parallel import DaskExecutor
     from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
 
-    options = BranchAndPruneOptions(time_limit_s=300)
+    options = BranchAndPruneOptions(verifier=LocalVerifier(), time_limit_s=300)
     for task in (pincer_task(50.0), pincer_task(40.0)):  # infeasible after tens of boxes; solved
         alone = solve_complete(task, options)
         spread = solve_complete(task, options, executor=DaskExecutor(client), workers=2)

@@ -18,16 +18,17 @@ from prehension.solvers.complete.search import BranchAndPruneOptions, solve_comp
 from prehension.system.formulation import build_system
 from prehension.tasks.yaml_io import dumps_task
 from prehension.verification import verify_result
+from prehension.solvers.local.verifier import LocalVerifier
 from tiny_tasks import pincer_task
 
-NO_PAIR = BranchAndPruneOptions(pair_test_boxes=0, time_limit_s=120)
+NO_PAIR = BranchAndPruneOptions(verifier=LocalVerifier(), pair_test_boxes=0, time_limit_s=120)
 
 
 @pytest.fixture(scope="module")
 def saved(tmp_path_factory):
     """A checkpoint of the infeasible pincer (d = 50 mm) after 3 boxes: ``(path, its JSON)``."""
     path = tmp_path_factory.mktemp("ckpt") / "search.json"
-    solve_complete(pincer_task(50.0), BranchAndPruneOptions(max_boxes=3, pair_test_boxes=0), checkpoint=path)
+    solve_complete(pincer_task(50.0), BranchAndPruneOptions(verifier=LocalVerifier(), max_boxes=3, pair_test_boxes=0), checkpoint=path)
     return path, json.loads(path.read_text())
 
 

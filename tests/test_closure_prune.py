@@ -18,8 +18,9 @@ from prehension.solvers.complete.search import BranchAndPruneOptions, solve_comp
 from prehension.system.embedding import embed
 from prehension.system.formulation import build_system
 from prehension.verification import verify_result_file
+from prehension.solvers.local.verifier import LocalVerifier
 
-REQUIRE = BranchAndPruneOptions(require="force-closure")
+REQUIRE = BranchAndPruneOptions(verifier=LocalVerifier(), require="force-closure")
 MODELS = (QualityOptions(), QualityOptions(friction=0.3, torsion_mm=5.0), QualityOptions(friction=1.0, cone_edges=4))
 
 
@@ -116,7 +117,7 @@ def test_regions_that_all_face_one_way_are_proven_to_admit_no_force_closure(tmp_
     result = solve_complete(task, REQUIRE)
     assert result.status == Status.INFEASIBLE and "no force-closure grasp" in result.message
     assert result.stats["closure_pruned"] >= 1
-    assert solve_complete(task).status == Status.SOLVED  # the task itself has grasps: the proof is about force closure
+    assert solve_complete(task, BranchAndPruneOptions(verifier=LocalVerifier())).status == Status.SOLVED  # the task itself has grasps: the proof is about force closure
     out = tmp_path / "one-face.result.json"
     assert main(["solve", str(EXAMPLES / "box-one-face.yaml"), "--method", "complete", "--require", "force-closure",
                  "-o", str(out), "--quiet"]) == EXIT_INFEASIBLE  # fmt: skip
@@ -144,7 +145,7 @@ def test_a_task_with_a_force_closure_grasp_is_never_proven_infeasible(sa_hand, s
             break
     else:
         pytest.fail("no force-closure forward-built task in 50 draws")
-    result = solve_complete(case.task, BranchAndPruneOptions(require="force-closure", max_boxes=6))
+    result = solve_complete(case.task, BranchAndPruneOptions(verifier=LocalVerifier(), require="force-closure", max_boxes=6))
     assert result.status != Status.INFEASIBLE
     for s in result.solutions:
         assert configuration_quality(case.task, s.configuration()).force_closure
@@ -168,9 +169,9 @@ def test_auto_drops_the_local_answers_that_are_not_force_closure():
 
 def test_the_requirement_is_checked_and_stated():
     with pytest.raises(PrehensionError, match="require must be 'force-closure' or None"):
-        BranchAndPruneOptions(require="holds")
+        BranchAndPruneOptions(verifier=LocalVerifier(), require="holds")
     with pytest.raises(PrehensionError, match="quality must be a QualityOptions"):
-        BranchAndPruneOptions(require="force-closure", quality={"friction": 0.5})
+        BranchAndPruneOptions(verifier=LocalVerifier(), require="force-closure", quality={"friction": 0.5})
 
 
 def test_a_contracted_root_box_is_certified_only_for_the_one_face_task():

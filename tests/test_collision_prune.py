@@ -27,6 +27,7 @@ from prehension.tasks.model import Configuration, Task
 from prehension.tasks.object_collision import link_penetrations
 from prehension.verification.residuals import Tolerances, evaluate
 from prehension.verification import verify_result_file
+from prehension.solvers.local.verifier import LocalVerifier
 
 TOLS = Tolerances()  # strict, as every verified solution
 TOL = TOLS.object_penetration_mm  # 0.5 mm
@@ -198,7 +199,7 @@ def test_a_task_infeasible_only_through_the_object_is_certified_and_re_proved(tm
     from prehension.cli import EXIT_INFEASIBLE, main
 
     task = pit_task(15.0)
-    result = solve_complete(task, BranchAndPruneOptions(time_limit_s=60))
+    result = solve_complete(task, BranchAndPruneOptions(verifier=LocalVerifier(), time_limit_s=60))
     assert result.status == Status.INFEASIBLE and not result.solutions
     assert "no penetration-free solution" in result.message and result.stats["collision_pruned"] > 0
     assert f"{result.stats['collision_pruned']} of them because every configuration" in result.message
@@ -210,7 +211,7 @@ def test_a_task_infeasible_only_through_the_object_is_certified_and_re_proved(tm
     again = next(f for f in verify_result_file(out).findings if f.what == "infeasibility re-proved")
     assert again.ok and f"{result.stats['collision_pruned']} of them for hand-object collision: no penetration-free" in again.detail
     boxes = result.stats["boxes"]
-    off = solve_complete(task, BranchAndPruneOptions(max_boxes=3 * boxes, collision_prune=False, verify_starts=1))
+    off = solve_complete(task, BranchAndPruneOptions(verifier=LocalVerifier(), max_boxes=3 * boxes, collision_prune=False, verify_starts=1))
     assert off.status == Status.GAVE_UP and off.stats["collision_pruned"] == 0 and not off.solutions
 
 
@@ -221,7 +222,7 @@ def test_a_wide_pit_is_solved_by_the_same_search_and_a_proud_sphere_is_not_excus
     it 1.5 mm: certified infeasible by the collision prune (before issue 26 the zone around
     the contact excused it)."""
     task = pit_task(120.0)
-    result = solve_complete(task, BranchAndPruneOptions(time_limit_s=60))
+    result = solve_complete(task, BranchAndPruneOptions(verifier=LocalVerifier(), time_limit_s=60))
     assert result.status == Status.SOLVED
     solution = result.solutions[0]
     assert solution.report.worst("object_collision") <= TOL and solution.report.worst("pad_collision") <= TOL
@@ -234,7 +235,7 @@ def test_a_wide_pit_is_solved_by_the_same_search_and_a_proud_sphere_is_not_excus
     T = config.T_palm_object
     points = [(s.hand_point - T[:3, 3]) @ T[:3, :3] for s in solution.report.contacts]
     assert link_penetrations(proud, pose, T, points)["palm"] == pytest.approx(1.5, abs=0.13)  # pad or no pad
-    again = solve_complete(proud, BranchAndPruneOptions(time_limit_s=60))
+    again = solve_complete(proud, BranchAndPruneOptions(verifier=LocalVerifier(), time_limit_s=60))
     assert again.status == Status.INFEASIBLE and again.stats["collision_pruned"] > 0
 
 
@@ -243,7 +244,7 @@ def test_the_prune_gives_the_same_certificate_on_an_executor():
     from concurrent.futures import ThreadPoolExecutor
 
     task = pit_task(15.0)
-    options = BranchAndPruneOptions(verify_starts=2)
+    options = BranchAndPruneOptions(verifier=LocalVerifier(), verify_starts=2)
     alone = solve_complete(task, options)
     with ThreadPoolExecutor(2) as pool:
         pooled = solve_complete(task, options, executor=pool, workers=2)
@@ -254,10 +255,10 @@ def test_the_prune_gives_the_same_certificate_on_an_executor():
 
 def test_a_resumed_search_keeps_its_count_of_collision_prunes(tmp_path):
     task = pit_task(15.0)
-    options = BranchAndPruneOptions(verify_starts=2)
+    options = BranchAndPruneOptions(verifier=LocalVerifier(), verify_starts=2)
     whole = solve_complete(task, options)
     ckpt = tmp_path / "pit-search.json"
-    first = solve_complete(task, BranchAndPruneOptions(verify_starts=2, max_boxes=whole.stats["boxes"] // 2), checkpoint=ckpt)
+    first = solve_complete(task, BranchAndPruneOptions(verifier=LocalVerifier(), verify_starts=2, max_boxes=whole.stats["boxes"] // 2), checkpoint=ckpt)
     assert first.status == Status.GAVE_UP and 0 < first.stats["collision_pruned"] < whole.stats["collision_pruned"]
     resumed = solve_complete(task, options, checkpoint=ckpt, resume=True)
     assert resumed.status == Status.INFEASIBLE

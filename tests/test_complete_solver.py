@@ -10,15 +10,17 @@ import numpy as np
 import pytest
 
 from fk_tasks import build_fk_case
+from prehension.errors import PrehensionError
 from prehension.results import Status, make_solution
 from prehension.system.embedding import embed
 from prehension.system.formulation import build_system
 from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
 from prehension.solvers.complete.shrink import ShrinkOptions, shrink_box
 from prehension.verification.residuals import Tolerances
+from prehension.solvers.local.verifier import LocalVerifier
 from tiny_tasks import FEASIBLE_UP_TO_MM, pincer_task
 
-FAST = BranchAndPruneOptions(time_limit_s=120)
+FAST = BranchAndPruneOptions(verifier=LocalVerifier(), time_limit_s=120)
 
 
 @pytest.mark.parametrize("d", [30.0, 44.0])
@@ -54,7 +56,7 @@ def test_fk_generated_tasks_are_solved(sa_hand, seed):
     """Never loses a solution: tasks built around a known configuration are solved."""
     case = build_fk_case(sa_hand, np.random.default_rng(1000 + seed), palm=False, kinds=None)
     tol = Tolerances(penetration_mm=float("inf"))  # random poses may self-collide
-    result = solve_complete(case.task, BranchAndPruneOptions(time_limit_s=300, tolerances=tol))
+    result = solve_complete(case.task, BranchAndPruneOptions(verifier=LocalVerifier(), time_limit_s=300, tolerances=tol))
     assert result.status == Status.SOLVED
     assert result.solutions[0].report.ok
 
@@ -78,7 +80,7 @@ def test_shrinking_a_box_around_a_known_solution_keeps_it(sa_hand, seed):
 def test_time_limit_gives_up_and_checkpoint_resumes(tmp_path):
     task = pincer_task(50.0)  # infeasible, needs tens of boxes (without the pair test, which proves it at once)
     ckpt = tmp_path / "search.json"
-    first = solve_complete(task, BranchAndPruneOptions(max_boxes=3, pair_test_boxes=0), checkpoint=ckpt)
+    first = solve_complete(task, BranchAndPruneOptions(verifier=LocalVerifier(), max_boxes=3, pair_test_boxes=0), checkpoint=ckpt)
     assert first.status == Status.GAVE_UP and "box limit" in first.message and str(ckpt) in first.message
     saved = json.loads(ckpt.read_text())
     assert saved["open"] and saved["boxes"] == 3
@@ -99,7 +101,7 @@ def test_boxes_on_an_executor_give_the_same_answer():
 def test_builtin_task_first_solution(capsys):
     from prehension.tasks.library import load_builtin_task
 
-    result = solve_complete(load_builtin_task("scalpel-upholding"), BranchAndPruneOptions(time_limit_s=300))
+    result = solve_complete(load_builtin_task("scalpel-upholding"), BranchAndPruneOptions(verifier=LocalVerifier(), time_limit_s=300))
     assert result.status == Status.SOLVED
     assert result.solutions[0].report.worst("contact_distance") < 1e-6
 
@@ -110,7 +112,7 @@ SOLUTION_SET = dict(sigma=0.3, order="breadth", all_solutions=True)
 @pytest.fixture(scope="module")
 def solution_set():
     """The whole description of the 30 mm pincer's solution set (shared: it takes seconds)."""
-    return solve_complete(pincer_task(30.0), BranchAndPruneOptions(**SOLUTION_SET))
+    return solve_complete(pincer_task(30.0), BranchAndPruneOptions(verifier=LocalVerifier(), **SOLUTION_SET))
 
 
 def test_all_solutions_mode_reports_each_solution_in_its_own_box(solution_set):
@@ -126,7 +128,7 @@ def test_all_solutions_mode_stops_at_its_default_box_budget_with_a_cover(monkeyp
     from prehension.solvers.complete import search
 
     monkeypatch.setattr(search, "ALL_SOLUTIONS_MAX_BOXES", 12)
-    options = BranchAndPruneOptions(sigma=0.3, order="breadth", all_solutions=True)
+    options = BranchAndPruneOptions(verifier=LocalVerifier(), sigma=0.3, order="breadth", all_solutions=True)
     result = solve_complete(pincer_task(30.0), options)
     assert result.stats["boxes"] == 12 and result.stats["open_boxes"] > 0
     assert "partial description" in result.message and "default of the solution-set mode" in result.message
@@ -162,10 +164,10 @@ def test_regions_just_beyond_reach_are_certified_and_just_within_are_solved():
 def test_solutions_found_before_a_stop_survive_the_resume(tmp_path, solution_set):
     options, whole = SOLUTION_SET, solution_set
     ckpt = tmp_path / "all.json"
-    first = solve_complete(pincer_task(30.0), BranchAndPruneOptions(max_boxes=26, **options), checkpoint=ckpt)
+    first = solve_complete(pincer_task(30.0), BranchAndPruneOptions(verifier=LocalVerifier(), max_boxes=26, **options), checkpoint=ckpt)
     assert first.solutions and first.stats["open_boxes"] > 0  # stopped with a solution in hand
     assert len(first.solutions) - first.stats["open_box_solutions"] < len(whole.solutions)
-    resumed = solve_complete(pincer_task(30.0), BranchAndPruneOptions(**options), checkpoint=ckpt, resume=True)
+    resumed = solve_complete(pincer_task(30.0), BranchAndPruneOptions(verifier=LocalVerifier(), **options), checkpoint=ckpt, resume=True)
     assert resumed.stats["boxes"] == whole.stats["boxes"]
     assert len(resumed.solutions) == len(whole.solutions) >= 1
     for a, b in zip(resumed.solutions, whole.solutions):
@@ -196,7 +198,7 @@ def test_a_checkpoint_of_another_task_is_refused(tmp_path):
     assert build_system(moved).system.n == build_system(lid).system.n  # the count cannot tell them apart
     ckpt = tmp_path / "moved.json"
     # without the pair test (which proves this variant at its first box: nothing left to resume)
-    first = solve_complete(moved, BranchAndPruneOptions(max_boxes=1, pair_test_boxes=0), checkpoint=ckpt)
+    first = solve_complete(moved, BranchAndPruneOptions(verifier=LocalVerifier(), max_boxes=1, pair_test_boxes=0), checkpoint=ckpt)
     assert first.status == Status.GAVE_UP and ckpt.is_file()
     for other in (lid, load_builtin_task("guitar-tuning")):
         with pytest.raises(PrehensionError, match=r"belongs to another task \('teapot-lid-lifting \(knob_back"):
@@ -208,16 +210,16 @@ def test_a_checkpoint_resumed_with_other_options_is_refused_and_same_options_res
 
     task = pincer_task(50.0)  # searched box by box: without the pair test
     ckpt = tmp_path / "search.json"
-    solve_complete(task, BranchAndPruneOptions(max_boxes=2, pair_test_boxes=0), checkpoint=ckpt)
+    solve_complete(task, BranchAndPruneOptions(verifier=LocalVerifier(), max_boxes=2, pair_test_boxes=0), checkpoint=ckpt)
     with pytest.raises(PrehensionError, match=r"other search options \(sigma 0.1 -> 0.05\)"):
-        solve_complete(task, BranchAndPruneOptions(sigma=0.05, pair_test_boxes=0), checkpoint=ckpt, resume=True)
+        solve_complete(task, BranchAndPruneOptions(verifier=LocalVerifier(), sigma=0.05, pair_test_boxes=0), checkpoint=ckpt, resume=True)
     with pytest.raises(PrehensionError, match=r"shrink.rho 0.9 -> 0.5; verify_starts 8 -> 2"):
-        solve_complete(task, BranchAndPruneOptions(shrink=ShrinkOptions(rho=0.5), verify_starts=2, pair_test_boxes=0),
+        solve_complete(task, BranchAndPruneOptions(verifier=LocalVerifier(), shrink=ShrinkOptions(rho=0.5), verify_starts=2, pair_test_boxes=0),
                        checkpoint=ckpt, resume=True)  # fmt: skip
     with pytest.raises(PrehensionError, match=r"tolerances.contact_mm 1e-06 -> 0.001"):
-        solve_complete(task, BranchAndPruneOptions(tolerances=Tolerances(contact_mm=1e-3), pair_test_boxes=0), checkpoint=ckpt, resume=True)
+        solve_complete(task, BranchAndPruneOptions(verifier=LocalVerifier(), tolerances=Tolerances(contact_mm=1e-3), pair_test_boxes=0), checkpoint=ckpt, resume=True)
     # stop-only options may change; the same task and options resume where they stopped
-    resumed = solve_complete(task, BranchAndPruneOptions(time_limit_s=100, pair_test_boxes=0), checkpoint=ckpt, resume=True)
+    resumed = solve_complete(task, BranchAndPruneOptions(verifier=LocalVerifier(), time_limit_s=100, pair_test_boxes=0), checkpoint=ckpt, resume=True)
     assert resumed.status == Status.INFEASIBLE and resumed.stats["boxes"] > 2
 
 
@@ -232,3 +234,26 @@ def test_a_checkpoint_without_fingerprint_or_not_json_is_refused(tmp_path):
     junk.write_text("{not json")
     with pytest.raises(PrehensionError, match="is not a checkpoint file"):
         solve_complete(pincer_task(50.0), FAST, checkpoint=junk, resume=True)
+
+
+def test_the_complete_solver_does_not_import_the_local_solver():
+    """The complete solver verifies boxes through the verifier it is given (BranchAndPruneOptions.verifier):
+    importing its search in a fresh interpreter loads no module of the local solver."""
+    import subprocess
+    import sys
+
+    code = ("import sys, prehension.solvers.complete.search; "
+            "print(sorted(m for m in sys.modules if m.startswith('prehension.solvers.local')))")  # fmt: skip
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]", out.stdout
+
+
+def test_without_a_verifier_the_search_still_proves_but_verifies_nothing():
+    """No verifier: an infeasible task is still proved infeasible; a feasible one ends with no
+    verified solution (never a solution that was not verified)."""
+    bare = replace(FAST, verifier=None)
+    assert solve_complete(pincer_task(55.0), bare).status == Status.INFEASIBLE
+    feasible = solve_complete(pincer_task(30.0), replace(bare, max_boxes=30))
+    assert feasible.status != Status.SOLVED and not feasible.solutions
+    with pytest.raises(PrehensionError, match="verifier must be a BoxVerifier"):
+        BranchAndPruneOptions(verifier=lambda task, starts: None)

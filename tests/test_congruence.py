@@ -1,4 +1,4 @@
-"""The pose-free pair test (solvers/complete/congruence.py) and its affine forms: the
+"""The pose-free pair test (solvers/complete/pair/) and its affine forms: the
 enclosures contain what they bound, a known solution is never pruned, and proofs end the
 complete search as infeasible."""
 
@@ -12,11 +12,15 @@ from prehension.geometry.regions import PointRegion
 from prehension.hands.sa_hand import schunk_sa_hand
 from prehension.objects.model import GraspObject
 from prehension.results import Status
-from prehension.solvers.complete import affine as af
-from prehension.solvers.complete import congruence as cg
+from prehension.solvers.complete.pair import affine as af
+from prehension.solvers.complete import pair as cg
+from prehension.solvers.complete.pair import forms as pf
+from prehension.solvers.complete.pair import product
+from prehension.solvers.complete.pair import span as ps
 from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
 from prehension.tasks.library import load_builtin_task
 from prehension.tasks.model import Contact, Task
+from prehension.solvers.local.verifier import LocalVerifier
 
 
 # -- affine forms --------------------------------------------------------------------------------
@@ -143,8 +147,8 @@ def test_the_forms_of_both_sides_contain_their_values_on_random_boxes(case):
     lo = pp.lower + rng.uniform(0, 1, (B, pp.n_dims)) * (pp.upper - pp.lower - width)
     hi = lo + width
     zc, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
-    d_hand, dirs = cg._hand_forms(pp, zc, half)
-    d_obj, h_a, h_b = cg._object_forms(pp, zc, half)
+    d_hand, dirs = pf.hand_forms(pp, zc, half)
+    d_obj, h_a, h_b = pf.object_forms(pp, zc, half)
     forms = (d_hand, dirs[0], dirs[1], d_obj, h_a, h_b)
     for _ in range(10):
         eps = rng.uniform(-1, 1, (B, pp.n_dims))
@@ -166,7 +170,7 @@ def test_boxes_around_a_known_solution_are_never_pruned(case):
     lo = np.maximum(pp.lower, z - rng.uniform(0, 1, (B, pp.n_dims)) * width)
     hi = np.minimum(pp.upper, lo + width)
     hi = np.maximum(hi, z)
-    kept_lo, kept_hi, _, _ = cg._prune_and_contract(pp, lo, hi)
+    kept_lo, kept_hi, _, _ = product._prune_and_contract(pp, lo, hi)
     assert len(kept_lo) == B
     assert np.all(kept_lo <= z) and np.all(z <= kept_hi)
 
@@ -183,13 +187,13 @@ def test_every_pair_of_a_forward_built_task_with_the_palm_keeps_its_solution():
             width = (pp.upper - pp.lower) * 10.0 ** rng.uniform(-6, 0, (100, 1))
             lo = np.maximum(pp.lower, z - rng.uniform(0, 1, (100, pp.n_dims)) * width)
             hi = np.maximum(np.minimum(pp.upper, lo + width), z)
-            kept_lo, kept_hi, _, _ = cg._prune_and_contract(pp, lo, hi)
+            kept_lo, kept_hi, _, _ = product._prune_and_contract(pp, lo, hi)
             assert len(kept_lo) == 100 and np.all(kept_lo <= z) and np.all(z <= kept_hi)
 
 
 def test_forward_built_pairs_are_never_proved_infeasible():
     for task, config in _pair_problems()[2:]:
-        outcome = cg.prove_pair_infeasible(cg.pair_problem(task, 0, 1), max_boxes=3000)
+        outcome = product.prove_pair_infeasible(cg.pair_problem(task, 0, 1), max_boxes=3000)
         assert not outcome.proved
 
 
@@ -204,7 +208,7 @@ def test_the_object_distance_range_contains_the_distances_on_random_boxes(case):
     width = (pp.upper - pp.lower) * 10.0 ** rng.uniform(-3, 0, (B, 1))
     lo = pp.lower + rng.uniform(0, 1, (B, pp.n_dims)) * (pp.upper - pp.lower - width)
     hi = lo + width
-    lower, upper = cg.object_distance_range(pp, lo, hi)
+    lower, upper = ps.object_distance_range(pp, lo, hi)
     for _ in range(20):
         z = lo + rng.uniform(0, 1, lo.shape) * (hi - lo)
         distance = np.linalg.norm(_true_values(pp, z)[3], axis=1)
@@ -214,15 +218,15 @@ def test_the_object_distance_range_contains_the_distances_on_random_boxes(case):
 def test_forward_built_pairs_are_never_proved_out_of_span():
     hand = schunk_sa_hand()
     for task, _ in _pair_problems()[2:]:
-        assert not cg.prove_out_of_span(cg.pair_problem(task, 0, 1), hand).proved
+        assert not ps.prove_out_of_span(cg.pair_problem(task, 0, 1), hand).proved
 
 
 def test_the_span_test_proves_a_pinch_wider_than_the_span_and_not_one_within_it():
     pp = cg.pair_problem(_pinch_task(60.0), 0, 1)
-    span = cg.pair_span_mm(pp, schunk_sa_hand(), tight=True)
-    extra = cg.object_distance_range(pp, pp.lower[None], pp.upper[None])[0][0] - 60.0  # the fingertip radii
-    assert cg.prove_out_of_span(cg.pair_problem(_pinch_task(span - extra + 0.01), 0, 1), schunk_sa_hand()).proved
-    outcome = cg.prove_out_of_span(cg.pair_problem(_pinch_task(span - extra - 0.01), 0, 1), schunk_sa_hand())
+    span = ps.pair_span_mm(pp, schunk_sa_hand(), tight=True)
+    extra = ps.object_distance_range(pp, pp.lower[None], pp.upper[None])[0][0] - 60.0  # the fingertip radii
+    assert ps.prove_out_of_span(cg.pair_problem(_pinch_task(span - extra + 0.01), 0, 1), schunk_sa_hand()).proved
+    outcome = ps.prove_out_of_span(cg.pair_problem(_pinch_task(span - extra - 0.01), 0, 1), schunk_sa_hand())
     assert not outcome.proved and outcome.stopped == "witness"
 
 
@@ -230,7 +234,7 @@ def test_the_span_test_proves_a_pinch_wider_than_the_span_and_not_one_within_it(
 def test_the_object_distance_floor_is_below_every_distance(case):
     task, _ = _pair_problems()[case]
     pp = cg.pair_problem(task, 0, 1)
-    floor, best, boxes = cg.object_distance_floor(pp, max_boxes=300)
+    floor, best, boxes = ps.object_distance_floor(pp, max_boxes=300)
     rng = np.random.default_rng(200 + case)
     z = pp.lower + rng.uniform(0, 1, (2000, pp.n_dims)) * (pp.upper - pp.lower)
     distance = np.linalg.norm(_true_values(pp, z)[3], axis=1)
@@ -243,14 +247,14 @@ def test_boxes_around_a_known_solution_survive_the_distance_floor(case):
     box of a known solution."""
     task, config = _pair_problems()[case]
     pp = cg.pair_problem(task, 0, 1)
-    floor, _, _ = cg.object_distance_floor(pp)
+    floor, _, _ = ps.object_distance_floor(pp)
     z = np.concatenate([config.joint_angles[pp.kin.problem.sources]] + [np.atleast_1d(config.contact_params[i][1]) for i in (0, 1)])
     rng = np.random.default_rng(300 + case)
     B = 300
     width = (pp.upper - pp.lower) * 10.0 ** rng.uniform(-6, 0, (B, 1))
     lo = np.maximum(pp.lower, z - rng.uniform(0, 1, (B, pp.n_dims)) * width)
     hi = np.maximum(np.minimum(pp.upper, lo + width), z)
-    kept_lo, kept_hi, _, _ = cg._prune_and_contract(pp, lo, hi, floor)
+    kept_lo, kept_hi, _, _ = product._prune_and_contract(pp, lo, hi, floor)
     assert len(kept_lo) == B and np.all(kept_lo <= z) and np.all(z <= kept_hi)
 
 
@@ -271,10 +275,10 @@ def test_the_hand_distance_bound_contains_the_distances_on_random_boxes():
 
 
 def test_a_pinch_past_reach_is_proved_and_ends_the_search_as_infeasible():
-    proof = cg.prove_pair_infeasible(cg.pair_problem(_pinch_task(180.0), 0, 1), max_boxes=50_000)
+    proof = product.prove_pair_infeasible(cg.pair_problem(_pinch_task(180.0), 0, 1), max_boxes=50_000)
     assert proof.proved
     seen = []
-    result = solve_complete(_pinch_task(180.0), BranchAndPruneOptions(max_boxes=50), progress=seen.append)
+    result = solve_complete(_pinch_task(180.0), BranchAndPruneOptions(verifier=LocalVerifier(), max_boxes=50), progress=seen.append)
     assert result.status == Status.INFEASIBLE
     assert "cannot be made together whatever the object's pose" in result.message
     assert result.stats["pair_test"]["proved"]
@@ -286,19 +290,20 @@ def test_the_pair_test_stops_at_its_time_limit():
 
     pp = cg.pair_problem(load_builtin_task("teapot-lid-lifting"), 0, 1)
     started = time.perf_counter()
-    outcome = cg.prove_pair_infeasible(pp, max_boxes=10**9, time_limit_s=0.5)
+    outcome = product.prove_pair_infeasible(pp, max_boxes=10**9, time_limit_s=0.5)
     assert not outcome.proved and outcome.stopped == "budget"
     assert time.perf_counter() - started < 5.0
 
 
 # -- the twist about the line between the fingertip centres ----------------------------------------
 class _Caps:
-    """The stand-in of a PairProblem that :func:`cg.twist_possible` reads: two hand caps."""
+    """The stand-in of a PairProblem that :func:`product.twist_possible` reads: two hand caps."""
 
     def __init__(self, betas):
         from prehension.geometry.regions import SphereCap
 
         self.hand = tuple((type("H", (), {"region": SphereCap((0, 0, 0), 10.0, (0, 0, 1), b)})(), 10.0) for b in betas)
+        self.betas = tuple(float(b) for b in betas)
 
 
 def _unit(v):
@@ -363,7 +368,7 @@ def test_the_twist_condition_keeps_every_pair_that_one_rotation_can_make(seed):
     size = 10.0 ** rng.uniform(-9, -1, B)
     forms = [_enclosing_form(rng, v, K, size * scale) for v, scale in ((d_hand, 60.0), (m[0], 1.0), (m[1], 1.0),
                                                                        (d_obj, 60.0), (h[0], 1.0), (h[1], 1.0))]  # fmt: skip
-    kept = cg.twist_possible(_Caps(betas), forms[0], forms[1:3], forms[3], tuple(forms[4:]))
+    kept = product.twist_possible(_Caps(betas), forms[0], forms[1:3], forms[3], tuple(forms[4:]))
     assert kept.all()
 
 
@@ -377,7 +382,7 @@ def test_the_twist_condition_prunes_exact_values_that_no_rotation_can_make(seed)
     betas, d_hand, m, d_obj, h = _twist_case(rng, B, feasible=False)
     best = _best_twist_slack(betas, d_hand, m, d_obj, h)
     point = lambda v: af.Form(v, np.zeros(v.shape + (1,)), np.zeros(len(v)))  # noqa: E731
-    kept = cg.twist_possible(_Caps(betas), point(d_hand), [point(m[0]), point(m[1])], point(d_obj), (point(h[0]), point(h[1])))
+    kept = product.twist_possible(_Caps(betas), point(d_hand), [point(m[0]), point(m[1])], point(d_obj), (point(h[0]), point(h[1])))
     assert np.all(kept[best > 1e-2])
     assert not np.any(kept[best < -1e-2])
     assert (best < -1e-2).sum() > 20  # the cases do test pruning

@@ -26,6 +26,7 @@ from prehension.system.builder import Builder
 from prehension.system.canonical import AngleCoupling
 from prehension.system.couplings import exact_ratio, multiple_angle
 from prehension.verification.residuals import Tolerances, evaluate
+from prehension.solvers.local.verifier import LocalVerifier
 from tiny_tasks import pincer_task
 
 ANY_COLLISION = Tolerances(penetration_mm=float("inf"))
@@ -182,13 +183,13 @@ def _coupled_pincer_reach(ratio: float) -> float:
 @pytest.mark.parametrize("ratio", [2.0, 0.5, 0.7311])
 def test_coupled_pincer_is_solved_at_its_reach_and_certified_past_it(ratio):
     d = _coupled_pincer_reach(ratio)
-    solved = solve_complete(_coupled_pincer(ratio, d), BranchAndPruneOptions(time_limit_s=60))
+    solved = solve_complete(_coupled_pincer(ratio, d), BranchAndPruneOptions(verifier=LocalVerifier(), time_limit_s=60))
     assert solved.status == Status.SOLVED and solved.solutions[0].report.ok
     j1, j2 = solved.solutions[0].q
     assert j2 == pytest.approx(ratio * j1, abs=1e-9)
     if ratio != 0.5:
         return
-    past = solve_complete(_coupled_pincer(ratio, d + 3.0), BranchAndPruneOptions(time_limit_s=60))
+    past = solve_complete(_coupled_pincer(ratio, d + 3.0), BranchAndPruneOptions(verifier=LocalVerifier(), time_limit_s=60))
     assert past.status == Status.INFEASIBLE and not past.solutions
 
 
@@ -204,7 +205,7 @@ def test_fk_tasks_on_coupled_sa_hands_are_solved(sa_hand, ratio, offset):
     hand = _coupled_hand(sa_hand, ratio, offset)
     rng = np.random.default_rng(77)
     case = build_fk_case(hand, rng, fingers=("thumb", "index"), q=_angles_within_limits(hand, rng), palm=False)
-    result = solve_complete(case.task, BranchAndPruneOptions(time_limit_s=120, tolerances=ANY_COLLISION))
+    result = solve_complete(case.task, BranchAndPruneOptions(verifier=LocalVerifier(), time_limit_s=120, tolerances=ANY_COLLISION))
     assert result.status == Status.SOLVED
     q = result.solutions[0].q
     assert q[hand.dof_index("index_dip")] == pytest.approx(ratio * q[hand.dof_index("index_pip")] + math.radians(offset), abs=1e-9)

@@ -21,6 +21,7 @@ import pytest
 from prehension.results import Status, make_solution
 from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
 from prehension.verification.residuals import Tolerances
+from prehension.solvers.local.verifier import LocalVerifier
 
 SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "frontier.py"
 NO_SELF_COLLISION = Tolerances(penetration_mm=float("inf"))  # as the complete solver's system
@@ -57,7 +58,7 @@ def test_tasks_just_inside_the_frontier_are_never_called_infeasible(frontier_mod
     task = family.task_at(found.t_mm - eps_mm)
     witness = frontier_module.solution_at(family, found.configuration, found.t_mm, found.t_mm - eps_mm)
     assert witness is not None and make_solution(task, witness, NO_SELF_COLLISION) is not None  # feasible
-    result = solve_complete(task, BranchAndPruneOptions(max_boxes=4))
+    result = solve_complete(task, BranchAndPruneOptions(verifier=LocalVerifier(), max_boxes=4))
     assert result.status in (Status.SOLVED, Status.GAVE_UP)
     for solution in result.solutions:
         assert make_solution(result.task, solution.configuration()) is not None
@@ -65,18 +66,19 @@ def test_tasks_just_inside_the_frontier_are_never_called_infeasible(frontier_mod
 
 def test_half_a_millimetre_inside_is_solved_and_two_outside_certified(scalpel):
     family, found = scalpel
-    inside = solve_complete(family.task_at(found.t_mm - 0.5), BranchAndPruneOptions(max_boxes=20))
+    inside = solve_complete(family.task_at(found.t_mm - 0.5), BranchAndPruneOptions(verifier=LocalVerifier(), max_boxes=20))
     assert inside.status == Status.SOLVED
-    outside = solve_complete(family.task_at(found.t_mm + 2.0), BranchAndPruneOptions(max_boxes=20))
+    outside = solve_complete(family.task_at(found.t_mm + 2.0), BranchAndPruneOptions(verifier=LocalVerifier(), max_boxes=20))
     assert outside.status == Status.INFEASIBLE
     assert "boxes pruned" in outside.message
 
 
 def test_the_span_test_proves_a_task_past_the_distance_limit_and_never_one_just_inside(scalpel):
-    """The object-side span test (congruence.prove_out_of_span): the scalpel family 1 mm past
+    """The object-side span test (pair.span.prove_out_of_span): the scalpel family 1 mm past
     t* is proved (its regions are then farther apart than the hand's span), and never the
     tasks just inside the frontier, which have a known solution."""
-    from prehension.solvers.complete.congruence import pair_problem, prove_out_of_span
+    from prehension.solvers.complete.pair import pair_problem
+    from prehension.solvers.complete.pair.span import prove_out_of_span
 
     family, found = scalpel
     hand = family.base.hand
@@ -89,8 +91,8 @@ def test_the_span_test_proves_a_task_past_the_distance_limit_and_never_one_just_
 def test_the_lid_a_millimetre_past_its_frontier_is_proved_by_matching_ranges(frontier_module):
     """The teapot lid's knob moved to ``t* + 1 mm`` (``t*`` = 163.911 mm, benchmarks/README.md):
     the pair test by matching ranges proves it (the product search does not in 2 M boxes)."""
-    from prehension.solvers.complete.congruence import pair_problem
-    from prehension.solvers.complete.matching import prove_pair_by_matching
+    from prehension.solvers.complete.pair import pair_problem
+    from prehension.solvers.complete.pair.matching import prove_pair_by_matching
 
     family = frontier_module.families(["lid"])[0]
     outcome = prove_pair_by_matching(pair_problem(family.task_at(163.911 + 1.0), 0, 1), max_boxes=40_000)
@@ -109,8 +111,8 @@ def test_guitar_tuning_a_millimetre_past_its_frontier_is_proved_by_matching_rang
     the fingertips) at ``t* + 1 mm``: the hand stage against the object side's extremes leaves
     only configurations near the hand's widest, and the matching (twist included) proves it;
     before the extremes and the patches' local remainders, 200,000 boxes did not."""
-    from prehension.solvers.complete.congruence import pair_problem
-    from prehension.solvers.complete.matching import prove_pair_by_matching
+    from prehension.solvers.complete.pair import pair_problem
+    from prehension.solvers.complete.pair.matching import prove_pair_by_matching
 
     family, found = tuning
     assert abs(found.t_mm - 174.660) < 0.01  # benchmarks/README.md
@@ -125,7 +127,7 @@ def test_guitar_tuning_just_inside_its_frontier_is_never_proved(frontier_module,
     (checked), the hand stage keeps its angles, and the pair test by matching does not prove
     the pair infeasible."""
     from prehension.solvers.complete import matching as mt
-    from prehension.solvers.complete.congruence import pair_problem
+    from prehension.solvers.complete.pair import pair_problem
 
     family, found = tuning
     task = family.task_at(found.t_mm - eps_mm)
@@ -145,7 +147,7 @@ def test_guitar_tuning_a_millimetre_past_its_frontier_is_certified_at_the_first_
     ``NEAR_FRONTIER_MM`` of the hand's span), so the first pair test gives the matching its
     whole budget and certifies the task before a second box is processed."""
     family, found = tuning
-    result = solve_complete(family.task_at(found.t_mm + 1.0), BranchAndPruneOptions(max_boxes=2))
+    result = solve_complete(family.task_at(found.t_mm + 1.0), BranchAndPruneOptions(verifier=LocalVerifier(), max_boxes=2))
     assert result.status == Status.INFEASIBLE
     assert "cannot be made together" in result.message
 
@@ -166,7 +168,7 @@ def test_random_families_just_inside_their_frontier_are_never_called_infeasible(
     task = family.task_at(t)
     witness = frontier_module.solution_at(family, found.frontier.configuration, found.frontier.t_mm, t)
     assert witness is not None and make_solution(task, witness) is not None  # feasible, no self-collision
-    result = solve_complete(task, BranchAndPruneOptions(max_boxes=3))
+    result = solve_complete(task, BranchAndPruneOptions(verifier=LocalVerifier(), max_boxes=3))
     assert result.status in (Status.SOLVED, Status.GAVE_UP), result.message
     for solution in result.solutions:
         assert make_solution(result.task, solution.configuration()) is not None

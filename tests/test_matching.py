@@ -1,4 +1,4 @@
-"""The pair test by matching ranges (solvers/complete/matching.py): each side's ranges contain
+"""The pair test by matching ranges (solvers/complete/pair/matching.py): each side's ranges contain
 the invariants' values, boxes around a known solution always match, forward-built pairs are
 never proved infeasible, and a pair past reach is proved."""
 
@@ -7,8 +7,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from prehension.solvers.complete import congruence as cg
-from prehension.solvers.complete import matching as mt
+from prehension.solvers.complete import pair as cg
+from prehension.solvers.complete.pair import matching as mt
+from prehension.solvers.complete.region_kinds import patch_remainders
 from test_congruence import _pair_problems, _pinch_task, _true_values
 
 
@@ -81,7 +82,7 @@ def test_boxes_around_a_known_solution_always_match(case):
     rng = np.random.default_rng(case)
     hand, _ = mt.hand_ranges(pp, *_random_boxes(rng, pp.lower[sa], pp.upper[sa], 150, around=z[sa]))
     obj, _ = mt.object_ranges(pp, *_random_boxes(rng, pp.lower[so], pp.upper[so], 150, around=z[so]))
-    assert mt.compatible(hand, obj, mt._betas(pp)).all()
+    assert mt.compatible(hand, obj, pp.betas).all()
 
 
 def test_forward_built_pairs_are_never_proved_infeasible_by_matching():
@@ -138,7 +139,7 @@ def test_contraction_narrows_a_box_far_from_the_hull():
     d_h, m_a, m_b, d_o, n_a, n_b = _true_values(pp, z[None])
     for hand, dims, values in ((True, sa, (d_o, n_a, n_b)), (False, so, (d_h, m_a, m_b))):
         length, angle, _, _ = _invariants(*values)  # the other side's invariants, widened by beta
-        betas = mt._betas(pp)
+        betas = pp.betas
         hull = mt.Hull((length[0], length[0]), tuple((max(angle[s][0] - betas[s], 0.0), min(angle[s][0] + betas[s], np.pi)) for s in (0, 1)))
         new_lo, new_hi = mt.contract_to(pp, pp.lower[None, dims], pp.upper[None, dims], hull, hand=hand)
         assert np.all((z[dims] >= new_lo[0] - 1e-9) & (z[dims] <= new_hi[0] + 1e-9))
@@ -184,7 +185,7 @@ def test_the_hand_stage_keeps_a_known_solution(case):
 
 @pytest.mark.parametrize("case", [1, 4])
 def test_a_patchs_local_remainders_bound_its_taylor_remainder(case):
-    """``congruence._local_patch_remainders``: on seeded random sub-boxes (the whole patch down
+    """``region_kinds.patch_remainders``: on seeded random sub-boxes (the whole patch down
     to 1e-4 of it), a point and unit normal at 50 sampled parameters each differ from the
     first-order Taylor form at the box's centre by at most the bound, and the bound is never
     looser than the whole patch's (``region_curvature``)."""
@@ -196,7 +197,7 @@ def test_a_patchs_local_remainders_bound_its_taylor_remainder(case):
     for side in patches:
         region, (m_point, m_normal) = pp.objects[side]
         lo, hi = _random_boxes(rng, np.zeros(2), np.ones(2), 60)
-        r_point, r_normal = cg._local_patch_remainders(region.patch, lo, hi)
+        r_point, r_normal = patch_remainders(region.patch, lo, hi)
         reach = 0.5 * (hi - lo).sum(axis=1)
         assert np.all(r_point <= 0.5 * m_point * reach**2 * (1 + 1e-6) + 1e-12)
         for b in range(len(lo)):

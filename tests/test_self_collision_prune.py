@@ -24,6 +24,7 @@ from prehension.system.formulation import build_system
 from prehension.tasks.model import Contact, Task
 from prehension.verification.residuals import Tolerances, evaluate
 from prehension.verification import verify_result_file
+from prehension.solvers.local.verifier import LocalVerifier
 
 TOLS = Tolerances()  # strict: no self-penetration at all
 SEEDS = tuple(range(9100, 9124))
@@ -148,7 +149,7 @@ def test_no_prune_without_a_finite_tolerance(cases):
     task, config, form = next(c for c in cases if _self_collides(c[0], c[1]) > 1.0)
     x = embed(form, config)
     assert self_collision_prune(form, x, x, Tolerances(penetration_mm=float("inf"))) is None
-    options = BranchAndPruneOptions(self_collision_prune=False, all_solutions=True)
+    options = BranchAndPruneOptions(verifier=LocalVerifier(), self_collision_prune=False, all_solutions=True)
     assert not process_box(form, x, x, 0, options).by_self_collision
 
 
@@ -165,7 +166,7 @@ def test_a_task_infeasible_only_through_self_collision_is_certified_and_re_prove
     from prehension.cli import EXIT_INFEASIBLE, main
 
     task = crossed_pinch(sa_hand)
-    result = solve_complete(task, BranchAndPruneOptions(time_limit_s=60))
+    result = solve_complete(task, BranchAndPruneOptions(verifier=LocalVerifier(), time_limit_s=60))
     assert result.status == Status.INFEASIBLE and not result.solutions
     assert "no self-collision-free solution" in result.message and result.stats["self_collision_pruned"] > 0
     out = tmp_path / "crossed.json"
@@ -175,7 +176,7 @@ def test_a_task_infeasible_only_through_self_collision_is_certified_and_re_prove
     capsys.readouterr()
     again = next(f for f in verify_result_file(out).findings if f.what == "infeasibility re-proved")
     assert again.ok and "for self-collision: no self-collision-free solution" in again.detail
-    off = solve_complete(task, BranchAndPruneOptions(max_boxes=3, self_collision_prune=False, verify_starts=1))
+    off = solve_complete(task, BranchAndPruneOptions(verifier=LocalVerifier(), max_boxes=3, self_collision_prune=False, verify_starts=1))
     assert off.status == Status.GAVE_UP and off.stats["self_collision_pruned"] == 0
 
 

@@ -164,12 +164,16 @@ def complete_after_local(task: Task, local: SolveResult, options: SolveOptions) 
 
 def complete_options_of(options: SolveOptions):
     """The complete solver's options ``options`` names (made now when it gives a callable;
-    the defaults when ``None``), with ``require`` and its friction model applied.  The one
-    place where the complete solver's options are built."""
+    the defaults when ``None``), with ``require`` and its friction model applied, and the
+    local solver's iterations as its box verifier when none is given.  The one place where
+    the complete solver's options are built."""
     from .solvers.complete.search import BranchAndPruneOptions
+    from .solvers.local.verifier import LocalVerifier
 
     complete = options.complete_options
     complete = (complete() if callable(complete) else complete) or BranchAndPruneOptions()
+    if complete.verifier is None:  # the complete solver verifies its boxes with the local solver's iterations
+        complete = replace(complete, verifier=LocalVerifier())
     if options.require is not None:
         complete = replace(complete, require=options.require, quality=options.quality or complete.quality)
     return complete

@@ -34,7 +34,7 @@ rotations and normals): JSON keeps a float exactly, and recomputing uses the sam
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -396,8 +396,9 @@ def _reprove(task: Task, data: dict, reprove: bool, time_limit_s) -> tuple[Solve
     if not reprove:
         return None, [Finding("infeasibility (not re-proved)", True, claimed + "; run check without --no-reprove to re-derive it")]
     from ..solvers.complete.search import solve_complete
+    from ..solvers.local.verifier import LocalVerifier
 
-    again = solve_complete(task, _search_options(stats.get("options"), time_limit_s))
+    again = solve_complete(task, replace(_search_options(stats.get("options"), time_limit_s), verifier=LocalVerifier()))
     if again.status == Status.INFEASIBLE:
         same = again.stats.get("boxes") == stats.get("boxes")
         note = "same count" if same else f"the file says {stats.get('boxes')}: other options or another version"

@@ -8,9 +8,11 @@ original lid task would "prove" the feasible task infeasible).  So a checkpoint 
 two fingerprints, and :func:`load_state` refuses one that does not match:
 
 * **task**: SHA-256 of the canonical system (names, initial box, every equation and
-  inequality, the Psi equations with their Bernstein coefficients, the angle couplings) and of the task's
-  file mapping without its name and description (the idle angles, collision shapes and
-  couplings that verification judges);
+  inequality, the Psi equations with their Bernstein coefficients, the angle couplings) and of the task
+  model without its name and description (hand, object, contacts, fingers, idle angles:
+  the collision shapes and couplings that verification judges), read from the model's own
+  fields, not from a file format (a checkpoint of format /3 hashed the task's YAML mapping:
+  it is refused as written by another version);
 * **options**: SHA-256 of every option that changes the boxes visited or the answer:
   ``sigma``, ``order``, ``all_solutions``, the shrink options, ``verify_starts``, the
   local refinement options and the tolerances (``max_boxes`` and ``time_limit_s`` only
@@ -40,7 +42,8 @@ from __future__ import annotations
 import hashlib
 import json
 from collections import deque
-from dataclasses import asdict, dataclass, field
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, field, fields, is_dataclass
 from pathlib import Path
 
 import numpy as np
@@ -52,9 +55,9 @@ from ...system import Formulation
 from ...tasks.model import Configuration, Task
 from ...verification.residuals import Tolerances
 
-__all__ = ["SearchState", "search_fingerprint", "load_state", "save_state", "FORMAT"]
+__all__ = ["SearchState", "search_fingerprint", "options_record", "load_state", "save_state", "FORMAT"]
 
-FORMAT = "prehension-complete-checkpoint/3"  # /3: the content digest
+FORMAT = "prehension-complete-checkpoint/4"  # /3: the content digest; /4: the task fingerprint from the task model
 _STOP_ONLY = ("max_boxes", "time_limit_s")  # options that do not change the search
 
 
@@ -69,7 +72,7 @@ class SearchState:
     solutions: list = field(default_factory=list)
     small: list = field(default_factory=list)
     best: tuple = (float("inf"), float("inf"))  # closest miss (contact_mm, normal_deg) so far
-    pair_test: object = None  # the pair test's result once run (.congruence.CongruenceResult)
+    pair_test: object = None  # the pair test's result once run (.pair.CongruenceResult)
     collision_pruned: int = 0  # boxes pruned because every configuration in them penetrates the object
     self_collision_pruned: int = 0  # boxes pruned because every solution in them collides with the hand itself
     closure_pruned: int = 0  # boxes pruned because no configuration in them is force closure (require)
@@ -210,13 +213,52 @@ def _system_digest(form: Formulation) -> "hashlib._Hash":
     return h
 
 
-def _task_mapping(task: Task) -> dict:
-    from ...tasks.format.tasks import task_to_dict
+def _model_digest(value, h: "hashlib._Hash") -> None:
+    """Feed a value of the task model to ``h``: dataclasses by type and fields, mappings by
+    sorted key, sequences item by item, arrays by dtype, shape and bytes, numbers by
+    ``repr`` (exact), and any other value by its ``repr``."""
+    if is_dataclass(value) and not isinstance(value, type):
+        h.update(f"<{type(value).__qualname__}>".encode())
+        for f in fields(value):
+            h.update(f.name.encode() + b"=")
+            _model_digest(getattr(value, f.name), h)
+    elif isinstance(value, Mapping):
+        h.update(b"{")
+        for key in sorted(value, key=repr):
+            h.update(repr(key).encode() + b":")
+            _model_digest(value[key], h)
+        h.update(b"}")
+    elif isinstance(value, (list, tuple)):
+        h.update(b"[")
+        for item in value:
+            _model_digest(item, h)
+            h.update(b",")
+        h.update(b"]")
+    elif isinstance(value, np.ndarray):
+        h.update(f"{value.dtype.str}{value.shape}".encode() + np.ascontiguousarray(value).tobytes())
+    else:
+        h.update(repr(value).encode())
 
-    data = task_to_dict(task)
-    data.pop("name", None)
-    data.pop("description", None)
-    return data
+
+def _task_digest(task: Task) -> str:
+    """SHA-256 of the task model without its name and description: the hand (joints,
+    limits, links and their collision shapes, couplings, regions), the object (regions,
+    solid), the contacts, the fingers taking part and the idle angles."""
+    h = hashlib.sha256()
+    for f in fields(task):
+        if f.name not in ("name", "description"):
+            h.update(f.name.encode() + b"=")
+            _model_digest(getattr(task, f.name), h)
+    return h.hexdigest()
+
+
+def options_record(options) -> dict:
+    """The search's options as plain values (``asdict``), its box verifier recorded by the
+    verifier's own options under ``"refine"`` (None without a verifier)."""
+    verifier = getattr(options, "verifier", None)
+    record = asdict(options)
+    refine = asdict(verifier.options) if verifier is not None and is_dataclass(verifier.options) else None
+    return {("refine" if k == "verifier" else k): (refine if k == "verifier" else v) for k, v in record.items()}
 
 
 def _options_mapping(options) -> dict:
@@ -230,7 +272,7 @@ def _options_mapping(options) -> dict:
         else:
             flat[prefix[:-1]] = value
 
-    values = {k: v for k, v in asdict(options).items() if k not in _STOP_ONLY}
+    values = {k: v for k, v in options_record(options).items() if k not in _STOP_ONLY}
     if values.get("require") is None:  # no requirement: the fingerprint of a search before it existed
         values.pop("require", None)
         values.pop("quality", None)
@@ -245,7 +287,7 @@ def _digest(data) -> str:
 def search_fingerprint(form: Formulation, options) -> dict:
     """The fingerprints a checkpoint of this search carries (see the module docstring)."""
     task_hash = _system_digest(form)
-    task_hash.update(_digest(_task_mapping(form.task)).encode())
+    task_hash.update(_task_digest(form.task).encode())
     flat = _options_mapping(options)
     return {
         "format": FORMAT,

@@ -53,16 +53,15 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linprog
 
-from ...geometry.regions import PointRegion, SphereCap
 from ...geometry.rotations import orthonormal_frame
 from ...quality import QualityOptions, torque_reference
 from ...system.formulation import Formulation
+from .region_kinds import object_point_normal_box
 
 __all__ = ["ClosureCertificate", "CERTIFICATE_MARGIN", "closure_prune", "contact_enclosures", "certified_bound"]
 
 CERTIFICATE_MARGIN = 1e-6  # the largest w . wrench a certificate allows (|w|_inf = 1; wrenches are O(1))
 _SAMPLE_EDGES = 16  # edges of the circumscribed pyramid the LP samples each cone with
-_NET_SLACK_MM = 1e-9  # widening of a sub-patch's control-net box (subdivision rounding)
 
 
 @dataclass(frozen=True)
@@ -86,39 +85,8 @@ def contact_enclosures(form: Formulation, lower, upper) -> tuple[np.ndarray, np.
     C = len(task.contacts)
     p_lo, p_hi, nu_lo, nu_hi = (np.zeros((C, 3)) for _ in range(4))
     for ci, (contact, cv) in enumerate(zip(task.contacts, form.contact_vars)):
-        region = task.object_region(contact)
-        if isinstance(region, PointRegion):
-            p_lo[ci] = p_hi[ci] = region.point
-            nu_lo[ci] = nu_hi[ci] = region.normal
-            continue
-        idx = np.asarray(cv.object_normal)
-        nu_lo[ci], nu_hi[ci] = np.maximum(lower[idx], -1.0), np.minimum(upper[idx], 1.0)
-        if isinstance(region, SphereCap):
-            p_lo[ci] = region.center + region.radius * nu_lo[ci]
-            p_hi[ci] = region.center + region.radius * nu_hi[ci]
-        else:
-            s, t = cv.object_params
-            cut = (lower[s], upper[s], lower[t], upper[t])
-            net_lo, net_hi = region.patch.subdivide(*cut).bounds()
-            p_lo[ci], p_hi[ci] = net_lo - _NET_SLACK_MM, net_hi + _NET_SLACK_MM
-            n_lo, n_hi = _unit_normal_box(*region.patch.normal_patch().subdivide(*cut).bounds())
-            nu_lo[ci], nu_hi[ci] = np.maximum(nu_lo[ci], n_lo), np.minimum(nu_hi[ci], n_hi)
+        p_lo[ci], p_hi[ci], nu_lo[ci], nu_hi[ci] = object_point_normal_box(task.object_region(contact), cv, lower, upper)
     return p_lo, p_hi, nu_lo, nu_hi
-
-
-def _unit_normal_box(N_lo: np.ndarray, N_hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """A box holding ``N / |N|`` for every ``N`` of the box ``[N_lo, N_hi]`` (3,) -- the normal
-    patch's sub-net box, which holds the sub-patch's ``p_s x p_t`` --, by interval division
-    by ``|N|`` in ``[d_min, d_max]``; ``[-1, 1]`` when the box holds the origin."""
-    N_lo, N_hi = N_lo - _NET_SLACK_MM, N_hi + _NET_SLACK_MM
-    nearest = np.clip(0.0, N_lo, N_hi)
-    d_min = float(np.linalg.norm(nearest))
-    if d_min <= 0.0:
-        return -np.ones(3), np.ones(3)
-    d_max = float(np.linalg.norm(np.maximum(np.abs(N_lo), np.abs(N_hi))))
-    lo = np.where(N_lo >= 0, N_lo / d_max, N_lo / d_min)  # the smallest quotient: over the largest |N| when positive
-    hi = np.where(N_hi >= 0, N_hi / d_min, N_hi / d_max)
-    return np.clip(lo - 1e-12 * np.abs(lo) - 1e-15, -1, 1), np.clip(hi + 1e-12 * np.abs(hi) + 1e-15, -1, 1)  # outward rounding
 
 
 def closure_prune(form: Formulation, lower, upper, quality: QualityOptions) -> ClosureCertificate | None:

@@ -73,10 +73,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...frozen import cached_per_value
-from ...geometry.regions import PointRegion, SphereCap
 from ...system.formulation import Formulation
 from ...tasks.object_collision import SAMPLE_MM, pad_centre_in_link, pad_radius
 from ...verification.residuals import Tolerances
+from .region_kinds import hand_tip, offset_point_box
 
 __all__ = ["CollisionProbes", "CollisionProof", "ContactAnchor", "collision_probes", "probe_enclosures", "collision_prune",
            "PROBE_SPACING_MM", "FLOAT_MARGIN_MM"]  # fmt: skip
@@ -85,7 +85,6 @@ PROBE_SPACING_MM = 5.0  # largest distance between two probe points of a capsule
 FLOAT_MARGIN_MM = 1e-6  # rounding of the distance structure and of the enclosures [mm]
 _PAD_MARGIN_MM = 1e-3  # a probe's ball this much farther from inside a pad than the residual function excuses [mm]
 _ROUNDING = 1e-9  # outward rounding of an enclosure, relative to its magnitude
-_SUBDIVIDE_BELOW = 0.25  # an object patch's (s, t) box smaller than this: bound its sub-patch (~0.5 ms)
 
 
 @dataclass(frozen=True, eq=False)
@@ -203,15 +202,12 @@ def _contact_anchors(form: Formulation, rows: np.ndarray) -> list[ContactAnchor]
     out = []
     for ci, contact in enumerate(form.task.contacts):
         hreg = form.task.hand_region(contact)
-        if isinstance(hreg.region, SphereCap):
-            c, rho = np.asarray(hreg.region.center, dtype=float), float(hreg.region.radius)
-        elif isinstance(hreg.region, PointRegion):
-            c, rho = np.asarray(hreg.region.point, dtype=float), 0.0
-        else:
+        tip = hand_tip(hreg.region)
+        if tip is None:
             continue  # a hand patch: its point is a product of variables
-        anchor_rows = _point_rows(form, hreg.link, c, form.system.n)
+        anchor_rows = _point_rows(form, hreg.link, tip.centre, form.system.n)
         A, columns = _compressed(rows - np.tile(anchor_rows, (rows.shape[0] // 3, 1)))
-        out.append(ContactAnchor(ci, rho, A, columns))
+        out.append(ContactAnchor(ci, tip.radius, A, columns))
     return out
 
 
@@ -228,9 +224,9 @@ def _pads_by_link(form: Formulation) -> dict[str, list[tuple[np.ndarray, float]]
     task, out = form.task, {}
     for contact in task.contacts:
         hreg = task.hand_region(contact)
-        centre = pad_centre_in_link(hreg)
-        if centre is None and isinstance(hreg.region, PointRegion):
-            centre = np.asarray(hreg.region.point, dtype=float)
+        centre, tip = pad_centre_in_link(hreg), hand_tip(hreg.region)
+        if centre is None and tip is not None and not tip.cone:  # a point region's point
+            centre = tip.centre
         if centre is not None:
             out.setdefault(hreg.link, []).append((centre, pad_radius(hreg)))
     return out
@@ -332,20 +328,7 @@ def _anchor_interval(form: Formulation, anchor: ContactAnchor, lower, upper, tol
     if not np.isfinite(slack):
         return None, None
     region = form.task.object_region(form.task.contacts[anchor.contact])
-    variables = form.contact_vars[anchor.contact]
-    if isinstance(region, PointRegion):
-        lo = hi = np.asarray(region.point, dtype=float) + anchor.rho * np.asarray(region.normal, dtype=float)
-    else:
-        nu = list(variables.object_normal)
-        n_lo, n_hi = np.clip(lower[nu], -1.0, 1.0), np.clip(upper[nu], -1.0, 1.0)
-        if isinstance(region, SphereCap):
-            reach, (o_lo, o_hi) = region.radius + anchor.rho, (np.asarray(region.center, dtype=float),) * 2
-        else:
-            (s, t), reach = variables.object_params, anchor.rho
-            u = np.clip([lower[s], upper[s], lower[t], upper[t]], 0.0, 1.0)
-            wide = (u[1] - u[0]) * (u[3] - u[2]) > _SUBDIVIDE_BELOW  # the whole patch's box will do
-            o_lo, o_hi = (region.patch if wide else region.patch.subdivide(*u)).bounds()
-        lo, hi = o_lo + reach * n_lo, o_hi + reach * n_hi
+    lo, hi = offset_point_box(region, form.contact_vars[anchor.contact], lower, upper, anchor.rho)
     pad = slack + _ROUNDING * (1.0 + np.abs(lo) + np.abs(hi))
     return lo - pad, hi + pad
 

@@ -31,7 +31,7 @@ import time
 import zlib
 from collections import deque
 from concurrent.futures import Executor
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Callable, Literal
 
@@ -42,18 +42,17 @@ from ...errors import PrehensionError
 from ...results import Solution, SolveResult, Status, make_solution
 from ...tasks.model import Task
 from ...verification.residuals import Tolerances
-from ..local.options import LocalOptions
-from ..local.solver import refine_local
 from ...system.embedding import configuration_from_point, embed
 from ...system.formulation import Formulation, build_system
 from ...quality import QualityOptions, grasp_quality
-from .checkpoint import SearchState, load_state, save_state, search_fingerprint
+from .checkpoint import SearchState, load_state, options_record, save_state, search_fingerprint
 from .closure import closure_prune
 from .collision import collision_prune
 from .self_collision import self_collision_prune
-from .congruence import congruence_test
+from .pair import congruence_test
 from .contract import contract
 from .shrink import ShrinkOptions, shrink_box
+from .verifier import BoxVerifier
 
 __all__ = ["ALL_SOLUTIONS_MAX_BOXES", "PAIR_TEST_LATE", "BranchAndPruneOptions", "solve_complete", "process_box", "BoxOutcome"]
 
@@ -87,10 +86,14 @@ class BranchAndPruneOptions:
         verify_starts: points of each box the verification starts from: its centre and
             ``verify_starts - 1`` pseudo-random points (seeded by the box's bounds, so a
             box is verified the same way in every process).
-        refine: options of the local iterations that verify a box.
+        verifier: the local iterations that verify a box (:class:`.verifier.BoxVerifier`,
+            given by the caller: :func:`prehension.solve` gives the local solver's,
+            :class:`prehension.solvers.local.verifier.LocalVerifier`); recorded by its
+            options, as ``"refine"``.  None: no box is verified (the search still prunes
+            and proves infeasibility; a box narrower than ``sigma`` is kept unverified).
         tolerances: what counts as a verified solution (strict by default).
         pair_test_boxes: box budget of the pose-free pair test
-            (:func:`.congruence.congruence_test`): a proof that two contacts cannot be
+            (:func:`.pair.congruence_test`): a proof that two contacts cannot be
             made together whatever the object's pose ends the search as infeasible.  It
             runs with a tenth of this budget when the first box holds no verified
             solution, and again with all of it after :data:`PAIR_TEST_LATE` boxes
@@ -121,7 +124,7 @@ class BranchAndPruneOptions:
     time_limit_s: float | None = None
     shrink: ShrinkOptions = field(default_factory=ShrinkOptions)
     verify_starts: int = 8
-    refine: LocalOptions = field(default_factory=LocalOptions)
+    verifier: BoxVerifier | None = None
     tolerances: Tolerances = field(default_factory=Tolerances)
     pair_test_boxes: int = 200_000
     collision_prune: bool = True
@@ -142,6 +145,9 @@ class BranchAndPruneOptions:
             raise PrehensionError(f"require must be 'force-closure' or None (any grasp), got {self.require!r}")
         if not isinstance(self.quality, QualityOptions):
             raise PrehensionError(f"quality must be a QualityOptions, got {type(self.quality).__name__}")
+        if self.verifier is not None and not isinstance(self.verifier, BoxVerifier):
+            raise PrehensionError("verifier must be a BoxVerifier (a callable (task, starts) with its options, e.g. "
+                                  f"prehension.solvers.local.verifier.LocalVerifier()), got {type(self.verifier).__name__}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -181,13 +187,16 @@ def _verify(
     """A verified solution reached by local iterations from points of the box (or None),
     and how close the closest of them came: ``(contact_mm, normal_deg)``.
 
-    The iterations (:func:`prehension.solvers.local.refine_local`) work on the original
+    The iterations (``options.verifier``, :mod:`.verifier`) work on the original
     constraints and may leave the box; whatever they reach is judged by
     :func:`make_solution` alone, so a returned solution is a solution of the task.
     ``in_box``: only a solution inside the box counts (describing the solution set).
+    Without a verifier, none (and no best residual).
     """
+    if options.verifier is None:
+        return None, (float("inf"), float("inf"))
     points = _verification_points(lower, upper, options.verify_starts)
-    reached = refine_local(form.task, [configuration_from_point(form, x) for x in points], options.refine)
+    reached = options.verifier(form.task, [configuration_from_point(form, x) for x in points])
     for config in reached.configurations:
         if config is not None:
             solution = make_solution(form.task, config, options.tolerances)
@@ -552,7 +561,7 @@ def _resumed_note(resumed: dict) -> str:
 
 
 def _options_dict(options: BranchAndPruneOptions) -> dict:
-    d = asdict(options)
+    d = options_record(options)
     d.pop("tolerances", None)
     if options.require is None:
         d.pop("quality", None)  # the friction model only matters to the requirement

@@ -54,10 +54,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...frozen import cached_per_value
-from ...geometry.regions import PointRegion, SphereCap
 from ...hands.collision import collision_pairs
 from ...system.formulation import Formulation
 from ...verification.residuals import Tolerances
+from .region_kinds import hand_tip
 from .collision import FLOAT_MARGIN_MM, ContactAnchor, _affine_hull, _anchor_interval, _compressed, _point_rows
 
 __all__ = ["SelfCollisionPairs", "SelfCollisionProof", "self_collision_pairs", "pair_distance_bounds", "self_collision_prune",
@@ -165,13 +165,10 @@ def _anchor_contacts(form: Formulation) -> dict[str, tuple[int, np.ndarray]]:
     by_group: dict = {}
     for ci, contact in enumerate(task.contacts):
         hreg = task.hand_region(contact)
-        if isinstance(hreg.region, SphereCap):
-            c = np.asarray(hreg.region.center, dtype=float)
-        elif isinstance(hreg.region, PointRegion):
-            c = np.asarray(hreg.region.point, dtype=float)
-        else:
+        tip = hand_tip(hreg.region)
+        if tip is None:
             continue  # a hand patch: its point is a product of variables
-        by_group.setdefault(finger_of.get(hreg.link), (ci, _point_rows(form, hreg.link, c, n)))
+        by_group.setdefault(finger_of.get(hreg.link), (ci, _point_rows(form, hreg.link, tip.centre, n)))
     for link in form.R_object_link:
         group = finger_of.get(link)
         if group in by_group:
@@ -181,8 +178,8 @@ def _anchor_contacts(form: Formulation) -> dict[str, tuple[int, np.ndarray]]:
 
 def _contact_anchor(form: Formulation, ci: int) -> ContactAnchor:
     """The :class:`.collision.ContactAnchor` of contact ``ci`` (its ``rho``; no rows needed)."""
-    region = form.task.hand_region(form.task.contacts[ci]).region
-    rho = float(region.radius) if isinstance(region, SphereCap) else 0.0
+    tip = hand_tip(form.task.hand_region(form.task.contacts[ci]).region)
+    rho = tip.radius if tip is not None else 0.0
     return ContactAnchor(ci, rho, np.zeros((0, 0)), np.zeros(0, dtype=np.int64))
 
 
