@@ -1,0 +1,123 @@
+"""DexGraspBench / BODex grasp files: one ``.npy`` dict per grasp.
+
+Layout (read from DexGraspBench's ``src/task/eval_func/base.py``, ``src/util/hand_util.py``
+and ``src/task/convert_format.py``, github.com/Mingrui-Yu/DexGraspBench, a copy of JYChen18/DexGraspBench, and its README;
+see docs/interop.md):
+
+* ``obj_path`` (str): the object (DexGraspBench: a MeshProcess folder; here: the mesh file);
+* ``obj_scale`` (float): the object mesh's scale, metres per file unit;
+* ``obj_pose`` (7,): the object's pose in the world, ``x, y, z`` [m], ``w, x, y, z``;
+* ``pregrasp_qpos``, ``grasp_qpos``, ``squeeze_qpos`` (7 + n,): the hand's root body pose in
+  the world (metres, w-x-y-z), then its joints in the MJCF's order
+  (:mod:`prehension.interop.qpos`); older files keep the 7 numbers apart in
+  ``pregrasp_pose`` / ``grasp_pose`` / ``squeeze_pose`` and only the joints in ``*_qpos``:
+  both are read.
+
+prehension writes ``obj_pose`` as the identity (the world is the object frame) and adds
+``joint_names`` (the qpos order) and ``hand`` (the hand's name), which DexGraspBench ignores.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InvalidTask
+from ..hands.model import Hand
+from .npy import load_npy, plain_value, save_npy
+from .qpos import BASE_SIZE, MM_PER_M, base_from_transform, qpos_joint_order, transform_from_base
+from .records import GraspRecord, record_from_qpos
+
+__all__ = ["record_to_dict", "record_from_dict", "write_dexgraspbench", "read_dexgraspbench", "STAGES"]
+
+STAGES = ("pregrasp", "grasp", "squeeze")
+IDENTITY_POSE = np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
+
+
+def record_to_dict(record: GraspRecord, hand: Hand) -> dict:
+    """The DexGraspBench dict of one grasp (the stages the record has)."""
+    out = {
+        "obj_path": record.object_path,
+        "obj_scale": record.object_scale_mm / MM_PER_M,
+        "obj_pose": IDENTITY_POSE.copy(),
+    }
+    for stage in STAGES:
+        qpos = record.qpos(hand, stage)
+        if qpos is not None:
+            out[f"{stage}_qpos"] = qpos
+    out["joint_names"] = np.array(qpos_joint_order(hand))
+    out["hand"] = hand.name
+    return out
+
+
+def write_dexgraspbench(records: list[GraspRecord], hand: Hand, output) -> list[Path]:
+    """One ``.npy`` per grasp: ``output`` itself for one grasp named ``*.npy``, else
+    ``output/0.npy, 1.npy, ...`` (DexGraspBench's layout; the folder is made)."""
+    output = Path(output)
+    if output.suffix.lower() == ".npy":
+        if len(records) != 1:
+            raise InvalidTask(f"{output}: {len(records)} grasps do not fit one .npy file; give a folder, or --solution K")
+        paths = [output]
+    else:
+        output.mkdir(parents=True, exist_ok=True)
+        paths = [output / f"{k}.npy" for k in range(len(records))]
+    for record, path in zip(records, paths):
+        save_npy(path, record_to_dict(record, hand))
+    return paths
+
+
+def _vector(data: dict, key: str, source: str) -> np.ndarray:
+    try:
+        v = np.asarray(data[key], dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise InvalidTask(f"{source}: {key!r} is not a list of numbers") from None
+    return v
+
+
+def _stage(data: dict, stage: str, n_dof: int, source: str) -> np.ndarray | None:
+    """``(7 + n,)`` of one stage: ``*_qpos`` with its base, or ``*_pose`` + ``*_qpos``."""
+    if f"{stage}_qpos" not in data:
+        return None
+    q = _vector(data, f"{stage}_qpos", source)
+    if q.size == n_dof and f"{stage}_pose" in data:
+        return np.concatenate([_vector(data, f"{stage}_pose", source), q])
+    return q
+
+
+def record_from_dict(data, hand: Hand, source: str) -> GraspRecord:
+    """The record of a DexGraspBench dict; the hand's base is taken into the object frame
+    through ``obj_pose``; the object's scale is ``obj_scale`` [m per unit].
+
+    Raises:
+        InvalidTask: not a dict, no ``grasp_qpos``, a joint count that is not the hand's,
+            a quaternion that is not unit (the message names the key and the file).
+    """
+    if not isinstance(data, dict):
+        raise InvalidTask(f"{source}: expected a dict (a DexGraspBench grasp), got a {type(data).__name__}")
+    plain_value(data, source)
+    n = len(hand.dof_names)
+    stages = {s: _stage(data, s, n, source) for s in STAGES}
+    if stages["grasp"] is None:
+        raise InvalidTask(f"{source}: no 'grasp_qpos'; a DexGraspBench grasp has keys {sorted(data)} "
+                          "(expected grasp_qpos, and optionally pregrasp_qpos, squeeze_qpos, obj_pose, obj_scale, obj_path)")  # fmt: skip
+    T_world_object = np.eye(4)
+    if "obj_pose" in data:
+        T_world_object = np.linalg.inv(transform_from_base(_vector(data, "obj_pose", source), f"{source}: obj_pose"))
+    stages = {s: None if v is None else _in_object_frame(v, T_world_object, f"{source}: {s}_qpos") for s, v in stages.items()}
+    scale = float(np.asarray(data.get("obj_scale", 1.0), dtype=float).reshape(-1)[0]) * MM_PER_M
+    return record_from_qpos(hand, stages["grasp"], stages["pregrasp"], stages["squeeze"],
+                            object_path=str(data.get("obj_path", "")), object_scale_mm=scale, source=source)  # fmt: skip
+
+
+def _in_object_frame(qpos: np.ndarray, T_world_object: np.ndarray, source: str) -> np.ndarray:
+    """``qpos`` with its base (the palm in the world) re-expressed in the object frame."""
+    if qpos.size < BASE_SIZE:
+        raise InvalidTask(f"{source}: {qpos.size} numbers; expected 7 (the base) + the joints")
+    T_palm_world = transform_from_base(qpos[:BASE_SIZE], f"{source} (base)")  # 'object' there = the world
+    return np.concatenate([base_from_transform(T_palm_world @ T_world_object), qpos[BASE_SIZE:]])
+
+
+def read_dexgraspbench(path, hand: Hand) -> list[GraspRecord]:
+    """The grasp of one DexGraspBench ``.npy`` file (a list of one)."""
+    return [record_from_dict(load_npy(path), hand, str(path))]
