@@ -31,6 +31,9 @@ _ALLOWED = {
 }  # fmt: skip
 
 
+_HEADERS = {(1, 0): np.lib.format.read_array_header_1_0, (2, 0): np.lib.format.read_array_header_2_0}
+
+
 class _ArraysOnly(pickle.Unpickler):
     def find_class(self, module, name):
         if (module, name) in _ALLOWED:
@@ -52,8 +55,8 @@ def load_npy(path, what: str = "grasp file"):
     with open(path, "rb") as fh:
         try:
             version = np.lib.format.read_magic(fh)
-            shape, fortran, dtype = np.lib.format._read_array_header(fh, version)
-        except (ValueError, OSError) as exc:
+            shape, fortran, dtype = _HEADERS[version](fh)
+        except (KeyError, ValueError, OSError) as exc:
             raise InvalidTask(f"{path}: not a numpy .npy file ({exc})") from None
         if not dtype.hasobject:
             fh.seek(0)
