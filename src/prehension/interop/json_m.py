@@ -30,7 +30,10 @@ MAX_BASE_M = 10.0  # a palm farther than this from the object [m] is taken for m
 
 
 def to_dict(records: list[GraspRecord], hand: Hand) -> dict:
-    path, scale = (records[0].object_path, records[0].object_scale_mm) if records else ("", 1.0)
+    objects = {(r.object_path, r.object_scale_mm) for r in records}
+    if len(objects) > 1:
+        raise InvalidTask(f"json-m holds the grasps of one object; these name {len(objects)}: {sorted(objects)}")
+    path, scale = objects.pop() if objects else ("", 1.0)
     grasps = [{f"{s}_qpos": r.qpos(hand, s).tolist() for s in STAGES if r.qpos(hand, s) is not None} for r in records]
     return {
         "prehension": TAG,

@@ -41,7 +41,7 @@ def qpos_joint_order(hand: Hand) -> tuple[str, ...]:
     """The hand's dof names in the order of its MJCF's ``qpos``.
 
     A hand read from an MJCF file (``hand.source.format == "mjcf"``) takes the order of the
-    file's ``<joint>`` elements (MuJoCo numbers joints in the order of the bodies, depth
+    file's ``<joint>`` elements under ``<worldbody>`` (MuJoCo numbers joints in the order of the bodies, depth
     first, as they are written); its dofs the file does not name (none, for a hand read
     from it) follow in the hand's order.  Any other hand takes the hand's own dof order,
     which is the order of the MJCF that ``prehension export-hand`` writes for it.
@@ -51,8 +51,9 @@ def qpos_joint_order(hand: Hand) -> tuple[str, ...]:
     if source is None or source.format != "mjcf":
         return names
     try:
-        written = [j.get("name") for j in ET.parse(Path(source.path)).getroot().iter("joint")]
-    except (OSError, ET.ParseError):  # the file moved or changed since: the hand's order
+        world = ET.parse(Path(source.path)).getroot().find("worldbody")
+        written = [j.get("name") for j in world.iter("joint") if j.get("type") != "free"]
+    except (OSError, ET.ParseError, AttributeError):  # the file moved or changed since: the hand's order
         return names
     known = set(names)
     order = [n for n in dict.fromkeys(written) if n in known]

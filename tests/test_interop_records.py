@@ -1,0 +1,175 @@
+"""Grasp records out and in (DexGraspBench, DexGraspNet, json-m): round trips, layouts, bad input."""
+
+from __future__ import annotations
+
+import json
+import pickle
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from conftest import random_angles
+from prehension.errors import InvalidConfiguration, InvalidTask
+from prehension.interop.dexgraspbench import read_dexgraspbench, record_from_dict, write_dexgraspbench
+from prehension.interop.dexgraspnet import read_dexgraspnet, write_dexgraspnet
+from prehension.interop.json_m import read_json_m, write_json_m
+from prehension.interop.npy import load_npy, save_npy
+from prehension.interop.qpos import base_from_transform
+from prehension.interop.readers import read_records
+from prehension.interop.records import GraspRecord
+from test_interop_qpos import random_pose
+
+WRITERS = {"dexgraspbench": write_dexgraspbench, "dexgraspnet": write_dexgraspnet, "json-m": write_json_m}
+READERS = {"dexgraspbench": read_dexgraspbench, "dexgraspnet": read_dexgraspnet, "json-m": read_json_m}
+SUFFIX = {"dexgraspbench": ".npy", "dexgraspnet": ".npy", "json-m": ".json"}
+
+
+def random_records(hand, rng, n: int) -> list[GraspRecord]:
+    qs = random_angles(hand, rng, 3 * n)
+    names = hand.dof_names
+    scale = 1000.0 * rng.uniform(0.05, 0.2)  # one object, as in one result file
+    return [
+        GraspRecord(random_pose(rng), dict(zip(names, qs[3 * k])), dict(zip(names, qs[3 * k + 1])),
+                    dict(zip(names, qs[3 * k + 2])), "/data/box.obj", scale)
+        for k in range(n)
+    ]  # fmt: skip
+
+
+def assert_same(a: GraspRecord, b: GraspRecord, hand, stages=("joint_angles", "pregrasp", "squeeze")) -> None:
+    assert np.max(np.abs(a.T_palm_object[:3, 3] - b.T_palm_object[:3, 3])) <= 1e-6  # mm
+    assert np.max(np.abs(a.T_palm_object[:3, :3] - b.T_palm_object[:3, :3])) <= 1e-12
+    for stage in stages:
+        x, y = getattr(a, stage), getattr(b, stage)
+        assert max(abs(x[d] - y[d]) for d in hand.dof_names) <= 1e-9, stage
+    assert a.object_scale_mm == pytest.approx(b.object_scale_mm, rel=1e-12)
+
+
+@pytest.mark.parametrize("fmt", sorted(WRITERS))
+def test_every_format_round_trips_seeded_random_grasps(fmt, sa_hand, rng, tmp_path):
+    records = random_records(sa_hand, rng, 20)
+    out = tmp_path / ("grasps" if fmt == "dexgraspbench" else f"grasps{SUFFIX[fmt]}")
+    WRITERS[fmt](records, sa_hand, out)
+    if fmt == "dexgraspbench":  # one file per grasp
+        back = [r for k in range(len(records)) for r in READERS[fmt](out / f"{k}.npy", sa_hand)]
+    else:
+        back = READERS[fmt](out, sa_hand)
+    assert len(back) == len(records)
+    stages = ("joint_angles",) if fmt == "dexgraspnet" else ("joint_angles", "pregrasp", "squeeze")  # DexGraspNet: grasp only
+    for a, b in zip(records, back):
+        assert_same(a, b, sa_hand, stages)
+
+
+def test_a_dexgraspbench_dict_has_the_benchmarks_keys(sa_hand, rng, tmp_path):
+    record = random_records(sa_hand, rng, 1)[0]
+    write_dexgraspbench([record], sa_hand, tmp_path / "g.npy")
+    data = np.load(tmp_path / "g.npy", allow_pickle=True).item()  # as DexGraspBench reads it
+    for key in ("pregrasp_qpos", "grasp_qpos", "squeeze_qpos"):
+        assert data[key].shape == (7 + sa_hand.n_dof,)
+    np.testing.assert_array_equal(data["obj_pose"], [0, 0, 0, 1, 0, 0, 0])
+    assert data["obj_scale"] == pytest.approx(record.object_scale_mm / 1000.0) and data["obj_path"] == "/data/box.obj"
+    np.testing.assert_allclose(data["grasp_qpos"][:7], base_from_transform(record.T_palm_object))
+
+
+def test_a_dexgraspbench_grasp_in_a_world_frame_is_taken_into_the_object_frame(sa_hand, rng, tmp_path):
+    """obj_pose not the identity, and the older layout (grasp_pose apart from grasp_qpos)."""
+    record = random_records(sa_hand, rng, 1)[0]
+    T_world_object = random_pose(rng)
+    T_world_palm = T_world_object @ np.linalg.inv(record.T_palm_object)
+    palm = base_from_transform(np.linalg.inv(T_world_palm))  # the palm's pose in the world
+    obj = base_from_transform(np.linalg.inv(T_world_object))
+    joints = [record.joint_angles[d] for d in sa_hand.dof_names]
+    for data in ({"grasp_qpos": np.concatenate([palm, joints]), "obj_pose": obj},
+                 {"grasp_pose": palm, "grasp_qpos": np.array(joints), "obj_pose": obj}):  # fmt: skip
+        back = record_from_dict(data, sa_hand, "test")
+        assert np.max(np.abs(back.T_palm_object - record.T_palm_object)) <= 1e-6
+        assert back.pregrasp is None and back.squeeze is None
+
+
+def test_dexgraspnet_euler_angles_are_static_xyz(sa_hand, tmp_path):
+    """WRJRx, y, z: R = Rz(c) Ry(b) Rx(a) (transforms3d 'sxyz'), the palm in the object frame."""
+    a, b, c = 0.3, -0.7, 1.9
+    Rx = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
+    Ry = np.array([[np.cos(b), 0, np.sin(b)], [0, 1, 0], [-np.sin(b), 0, np.cos(b)]])
+    Rz = np.array([[np.cos(c), -np.sin(c), 0], [np.sin(c), np.cos(c), 0], [0, 0, 1]])
+    qpos = {"WRJTx": 0.01, "WRJTy": -0.02, "WRJTz": 0.15, "WRJRx": a, "WRJRy": b, "WRJRz": c}
+    qpos.update({d: 0.1 for d in sa_hand.dof_names})
+    save_npy(tmp_path / "obj.npy", [{"scale": 0.08, "qpos": qpos, "energy": 1.0}])
+    (record,) = read_dexgraspnet(tmp_path / "obj.npy", sa_hand)
+    T_object_palm = np.linalg.inv(record.T_palm_object)
+    np.testing.assert_allclose(T_object_palm[:3, :3], Rz @ Ry @ Rx, atol=1e-12)
+    np.testing.assert_allclose(T_object_palm[:3, 3], [10.0, -20.0, 150.0], atol=1e-9)
+    assert record.object_scale_mm == pytest.approx(80.0)
+
+
+def test_formats_are_told_apart_by_content(sa_hand, rng, tmp_path):
+    records = random_records(sa_hand, rng, 2)
+    write_dexgraspbench(records[:1], sa_hand, tmp_path / "bench.npy")
+    write_dexgraspnet(records, sa_hand, tmp_path / "net.npy")
+    write_json_m(records, sa_hand, tmp_path / "m.json")
+    assert read_records(tmp_path / "bench.npy", sa_hand)[0] == "dexgraspbench"
+    assert read_records(tmp_path / "net.npy", sa_hand)[0] == "dexgraspnet"
+    fmt, back = read_records(tmp_path / "m.json", sa_hand)
+    assert fmt == "json-m" and len(back) == 2
+
+
+class _Boom:
+    def __reduce__(self):
+        return (print, ("the pickle ran",))
+
+
+def test_a_pickle_naming_anything_but_arrays_is_refused_unrun(tmp_path, capsys):
+    path = tmp_path / "evil.npy"
+    np.save(path, np.array({"grasp_qpos": _Boom()}, dtype=object), allow_pickle=True)
+    with pytest.raises(InvalidTask, match="refused.*builtins.print"):
+        load_npy(path)
+    assert "the pickle ran" not in capsys.readouterr().out
+    path.write_bytes(b"not a numpy file")
+    with pytest.raises(InvalidTask, match="not a numpy .npy file"):
+        load_npy(path)
+    with pytest.raises(InvalidTask, match="not found"):
+        load_npy(tmp_path / "missing.npy")
+
+
+def test_plain_numeric_arrays_load_without_pickle(tmp_path):
+    np.save(tmp_path / "a.npy", np.arange(5.0))
+    np.testing.assert_array_equal(load_npy(tmp_path / "a.npy"), np.arange(5.0))
+    assert pickle  # the module under test never calls pickle.load on a numeric array
+
+
+def test_bad_records_are_named(sa_hand, rng, tmp_path):
+    record = random_records(sa_hand, rng, 1)[0]
+    write_dexgraspbench([record], sa_hand, tmp_path / "g.npy")
+    data = np.load(tmp_path / "g.npy", allow_pickle=True).item()
+    with pytest.raises(InvalidTask, match="no 'grasp_qpos'.*expected grasp_qpos"):
+        record_from_dict({k: v for k, v in data.items() if k != "grasp_qpos"}, sa_hand, "g.npy")
+    with pytest.raises(InvalidConfiguration, match="23 numbers.*24.*another hand"):
+        record_from_dict({**data, "grasp_qpos": data["grasp_qpos"][:-1]}, sa_hand, "g.npy")
+    xyzw = data["grasp_qpos"].copy()
+    xyzw[3:7] = 2 * xyzw[3:7]
+    with pytest.raises(InvalidConfiguration, match="not unit"):
+        record_from_dict({**data, "grasp_qpos": xyzw}, sa_hand, "g.npy")
+    with pytest.raises(InvalidTask, match="expected a dict"):
+        record_from_dict([1, 2], sa_hand, "g.npy")
+    save_npy(tmp_path / "net.npy", [{"scale": 0.1, "qpos": {"WRJTx": 0.0, "robot0:FFJ3": 0.1}}])
+    with pytest.raises(InvalidTask, match="does not fit hand 'schunk-sa'.*missing.*WRJTy.*robot0:FFJ3"):
+        read_dexgraspnet(tmp_path / "net.npy", sa_hand)
+
+
+def test_json_m_refuses_millimetres_and_another_hands_joints(sa_hand, rng, tmp_path):
+    record = random_records(sa_hand, rng, 1)[0]
+    write_json_m([record], sa_hand, tmp_path / "m.json")
+    data = json.loads((tmp_path / "m.json").read_text())
+    mm = json.loads(json.dumps(data))
+    mm["grasps"][0]["grasp_qpos"][:3] = [v * 1000.0 + 11.0 for v in mm["grasps"][0]["grasp_qpos"][:3]]
+    (tmp_path / "mm.json").write_text(json.dumps(mm))
+    with pytest.raises(InvalidTask, match="json-m is in metres"):
+        read_json_m(tmp_path / "mm.json", sa_hand)
+    other = {**data, "joint_order": list(reversed(data["joint_order"]))}
+    (tmp_path / "other.json").write_text(json.dumps(other))
+    with pytest.raises(InvalidTask, match="written for joints"):
+        read_json_m(tmp_path / "other.json", sa_hand)
+    (tmp_path / "no.json").write_text(json.dumps({"prehension": "result/1"}))
+    with pytest.raises(InvalidTask, match="not a json-m grasp file"):
+        read_json_m(tmp_path / "no.json", sa_hand)
+    assert Rotation  # scipy is what both sides use for quaternions
