@@ -10,7 +10,7 @@ angles and the object's pose).  The contacts it is judged against come from:
   (:func:`measured_task`): for every contact region of the hand, the point of the object's
   surface nearest to it, the signed distance (negative: the region is inside the object)
   and the surface's outward normal there.  Each region within :data:`TOUCH_MM` of the
-  surface becomes a contact with a point region on the object at that nearest point.
+  surface, outside or inside, becomes a contact with a point region on the object at that nearest point.
   The record says these contacts were measured, not claimed (``imported.contacts``).
 
 The configuration is then judged by the one residual function with the strict tolerances.
@@ -95,12 +95,13 @@ def measured_task(hand, mesh_path: str, scale_mm: float, q, T_palm_object, name:
     except InvalidObject:  # an open mesh: regions and display only, no collision rows
         closed, distance = False, solid_geometry(solid, False)[1]
     measured = measured_contacts(hand, distance, q, T_palm_object)
-    touching = [m for m in measured if m["distance_mm"] <= TOUCH_MM]
+    touching = [m for m in measured if abs(m["distance_mm"]) <= TOUCH_MM]
     if not touching:
-        nearest = min(measured, key=lambda m: m["distance_mm"])
-        raise InvalidTask(f"{name}: no contact region of hand {hand.name!r} is within {TOUCH_MM:g} mm of the object (the "
-                          f"nearest, {nearest['hand_region']!r}, is {nearest['distance_mm']:.4g} mm away); is the record "
-                          "for this object, at this scale and in these units?")  # fmt: skip
+        nearest = min(measured, key=lambda m: abs(m["distance_mm"]))
+        where = "inside it" if nearest["distance_mm"] < 0 else "away"
+        raise InvalidTask(f"{name}: no contact region of hand {hand.name!r} is within {TOUCH_MM:g} mm of the object's "
+                          f"surface (the nearest, {nearest['hand_region']!r}, is {abs(nearest['distance_mm']):.4g} mm "
+                          f"{where}); is the record for this object, at this scale and in these units?")  # fmt: skip
     regions = {f"at_{m['hand_region']}": PointRegion(m["object_point_mm"], m["object_normal"]) for m in touching}
     obj = GraspObject(name, regions, solid=solid, collisions=closed)
     contacts = tuple(Contact(m["hand_region"], f"at_{m['hand_region']}", m["hand_region"]) for m in touching)
