@@ -10,7 +10,6 @@ import pytest
 
 from prehension.cli import main
 from prehension.cli.codes import EXIT_APPROXIMATE, EXIT_BAD_INPUT, EXIT_CHECK_FAILED, EXIT_OK
-from prehension.interop.json_m import read_json_m
 from prehension.interop.records import records_from_result
 from prehension.results import read_result
 from prehension.verify import verify_result
@@ -80,8 +79,6 @@ def test_a_grasp_on_a_bare_mesh_has_its_contacts_measured(exported, box_mesh, tm
 
 
 def test_a_grasp_that_misses_is_approximate_within_exactly_its_errors(exported, tmp_path):
-    task, _ = read_result(EXAMPLE)
-    (record,) = read_json_m(exported / "g.json", task.hand)
     data = json.loads((exported / "g.json").read_text())
     data["grasps"][0]["grasp_qpos"][0] += 0.0005  # the palm 0.5 mm off along the object's x
     moved = tmp_path / "moved.json"
@@ -100,7 +97,6 @@ def test_a_grasp_that_misses_is_approximate_within_exactly_its_errors(exported, 
     result["solutions"][0]["tolerances"]["contact_mm"] = tol["contact_mm"] / 2  # a claim that is false
     single.write_text(json.dumps(result))
     assert main(["check", str(single)]) == EXIT_CHECK_FAILED
-    assert record is not None
 
 
 def test_import_grasps_refuses_bad_input_by_name(exported, box_mesh, tmp_path, capsys):

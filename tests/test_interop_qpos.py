@@ -124,3 +124,12 @@ def test_forward_kinematics_agrees_with_the_base(sa_hand, rng):
     T_object_palm = np.linalg.inv(transform_from_base(v[:7]))
     tip = forward_kinematics(sa_hand, q).T_palm_link[0, -1]
     np.testing.assert_allclose((T_object_palm @ tip)[:3, 3], (np.linalg.inv(T) @ tip)[:3, 3], atol=1e-9)
+
+
+def test_the_package_names_the_qpos_functions_and_the_cli_lists_the_readers_formats():
+    import prehension
+    from prehension.cli.import_grasps import IMPORT_FORMATS as CLI_FORMATS
+    from prehension.interop.readers import IMPORT_FORMATS
+
+    assert prehension.solution_qpos is solution_qpos and prehension.qpos_configuration is qpos_configuration
+    assert CLI_FORMATS == IMPORT_FORMATS

@@ -15,9 +15,10 @@ __all__ = ["add_parser", "cmd_import_grasps"]
 _TASK_SUFFIXES = (".yaml", ".yml", ".world")
 
 
-def add_parser(sub) -> None:
-    from ..interop.readers import IMPORT_FORMATS
+IMPORT_FORMATS = ("auto", "dexgraspbench", "dexgraspnet", "json-m")  # prehension.interop.readers (not imported at start-up)
 
+
+def add_parser(sub) -> None:
     p = sub.add_parser("import-grasps", help="judge grasps made by other tools (DexGraspBench, DexGraspNet, json-m): "
                                              "write result records that 'prehension check' re-verifies")  # fmt: skip
     p.add_argument("files", nargs="+", type=Path, help="grasp files (.npy, .json)")

@@ -28,7 +28,12 @@ from dataclasses import replace
 import numpy as np
 
 from ..errors import InvalidObject, InvalidTask
+from ..geometry.regions import PointRegion
 from ..hands.kinematics import forward_kinematics
+from ..objects.model import GraspObject
+from ..objects.solid import MeshFileSolid, solid_geometry
+from ..pregrasp import judge_pregrasp
+from ..results import ContactResult, Solution, SolveResult, Status, result_to_dict
 from ..tasks.model import Configuration, Contact, Task
 from ..tasks.residuals import TOLERANCE_OF_KIND, Tolerances, evaluate
 
@@ -85,9 +90,6 @@ def measured_task(hand, mesh_path: str, scale_mm: float, q, T_palm_object, name:
         InvalidTask: no hand region within :data:`TOUCH_MM` of the object (the grasp touches
             nothing: another object, another scale, or millimetres read as metres).
     """
-    from ..geometry.regions import PointRegion
-    from ..objects.model import GraspObject
-    from ..objects.solid import MeshFileSolid, solid_geometry
 
     solid = MeshFileSolid(str(mesh_path), float(scale_mm))
     try:
@@ -131,8 +133,6 @@ def _admitting(report) -> Tolerances:
 
 def _solution(task: Task, q: np.ndarray, T: np.ndarray, report, tolerances: Tolerances):
     """The :class:`~prehension.results.Solution` of a judged configuration, as it was given."""
-    from ..results import ContactResult, Solution
-
     pose = forward_kinematics(task.hand, q)
     contacts = tuple(ContactResult(s.name, s.hand_point, s.hand_normal, s.object_point, s.object_normal, s.hand_params,
                                    s.object_params, s.distance_mm, s.normal_angle_deg) for s in report.contacts)  # fmt: skip
@@ -151,9 +151,6 @@ def imported_result(task: Task, record, *, measured: list[dict] | None = None, f
     stored as ``"pregrasp"`` (``check`` re-derives it); its squeeze targets are stored under
     ``"imported"`` only (prehension's squeeze is its own protocol's).
     """
-    from ..pregrasp import judge_pregrasp
-    from ..results import SolveResult, Status, result_to_dict
-
     q = np.array([record.joint_angles[d] for d in task.hand.dof_names])
     T = np.asarray(record.T_palm_object, dtype=float)
     report = evaluate(task, Configuration(q, T), Tolerances())

@@ -16,9 +16,9 @@ format has no names).
 
 from __future__ import annotations
 
-import io
 
 import numpy as np
+import trimesh
 
 from ..errors import InvalidTask
 from ..hands.kinematics import forward_kinematics
@@ -33,8 +33,6 @@ OBJECT_NODE = "object"
 
 def capsule_mesh(cap: Capsule, sections: int = 24):
     """The trimesh of ``cap`` in its link's frame [mm]: a capsule along ``b - a``, or a sphere."""
-    import trimesh
-
     axis = cap.b - cap.a
     length = float(np.linalg.norm(axis))
     if length < 1e-12:
@@ -49,8 +47,6 @@ def capsule_mesh(cap: Capsule, sections: int = 24):
 
 
 def _link_mesh(link):
-    import trimesh
-
     parts = [capsule_mesh(c) for c in link.collision]
     return trimesh.util.concatenate(parts) if parts else None
 
@@ -64,8 +60,6 @@ def _scaled(T: np.ndarray, s: float) -> np.ndarray:
 def grasp_scene(task, q, T_palm_object, units: str = "m"):
     """The :class:`trimesh.Scene` of ``task``'s hand at angles ``q`` (n_dof,) [rad] with the
     object at ``T_palm_object`` (4, 4) [mm] (see the module docstring for frames and names)."""
-    import trimesh
-
     if units not in UNITS:
         raise InvalidTask(f"unknown units {units!r}; use one of {sorted(UNITS)}")
     s = UNITS[units]
