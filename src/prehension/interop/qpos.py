@@ -18,6 +18,7 @@ MJCF's order (:func:`qpos_joint_order`).
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
+from functools import lru_cache
 from pathlib import Path
 from typing import Mapping
 
@@ -40,24 +41,40 @@ QUATERNION_TOLERANCE = 1e-6  # largest | |q| - 1 | accepted for a base quaternio
 def qpos_joint_order(hand: Hand) -> tuple[str, ...]:
     """The hand's dof names in the order of its MJCF's ``qpos``.
 
-    A hand read from an MJCF file (``hand.source.format == "mjcf"``) takes the order of the
-    file's ``<joint>`` elements under ``<worldbody>`` (MuJoCo numbers joints in the order of the bodies, depth
-    first, as they are written); its dofs the file does not name (none, for a hand read
-    from it) follow in the hand's order.  Any other hand takes the hand's own dof order,
-    which is the order of the MJCF that ``prehension export-hand`` writes for it.
+    A hand read from an MJCF file (``hand.source.format == "mjcf"``) takes the order of
+    MuJoCo's joints when it compiles the file (:func:`_mjcf_joint_names`: includes,
+    defaults and all; without MuJoCo, the ``<joint>`` elements under ``<worldbody>`` as
+    written, which is the same order for a file without includes); its dofs the file does
+    not name follow in the hand's order.  Any other hand takes the hand's own dof order,
+    the order of the MJCF that ``prehension export-hand`` writes for it.  Only hinge
+    joints are dofs of a hand (slide, ball and free joints are not modelled,
+    :mod:`prehension.hands.mjcf`), so they have no place in the record.
     """
     names = hand.dof_names
     source = hand.source
     if source is None or source.format != "mjcf":
         return names
-    try:
-        world = ET.parse(Path(source.path)).getroot().find("worldbody")
-        written = [j.get("name") for j in world.iter("joint") if j.get("type") != "free"]
-    except (OSError, ET.ParseError, AttributeError):  # the file moved or changed since: the hand's order
-        return names
     known = set(names)
-    order = [n for n in dict.fromkeys(written) if n in known]
+    order = [n for n in dict.fromkeys(_mjcf_joint_names(source.path, source.sha256)) if n in known]
     return tuple(order) + tuple(n for n in names if n not in set(order))
+
+
+@lru_cache(maxsize=16)
+def _mjcf_joint_names(path: str, sha256: str) -> tuple[str, ...]:
+    """Joint names of an MJCF file in MuJoCo's order (``()`` when the file cannot be read:
+    the hand's own order is then used).  ``sha256`` keys the cache to the file's bytes."""
+    try:
+        import mujoco
+    except ImportError:
+        mujoco = None
+    try:
+        if mujoco is not None:
+            m = mujoco.MjModel.from_xml_path(str(path))
+            return tuple(m.joint(j).name for j in range(m.njnt))
+        world = ET.parse(Path(path)).getroot().find("worldbody")
+        return tuple(j.get("name") for j in world.iter("joint") if j.get("type") != "free")
+    except Exception:  # noqa: BLE001 -- moved, changed or unreadable since the hand was read
+        return ()
 
 
 def base_from_transform(T_palm_object) -> np.ndarray:
