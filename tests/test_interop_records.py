@@ -84,6 +84,19 @@ def test_a_dexgraspbench_grasp_in_a_world_frame_is_taken_into_the_object_frame(s
         assert back.pregrasp is None and back.squeeze is None
 
 
+def test_a_dexgraspbench_file_is_read_in_the_joint_order_it_names(sa_hand, rng, tmp_path):
+    record = random_records(sa_hand, rng, 1)[0]
+    write_dexgraspbench([record], sa_hand, tmp_path / "g.npy")
+    data = np.load(tmp_path / "g.npy", allow_pickle=True).item()
+    perm = rng.permutation(sa_hand.n_dof)
+    shuffled = {**data, "joint_names": data["joint_names"][perm]}
+    for key in ("pregrasp_qpos", "grasp_qpos", "squeeze_qpos"):
+        shuffled[key] = np.concatenate([data[key][:7], data[key][7:][perm]])
+    assert_same(record_from_dict(shuffled, sa_hand, "g.npy"), record, sa_hand)
+    with pytest.raises(InvalidTask, match="are not the joints of hand 'schunk-sa'"):
+        record_from_dict({**data, "joint_names": np.array(["a"] * sa_hand.n_dof)}, sa_hand, "g.npy")
+
+
 def test_dexgraspnet_euler_angles_are_static_xyz(sa_hand, tmp_path):
     """WRJRx, y, z: R = Rz(c) Ry(b) Rx(a) (transforms3d 'sxyz'), the palm in the object frame."""
     a, b, c = 0.3, -0.7, 1.9

@@ -15,6 +15,8 @@ see docs/interop.md):
 
 prehension writes ``obj_pose`` as the identity (the world is the object frame) and adds
 ``joint_names`` (the qpos order) and ``hand`` (the hand's name), which DexGraspBench ignores.
+A file with ``joint_names`` is read in that order (a permutation of the hand's joints; other
+names are refused); a file without is in the hand's qpos order.
 """
 
 from __future__ import annotations
@@ -105,6 +107,8 @@ def record_from_dict(data, hand: Hand, source: str) -> GraspRecord:
     if "obj_pose" in data:
         T_world_object = np.linalg.inv(transform_from_base(_vector(data, "obj_pose", source), f"{source}: obj_pose"))
     stages = {s: None if v is None else _in_object_frame(v, T_world_object, f"{source}: {s}_qpos") for s, v in stages.items()}
+    if "joint_names" in data:
+        stages = {s: None if v is None else _reordered(v, data["joint_names"], hand, source) for s, v in stages.items()}
     scale = float(np.asarray(data.get("obj_scale", 1.0), dtype=float).reshape(-1)[0]) * MM_PER_M
     return record_from_qpos(hand, stages["grasp"], stages["pregrasp"], stages["squeeze"],
                             object_path=str(data.get("obj_path", "")), object_scale_mm=scale, source=source)  # fmt: skip
@@ -116,6 +120,20 @@ def _in_object_frame(qpos: np.ndarray, T_world_object: np.ndarray, source: str) 
         raise InvalidTask(f"{source}: {qpos.size} numbers; expected 7 (the base) + the joints")
     T_palm_world = transform_from_base(qpos[:BASE_SIZE], f"{source} (base)")  # 'object' there = the world
     return np.concatenate([base_from_transform(T_palm_world @ T_world_object), qpos[BASE_SIZE:]])
+
+
+def _reordered(qpos: np.ndarray, names, hand: Hand, source: str) -> np.ndarray:
+    """``qpos`` whose joints are in the order ``names`` (a file's ``joint_names``) put in
+    the hand's qpos order; names that are not the hand's dofs are refused."""
+    names = [str(n) for n in np.asarray(names).reshape(-1)]
+    order = qpos_joint_order(hand)
+    if sorted(names) != sorted(order):
+        raise InvalidTask(f"{source}: joint_names {names} are not the joints of hand {hand.name!r} ({list(order)}); "
+                          "is the record for another hand?")  # fmt: skip
+    if qpos.size != BASE_SIZE + len(names):
+        return qpos  # the count is refused, by name, when the qpos is read
+    by_name = dict(zip(names, qpos[BASE_SIZE:]))
+    return np.concatenate([qpos[:BASE_SIZE], [by_name[n] for n in order]])
 
 
 def read_dexgraspbench(path, hand: Hand) -> list[GraspRecord]:
