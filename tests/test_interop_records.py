@@ -35,7 +35,7 @@ def random_records(hand, rng, n: int) -> list[GraspRecord]:
 
 
 def assert_same(a: GraspRecord, b: GraspRecord, hand, stages=("joint_angles", "pregrasp", "squeeze")) -> None:
-    assert np.max(np.abs(a.T_palm_object[:3, 3] - b.T_palm_object[:3, 3])) <= 1e-6  # mm
+    assert np.max(np.abs(a.T_palm_object[:3, 3] - b.T_palm_object[:3, 3])) <= 1e-9  # mm
     assert np.max(np.abs(a.T_palm_object[:3, :3] - b.T_palm_object[:3, :3])) <= 1e-12
     for stage in stages:
         x, y = getattr(a, stage), getattr(b, stage)
