@@ -161,6 +161,10 @@ def test_bad_records_are_named(sa_hand, rng, tmp_path):
         record_from_dict({**data, "grasp_qpos": xyzw}, sa_hand, "g.npy")
     with pytest.raises(InvalidTask, match="expected a dict"):
         record_from_dict([1, 2], sa_hand, "g.npy")
+    in_mm = data["grasp_qpos"].copy()
+    in_mm[:3] = in_mm[:3] * 1000.0 + [11.0, 0.0, 0.0]  # millimetres where metres belong
+    with pytest.raises(InvalidTask, match="palm stands .* m from the object.*millimetres"):
+        record_from_dict({**data, "grasp_qpos": in_mm}, sa_hand, "g.npy")
     save_npy(tmp_path / "net.npy", [{"scale": 0.1, "qpos": {"WRJTx": 0.0, "robot0:FFJ3": 0.1}}])
     with pytest.raises(InvalidTask, match="does not fit hand 'schunk-sa'.*missing.*WRJTy.*robot0:FFJ3"):
         read_dexgraspnet(tmp_path / "net.npy", sa_hand)
@@ -173,7 +177,7 @@ def test_json_m_refuses_millimetres_and_another_hands_joints(sa_hand, rng, tmp_p
     mm = json.loads(json.dumps(data))
     mm["grasps"][0]["grasp_qpos"][:3] = [v * 1000.0 + 11.0 for v in mm["grasps"][0]["grasp_qpos"][:3]]
     (tmp_path / "mm.json").write_text(json.dumps(mm))
-    with pytest.raises(InvalidTask, match="json-m is in metres"):
+    with pytest.raises(InvalidTask, match="lengths are metres.*millimetres"):
         read_json_m(tmp_path / "mm.json", sa_hand)
     other = {**data, "joint_order": list(reversed(data["joint_order"]))}
     (tmp_path / "other.json").write_text(json.dumps(other))

@@ -24,7 +24,7 @@ from ..errors import InvalidTask
 from ..hands.model import Hand
 from .npy import load_npy, plain_value, save_npy
 from .qpos import MM_PER_M
-from .records import GraspRecord
+from .records import GraspRecord, check_metres
 
 __all__ = ["record_to_dict", "record_from_dict", "write_dexgraspnet", "read_dexgraspnet", "TRANSLATION", "ROTATION"]
 
@@ -71,6 +71,7 @@ def record_from_dict(data, hand: Hand, source: str) -> GraspRecord:
     T_object_palm[:3, :3] = Rotation.from_euler(_EULER, [values[k] for k in ROTATION]).as_matrix()
     T_object_palm[:3, 3] = np.array([values[k] for k in TRANSLATION]) * MM_PER_M
     scale = float(data.get("scale", 1.0)) * MM_PER_M
+    check_metres(T_object_palm, source)
     return GraspRecord(np.linalg.inv(T_object_palm), {d: values[d] for d in hand.dof_names},
                        object_scale_mm=scale, source=source)  # fmt: skip
 

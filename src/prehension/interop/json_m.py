@@ -14,7 +14,6 @@ object frame, metres, w-x-y-z; the joints in ``joint_order``).
 
 from __future__ import annotations
 
-import numpy as np
 
 from ..atomic import read_json, write_json_atomic
 from ..errors import InvalidTask
@@ -23,10 +22,9 @@ from .dexgraspbench import STAGES
 from .qpos import MM_PER_M, qpos_joint_order
 from .records import GraspRecord, record_from_qpos
 
-__all__ = ["TAG", "to_dict", "write_json_m", "read_json_m", "MAX_BASE_M"]
+__all__ = ["TAG", "to_dict", "write_json_m", "read_json_m"]
 
 TAG = "grasps-m/1"
-MAX_BASE_M = 10.0  # a palm farther than this from the object [m] is taken for millimetres
 
 
 def to_dict(records: list[GraspRecord], hand: Hand) -> dict:
@@ -55,8 +53,9 @@ def read_json_m(path, hand: Hand) -> list[GraspRecord]:
 
     Raises:
         InvalidTask: not a ``grasps-m/1`` file, written for another hand or joint order,
-            a grasp without ``grasp_qpos``, or a base farther than :data:`MAX_BASE_M` from
-            the object (millimetres written where metres belong).
+            a grasp without ``grasp_qpos``, or a palm farther than
+            :data:`~prehension.interop.records.MAX_BASE_M` from the object (millimetres
+            written where metres belong).
     """
     data = read_json(path, "grasp file")
     if not isinstance(data, dict) or data.get("prehension") != TAG:
@@ -71,10 +70,6 @@ def read_json_m(path, hand: Hand) -> list[GraspRecord]:
         where = f"{path}: grasps[{k}]"
         if not isinstance(g, dict) or "grasp_qpos" not in g:
             raise InvalidTask(f"{where}: no 'grasp_qpos'")
-        base = np.asarray(g["grasp_qpos"][:3], dtype=float)
-        if np.linalg.norm(base) > MAX_BASE_M:
-            raise InvalidTask(f"{where}: the palm stands {np.linalg.norm(base):.4g} m from the object; json-m is in "
-                              "metres (were millimetres written?)")  # fmt: skip
         stages = [g.get(f"{s}_qpos") for s in STAGES]
         out.append(record_from_qpos(hand, stages[1], stages[0], stages[2], object_path=str(obj.get("path", "")),
                                     object_scale_mm=float(obj.get("scale_m_per_unit", 1e-3)) * MM_PER_M, source=where))  # fmt: skip

@@ -18,7 +18,18 @@ from ..errors import InvalidTask
 from ..hands.model import Hand
 from .qpos import grasp_qpos, qpos_configuration
 
-__all__ = ["GraspRecord", "records_from_result", "record_from_qpos", "object_file"]
+__all__ = ["GraspRecord", "records_from_result", "record_from_qpos", "object_file", "check_metres", "MAX_BASE_M"]
+
+MAX_BASE_M = 10.0  # a palm farther than this from the object [m] is taken for millimetres written as metres
+
+
+def check_metres(T_palm_object, source: str) -> None:
+    """Refuse a palm more than :data:`MAX_BASE_M` from the object: a record in metres that
+    holds millimetres (a hand 1000x too far) is named, not judged as a grasp that misses."""
+    far = float(np.linalg.norm(np.asarray(T_palm_object, dtype=float)[:3, 3])) / 1000.0
+    if far > MAX_BASE_M:
+        raise InvalidTask(f"{source}: the palm stands {far:.4g} m from the object; the record's lengths are metres "
+                          "(were millimetres written?)")  # fmt: skip
 
 
 @dataclass(frozen=True, eq=False)
@@ -103,6 +114,7 @@ def record_from_qpos(hand: Hand, grasp, pregrasp=None, squeeze=None, *, object_p
     """A record of ``hand`` from MuJoCo qpos vectors (:func:`~prehension.interop.qpos.qpos_configuration`);
     the pre-grasp and squeeze keep their own angles, the base pose is the grasp's."""
     q, T = qpos_configuration(grasp, hand, f"{source}: grasp qpos")
+    check_metres(T, source)
     names = hand.dof_names
 
     def angles(v, what):
