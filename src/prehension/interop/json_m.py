@@ -14,7 +14,6 @@ object frame, metres, w-x-y-z; the joints in ``joint_order``).
 
 from __future__ import annotations
 
-
 from ..atomic import read_json, write_json_atomic
 from ..errors import InvalidTask
 from ..hands.model import Hand
