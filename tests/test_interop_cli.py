@@ -124,4 +124,5 @@ def test_export_writes_a_dexgraspbench_folder_and_never_overwrites(tmp_path):
     assert main(["export", str(EXAMPLE), "--format", "dexgraspbench", "-o", str(folder)]) == EXIT_BAD_INPUT
     assert main(["export", str(EXAMPLE), "--format", "dexgraspbench", "-o", str(folder), "--force"]) == EXIT_OK
     assert main(["export", str(EXAMPLE), "--format", "json-m", "-o", str(EXAMPLE)]) == EXIT_BAD_INPUT
+    assert main(["export", str(EXAMPLE), "--format", "json-m", "-o", str(tmp_path / "u.json"), "--units", "mm"]) == EXIT_BAD_INPUT
     assert main(["export", str(tmp_path / "none.json"), "--format", "json-m", "-o", str(tmp_path / "a.json")]) == EXIT_BAD_INPUT

@@ -30,8 +30,8 @@ def add_parser(sub) -> None:
     p.add_argument("-o", "--output", type=Path, required=True,
                    help="file to write (dexgraspbench: FILE.npy for one grasp, or a folder for 0.npy, 1.npy, ...)")  # fmt: skip
     p.add_argument("--solution", type=int, metavar="K", help="only the K-th solution (default: every one; a scene: 0)")
-    p.add_argument("--units", choices=("m", "mm"), default="m", help="scene lengths (default m)")
-    p.add_argument("--stage", choices=("grasp", "pregrasp", "squeeze"), default="grasp",
+    p.add_argument("--units", choices=("m", "mm"), help="scene lengths (default m; grasp records are always in metres)")
+    p.add_argument("--stage", choices=("grasp", "pregrasp", "squeeze"),
                    help="scene: the hand at its grasp (default), pre-grasp or squeeze angles")  # fmt: skip
     p.add_argument("--force", action="store_true", help="overwrite output files that exist")
 
@@ -62,10 +62,13 @@ def cmd_export(args, console: Console) -> int:
 
     if not args.result.is_file():
         raise PrehensionError(not_a_file("result file", args.result))
-    task, data = read_result(args.result)
     if args.format in RECORD_FORMATS:
-        return _export_records(args, task, data, console)
-    return _export_scene(args, task, data, console)
+        unused = [o for o, v in (("--units", args.units), ("--stage", args.stage)) if v is not None]
+        if unused:
+            raise PrehensionError(f"{', '.join(unused)}: for scenes (glb, obj, ply) only; a {args.format} record is in "
+                                  "metres and carries every stage the solution has")  # fmt: skip
+        return _export_records(args, *read_result(args.result), console)
+    return _export_scene(args, *read_result(args.result), console)
 
 
 def _export_records(args, task, data, console: Console) -> int:
@@ -93,14 +96,15 @@ def _export_scene(args, task, data, console: Console) -> int:
     from ..interop.scene import grasp_scene, scene_bytes
 
     k = 0 if args.solution is None else args.solution
+    stage, units = args.stage or "grasp", args.units or "m"
     record = records_from_result(task, data, k, str(args.result))[0]
-    angles = {"grasp": record.joint_angles, "pregrasp": record.pregrasp, "squeeze": record.squeeze}[args.stage]
+    angles = {"grasp": record.joint_angles, "pregrasp": record.pregrasp, "squeeze": record.squeeze}[stage]
     if angles is None:
-        raise PrehensionError(f"{args.result}: solution {k} stores no {args.stage}; export --stage grasp")
+        raise PrehensionError(f"{args.result}: solution {k} stores no {stage}; export --stage grasp")
     _outputs(args, 1)
     q = np.array([angles[d] for d in task.hand.dof_names])
-    scene = grasp_scene(task, q, record.T_palm_object, args.units)
+    scene = grasp_scene(task, q, record.T_palm_object, units)
     write_bytes_atomic(args.output, scene_bytes(scene, args.format))
-    console.print(f"wrote {args.output}: solution {k} ({args.stage}), {len(task.hand.links)} links and the object, "
-                  f"object frame, {args.units}")  # fmt: skip
+    console.print(f"wrote {args.output}: solution {k} ({stage}), {len(task.hand.links)} links and the object, "
+                  f"object frame, {units}")  # fmt: skip
     return EXIT_OK
