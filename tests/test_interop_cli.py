@@ -126,3 +126,27 @@ def test_export_writes_a_dexgraspbench_folder_and_never_overwrites(tmp_path):
     assert main(["export", str(EXAMPLE), "--format", "json-m", "-o", str(EXAMPLE)]) == EXIT_BAD_INPUT
     assert main(["export", str(EXAMPLE), "--format", "json-m", "-o", str(tmp_path / "u.json"), "--units", "mm"]) == EXIT_BAD_INPUT
     assert main(["export", str(tmp_path / "none.json"), "--format", "json-m", "-o", str(tmp_path / "a.json")]) == EXIT_BAD_INPUT
+
+
+from test_special_outputs import _fingerprint, short_dir, special  # noqa: E402,F401 -- the fixtures of every output test
+
+INTEROP_COMMANDS = {
+    "export json-m": lambda d, out, e: ["export", str(EXAMPLE), "--format", "json-m", "-o", str(out), "--force"],
+    "export dexgraspbench": lambda d, out, e: ["export", str(EXAMPLE), "--format", "dexgraspbench", "-o", str(out), "--solution", "0"],
+    "export dexgraspnet": lambda d, out, e: ["export", str(EXAMPLE), "--format", "dexgraspnet", "-o", str(out)],
+    "export glb": lambda d, out, e: ["export", str(EXAMPLE), "--format", "glb", "-o", str(out), "--force"],
+    "import-grasps": lambda d, out, e: ["import-grasps", str(e / "g.npy"), "--object", str(TASK), "-o", str(out), "--force"],
+}  # fmt: skip
+INTEROP_SUFFIX = {"export json-m": ".json", "export glb": ".glb", "import-grasps": ".jsonl"}
+
+
+@pytest.mark.parametrize("command", sorted(INTEROP_COMMANDS))
+def test_export_and_import_refuse_a_special_output_and_leave_it(special, command, short_dir, exported, capsys):
+    made, words, _ = special
+    out = made("out" + INTEROP_SUFFIX.get(command, ".npy"))
+    before = _fingerprint(out)
+    assert main(INTEROP_COMMANDS[command](short_dir, out, exported)) == EXIT_BAD_INPUT
+    err = capsys.readouterr().err
+    assert words in err and out.name in err
+    assert _fingerprint(out) == before
+    assert not [p for p in short_dir.iterdir() if p.name.startswith(".")]  # no temporary file left
