@@ -216,3 +216,39 @@ def test_seeded_built_in_solutions_come_back_solved_through_every_format(name, t
             assert data["status"] == "solved", data["message"]
             assert verify_result(data, reprove=False).holds
     assert solved >= 1  # the test is not vacuous
+
+
+def test_corrupt_values_are_named_never_a_traceback(sa_hand, rng, tmp_path):
+    """Every field of each format replaced by junk (a string, None, NaN, a nested dict):
+    a PrehensionError naming the file, never another exception."""
+    from prehension.errors import PrehensionError
+
+    record = random_records(sa_hand, rng, 1)[0]
+    write_dexgraspbench([record], sa_hand, tmp_path / "b.npy")
+    write_dexgraspnet([record], sa_hand, tmp_path / "n.npy")
+    write_json_m([record], sa_hand, tmp_path / "m.json")
+    bench = np.load(tmp_path / "b.npy", allow_pickle=True).item()
+    net = np.load(tmp_path / "n.npy", allow_pickle=True)[0]
+    m = json.loads((tmp_path / "m.json").read_text())
+    junk = ("x", None, float("nan"), {"a": 1}, [1.0, "y"])
+    cases = [("b.npy", {**bench, key: j}) for key in ("grasp_qpos", "pregrasp_qpos", "obj_pose", "obj_scale") for j in junk]
+    cases += [("n.npy", [{**net, "qpos": {**net["qpos"], "WRJRx": j}}]) for j in junk]
+    cases += [("n.npy", [{**net, "scale": j}]) for j in junk]
+    for k, (name, value) in enumerate(cases):
+        path = tmp_path / f"{k}-{name}"
+        save_npy(path, value)
+        with pytest.raises(PrehensionError, match=str(k)):
+            read_records(path, sa_hand)
+    for k, j in enumerate(junk):
+        for where in ("grasp", "object", "grasps"):
+            bad = json.loads(json.dumps(m))
+            if where == "grasp":
+                bad["grasps"][0]["grasp_qpos"] = j
+            elif where == "object":
+                bad["object"] = {"path": "", "scale_m_per_unit": j}
+            else:
+                bad["grasps"] = j
+            path = tmp_path / f"m{k}{where}.json"
+            path.write_text(json.dumps(bad, allow_nan=True))
+            with pytest.raises(PrehensionError, match=path.name):
+                read_records(path, sa_hand)

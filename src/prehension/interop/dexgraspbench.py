@@ -74,6 +74,8 @@ def _vector(data: dict, key: str, source: str) -> np.ndarray:
         v = np.asarray(data[key], dtype=float).reshape(-1)
     except (TypeError, ValueError):
         raise InvalidTask(f"{source}: {key!r} is not a list of numbers") from None
+    if not np.isfinite(v).all():
+        raise InvalidTask(f"{source}: {key!r} has non-finite values (NaN or infinity)")
     return v
 
 
@@ -109,7 +111,7 @@ def record_from_dict(data, hand: Hand, source: str) -> GraspRecord:
     stages = {s: None if v is None else _in_object_frame(v, T_world_object, f"{source}: {s}_qpos") for s, v in stages.items()}
     if "joint_names" in data:
         stages = {s: None if v is None else _reordered(v, data["joint_names"], hand, source) for s, v in stages.items()}
-    scale = float(np.asarray(data.get("obj_scale", 1.0), dtype=float).reshape(-1)[0]) * MM_PER_M
+    scale = float(_vector(data, "obj_scale", source)[0]) * MM_PER_M if "obj_scale" in data else MM_PER_M
     return record_from_qpos(hand, stages["grasp"], stages["pregrasp"], stages["squeeze"],
                             object_path=str(data.get("obj_path", "")), object_scale_mm=scale, source=source)  # fmt: skip
 

@@ -64,13 +64,16 @@ def record_from_dict(data, hand: Hand, source: str) -> GraspRecord:
     if missing or unknown:
         raise InvalidTask(f"{source}: qpos does not fit hand {hand.name!r}: missing {missing}, not joints of the hand "
                           f"{unknown}; is the record for another hand?")  # fmt: skip
-    values = {k: float(v) for k, v in qpos.items()}
-    if not np.isfinite(list(values.values())).all():
-        raise InvalidTask(f"{source}: qpos has non-finite values (NaN or infinity)")
+    try:
+        values = {k: float(v) for k, v in qpos.items()}
+        scale = float(data.get("scale", 1.0)) * MM_PER_M
+    except (TypeError, ValueError) as exc:
+        raise InvalidTask(f"{source}: qpos values and scale must be numbers ({exc})") from None
+    if not np.isfinite([*values.values(), scale]).all():
+        raise InvalidTask(f"{source}: qpos or scale has non-finite values (NaN or infinity)")
     T_object_palm = np.eye(4)
     T_object_palm[:3, :3] = Rotation.from_euler(_EULER, [values[k] for k in ROTATION]).as_matrix()
     T_object_palm[:3, 3] = np.array([values[k] for k in TRANSLATION]) * MM_PER_M
-    scale = float(data.get("scale", 1.0)) * MM_PER_M
     check_metres(T_object_palm, source)
     return GraspRecord(np.linalg.inv(T_object_palm), {d: values[d] for d in hand.dof_names},
                        object_scale_mm=scale, source=source)  # fmt: skip

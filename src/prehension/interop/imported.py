@@ -96,6 +96,8 @@ def measured_task(hand, mesh_path: str, scale_mm: float, q, T_palm_object, name:
         closed, distance = True, solid_geometry(solid, True)[1]
     except InvalidObject:  # an open mesh: regions and display only, no collision rows
         closed, distance = False, solid_geometry(solid, False)[1]
+    if not hand.regions:
+        raise InvalidTask(f"hand {hand.name!r} has no contact regions: nothing to measure on {name!r}; give a task (--object TASK)")
     measured = measured_contacts(hand, distance, q, T_palm_object)
     touching = [m for m in measured if abs(m["distance_mm"]) <= TOUCH_MM]
     if not touching:

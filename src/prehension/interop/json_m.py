@@ -63,15 +63,20 @@ def read_json_m(path, hand: Hand) -> list[GraspRecord]:
     if data.get("joint_order", order) != order:
         raise InvalidTask(f"{path}: written for joints {data.get('joint_order')} (hand {data.get('hand')!r}); "
                           f"hand {hand.name!r} has {order}")  # fmt: skip
-    obj = data.get("object") or {}
+    obj = data.get("object") if isinstance(data.get("object"), dict) else {}
+    if not isinstance(data.get("grasps", []), list):
+        raise InvalidTask(f"{path}: 'grasps' must be a list of grasps")
     out = []
     for k, g in enumerate(data.get("grasps") or []):
         where = f"{path}: grasps[{k}]"
         if not isinstance(g, dict) or "grasp_qpos" not in g:
             raise InvalidTask(f"{where}: no 'grasp_qpos'")
         stages = [g.get(f"{s}_qpos") for s in STAGES]
+        scale = obj.get("scale_m_per_unit", 1e-3)
+        if not isinstance(scale, (int, float)) or not 0 < scale < float("inf"):
+            raise InvalidTask(f"{path}: object.scale_m_per_unit must be a positive number, got {scale!r}")
         out.append(record_from_qpos(hand, stages[1], stages[0], stages[2], object_path=str(obj.get("path", "")),
-                                    object_scale_mm=float(obj.get("scale_m_per_unit", 1e-3)) * MM_PER_M, source=where))  # fmt: skip
+                                    object_scale_mm=float(scale) * MM_PER_M, source=where))  # fmt: skip
     if not out:
         raise InvalidTask(f"{path}: the file holds no grasps")
     return out

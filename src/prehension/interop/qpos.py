@@ -101,7 +101,10 @@ def transform_from_base(base, source: str = "base pose") -> np.ndarray:
             (within :data:`QUATERNION_TOLERANCE`): a file that stores ``x, y, z, w`` or
             Euler angles there is refused rather than misread.
     """
-    b = np.asarray(base, dtype=float).reshape(-1)
+    try:
+        b = np.asarray(base, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        b = np.full(1, np.nan)  # refused below, by name
     if b.shape != (BASE_SIZE,) or not np.isfinite(b).all():
         raise InvalidConfiguration(f"{source}: expected 7 finite numbers (x, y, z [m], quaternion w, x, y, z), got {b.tolist()}")
     norm = float(np.linalg.norm(b[3:]))
@@ -153,7 +156,10 @@ def qpos_configuration(qpos, model, source: str = "qpos") -> tuple[np.ndarray, n
             not unit.
     """
     hand = getattr(model, "hand", model)
-    v = np.asarray(qpos, dtype=float).reshape(-1)
+    try:
+        v = np.asarray(qpos, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise InvalidConfiguration(f"{source}: not a list of numbers ({type(qpos).__name__})") from None
     order = qpos_joint_order(hand)
     if v.size != BASE_SIZE + len(order):
         raise InvalidConfiguration(
