@@ -123,6 +123,9 @@ def test_export_writes_a_dexgraspbench_folder_and_never_overwrites(tmp_path):
     assert sorted(p.name for p in folder.iterdir()) == sorted(f"{k}.npy" for k in range(n))
     assert main(["export", str(EXAMPLE), "--format", "dexgraspbench", "-o", str(folder)]) == EXIT_BAD_INPUT
     assert main(["export", str(EXAMPLE), "--format", "dexgraspbench", "-o", str(folder), "--force"]) == EXIT_OK
+    one = tmp_path / "one"
+    assert main(["export", str(EXAMPLE), "--format", "dexgraspbench", "-o", str(one), "--solution", str(n - 1)]) == EXIT_OK
+    assert [p.name for p in one.iterdir()] == [f"{n - 1}.npy"]  # named by its solution number
     assert main(["export", str(EXAMPLE), "--format", "json-m", "-o", str(EXAMPLE)]) == EXIT_BAD_INPUT
     assert main(["export", str(EXAMPLE), "--format", "json-m", "-o", str(tmp_path / "u.json"), "--units", "mm"]) == EXIT_BAD_INPUT
     assert main(["export", str(tmp_path / "none.json"), "--format", "json-m", "-o", str(tmp_path / "a.json")]) == EXIT_BAD_INPUT

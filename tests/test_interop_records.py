@@ -252,3 +252,12 @@ def test_corrupt_values_are_named_never_a_traceback(sa_hand, rng, tmp_path):
             path.write_text(json.dumps(bad, allow_nan=True))
             with pytest.raises(PrehensionError, match=path.name):
                 read_records(path, sa_hand)
+
+
+def test_dexgraspbench_files_are_named_by_solution_number(tmp_path):
+    from prehension.interop.dexgraspbench import grasp_files
+
+    assert [p.name for p in grasp_files(tmp_path / "d", 2, 3)] == ["3.npy", "4.npy"]
+    assert grasp_files(tmp_path / "one.npy", 1, 5) == [tmp_path / "one.npy"]
+    with pytest.raises(InvalidTask, match="2 grasps do not fit one .npy file"):
+        grasp_files(tmp_path / "one.npy", 2)

@@ -1,7 +1,7 @@
 """``prehension export``: a result's grasps in the field's formats, or its posed scene.
 
 Grasp records (:mod:`prehension.interop`): ``dexgraspbench`` (one ``.npy`` dict per grasp:
-``-o FILE.npy`` for one, ``-o FOLDER`` for ``0.npy, 1.npy, ...``), ``dexgraspnet`` (one
+``-o FILE.npy`` for one, ``-o FOLDER`` for ``0.npy, 1.npy, ...``, named by solution number), ``dexgraspnet`` (one
 ``.npy``, a list of dicts), ``json-m`` (JSON in metres).  Scenes
 (:mod:`prehension.interop.scene`): ``glb``, ``obj``, ``ply``, one solution posed.
 """
@@ -41,11 +41,13 @@ def _outputs(args, n: int) -> list[Path]:
     file that exists unless ``--force``)."""
     from ..atomic import check_output_path
 
+    from ..interop.dexgraspbench import grasp_files
+
     out = args.output
     if args.format == "dexgraspbench" and out.suffix.lower() != ".npy":
         if out.exists() and not out.is_dir():
             raise PrehensionError(f"{out} exists and is not a folder; dexgraspbench writes FILE.npy (one grasp) or a folder")
-        paths = [out / f"{k}.npy" for k in range(n)]
+        paths = grasp_files(out, n, args.solution or 0)
         if not out.exists():
             return paths  # the folder is made when the grasps are written
     else:
@@ -79,8 +81,10 @@ def _export_records(args, task, data, console: Console) -> int:
 
     records = records_from_result(task, data, args.solution, str(args.result))
     _outputs(args, len(records))
-    writer = {"dexgraspbench": write_dexgraspbench, "dexgraspnet": write_dexgraspnet, "json-m": write_json_m}[args.format]
-    writer(records, task.hand, args.output)
+    if args.format == "dexgraspbench":  # a folder's files are named by solution number
+        write_dexgraspbench(records, task.hand, args.output, args.solution or 0)
+    else:
+        {"dexgraspnet": write_dexgraspnet, "json-m": write_json_m}[args.format](records, task.hand, args.output)
     stages = [s for s in ("pregrasp", "squeeze") if all(getattr(r, s) is not None for r in records)]
     extra = f" with {' and '.join(stages)}" if stages else " (the result stores no pre-grasp or squeeze)"
     extra = " (the grasp only: the format has no pre-grasp or squeeze)" if args.format == "dexgraspnet" else extra

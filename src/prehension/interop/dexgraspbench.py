@@ -31,7 +31,7 @@ from .npy import load_npy, plain_value, save_npy
 from .qpos import BASE_SIZE, MM_PER_M, base_from_transform, qpos_joint_order, transform_from_base
 from .records import GraspRecord, record_from_qpos
 
-__all__ = ["record_to_dict", "record_from_dict", "write_dexgraspbench", "read_dexgraspbench", "STAGES"]
+__all__ = ["record_to_dict", "record_from_dict", "grasp_files", "write_dexgraspbench", "read_dexgraspbench", "STAGES"]
 
 STAGES = ("pregrasp", "grasp", "squeeze")
 IDENTITY_POSE = np.array([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
@@ -53,17 +53,22 @@ def record_to_dict(record: GraspRecord, hand: Hand) -> dict:
     return out
 
 
-def write_dexgraspbench(records: list[GraspRecord], hand: Hand, output) -> list[Path]:
-    """One ``.npy`` per grasp: ``output`` itself for one grasp named ``*.npy``, else
-    ``output/0.npy, 1.npy, ...`` (DexGraspBench's layout; the folder is made)."""
+def grasp_files(output, n: int, first: int = 0) -> list[Path]:
+    """The files :func:`write_dexgraspbench` writes for ``n`` grasps: ``output`` itself when
+    it is named ``*.npy`` (one grasp), else ``output/{first}.npy, ...`` (DexGraspBench's
+    layout; ``first``: the first grasp's solution number)."""
     output = Path(output)
     if output.suffix.lower() == ".npy":
-        if len(records) != 1:
-            raise InvalidTask(f"{output}: {len(records)} grasps do not fit one .npy file; give a folder, or --solution K")
-        paths = [output]
-    else:
-        output.mkdir(parents=True, exist_ok=True)
-        paths = [output / f"{k}.npy" for k in range(len(records))]
+        if n != 1:
+            raise InvalidTask(f"{output}: {n} grasps do not fit one .npy file; give a folder, or --solution K")
+        return [output]
+    return [output / f"{k}.npy" for k in range(first, first + n)]
+
+
+def write_dexgraspbench(records: list[GraspRecord], hand: Hand, output, first: int = 0) -> list[Path]:
+    """One ``.npy`` per grasp, in the files of :func:`grasp_files` (a folder is made)."""
+    paths = grasp_files(output, len(records), first)
+    paths[0].parent.mkdir(parents=True, exist_ok=True)
     for record, path in zip(records, paths):
         save_npy(path, record_to_dict(record, hand))
     return paths
