@@ -90,7 +90,6 @@ def measured_task(hand, mesh_path: str, scale_mm: float, q, T_palm_object, name:
         InvalidTask: no hand region within :data:`TOUCH_MM` of the object (the grasp touches
             nothing: another object, another scale, or millimetres read as metres).
     """
-
     solid = MeshFileSolid(str(mesh_path), float(scale_mm))
     try:
         closed, distance = True, solid_geometry(solid, True)[1]
@@ -159,16 +158,18 @@ def imported_result(task: Task, record, *, measured: list[dict] | None = None, f
     tolerances = Tolerances() if report.ok else _admitting(report)
     solution = _solution(task, q, T, report.judged(tolerances), tolerances)
     status = Status.SOLVED if report.ok else Status.APPROXIMATE
-    failing = ", ".join(f"{k} {report.worst(k):.3g}" for k in report.kinds if report.worst(k) > getattr(Tolerances(), TOLERANCE_OF_KIND[k]))
-    message = (f"imported from {record.source}: " + ("every constraint holds within the strict tolerances" if report.ok else
-               f"does not hold strictly (worst: {failing}); stored as approximate, within exactly those tolerances"))  # fmt: skip
+    strict = Tolerances()
+    failing = ", ".join(f"{k} {report.worst(k):.3g}" for k in report.kinds if report.worst(k) > getattr(strict, TOLERANCE_OF_KIND[k]))
+    verdict = "every constraint holds within the strict tolerances" if report.ok else (
+        f"does not hold strictly (worst: {failing}); stored as approximate, within exactly those tolerances")
+    message = f"imported from {record.source}: {verdict}"
     result = SolveResult(task, "imported", status, message, (solution,))
     data = result_to_dict(result, approach=False)
     entry = data["solutions"][0]
     if record.pregrasp is not None:
         q_pre = np.array([record.pregrasp[d] for d in task.hand.dof_names])
-        off = judge_pregrasp(task, q, q_pre, T, solution.contacts, 0.0)
-        entry["pregrasp"] = judge_pregrasp(task, q, q_pre, T, solution.contacts, float(np.max(off.reached_mm, initial=0.0))).to_dict(task)
+        pre = judge_pregrasp(task, q, q_pre, T, solution.contacts, 0.0)  # the record states no distance: its largest
+        entry["pregrasp"] = replace(pre, back_off_mm=float(np.max(pre.reached_mm, initial=0.0))).to_dict(task)
     entry["imported"] = _claims(record, format_name, measured)
     return data
 
