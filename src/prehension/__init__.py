@@ -34,6 +34,7 @@ _SOURCES = {
     ".hands.files": ("load_hand_file",),
     ".hands.mjcf": ("hand_from_mjcf",),
     ".hands.urdf": ("hand_from_urdf",),
+    ".interop": ("solution_qpos", "qpos_configuration"),
     ".best": ("BestOptions", "solve_best"),
     ".objects.mesh_io": ("load_mesh",),
     ".objects.model": ("GraspObject",),

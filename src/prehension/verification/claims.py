@@ -51,7 +51,7 @@ from .residuals import ResidualReport, Tolerances, evaluate
 __all__ = ["Finding", "Verification", "verify_result", "verify_result_file", "STORED_TOLERANCE"]
 
 STORED_TOLERANCE = 1e-9  # largest gap between a stored value and the recomputed one (mm, deg, unitless)
-METHODS = ("local", "complete")
+METHODS = ("local", "complete", "imported")  # "imported": prehension import-grasps (docs/interop.md)
 
 
 @dataclass(frozen=True)

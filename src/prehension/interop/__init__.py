@@ -1,0 +1,11 @@
+"""The field's formats, in and out: grasp records (DexGraspBench/BODex ``.npy``, DexGraspNet
+``.npy``, JSON in metres), MuJoCo ``qpos`` and posed scenes (GLB, OBJ, PLY).
+
+See docs/interop.md for the frames, units and which field maps to which.
+"""
+
+from __future__ import annotations
+
+from .qpos import base_from_transform, qpos_configuration, qpos_joint_order, solution_qpos, transform_from_base
+
+__all__ = ["solution_qpos", "qpos_configuration", "qpos_joint_order", "base_from_transform", "transform_from_base"]
