@@ -126,7 +126,7 @@ def test_guitar_tuning_just_inside_its_frontier_is_never_proved(frontier_module,
     """Soundness where the new pruning acts: the task at ``t* - eps`` has a known strict solution
     (checked), the hand stage keeps its angles, and the pair test by matching does not prove
     the pair infeasible."""
-    from prehension.solvers.complete import matching as mt
+    from prehension.solvers.complete.pair import matching as mt
     from prehension.solvers.complete.pair import pair_problem
 
     family, found = tuning
