@@ -35,6 +35,7 @@ from prehension.hands.kinematics import forward_kinematics
 from prehension.hands.sa_enclosing import with_enclosing_capsules
 from prehension.results import result_to_dict
 from prehension.quality import quality_entries
+from prehension.pregrasp import approach_entries_of
 from prehension.solve import SolveOptions, solve
 from prehension.solvers.local.sequence import shipped_sequence
 from prehension.tasks.library import builtin_task_names, load_builtin_task
@@ -99,7 +100,7 @@ def run(task, method: str, sequence, time_limit: float):
     else:
         result = solve(task, SolveOptions(method="complete", complete_options=BranchAndPruneOptions(time_limit_s=time_limit)))
     seconds = time.perf_counter() - t
-    holds = verify_result(result_to_dict(result, quality_entries(result)), reprove=False).holds
+    holds = verify_result(result_to_dict(result, quality_entries(result), approach_entries_of(result)), reprove=False).holds
     return result, seconds, holds
 
 

@@ -36,6 +36,7 @@ from prehension.objects.pick import region_from_mesh
 from prehension.objects.solid import MeshFileSolid
 from prehension.results import write_result
 from prehension.quality import quality_entries
+from prehension.pregrasp import approach_entries_of
 from prehension.solve import solve
 from prehension.tasks.library import load_builtin_task
 from prehension.tasks.model import Contact, Task
@@ -119,7 +120,7 @@ def main() -> None:
                 table.add_row(name, faces, "-", "-", "unsolved", "", "", "", "")
                 continue
             path = folder / f"{name.split()[0]}.json"
-            write_result(result, path, quality_entries(result))
+            write_result(result, path, quality_entries(result), approach_entries_of(result))
             cache = folder / f"cache-{name.split()[0]}"
             cold, code, grasp, _ = _simulate(path, cache)
             warm, code, grasp, err = _simulate(path, cache)
@@ -132,7 +133,7 @@ def main() -> None:
         open_task = blob_task(blob_obj(folder / "open.obj", hole=200), closed=False)
         result = solve(open_task, "local")
         if result.solutions:
-            write_result(result, folder / "open.json", quality_entries(result))
+            write_result(result, folder / "open.json", quality_entries(result), approach_entries_of(result))
             seconds, code, _, err = _simulate(folder / "open.json", folder / "cache-open")
             table.add_row("open blob (81,720 tri)", str(len(open_task.object.surface.faces)), f"{seconds:.1f}", "", str(code), err[:80])
     console.print(table)

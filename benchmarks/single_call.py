@@ -129,7 +129,8 @@ result = solve(task, "auto")
 t.append(time.perf_counter())
 from prehension.results import write_result
 from prehension.quality import quality_entries
-write_result(result, sys.argv[2], quality_entries(result))
+from prehension.pregrasp import approach_entries_of
+write_result(result, sys.argv[2], quality_entries(result), approach_entries_of(result))
 t.append(time.perf_counter())
 print(json.dumps([b - a for a, b in zip(t, t[1:])] + [result.status]))
 """

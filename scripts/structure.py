@@ -10,11 +10,16 @@
   connected component of more than one module (Tarjan).
 * **region-kind dispatch**: the modules that call ``isinstance`` on a region kind
   (``BezierRegion``, ``SphereCap``, ``PointRegion``).
+* **layers**: every module belongs to one layer of :data:`LAYERS` (bottom first; the
+  longest matching prefix decides, so ``verification.residuals`` sits below
+  ``verification.claims``), and no import goes to a higher layer.  The layers are
+  described in ``docs/architecture.md``; a module no layer names is reported.
 * **long modules** (over ``--max-module-lines`` lines) and **long functions** (over
   ``--max-function-lines`` lines or ``--max-parameters`` parameters), numba kernels
   (functions decorated with ``njit``/``jit``) excepted.
 
-``--check`` exits 1 when the limits are exceeded: no cycle at all, region-kind
+``--check`` exits 1 when the limits are exceeded: no cycle at all, no upward import and no
+module outside the layers, region-kind
 ``isinstance`` in at most ``--max-dispatch-modules`` modules, and the line and parameter
 limits.  Without ``--check`` it only reports.
 """
@@ -31,6 +36,22 @@ ROOT = Path(__file__).resolve().parent.parent / "src" / "prehension"
 PACKAGE = "prehension"
 REGION_KINDS = frozenset({"BezierRegion", "SphereCap", "PointRegion"})
 KERNEL_DECORATORS = frozenset({"njit", "jit", "vectorize", "guvectorize"})
+
+#: The layers of docs/architecture.md, bottom first: module-name prefixes under the package.
+LAYERS: tuple[tuple[str, ...], ...] = (
+    ("errors", "frozen", "deadline", "atomic", "disk_cache", "lp", "kernels", "paper", "_aot_build", "_dask_plugins"),
+    ("geometry",),
+    ("hands", "objects", "tasks.model", "tasks.locate"),
+    ("tasks",),
+    ("verification.residuals", "verification"),
+    ("results",),
+    ("system",),
+    ("quality", "sim", "pregrasp", "tessellation", "ascent"),
+    ("solvers",),
+    ("solve", "best", "hold", "batch_extras"),
+    ("parallel", "batch"),
+    ("verification.claims", "viewer", "interop", "cli"),
+)
 
 
 @dataclass
@@ -137,6 +158,33 @@ def cycles(modules: dict[str, Module]) -> list[list[str]]:
     return found
 
 
+def layer_of(name: str) -> int | None:
+    """The layer (index into :data:`LAYERS`) of a module: its longest matching prefix;
+    ``None`` when no layer names it.  The package's ``__init__`` (the public facade, which
+    loads its names lazily) belongs to the top layer."""
+    if name == PACKAGE:
+        return len(LAYERS) - 1
+    rel = name[len(PACKAGE) + 1:]
+    best: tuple[int, int] | None = None
+    for i, prefixes in enumerate(LAYERS):
+        for prefix in prefixes:
+            if (rel == prefix or rel.startswith(prefix + ".")) and (best is None or len(prefix) > best[1]):
+                best = (i, len(prefix))
+    return None if best is None else best[0]
+
+
+def upward_imports(modules: dict[str, Module]) -> tuple[list[tuple[str, str]], list[str]]:
+    """``(imports from a lower layer to a higher one, modules no layer names)``."""
+    upward, unplaced = [], sorted(n for n in modules if layer_of(n) is None)
+    for name, module in sorted(modules.items()):
+        here = layer_of(name)
+        for target in sorted(module.imports):
+            there = layer_of(target)
+            if here is not None and there is not None and there > here:
+                upward.append((name, target))
+    return upward, unplaced
+
+
 def _isinstance_kinds(node: ast.Call) -> set[str]:
     """Region kinds named in an ``isinstance(x, K)`` or ``isinstance(x, (K1, K2))`` call."""
     if not (isinstance(node.func, ast.Name) and node.func.id == "isinstance" and len(node.args) == 2):
@@ -189,6 +237,7 @@ def main(argv: list[str] | None = None) -> int:
     resolve_imports(modules)
     found = cycles(modules)
     dispatch = dispatch_modules(modules)
+    upward, unplaced = upward_imports(modules)
     long_modules = sorted((m.lines, m.name) for m in modules.values() if m.lines > args.max_module_lines)
     long_functions = sorted(
         (f for f in functions(modules) if f[2] > args.max_function_lines or f[3] > args.max_parameters),
@@ -199,6 +248,11 @@ def main(argv: list[str] | None = None) -> int:
     print(f"import cycles: {len(found)} ({sum(map(len, found))} modules)")
     for component in found:
         print("  " + " <-> ".join(component))
+    print(f"imports to a higher layer: {len(upward)}; modules outside the layers: {len(unplaced)}")
+    for name, target in upward:
+        print(f"  {name} -> {target} (layer {layer_of(name)} -> {layer_of(target)})")
+    for name in unplaced:
+        print(f"  {name}: in no layer (scripts/structure.py LAYERS)")
     print(f"region-kind isinstance: {sum(dispatch.values())} calls in {len(dispatch)} modules "
           f"(limit {args.max_dispatch_modules} modules)")  # fmt: skip
     for name, n in sorted(dispatch.items()):
@@ -210,7 +264,7 @@ def main(argv: list[str] | None = None) -> int:
           f"(numba kernels excepted): {len(long_functions)}")  # fmt: skip
     for module, name, lines, params in long_functions:
         print(f"  {module}.{name}: {lines} lines, {params} parameters")
-    failed = found or len(dispatch) > args.max_dispatch_modules or long_modules or long_functions
+    failed = found or upward or unplaced or len(dispatch) > args.max_dispatch_modules or long_modules or long_functions
     return 1 if args.check and failed else 0
 
 

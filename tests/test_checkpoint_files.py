@@ -13,6 +13,7 @@ from prehension.cli import EXIT_BAD_INPUT, main
 from prehension.errors import PrehensionError
 from prehension.results import Status, result_to_dict
 from prehension.quality import quality_entries
+from prehension.pregrasp import approach_entries_of
 from prehension.solvers.complete.checkpoint import SearchState, _content_digest, save_state, search_fingerprint
 from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
 from prehension.system.formulation import build_system
@@ -163,7 +164,7 @@ def test_a_forged_checkpoint_says_so_in_the_result_and_check_re_proves_it(tmp_pa
     resumed = solve_complete(task, NO_PAIR, checkpoint=forged, resume=True)
     assert resumed.status == Status.INFEASIBLE  # what the forged checkpoint makes it say ...
     assert f"resumed from checkpoint {forged}: 5 of these boxes were pruned" in resumed.message  # ... and says why
-    data = result_to_dict(resumed, quality_entries(resumed))
+    data = result_to_dict(resumed, quality_entries(resumed), approach_entries_of(resumed))
     assert data["stats"]["resumed"]["checkpoint"] == str(forged)
     restated = verify_result(data, reprove=False)
     assert "resumed from checkpoint" in restated.findings[-1].detail and not restated.infeasibility_reproved
@@ -173,7 +174,7 @@ def test_a_forged_checkpoint_says_so_in_the_result_and_check_re_proves_it(tmp_pa
 
 
 def test_a_resumed_infeasibility_is_re_proved_and_names_its_checkpoint(resumed):
-    data = result_to_dict(resumed, quality_entries(resumed))
+    data = result_to_dict(resumed, quality_entries(resumed), approach_entries_of(resumed))
     checked = verify_result(data, time_limit_s=120)
     assert checked.holds and checked.infeasibility_reproved
     assert "resumed from checkpoint" in checked.findings[-1].detail and "does not read it" in checked.findings[-1].detail

@@ -6,6 +6,7 @@ import json
 
 import pytest
 
+from prehension.pregrasp import approach_entries_of
 from prehension.cli import EXIT_BAD_INPUT, EXIT_CHECK_FAILED, EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK, main
 from prehension.tasks.yaml_io import dumps_task, task_to_dict
 from tiny_tasks import pincer_task
@@ -105,7 +106,7 @@ def test_check_reverifies_every_record_of_a_batch_output(tmp_path, capsys):
     from prehension.solve import SolveOptions, solve
 
     result = solve(pincer_task(30.0), "complete")
-    good = result_to_dict(result, quality_entries(result))
+    good = result_to_dict(result, quality_entries(result), approach_entries_of(result))
     records = [{"id": "a", "status": "solved", "result": good}, {"id": "b", "status": "invalid", "result": None}]
     out = tmp_path / "results.jsonl"
     out.write_text("".join(json.dumps(r) + "\n" for r in records))

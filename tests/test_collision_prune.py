@@ -18,6 +18,7 @@ from prehension.objects.model import GraspObject
 from prehension.objects.solid import PrimitiveSolid
 from prehension.results import Status, write_result
 from prehension.quality import quality_entries
+from prehension.pregrasp import approach_entries_of
 from prehension.solvers.complete.collision import collision_probes, collision_prune, probe_enclosures
 from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
 from prehension.system.embedding import embed
@@ -204,7 +205,7 @@ def test_a_task_infeasible_only_through_the_object_is_certified_and_re_proved(tm
     assert "no penetration-free solution" in result.message and result.stats["collision_pruned"] > 0
     assert f"{result.stats['collision_pruned']} of them because every configuration" in result.message
     out = tmp_path / "pit.json"
-    write_result(result, out, quality_entries(result))
+    write_result(result, out, quality_entries(result), approach_entries_of(result))
     assert json.loads(out.read_text())["stats"]["collision_pruned"] == result.stats["collision_pruned"]
     assert main(["check", str(out)]) == EXIT_INFEASIBLE
     assert "the proof was run again on the embedded task and holds" in capsys.readouterr().out

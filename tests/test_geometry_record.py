@@ -10,6 +10,7 @@ from conftest import HANDS_DIR
 from prehension.hands.urdf import hand_from_urdf
 from prehension.results import SolveResult, result_to_dict
 from prehension.quality import quality_entries
+from prehension.pregrasp import approach_entries_of
 from prehension.tasks.geometry_record import check_collision_geometry, collision_geometry
 from prehension.tasks.library import load_builtin_task
 from prehension.tasks.yaml_io import hand_from_dict, hand_to_dict, task_from_dict, task_to_dict
@@ -40,8 +41,8 @@ def test_link_fit_of_a_urdf_hand_survives_an_inline_hand_and_a_task(tmp_path):
 def test_every_result_states_its_geometry_and_a_batch_record_the_short_form():
     task = load_builtin_task("teapot-lid-lifting")
     result = SolveResult(task, "local", "gave_up", "nothing found")
-    whole = result_to_dict(result, quality_entries(result))["collision_geometry"]
-    short = result_to_dict(result, quality_entries(result), embed_task=False)["collision_geometry"]
+    whole = result_to_dict(result, quality_entries(result), approach_entries_of(result))["collision_geometry"]
+    short = result_to_dict(result, quality_entries(result), approach_entries_of(result), embed_task=False)["collision_geometry"]
     assert whole["hand"].startswith("schunk-sa: 14 links") and whole["digest"].startswith("sha256:")
     assert set(whole["links"]) == {link.name for link in task.hand.links}
     assert short == {k: v for k, v in whole.items() if k != "links"}
@@ -53,7 +54,7 @@ def test_every_result_states_its_geometry_and_a_batch_record_the_short_form():
 def test_check_names_what_differs_and_accepts_older_files():
     task = load_builtin_task("teapot-lid-lifting")
     result = SolveResult(task, "local", "gave_up", "nothing found")
-    data = result_to_dict(result, quality_entries(result))
+    data = result_to_dict(result, quality_entries(result), approach_entries_of(result))
     wrong = copy.deepcopy(data["collision_geometry"])
     wrong["object"] = "none"
     ok, detail = check_collision_geometry(task, wrong)

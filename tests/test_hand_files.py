@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from conftest import HANDS_DIR, random_angles
+from prehension.pregrasp import approach_entries_of
 from prehension.errors import InvalidHand, InvalidTask
 from prehension.hands.kinematics import forward_kinematics
 from prehension.tasks.format.tasks import resolve_hand
@@ -148,7 +149,7 @@ def test_result_files_hold_the_hand_and_stand_alone(tmp_path, rng):
     urdf = _copy_allegro(tmp_path)
     task = load_task(_task_file(tmp_path, "{urdf: hands/allegro/allegro_hand_right.urdf}"))
     result = SolveResult(task, "local", "gave_up", "test")
-    write_result(result, tmp_path / "r.json", quality_entries(result))
+    write_result(result, tmp_path / "r.json", quality_entries(result), approach_entries_of(result))
     shutil.rmtree(urdf.parent)  # the hand file is gone: the result still reads
     again, data = read_result(tmp_path / "r.json")
     assert data["task"]["hand"]["source"]["path"] == str(urdf.resolve())

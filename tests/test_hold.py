@@ -15,6 +15,7 @@ from prehension.cli.codes import EXIT_CHECK_FAILED, EXIT_DROPPED  # noqa: E402
 from prehension.hold import hold_first  # noqa: E402
 from prehension.results import SolveResult, write_result  # noqa: E402
 from prehension.quality import quality_entries
+from prehension.pregrasp import approach_entries_of
 from prehension.verification import verify_result_file  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -45,7 +46,7 @@ def test_the_stored_verdict_is_re_run_by_check(tmp_path, four, one_face, monkeyp
     task, holds = four
     out = hold_first(SolveResult(task, "local", "solved", "one", (holds,)))
     path = tmp_path / "held.result.json"
-    write_result(out.result, path, quality_entries(out.result), physics=out.physics)
+    write_result(out.result, path, quality_entries(out.result), approach_entries_of(out.result), physics=out.physics)
     checked = verify_result_file(path)
     physics = [f for f in checked.findings if "physics verdict" in f.what]
     assert checked.holds and len(physics) == 1 and physics[0].detail.startswith("re-run: holds")

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from conftest import random_angles
+from prehension.pregrasp import approach_entries_of
 from prehension.errors import InvalidConfiguration, InvalidTask
 from prehension.interop.dexgraspbench import read_dexgraspbench, record_from_dict, write_dexgraspbench
 from prehension.interop.dexgraspnet import read_dexgraspnet, write_dexgraspnet
@@ -205,7 +206,7 @@ def test_seeded_built_in_solutions_come_back_solved_through_every_format(name, t
         if not result.success:
             continue
         solved += 1
-        (record,) = records_from_result(task, result_to_dict(result, quality_entries(result)), 0)
+        (record,) = records_from_result(task, result_to_dict(result, quality_entries(result), approach_entries_of(result)), 0)
         for fmt, writer in WRITERS.items():
             out = tmp_path / f"{name}-{seed}{SUFFIX[fmt]}"
             writer([record], task.hand, out)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from prehension.pregrasp import approach_entries_of
 from prehension.geometry.regions import PointRegion
 from prehension.hands.kinematics import forward_kinematics
 from prehension.objects.distance import MeshDistance
@@ -258,7 +259,7 @@ def test_result_file_carries_each_link_and_pad_depth_and_check_re_derives_them(t
     task = load_builtin_task("scalpel-upholding")
     result = solve(task, "local")
     path = tmp_path / "r.json"
-    write_result(result, path, quality_entries(result))
+    write_result(result, path, quality_entries(result), approach_entries_of(result))
     data = json.loads(path.read_text())
     depths = data["solutions"][0]["object_depths_mm"]
     report = result.solutions[0].report

@@ -13,6 +13,7 @@ from prehension.hands.kinematics import forward_kinematics
 from prehension.pregrasp import judge_pregrasp, pregrasp
 from prehension.results import SolveResult, write_result
 from prehension.quality import quality_entries
+from prehension.pregrasp import approach_entries_of
 from prehension.verification import verify_result_file
 
 
@@ -48,7 +49,7 @@ def test_every_solution_stores_its_pregrasp_and_squeeze_and_check_re_derives_the
     task, grasp = four
     path = tmp_path / "r.result.json"
     result = SolveResult(task, "local", "solved", "test", (grasp,))
-    write_result(result, path, quality_entries(result))
+    write_result(result, path, quality_entries(result), approach_entries_of(result))
     data = json.loads(path.read_text())
     sol = data["solutions"][0]
     assert sol["pregrasp"]["collision_free"] and sol["pregrasp"]["back_off_mm"] == 15.0
@@ -74,7 +75,7 @@ def test_simulate_starts_from_the_pregrasp_and_reaches_the_grasp(tmp_path, capsy
     task, grasp = four
     path = tmp_path / "r.result.json"
     result = SolveResult(task, "local", "solved", "test", (grasp,))
-    write_result(result, path, quality_entries(result))
+    write_result(result, path, quality_entries(result), approach_entries_of(result))
     out = tmp_path / "physics.json"
     assert main(["simulate", str(path), "--from-pregrasp", "-o", str(out)]) == EXIT_OK
     closing = json.loads(out.read_text())["grasps"][0]["closing"]

@@ -13,6 +13,7 @@ from prehension.cli import EXIT_CHECK_FAILED, EXIT_OK, main
 from prehension.geometry.regions import PointRegion
 from prehension.objects.model import GraspObject
 from prehension.quality import QualityOptions, check_quality_entry, grasp_quality, quality_entries, quality_entry
+from prehension.pregrasp import approach_entries_of
 from prehension.results import result_to_dict
 from prehension.solve import solve
 from prehension.tasks.library import load_builtin_task
@@ -29,18 +30,18 @@ def lid():
 
 
 def test_every_solution_states_its_quality_and_the_friction_model(lid):
-    data = result_to_dict(lid, quality_entries(lid, SOFT))
+    data = result_to_dict(lid, quality_entries(lid, SOFT), approach_entries_of(lid))
     q = data["solutions"][0]["quality"]
     expected = grasp_quality(lid.task, lid.solutions[0], SOFT)
     assert q["force_closure"] is True and q["epsilon"] == expected.epsilon > 0
     assert q["options"] == {"friction": 0.6, "cone_edges": 8, "torsion_mm": 5.0, "radius_mm": None, "center_mm": None}
     assert q["radius_mm"] == pytest.approx(expected.radius_mm) and len(q["center_mm"]) == 3
-    hard = result_to_dict(lid, quality_entries(lid))["solutions"][0]["quality"]  # default: hard fingers; a pinch is no closure
+    hard = result_to_dict(lid, quality_entries(lid), approach_entries_of(lid))["solutions"][0]["quality"]  # default: hard fingers; a pinch is no closure
     assert hard["force_closure"] is False and hard["epsilon"] == 0.0
 
 
 def test_check_re_derives_the_quality(lid, tmp_path, capsys):
-    data = result_to_dict(lid, quality_entries(lid, SOFT))
+    data = result_to_dict(lid, quality_entries(lid, SOFT), approach_entries_of(lid))
     checked = verify_result(copy.deepcopy(data), reprove=False)
     found = [f for f in checked.findings if "quality" in f.what]
     assert checked.holds and found and "force closure, epsilon" in found[0].detail
@@ -75,7 +76,7 @@ TAMPERS = [_epsilon, _closure, _friction, _radius, _bad_options]
 
 @pytest.mark.parametrize("tamper", TAMPERS, ids=[t.__name__.strip("_") for t in TAMPERS])
 def test_a_tampered_quality_is_caught(lid, tamper, tmp_path, capsys):
-    data = result_to_dict(lid, quality_entries(lid, SOFT))
+    data = result_to_dict(lid, quality_entries(lid, SOFT), approach_entries_of(lid))
     tamper(data)
     checked = verify_result(data, reprove=False)
     assert not checked.holds and any("quality" in f.what for f in checked.failures)
@@ -86,7 +87,7 @@ def test_a_tampered_quality_is_caught(lid, tamper, tmp_path, capsys):
 
 
 def test_a_file_from_before_quality_still_holds(lid):
-    data = result_to_dict(lid, quality_entries(lid))
+    data = result_to_dict(lid, quality_entries(lid), approach_entries_of(lid))
     del data["solutions"][0]["quality"]
     checked = verify_result(data, reprove=False)
     assert checked.holds and any(f.detail.startswith("not stated") for f in checked.findings)

@@ -15,6 +15,7 @@ from prehension.batch.inputs import read_inputs
 from prehension.batch.solving import BatchOptions, solve_chunk
 from prehension.errors import PrehensionError
 from prehension.quality import QualityOptions, contact_quality, force_closure, hull_measures, primitive_wrenches, quality_entries
+from prehension.pregrasp import approach_entries_of
 from prehension.quality import grasp as grasp_module
 from prehension.results import result_to_dict
 from prehension.solve import SolveOptions, solve
@@ -83,7 +84,7 @@ def test_the_object_reference_is_cached_per_object_and_equals_the_computed_one()
 def test_given_quality_entries_are_stored_as_given_and_must_match_the_solutions():
     result = solve(load_builtin_task("guitar-tuning"), SolveOptions(method="local", seed=0))
     assert result.success
-    measured = result_to_dict(result, quality_entries(result))["solutions"][0]["quality"]
+    measured = result_to_dict(result, quality_entries(result), approach_entries_of(result))["solutions"][0]["quality"]
     given = result_to_dict(result, [measured])["solutions"][0]["quality"]
     assert given is measured
     with pytest.raises(PrehensionError, match="0 quality entries given for 1 solutions"):

@@ -17,6 +17,7 @@ from prehension.hands.kinematics import forward_kinematics
 from prehension.objects.model import GraspObject
 from prehension.results import Status, write_result
 from prehension.quality import quality_entries
+from prehension.pregrasp import approach_entries_of
 from prehension.solvers.complete.search import BranchAndPruneOptions, process_box, solve_complete
 from prehension.solvers.complete.self_collision import pair_distance_bounds, self_collision_pairs, self_collision_prune
 from prehension.system.embedding import embed
@@ -170,7 +171,7 @@ def test_a_task_infeasible_only_through_self_collision_is_certified_and_re_prove
     assert result.status == Status.INFEASIBLE and not result.solutions
     assert "no self-collision-free solution" in result.message and result.stats["self_collision_pruned"] > 0
     out = tmp_path / "crossed.json"
-    write_result(result, out, quality_entries(result))
+    write_result(result, out, quality_entries(result), approach_entries_of(result))
     assert json.loads(out.read_text())["stats"]["self_collision_pruned"] == result.stats["self_collision_pruned"]
     assert main(["check", str(out)]) == EXIT_INFEASIBLE
     capsys.readouterr()

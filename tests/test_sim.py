@@ -21,6 +21,7 @@ from prehension.objects.model import GraspObject
 from prehension.quality import mass_properties, object_solid
 from prehension.results import SolveResult, write_result
 from prehension.quality import quality_entries
+from prehension.pregrasp import approach_entries_of
 from prehension.sim import SimOptions, convex_pieces, require_mujoco, scene_for, simulate_grasp, squeeze_targets
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "quality" / "box_grasps.py"
@@ -184,7 +185,7 @@ def test_without_mujoco_the_message_says_what_to_install(monkeypatch, tmp_path, 
 def _result_file(tmp_path, task, grasp, name):
     path = tmp_path / f"{name}.json"
     result = SolveResult(task, "local", "solved", "test", (grasp,))
-    write_result(result, path, quality_entries(result))
+    write_result(result, path, quality_entries(result), approach_entries_of(result))
     return path
 
 
@@ -254,7 +255,7 @@ def test_simulate_interrupted_writes_the_grasps_it_finished(tmp_path, capsys, mo
     task, grasp = four
     path = tmp_path / "three.json"
     result = SolveResult(task, "local", "solved", "test", (grasp, grasp, grasp))
-    write_result(result, path, quality_entries(result))
+    write_result(result, path, quality_entries(result), approach_entries_of(result))
     calls = []
 
     def fake(task, solution, options, seed):

@@ -53,3 +53,22 @@ def test_numba_kernels_are_excepted_from_the_function_limits(tmp_path):
                 f"def plain(self, a, b):\n{body}\n",
     })  # fmt: skip
     assert [(f[1], f[3]) for f in structure.functions(modules)] == [("plain", 2)]
+
+
+def test_layers_place_a_module_by_its_longest_prefix_and_catch_an_upward_import(tmp_path, monkeypatch):
+    monkeypatch.setattr(structure, "LAYERS", (("low",), ("mid", "low.top"), ("high",)))
+    modules = _tree(tmp_path, {
+        "__init__.py": "",
+        "low/__init__.py": "",
+        "low/base.py": "",
+        "low/top.py": "from ..mid import f\n",      # layer 1 -> 1: allowed
+        "mid.py": "from .low.base import g\n",      # 1 -> 0: allowed
+        "high.py": "from .mid import f\n",          # 2 -> 1: allowed
+        "stray.py": "",                             # in no layer
+    })  # fmt: skip
+    assert structure.layer_of("prehension.low.top") == 1 and structure.layer_of("prehension.low.base") == 0
+    assert structure.upward_imports(modules) == ([], ["prehension.stray"])
+    (tmp_path / "low" / "base.py").write_text("def g():\n    from ..high import h\n")  # 0 -> 2, inside a function
+    modules = _tree(tmp_path, {})
+    assert structure.upward_imports(modules)[0] == [("prehension.low.base", "prehension.high")]
+

@@ -12,6 +12,7 @@ import pytest
 from prehension.cli import EXIT_BAD_INPUT, EXIT_CHECK_FAILED, EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK, main
 from prehension.results import Status, result_to_dict, write_result
 from prehension.quality import quality_entries
+from prehension.pregrasp import approach_entries_of
 from prehension.solve import SolveOptions, solve
 from prehension.solvers.local import LocalOptions
 from prehension.tasks.library import load_builtin_task
@@ -25,7 +26,7 @@ def solved_lid():
     """A solved built-in task (a moving index and thumb, idle middle and ring fingers)."""
     result = solve(load_builtin_task("teapot-lid-lifting"), "local")
     assert result.success
-    return result_to_dict(result, quality_entries(result))
+    return result_to_dict(result, quality_entries(result), approach_entries_of(result))
 
 
 # -- solve and check never disagree --------------------------------------------------------------
@@ -67,7 +68,7 @@ def test_an_approximate_answer_is_never_called_solved(tmp_path):
     assert strict.status == Status.GAVE_UP and not strict.solutions
     assert loose.status == Status.APPROXIMATE and not loose.success and loose.solutions
     path = tmp_path / "a.json"
-    write_result(loose, path, quality_entries(loose))
+    write_result(loose, path, quality_entries(loose), approach_entries_of(loose))
     assert main(["check", str(path)]) == 6  # EXIT_APPROXIMATE: holds, but only within the stated tolerances
     data = json.loads(path.read_text())
     data["status"], data["success"] = "solved", True  # claiming "solved" for it is caught
@@ -249,7 +250,7 @@ def test_a_gave_up_result_writes_strict_json(tmp_path):
     result = solve(far, SolveOptions(method="local", local_options=LocalOptions(i_max=2, k_max=5)))
     assert result.status == Status.GAVE_UP
     path = tmp_path / "g.json"
-    write_result(result, path, quality_entries(result))
+    write_result(result, path, quality_entries(result), approach_entries_of(result))
 
     def refuse(name):
         raise ValueError(f"non-standard JSON constant {name}")

@@ -15,6 +15,7 @@ from prehension.errors import PrehensionError
 from prehension.hands.model import Capsule
 from prehension.results import read_result, write_result
 from prehension.quality import quality_entries
+from prehension.pregrasp import approach_entries_of
 from prehension.solve import solve
 from prehension.tasks.library import builtin_task_names, load_builtin_task
 from prehension.tasks.model import Configuration
@@ -36,7 +37,7 @@ def solved():
 @pytest.fixture(scope="module")
 def result_file(solved, tmp_path_factory):
     path = tmp_path_factory.mktemp("viewer") / "lid.json"
-    write_result(solved, path, quality_entries(solved))
+    write_result(solved, path, quality_entries(solved), approach_entries_of(solved))
     return path
 
 
@@ -46,7 +47,7 @@ def infeasible_file(tmp_path_factory):
     result = solve(pincer_task(60.0), "complete")
     assert result.status == "infeasible"
     path = tmp_path_factory.mktemp("viewer") / "pincer.json"
-    write_result(result, path, quality_entries(result))
+    write_result(result, path, quality_entries(result), approach_entries_of(result))
     return path
 
 

@@ -18,6 +18,7 @@ import pytest
 
 from prehension.results import write_result
 from prehension.quality import quality_entries
+from prehension.pregrasp import approach_entries_of
 from prehension.solve import solve
 from prehension.tasks.library import load_builtin_task
 from prehension.viewer import build_scene, write_html
@@ -57,7 +58,7 @@ def pages(tmp_path_factory):
     """A solved grasp's page and a task's page."""
     folder = tmp_path_factory.mktemp("browser")
     result = solve(load_builtin_task("teapot-lid-lifting"), "local")
-    write_result(result, folder / "lid.json", quality_entries(result))
+    write_result(result, folder / "lid.json", quality_entries(result), approach_entries_of(result))
     write_html(build_scene(result.task, result.solutions[0]), folder / "grasp.html")
     write_html(build_scene(load_builtin_task("scalpel-handling")), folder / "task.html")
     return folder

@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from prehension.pregrasp import approach_entries_of
 from prehension import (
     BezierPatch, BezierRegion, Configuration, Contact, GraspObject, SolveResult, Task, make_solution, schunk_sa_hand,
 )  # fmt: skip
@@ -111,7 +112,7 @@ def write_files(folder: Path = HERE) -> list[Path]:
         dump_task(task, folder / f"{task.name}.yaml")
         note = "the stored grasp of examples/quality/box_grasps.py, re-verified by make_solution"
         result = SolveResult(task, "local", "solved", note, (solution,))
-        write_result(result, folder / f"{task.name}.result.json", quality_entries(result))
+        write_result(result, folder / f"{task.name}.result.json", quality_entries(result), approach_entries_of(result))
         written += [folder / f"{task.name}.yaml", folder / f"{task.name}.result.json"]
     return written
 

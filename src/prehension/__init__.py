@@ -41,6 +41,7 @@ _SOURCES = {
     ".objects.pick": ("PickedRegion", "region_from_mesh"),
     ".objects.solid": ("MeshFileSolid", "PrimitiveSolid"),
     ".quality": ("GraspQuality", "QualityOptions", "grasp_quality", "quality_entries"),
+    ".pregrasp": ("approach_entries_of",),
     ".results": ("Solution", "SolveResult", "Status", "make_solution", "read_result", "write_result"),
     ".tasks.cuik_import": ("import_world",),
     ".tasks.library": ("builtin_task_names", "load_builtin_task", "resolve_task"),
@@ -75,7 +76,7 @@ __all__ = [
     # solving and results
     "solve", "SolveOptions", "SolveResult", "Solution", "Status", "make_solution", "write_result", "read_result",
     # does the grasp hold? (the physics test: prehension.sim, extra "sim")
-    "grasp_quality", "QualityOptions", "GraspQuality", "quality_entries", "solve_best", "BestOptions",
+    "grasp_quality", "QualityOptions", "GraspQuality", "quality_entries", "approach_entries_of", "solve_best", "BestOptions",
 ]  # fmt: skip
 
 

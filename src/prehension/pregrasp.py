@@ -32,7 +32,7 @@ from .hands.kinematics import forward_kinematics, point_jacobian
 from .tasks.model import Configuration, Task
 from .verification.residuals import Tolerances, evaluate
 
-__all__ = ["PreGrasp", "pregrasp", "judge_pregrasp", "DEFAULT_BACK_OFF_MM", "PREGRASP_KINDS"]
+__all__ = ["PreGrasp", "pregrasp", "judge_pregrasp", "approach_entries", "approach_entries_of", "DEFAULT_BACK_OFF_MM", "PREGRASP_KINDS"]
 
 DEFAULT_BACK_OFF_MM = 15.0
 PREGRASP_KINDS = ("joint_limit", "coupling", "collision", "object_collision")  # the rows a pre-grasp must pass
@@ -175,6 +175,13 @@ def approach_entries(task: Task, solution, back_off_mm: float = DEFAULT_BACK_OFF
     squeeze = {"kind": o.squeeze, "squeeze_mm": o.squeeze_mm, "friction": o.friction, "depths_mm": depths.tolist(),
                "joint_angles_rad": dict(zip(task.hand.dof_names, q_squeeze.tolist()))}  # fmt: skip
     return {"pregrasp": pregrasp(task, solution, back_off_mm).to_dict(task), "squeeze": squeeze}
+
+
+def approach_entries_of(result, back_off_mm: float = DEFAULT_BACK_OFF_MM) -> list[dict]:
+    """:func:`approach_entries` of every solution of ``result`` (a
+    :class:`~prehension.results.SolveResult`): what
+    :func:`~prehension.results.write_result` stores with each solution."""
+    return [approach_entries(result.task, s, back_off_mm) for s in result.solutions]
 
 
 def check_approach(task: Task, q_grasp, T_palm_object, contacts, stored: dict) -> list[tuple[str, bool, str]]:

@@ -234,7 +234,8 @@ def _object_depths(report: ResidualReport) -> dict:
 
 
 def result_to_dict(
-    result: SolveResult, qualities: Sequence[Mapping], *, embed_task: bool = True, physics=None, approach: bool = True,
+    result: SolveResult, qualities: Sequence[Mapping], approaches: Sequence[Mapping] | None = None, *,
+    embed_task: bool = True, physics=None,
 ) -> dict:  # fmt: skip
     """A JSON-ready dict: units in keys, the task embedded (unless ``embed_task`` is false:
     a batch stores each distinct task once and its records refer to it); the collision
@@ -248,8 +249,11 @@ def result_to_dict(
         physics: per solution, its physics verdict (``solve --hold``,
             :class:`~prehension.sim.PhysicsReport` as a dict, or ``None``), stored as
             ``"physics"``.
-        approach: store each solution's pre-grasp and squeeze targets (``"pregrasp"``,
-            ``"squeeze"``; :func:`prehension.pregrasp.approach_entries`).
+        approaches: each solution's pre-grasp and squeeze targets (``"pregrasp"``,
+            ``"squeeze"``), made by the caller
+            (:func:`prehension.pregrasp.approach_entries_of`); ``None``: none stored (a batch
+            record leaves them out: 3-19 ms a solution on the built-ins, more than a warm
+            local solve; docs/batch.md).
     """
     from .tasks.format.embedded import embedded_files
     from .tasks.yaml_io import task_to_dict
@@ -264,12 +268,10 @@ def result_to_dict(
         files = embedded_files(head["task"])  # ... also elsewhere: the object's mesh travels with it
         if files:
             head["files"] = files
-    _one_per_solution(qualities, result, "quality entries")
-    from .pregrasp import approach_entries
-
-    # pre-grasp and squeeze (docs/quality.md): 3-19 ms a solution on the built-ins, more than a
-    # warm local solve, so a batch record leaves them out (``approach=False``, docs/batch.md)
-    approaches = [approach_entries(result.task, s) if approach else {} for s in result.solutions]
+    _one_per_solution(qualities, result, "quality entries", "prehension.quality.quality_entries")
+    if approaches is None:
+        approaches = [{}] * len(result.solutions)
+    _one_per_solution(approaches, result, "pre-grasp and squeeze entries", "prehension.pregrasp.approach_entries_of")
     if physics is None:
         physics = [None] * len(result.solutions)
     _one_per_solution(physics, result, "physics verdicts")
@@ -287,13 +289,15 @@ def result_to_dict(
     }
 
 
-def _one_per_solution(entries, result: SolveResult, what: str) -> None:
-    """Raise unless ``entries`` is a sequence of one entry per solution of ``result``."""
+def _one_per_solution(entries, result: SolveResult, what: str, maker: str = "") -> None:
+    """Raise unless ``entries`` is a sequence of one entry per solution of ``result``
+    (``maker``: the function that makes them, named in the message)."""
     if isinstance(entries, (list, tuple)) and len(entries) == len(result.solutions):
         return
     given = f"{len(entries)} {what}" if isinstance(entries, (list, tuple)) else f"{type(entries).__name__} as {what}"
+    made = f"; {maker}(result) makes them" if maker else ""
     raise PrehensionError(f"result_to_dict: {given} given for {len(result.solutions)} solutions (a list: one per "
-                          "solution; prehension.quality.quality_entries(result) measures the quality entries)")  # fmt: skip
+                          f"solution{made})")  # fmt: skip
 
 
 def _with_physics(entry: dict, physics) -> dict:
@@ -302,11 +306,14 @@ def _with_physics(entry: dict, physics) -> dict:
     return entry
 
 
-def write_result(result: SolveResult, path, qualities: Sequence[Mapping], physics=None) -> None:
+def write_result(
+    result: SolveResult, path, qualities: Sequence[Mapping], approaches: Sequence[Mapping] | None = None, physics=None,
+) -> None:  # fmt: skip
     """Write the result file atomically (never a half-written file); ``qualities`` (each
-    solution's quality entry, e.g. :func:`prehension.quality.quality_entries`) and
-    ``physics`` as in :func:`result_to_dict`."""
-    write_json_atomic(path, result_to_dict(result, qualities, physics=physics))
+    solution's quality entry, e.g. :func:`prehension.quality.quality_entries`),
+    ``approaches`` (e.g. :func:`prehension.pregrasp.approach_entries_of`) and ``physics``
+    as in :func:`result_to_dict`: the file stores what the caller measured."""
+    write_json_atomic(path, result_to_dict(result, qualities, approaches, physics=physics))
 
 
 def read_result(path) -> tuple[Task, dict]:

@@ -82,7 +82,7 @@ def result_line(head: RecordHead, result, loaded, seconds: float, qualities: Seq
     """
     from ..results import result_to_dict
 
-    data = result_to_dict(result, qualities, embed_task=False, approach=False)  # no pre-grasp: docs/batch.md
+    data = result_to_dict(result, qualities, embed_task=False)  # no pre-grasp: docs/batch.md
     fields = dict(status=result.status, seconds=seconds, message=result.message)
     entry_id = head.entry["id"]
     if self_contained:

@@ -175,12 +175,14 @@ def cmd_solve(args, console: Console) -> int:
 
 
 def _save(console: Console, args, result, hold, quality, path: Path, best: bool) -> int:
-    """Write the result file (its quality measured here), report, write ``--html``; the exit code."""
+    """Write the result file (its quality, pre-grasp and squeeze measured here), report,
+    write ``--html``; the exit code."""
+    from ..pregrasp import approach_entries_of
     from ..quality import quality_entries
 
     qualities = quality_entries(result, quality)  # measured once: the file and the --json summary
     backup = keep_previous(path)
-    write_result(result, path, qualities, physics=None if hold is None else hold.physics)
+    write_result(result, path, qualities, approach_entries_of(result), physics=None if hold is None else hold.physics)
     _report(console, args, result, qualities, path, backup)
     if result.solutions and not (args.quiet or args.json):
         console.print(best_table(result) if best else "\n".join(quality_lines(result, quality)))
@@ -280,7 +282,7 @@ def _write_view(console: Console, args, result) -> None:
 
 def _report(console: Console, args, result, qualities, path: Path, backup: Path | None) -> None:
     if args.json:
-        data = result_to_dict(result, qualities, embed_task=False, approach=False)
+        data = result_to_dict(result, qualities, embed_task=False)
         summary = {k: v for k, v in data.items() if k != "solutions"}  # no task, no mesh
         summary["result_file"] = str(path)
         if result.solutions:

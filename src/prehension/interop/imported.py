@@ -165,7 +165,7 @@ def imported_result(task: Task, record, *, measured: list[dict] | None = None, f
         f"does not hold strictly (worst: {failing}); stored as approximate, within exactly those tolerances")
     message = f"imported from {record.source}: {verdict}"
     result = SolveResult(task, "imported", status, message, (solution,))
-    data = result_to_dict(result, quality_entries(result), approach=False)
+    data = result_to_dict(result, quality_entries(result))  # no approach entries: the pre-grasp is the record's own, below
     entry = data["solutions"][0]
     if record.pregrasp is not None:
         q_pre = np.array([record.pregrasp[d] for d in task.hand.dof_names])
