@@ -52,13 +52,15 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InvalidHand, InvalidObject, PrehensionError
-from ..objects.mesh_io import MESH_SUFFIXES, read_triangles
+from ..objects.mesh_io import read_triangles
 from .assemble import ImportOptions, assemble
 from .description import RawCoupling, RawHand, RawJoint, RawShape
 from .fingertips import TipOverride
 from .model import Hand
 
-__all__ = ["hand_from_mjcf", "read_mjcf", "compile_mjcf", "require_mujoco", "urdf_to_mjcf", "INSTALL_HINT", "MUJOCO_MESH_SUFFIXES"]
+__all__ = [
+    "hand_from_mjcf", "read_mjcf", "compile_mjcf", "require_mujoco", "urdf_to_mjcf", "INSTALL_HINT", "MUJOCO_MESH_SUFFIXES",
+]  # fmt: skip
 
 INSTALL_HINT = 'pip install "prehension[mjcf]"'
 MUJOCO_MESH_SUFFIXES = (".obj", ".stl", ".msh")  # the mesh files MuJoCo reads itself
@@ -144,16 +146,11 @@ def _read_other_mesh(mesh, mesh_dir: Path, strip: bool, where: Path) -> None:
     if not mesh.file or Path(mesh.file).suffix.lower() in MUJOCO_MESH_SUFFIXES:
         return
     file = Path(mesh.file).name if strip else mesh.file
-    what = f"mesh {mesh.name or mesh.file!r}"
-    if Path(mesh.file).suffix.lower() not in MESH_SUFFIXES:
-        raise InvalidHand(
-            f"{where}: {what}: unsupported mesh format {Path(mesh.file).suffix or '(no suffix)'} ({mesh.file}); MuJoCo "
-            f"reads {', '.join(MUJOCO_MESH_SUFFIXES)} and prehension {', '.join(MESH_SUFFIXES)} (.dae with pycollada)"
-        )
     try:
         vertices, faces = read_triangles(mesh_dir / file)  # an absolute ``file`` replaces mesh_dir
-    except InvalidObject as exc:
-        raise InvalidHand(f"{where}: {what}: {exc}") from None
+    except InvalidObject as exc:  # names the file and, for a format it does not read, the formats read
+        itself = ", ".join(MUJOCO_MESH_SUFFIXES)
+        raise InvalidHand(f"{where}: mesh {mesh.name or mesh.file!r}: {exc} (MuJoCo itself reads {itself})") from None
     mesh.file = ""
     mesh.uservert = vertices.ravel().tolist()
     mesh.userface = faces.ravel().tolist()

@@ -94,18 +94,20 @@ def _formats_read() -> str:
 
 def read_triangles(path) -> tuple[np.ndarray, np.ndarray]:
     """The triangles of the mesh file ``path`` as stored, in the file's units: vertices
-    ``(V, 3)`` (finite) and faces ``(F, 3)`` (F > 0), a scene flattened with its node
-    transforms applied.  Nothing is merged, dropped or re-wound.
+    ``(V, 3)`` (finite) and faces ``(F, 3)`` (F > 0, indexing the vertices), a scene
+    flattened with its node transforms applied.  Nothing is merged, dropped or re-wound.
 
     Raises:
         InvalidObject: the file is missing, empty, of a format not read (see
-            :func:`check_mesh_suffix`), unreadable, or holds no triangles; the message
-            names the file.
+            :func:`check_mesh_suffix`), unreadable, holds no triangles, or non-finite
+            vertices, or faces index vertices it does not have; the message names the file.
     """
     path = Path(path)
     vertices, faces = _read(path)
     if not np.all(np.isfinite(vertices)):
         raise InvalidObject(f"{path}: mesh has non-finite vertex coordinates (NaN or infinity)")
+    if faces.min() < 0 or faces.max() >= len(vertices):
+        raise InvalidObject(f"{path}: faces index vertices 0..{len(vertices) - 1}, got {faces.min()}..{faces.max()}")
     return vertices, faces
 
 
@@ -154,10 +156,8 @@ def load_display_mesh(path) -> Mesh:
     """A mesh file that is only drawn (``display.mesh_file``, mm): any triangles of any
     readable format, finite and indexing their vertices; open or flat is fine."""
     path = Path(path)
-    vertices, faces = _read(path)
+    vertices, faces = read_triangles(path)
     _check_vertices(vertices, str(path))
-    if faces.min() < 0 or faces.max() >= len(vertices):
-        raise InvalidObject(f"{path}: faces index vertices 0..{len(vertices) - 1}, got {faces.min()}..{faces.max()}")
     return Mesh(vertices, faces)
 
 
