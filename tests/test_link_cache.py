@@ -14,7 +14,9 @@ MESH_LINK = """<robot name='s'><link name='palm'><collision><geometry>
 
 
 def _write_obj(path, pts):
-    path.write_text("".join(f"v {x!r} {y!r} {z!r}\n" for x, y, z in pts.tolist()) + "f 1 2 3\n")
+    n = len(pts)
+    faces = "".join(f"f {i + 1} {(i + 1) % n + 1} {(i + 2) % n + 1}\n" for i in range(0, n, 3))  # every point a corner
+    path.write_text("".join(f"v {x!r} {y!r} {z!r}\n" for x, y, z in pts.tolist()) + faces)
 
 
 @pytest.fixture

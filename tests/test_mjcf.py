@@ -185,7 +185,7 @@ def test_top_bodies_without_hinges_and_free_joints_are_dropped(tmp_path):
 
 
 def test_errors_name_the_file(tmp_path):
-    with pytest.raises(InvalidHand, match=r"missing\.xml: MuJoCo cannot compile the file"):
+    with pytest.raises(InvalidHand, match=r"missing\.xml: MuJoCo cannot read the file"):
         hand_from_mjcf(tmp_path / "missing.xml")
     bad = tmp_path / "bad.xml"
     bad.write_text("<mujoco><worldbody><body name='x'><joint type='hinge' range='2 1'/></body></worldbody></mujoco>")

@@ -401,7 +401,11 @@ def _cylinder_points(length=0.04, radius=0.005):
 
 
 def _write_obj(path, pts):
-    path.write_text("# test\no x\n" + "".join(f"v {x!r} {y!r} {z!r}\n" for x, y, z in pts.tolist()) + "f 1 2 3\n")
+    """Every point a corner of a triangle (consecutive triples, the last wrapping round):
+    vertices no face uses are not part of the mesh."""
+    n = len(pts)
+    faces = "".join(f"f {i + 1} {(i + 1) % n + 1} {(i + 2) % n + 1}\n" for i in range(0, n, 3))
+    path.write_text("# test\no x\n" + "".join(f"v {x!r} {y!r} {z!r}\n" for x, y, z in pts.tolist()) + faces)
 
 
 def _write_stl(path, pts, binary):
@@ -429,7 +433,8 @@ def test_mesh_capsule_from_file(tmp_path, kind):
     else:
         _write_stl(mesh, pts, binary=kind == "stl-binary")
         pts = pts[: len(pts) // 3 * 3]
-    np.testing.assert_allclose(read_mesh_vertices(mesh), pts, atol=1e-6)  # STL stores float32
+    stored = pts.astype(np.float32).astype(float) if kind == "stl-binary" else pts  # binary STL stores float32
+    np.testing.assert_array_equal(read_mesh_vertices(mesh), np.unique(stored, axis=0))  # distinct, sorted
     urdf = tmp_path / "pkg" / "urdf" / "h.urdf"
     urdf.parent.mkdir()
     urdf.write_text(_one_link(f"<mesh filename='package://pkg/meshes/{mesh.name}' scale='2 2 2'/>"))
@@ -450,11 +455,11 @@ def test_mesh_capsule_of_collinear_points_is_refused():
 
 
 def test_missing_or_unsupported_mesh_is_skipped_with_a_warning(tmp_path):
-    (tmp_path / "m.dae").write_text("<COLLADA/>")
+    (tmp_path / "m.3ds").write_bytes(b"MM\0\0")
     text = (
         "<robot name='s'><link name='palm'>"
         "<collision><geometry><mesh filename='package://nowhere/x.stl'/></geometry></collision>"
-        "<collision><geometry><mesh filename='m.dae'/></geometry></collision>"
+        "<collision><geometry><mesh filename='m.3ds'/></geometry></collision>"
         "<collision><geometry><sphere radius='0.01'/></geometry></collision>"
         "</link></robot>"
     )
@@ -464,5 +469,6 @@ def test_missing_or_unsupported_mesh_is_skipped_with_a_warning(tmp_path):
     assert len(hand.links[0].collision) == 1 and hand.links[0].collision[0].radius == pytest.approx(10.0)
     assert len(warnings) == 2
     assert "collision 0" in warnings[0] and "'package://nowhere/x.stl' not found" in warnings[0]
-    assert "collision 1" in warnings[1] and "unsupported mesh format '.dae'" in warnings[1]
+    assert "collision 1" in warnings[1] and f"{tmp_path / 'm.3ds'}: unsupported mesh format .3ds" in warnings[1]
+    assert "mesh files are read from .obj, .stl, .ply, .off, .glb, .gltf" in warnings[1]
     assert len(hand_from_urdf(path).links[0].collision) == 1

@@ -6,8 +6,13 @@ tries 306 axes) and measuring what they miss and how far they stick out
 process that reads the hand file.  Both depend only on the link's collision shapes, so
 they are stored per link under a SHA-256 of: each shape's kind, sizes, pose in the link
 and (for a mesh) its vertices' bytes; the source of the modules that compute them; the
-versions of numpy and scipy.  Editing a mesh, a shape or that code misses the cache.  A
-link whose shapes could not all be read is never stored.  Folder and rules:
+versions of numpy and scipy; and :data:`VERSION`.  Editing a mesh, a shape or that code
+misses the cache.  The key holds the vertices as read (not the file's bytes), so a reader
+that reads a file differently misses the cache too; :data:`VERSION` is bumped whenever what
+"a mesh's vertices" means changes (version 2: the distinct vertices of the triangles, read
+through trimesh by :func:`~prehension.hands.shapes.read_mesh_vertices`; version 1 read
+every ``v`` line of an OBJ and every corner of an STL).  A link whose shapes could not all
+be read is never stored.  Folder and rules:
 :mod:`prehension.disk_cache`.
 """
 
@@ -23,7 +28,9 @@ from ..disk_cache import code_fingerprint, content_key, load_arrays, store_array
 from .model import Capsule
 from .provenance import ShapeFit
 
-__all__ = ["link_key", "cached_link_fit"]
+__all__ = ["VERSION", "link_key", "cached_link_fit"]
+
+VERSION = 2  # of the key: bump when the vertices read for the same file could differ
 
 _SOURCES = ("shapes.py", "enclosure.py", "link_cache.py", "assemble.py")  # assemble: which surface samples, the label
 _LIBRARIES = ("numpy", "scipy")
@@ -32,7 +39,7 @@ _LIBRARIES = ("numpy", "scipy")
 @functools.lru_cache(maxsize=1)
 def _fingerprint() -> bytes:
     here = Path(__file__).parent
-    return code_fingerprint([here / name for name in _SOURCES], _LIBRARIES)
+    return f"link-cache/{VERSION};".encode() + code_fingerprint([here / name for name in _SOURCES], _LIBRARIES)
 
 
 def link_key(shapes, vertices) -> str:

@@ -33,6 +33,13 @@ Conventions
 * **Geoms**: those that collide (``contype`` or ``conaffinity`` non-zero) are collision
   shapes, the others visual; spheres, capsules, cylinders, boxes, ellipsoids and meshes
   (the compiled vertices).  Planes, height fields and SDFs are skipped with a warning.
+* **Mesh files**: MuJoCo reads OBJ, STL and MSH itself; a ``<mesh file>`` of another format
+  (PLY, OFF, GLB, GLTF; DAE with pycollada) is read through trimesh
+  (:func:`~prehension.objects.mesh_io.read_triangles`, a scene flattened with its node
+  transforms applied) and given to MuJoCo as the mesh's vertices and faces, so that its
+  ``scale`` (and a default class's) applies as to any mesh.  Such a file that cannot be read,
+  or one of a format neither reads, is an error naming the mesh, the file and the formats
+  read (MuJoCo refuses a model whose mesh it cannot load, and so does prehension).
   ``<contact><exclude>`` pairs are kept as collision exclusions.
 """
 
@@ -44,15 +51,19 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InvalidHand, PrehensionError
+from ..errors import InvalidHand, InvalidObject, PrehensionError
+from ..objects.mesh_io import read_triangles
 from .assemble import ImportOptions, assemble
 from .description import RawCoupling, RawHand, RawJoint, RawShape
 from .fingertips import TipOverride
 from .model import Hand
 
-__all__ = ["hand_from_mjcf", "read_mjcf", "require_mujoco", "urdf_to_mjcf", "INSTALL_HINT"]
+__all__ = [
+    "hand_from_mjcf", "read_mjcf", "compile_mjcf", "require_mujoco", "urdf_to_mjcf", "INSTALL_HINT", "MUJOCO_MESH_SUFFIXES",
+]  # fmt: skip
 
 INSTALL_HINT = 'pip install "prehension[mjcf]"'
+MUJOCO_MESH_SUFFIXES = (".obj", ".stl", ".msh")  # the mesh files MuJoCo reads itself
 _WORLD = 0
 
 
@@ -100,10 +111,7 @@ def read_mjcf(path, length_unit: float = 1000.0, root: str | None = None) -> Raw
     """
     mujoco = require_mujoco()
     where = str(path)
-    try:
-        model = mujoco.MjModel.from_xml_path(os.fspath(path))
-    except (ValueError, OSError) as exc:  # mujoco raises ValueError with the compiler's message
-        raise InvalidHand(f"{where}: MuJoCo cannot compile the file: {str(exc).strip()}") from None
+    model = compile_mjcf(path)
     unit = float(length_unit)
     try:
         if not (math.isfinite(unit) and unit > 0):
@@ -111,6 +119,41 @@ def read_mjcf(path, length_unit: float = 1000.0, root: str | None = None) -> Raw
         return _Reader(mujoco, model, unit, where).raw(root)
     except InvalidHand as exc:
         raise InvalidHand(f"{where}: {exc}") from None
+
+
+def compile_mjcf(path):
+    """The compiled ``mujoco.MjModel`` of the MJCF file ``path``, its meshes in formats
+    MuJoCo does not read (PLY, OFF, GLB, GLTF, DAE) read through trimesh and handed to MuJoCo
+    as vertices and faces (which MuJoCo then scales, centres and uses as if it had read the
+    file).  Raises :class:`InvalidHand` naming the file (and the mesh) when it cannot."""
+    mujoco = require_mujoco()
+    path = Path(os.fspath(path))
+    try:
+        spec = mujoco.MjSpec.from_file(os.fspath(path))
+    except (ValueError, OSError) as exc:  # mujoco raises ValueError with the parser's message
+        raise InvalidHand(f"{path}: MuJoCo cannot read the file: {str(exc).strip()}") from None
+    for mesh in spec.meshes:
+        _read_other_mesh(mesh, path.parent / spec.meshdir, spec.strippath, path)
+    try:
+        return spec.compile()
+    except (ValueError, OSError) as exc:  # mujoco raises ValueError with the compiler's message
+        raise InvalidHand(f"{path}: MuJoCo cannot compile the file: {str(exc).strip()}") from None
+
+
+def _read_other_mesh(mesh, mesh_dir: Path, strip: bool, where: Path) -> None:
+    """Give MuJoCo the vertices and faces of ``mesh``'s file if MuJoCo does not read its
+    format (``mesh_dir``: the model's folder joined with ``<compiler meshdir>``)."""
+    if not mesh.file or Path(mesh.file).suffix.lower() in MUJOCO_MESH_SUFFIXES:
+        return
+    file = Path(mesh.file).name if strip else mesh.file
+    try:
+        vertices, faces = read_triangles(mesh_dir / file)  # an absolute ``file`` replaces mesh_dir
+    except InvalidObject as exc:  # names the file and, for a format it does not read, the formats read
+        itself = ", ".join(MUJOCO_MESH_SUFFIXES)
+        raise InvalidHand(f"{where}: mesh {mesh.name or mesh.file!r}: {exc} (MuJoCo itself reads {itself})") from None
+    mesh.file = ""
+    mesh.uservert = vertices.ravel().tolist()
+    mesh.userface = faces.ravel().tolist()
 
 
 def urdf_to_mjcf(urdf_path, mjcf_path) -> Path:

@@ -23,11 +23,11 @@ the fingertip fits of :mod:`prehension.hands.fingertips` and the enclosure measu
 from __future__ import annotations
 
 import math
-import re
 from pathlib import Path
 
 import numpy as np
 
+from ..objects.mesh_io import read_triangles
 from .description import RawShape
 from .model import Capsule
 
@@ -282,33 +282,19 @@ def surface_points(shape: RawShape, n: int = 400) -> np.ndarray:
 
 
 # -- mesh files -----------------------------------------------------------------------------
-def _obj_vertices(text: str) -> np.ndarray:
-    rows = [line.split()[1:4] for line in text.splitlines() if line.startswith("v ")]
-    return np.array(rows, dtype=float).reshape(-1, 3)
-
-
-def _stl_vertices(data: bytes) -> np.ndarray:
-    if len(data) >= 84:
-        n = int.from_bytes(data[80:84], "little")
-        if len(data) == 84 + 50 * n:  # binary STL
-            tri = np.dtype([("normal", "<f4", 3), ("v", "<f4", (3, 3)), ("attr", "<u2")])
-            return np.frombuffer(data, dtype=tri, count=n, offset=84)["v"].reshape(-1, 3).astype(float)
-    number = r"([-+0-9.eE]+)"
-    rows = re.findall(rf"vertex\s+{number}\s+{number}\s+{number}", data.decode("ascii", errors="replace"))
-    return np.array(rows, dtype=float).reshape(-1, 3)
-
-
 def read_mesh_vertices(path) -> np.ndarray:
-    """Vertices ``(n, 3)`` of an ``.obj`` (``v`` lines) or ``.stl`` (ascii or binary) mesh,
-    in the file's units.  Raises ``OSError``/``ValueError`` if it cannot be read."""
-    path = Path(path)
-    suffix = path.suffix.lower()
-    if suffix == ".obj":
-        pts = _obj_vertices(path.read_text(errors="replace"))
-    elif suffix == ".stl":
-        pts = _stl_vertices(path.read_bytes())
-    else:
-        raise ValueError(f"unsupported mesh format {suffix!r} (only .obj and .stl are read)")
-    if len(pts) == 0 or not np.all(np.isfinite(pts)):
-        raise ValueError("no finite vertices found")
-    return pts
+    """The distinct vertices ``(n, 3)`` of the triangles of a mesh file, in the file's units
+    (sorted, each once): what a link's capsule must hold and its fingertip is fitted to.
+
+    Read by :func:`prehension.objects.mesh_io.read_triangles`, the package's one mesh reader
+    (OBJ, STL, PLY, OFF, GLB, GLTF; DAE with pycollada); a scene is flattened with its node
+    transforms applied.  Vertices no triangle uses are not part of the surface and are left
+    out; so are the copies a format makes of a vertex (an OBJ's texture seams, an STL's
+    corners listed per triangle), so that the result depends on the surface only.
+
+    Raises:
+        InvalidObject: (a ``ValueError``) the file is missing, unreadable, of a format not
+            read, or holds no triangles; the message names the file and the formats read.
+    """
+    vertices, faces = read_triangles(Path(path))
+    return np.unique(vertices[faces.ravel()], axis=0)

@@ -21,10 +21,14 @@ Conventions
 * **Couplings.** ``<mimic joint="J" multiplier="m" offset="o"/>`` on joint K gives
   ``q_K = m q_J + o`` (defaults 1, 0).
 * **Shapes.** ``<collision>`` and ``<visual>`` geometries (sphere, cylinder along z, box,
-  mesh ``.obj``/``.stl``) with their ``<origin>`` and mesh ``scale``.  Mesh paths are
+  mesh) with their ``<origin>`` and mesh ``scale``.  Mesh files are read through trimesh
+  (:func:`~prehension.hands.shapes.read_mesh_vertices`: OBJ, STL, PLY, OFF, GLB, GLTF; DAE
+  with pycollada), a GLB/GLTF scene flattened with its node transforms applied, then
+  scaled by ``scale`` and ``length_unit``.  Mesh paths are
   relative to the URDF's folder (``package://pkg/`` is stripped; ``pkg/...`` is also
   searched in the folders above); for URDF text given as a string, relative to the
-  working directory.  A missing or unreadable mesh is skipped with a warning.
+  working directory.  A missing, unreadable or unsupported mesh is skipped with a warning
+  that names the file (and, for a format not read, the formats that are).
 """
 
 from __future__ import annotations
@@ -39,6 +43,7 @@ import numpy as np
 
 from ..errors import InvalidHand
 from ..geometry.rotations import rotation_about
+from ..objects.mesh_io import check_mesh_suffix
 from .assemble import ImportOptions, assemble
 from .description import RawCoupling, RawHand, RawJoint, RawShape
 from .fingertips import TipOverride
@@ -228,8 +233,7 @@ def _mesh_shape(geom: ET.Element, base_dir: Path, unit: float, what: str, role: 
         raise ValueError(f"mesh file {filename!r} not found (searched from {base_dir})")
     scale = geom.get("scale", "1 1 1").split()
     scale = _floats(" ".join(scale * 3 if len(scale) == 1 else scale), 3, f"{what} mesh scale", ())
-    if path.suffix.lower() not in (".obj", ".stl"):
-        raise ValueError(f"unsupported mesh format {path.suffix.lower()!r} (only .obj and .stl are read)")
+    check_mesh_suffix(path)  # an InvalidObject (a ValueError) naming the file and the formats read
     loader = functools.partial(_vertices_mm, str(path), tuple(float(s) for s in scale), unit)
     return RawShape("mesh", role, T, (), loader, what)
 

@@ -1,4 +1,9 @@
-"""Object surfaces from mesh files (OBJ, STL, PLY, OFF, GLB/GLTF) through trimesh.
+"""Mesh files read through trimesh: object surfaces, and the link meshes of hand files.
+
+The one reader of mesh files in the package (:func:`read_triangles`): OBJ, STL, PLY, OFF,
+GLB and GLTF with the trimesh prehension installs, and DAE (COLLADA) when the optional
+``pycollada`` is installed (without it, a DAE file is refused with a message saying so).
+Hand files read their link meshes here too (:func:`prehension.hands.shapes.read_mesh_vertices`).
 
 Mesh files carry no units: :func:`load_mesh` takes ``scale`` (mm per file unit, e.g.
 1000 for a file in metres; :data:`UNITS` names the common ones).  What is checked, each
@@ -14,11 +19,13 @@ with an :class:`~prehension.errors.InvalidObject` that names the file and the pr
   face inwards is turned outwards (its inside is unambiguous); a mesh that does not enclose
   a positive volume is refused.
 
-A GLB/GLTF scene is flattened into one mesh (every node at its scene pose).
+A GLB/GLTF (or DAE) scene is flattened into one mesh (every node at its scene pose: the
+node transforms applied).
 """
 
 from __future__ import annotations
 
+import importlib.util
 from pathlib import Path
 
 import numpy as np
@@ -26,12 +33,16 @@ import numpy as np
 from ..errors import InvalidObject, not_a_file
 from .meshes import Mesh
 
-__all__ = ["UNITS", "MESH_SUFFIXES", "load_mesh", "load_display_mesh", "checked_mesh", "scale_of"]
+__all__ = [
+    "UNITS", "MESH_SUFFIXES", "load_mesh", "load_display_mesh", "checked_mesh", "scale_of", "read_triangles",
+    "check_mesh_suffix",
+]  # fmt: skip
 
 # mm per unit
 UNITS = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4}
 MAX_COORDINATE_MM = 1e9  # as the numbers of a task file (tasks.format.schema.MAX_MAGNITUDE)
-MESH_SUFFIXES = (".obj", ".stl", ".ply", ".off", ".glb", ".gltf")
+MESH_SUFFIXES = (".obj", ".stl", ".ply", ".off", ".glb", ".gltf", ".dae")
+_OPTIONAL = {".dae": ("collada", "pycollada")}  # suffix -> (module trimesh needs, what to pip install)
 
 
 def scale_of(scale: float | None, units: str | None) -> float:
@@ -59,12 +70,52 @@ def _trimesh():
     return trimesh
 
 
+def check_mesh_suffix(path) -> None:
+    """Refuse (:class:`InvalidObject`, naming the file and the formats read) a file whose
+    suffix names no mesh format read here, or one that needs an optional module not installed."""
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in MESH_SUFFIXES:
+        raise InvalidObject(f"{path}: unsupported mesh format {path.suffix or '(no suffix)'}; {_formats_read()}")
+    if suffix in _OPTIONAL:
+        module, package = _OPTIONAL[suffix]
+        if importlib.util.find_spec(module) is None:
+            raise InvalidObject(
+                f"{path}: reading {suffix[1:].upper()} files needs the optional module {module} (pip install {package}); "
+                f"{_formats_read()}"
+            )
+
+
+def _formats_read() -> str:
+    plain = [s for s in MESH_SUFFIXES if s not in _OPTIONAL]
+    optional = [f"{s} (with {package})" for s, (_, package) in _OPTIONAL.items()]
+    return f"mesh files are read from {', '.join(plain + optional)}"
+
+
+def read_triangles(path) -> tuple[np.ndarray, np.ndarray]:
+    """The triangles of the mesh file ``path`` as stored, in the file's units: vertices
+    ``(V, 3)`` (finite) and faces ``(F, 3)`` (F > 0, indexing the vertices), a scene
+    flattened with its node transforms applied.  Nothing is merged, dropped or re-wound.
+
+    Raises:
+        InvalidObject: the file is missing, empty, of a format not read (see
+            :func:`check_mesh_suffix`), unreadable, holds no triangles, or non-finite
+            vertices, or faces index vertices it does not have; the message names the file.
+    """
+    path = Path(path)
+    vertices, faces = _read(path)
+    if not np.all(np.isfinite(vertices)):
+        raise InvalidObject(f"{path}: mesh has non-finite vertex coordinates (NaN or infinity)")
+    if faces.min() < 0 or faces.max() >= len(vertices):
+        raise InvalidObject(f"{path}: faces index vertices 0..{len(vertices) - 1}, got {faces.min()}..{faces.max()}")
+    return vertices, faces
+
+
 def _read(path: Path):
     trimesh = _trimesh()
     if not path.is_file():
         raise InvalidObject(not_a_file("mesh file", path))
-    if path.suffix.lower() not in MESH_SUFFIXES:
-        raise InvalidObject(f"{path}: unsupported mesh format {path.suffix or '(no suffix)'}; use {', '.join(MESH_SUFFIXES)}")
+    check_mesh_suffix(path)
     if path.stat().st_size == 0:
         raise InvalidObject(f"{path}: the file is empty (0 bytes); a mesh file is needed")
     try:
@@ -74,7 +125,7 @@ def _read(path: Path):
     except IndexError as exc:
         raise InvalidObject(f"{path}: not a readable mesh: a face refers to a vertex the file does not have ({exc})") from None
     except Exception as exc:  # trimesh raises many kinds on a bad file
-        raise InvalidObject(f"{path}: not a readable mesh ({type(exc).__name__}: {exc})") from None
+        raise InvalidObject(f"{path}: not a readable mesh ({type(exc).__name__}: {exc}); {_formats_read()}") from None
     faces = getattr(loaded, "faces", None)
     if faces is None or len(faces) == 0:
         raise InvalidObject(f"{path}: holds no triangles (a point cloud, lines or an empty scene); a mesh file is needed")
@@ -105,10 +156,8 @@ def load_display_mesh(path) -> Mesh:
     """A mesh file that is only drawn (``display.mesh_file``, mm): any triangles of any
     readable format, finite and indexing their vertices; open or flat is fine."""
     path = Path(path)
-    vertices, faces = _read(path)
+    vertices, faces = read_triangles(path)
     _check_vertices(vertices, str(path))
-    if faces.min() < 0 or faces.max() >= len(vertices):
-        raise InvalidObject(f"{path}: faces index vertices 0..{len(vertices) - 1}, got {faces.min()}..{faces.max()}")
     return Mesh(vertices, faces)
 
 
