@@ -280,3 +280,14 @@ def test_a_bad_mjcf_mesh_is_an_error_naming_mesh_file_and_formats(tmp_path):
         assert name in str(info.value)
         if name in ("garbage.glb", "garbage.ply", "m.3ds"):
             assert ".obj, .stl, .ply, .off, .glb, .gltf" in str(info.value)
+
+
+@needs_mujoco
+def test_the_qpos_joint_order_of_an_mjcf_hand_with_glb_meshes_is_mujocos(tmp_path):
+    """The interop records take an MJCF hand's joint order from MuJoCo's compile of the file;
+    with a GLB finger that compile must go through the hand reader's (it used to fail and
+    fall back, silently, to the hand's own order)."""
+    from prehension.interop.qpos import _mjcf_joint_names
+
+    path, _ = _mjcf_hand(tmp_path, 3, ".glb")
+    assert _mjcf_joint_names(str(path), "glb-finger") == ("j",)

@@ -26,6 +26,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..errors import InvalidConfiguration
+from ..hands.mjcf import compile_mjcf
 from ..hands.model import Hand
 
 __all__ = [
@@ -69,7 +70,7 @@ def _mjcf_joint_names(path: str, sha256: str) -> tuple[str, ...]:
         mujoco = None
     try:
         if mujoco is not None:
-            m = mujoco.MjModel.from_xml_path(str(path))
+            m = compile_mjcf(path)  # the hand reader's own compile: meshes MuJoCo cannot read go through trimesh
             return tuple(m.joint(j).name for j in range(m.njnt))
         world = ET.parse(Path(path)).getroot().find("worldbody")
         return tuple(j.get("name") for j in world.iter("joint") if j.get("type") != "free")
