@@ -33,7 +33,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from ..._compiled import aot
+from ...kernels.aot import aot
 from ...deadline import TimeLimitReached, deadline_after, seconds_left
 from ...errors import InvalidTask
 from ...frozen import IdentityCache, cached_per_value
