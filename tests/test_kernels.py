@@ -61,7 +61,7 @@ def test_both_forms_of_the_one_loop_place_the_links_alike(rng, sa_hand):
         q = rng.uniform(sa_hand.lower, sa_hand.upper)
         ref = forward_kinematics(sa_hand, q)
         R, r, axis, origin = np.empty((L, 3, 3)), np.empty((L, 3)), np.empty((n, 3)), np.empty((n, 3))
-        pose_chain(q, jt, np.bool_(True), R, r, axis, origin, np.empty((2, 3, 3)), np.empty(3))
+        pose_chain(q, jt, np.bool_(True), R, r, axis, origin, np.empty((3, 3)), np.empty((3, 3)), np.empty(3))
         np.testing.assert_allclose(R, ref.R_palm_link[0], atol=1e-12)
         np.testing.assert_allclose(r, ref.r_palm_link[0], atol=1e-9)
         np.testing.assert_allclose(axis, ref.axis_palm[0], atol=1e-12)

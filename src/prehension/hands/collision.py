@@ -23,7 +23,7 @@ import numpy as np
 from ..frozen import cached_per_value
 from ..kernels.aot import aot
 from ..kernels.jit import njit
-from ..kernels.segments import CAPSULE_EPS, segment_distance_sq, segment_distances
+from ..kernels.segments import CAPSULE_EPS, segment_distances, segment_params_xyz
 from .kinematics import HandPose
 from .model import Hand
 
@@ -148,7 +148,8 @@ def _clearances(a, b, radius, first, second):
     for k in range(B):
         for p in range(P):
             i, j = first[p], second[p]
-            d2 = segment_distance_sq(a[k, i], b[k, i], a[k, j], b[k, j], CAPSULE_EPS)
+            d2 = segment_params_xyz(a[k, i, 0], a[k, i, 1], a[k, i, 2], b[k, i, 0], b[k, i, 1], b[k, i, 2],
+                                    a[k, j, 0], a[k, j, 1], a[k, j, 2], b[k, j, 0], b[k, j, 1], b[k, j, 2], CAPSULE_EPS)[0]
             out[k, p] = math.sqrt(d2) - radius[i] - radius[j]
     return out
 

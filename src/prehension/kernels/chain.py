@@ -100,23 +100,23 @@ def _rodrigues(k, kk, j, angle, out):
 
 
 @njit(cache=True)
-def _joint_rotation(jt, k, second, angle, closed_form, out):
-    """``Rot`` of joint ``k``'s first (or ``second``) axis by ``angle`` -> out (3, 3)."""
+def _joint_rotation(axis, k_terms, kk_terms, j, angle, closed_form, out):
+    """``Rot`` of joint ``j``'s axis ``axis[j]`` (its terms ``k_terms[j]``, ``kk_terms[j]``)
+    by ``angle`` -> out (3, 3), in the closed form or from the terms."""
     if closed_form:
-        u = jt.axis_in_child[k] if second else jt.axis_in_parent[k]
-        rot(u[0], u[1], u[2], angle, out)
-    elif second:
-        _rodrigues(jt.k2, jt.kk2, k, angle, out)
+        rot(axis[j, 0], axis[j, 1], axis[j, 2], angle, out)
     else:
-        _rodrigues(jt.k1, jt.kk1, k, angle, out)
+        _rodrigues(k_terms, kk_terms, j, angle, out)
 
 
-@njit(cache=True)
-def pose_chain(q, jt, closed_form, R, r, axis, origin, tmp, vec):
+@njit(cache=True, inline="always")
+def pose_chain(q, jt, closed_form, R, r, axis, origin, rot3, tmp, vec):
     """Forward kinematics of one configuration ``q (n_dof,)`` [rad] through the tree ``jt``:
     link poses ``R (L, 3, 3)``, ``r (L, 3)`` [mm] (the palm, link 0, at the identity), each
-    angle's axis ``axis`` and centre ``origin (n_dof, 3)`` (palm frame); ``tmp (2, 3, 3)``
-    and ``vec (3,)`` scratch; ``closed_form``: which form of ``Rot`` (module docstring)."""
+    angle's axis ``axis`` and centre ``origin (n_dof, 3)`` (palm frame); ``rot3``, ``tmp``
+    (3, 3) and ``vec (3,)`` scratch; ``closed_form``: which form of ``Rot`` (module
+    docstring).  Inlined into its callers (a call per configuration costs more than the
+    loop of a small hand)."""
     for i in range(3):
         r[0, i] = 0.0
         for j in range(3):
@@ -127,18 +127,18 @@ def pose_chain(q, jt, closed_form, R, r, axis, origin, tmp, vec):
         for i in range(3):
             origin[d, i] = vec[i] + r[p, i]
         mat_vec(R[p], jt.axis_in_parent[k], axis[d])
-        _joint_rotation(jt, k, np.bool_(False), q[d], closed_form, tmp[0])
-        mat_mat(R[p], tmp[0], tmp[1])
-        mat_mat(tmp[1], jt.R_zero[k], R[c])
+        _joint_rotation(jt.axis_in_parent, jt.k1, jt.kk1, k, q[d], closed_form, rot3)
+        mat_mat(R[p], rot3, tmp)
+        mat_mat(tmp, jt.R_zero[k], R[c])
         if jt.universal[k] == 1:  # the second axis, fixed in the child
             mat_vec(R[c], jt.axis_in_child[k], axis[d + 1])
             for i in range(3):
                 origin[d + 1, i] = origin[d, i]
-            _joint_rotation(jt, k, np.bool_(True), q[d + 1], closed_form, tmp[0])
+            _joint_rotation(jt.axis_in_child, jt.k2, jt.kk2, k, q[d + 1], closed_form, rot3)
             for i in range(3):
                 for j in range(3):
-                    tmp[1, i, j] = R[c, i, j]
-            mat_mat(tmp[1], tmp[0], R[c])
+                    tmp[i, j] = R[c, i, j]
+            mat_mat(tmp, rot3, R[c])
         mat_vec(R[c], jt.origin_in_child[k], vec)
         for i in range(3):
             r[c, i] = origin[d, i] - vec[i]
@@ -148,6 +148,6 @@ def pose_chain(q, jt, closed_form, R, r, axis, origin, tmp, vec):
 def pose_chains(q, jt, R, r, axis, origin):
     """:func:`pose_chain` of every configuration ``q (B, n_dof)`` into ``R (B, L, 3, 3)``,
     ``r (B, L, 3)``, ``axis`` and ``origin (B, n_dof, 3)``, the foundation's form of ``Rot``."""
-    tmp, vec = np.empty((2, 3, 3)), np.empty(3)
+    rot3, tmp, vec = np.empty((3, 3)), np.empty((3, 3)), np.empty(3)
     for b in range(q.shape[0]):
-        pose_chain(q[b], jt, np.bool_(False), R[b], r[b], axis[b], origin[b], tmp, vec)
+        pose_chain(q[b], jt, np.bool_(False), R[b], r[b], axis[b], origin[b], rot3, tmp, vec)

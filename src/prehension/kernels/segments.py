@@ -29,7 +29,7 @@ import numpy as np
 
 from .jit import njit
 
-__all__ = ["CAPSULE_EPS", "MESH_EPS", "clamp01", "segment_params", "closest_points", "segment_distance_sq", "segment_distances"]
+__all__ = ["CAPSULE_EPS", "MESH_EPS", "clamp01", "segment_params", "segment_params_xyz", "closest_points", "segment_distance_sq", "segment_distances"]
 
 CAPSULE_EPS = 1e-12  # [mm^2] a capsule's segment shorter than 1e-6 mm is a point
 MESH_EPS = 1e-18  # [mm^2] a mesh edge or a piece of a segment shorter than 1e-9 mm is a point
@@ -45,10 +45,17 @@ def clamp01(x):
 def segment_params(p0, p1, q0, q1, eps):
     """``(squared distance, s, t)`` of the closest points ``p0 + s (p1 - p0)`` and
     ``q0 + t (q1 - q0)`` of two segments (3,) [mm]; ``eps`` the degeneracy threshold
-    [mm^2] (see the module docstring).  Scalar code: no temporaries."""
-    d1x, d1y, d1z = p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]
-    d2x, d2y, d2z = q1[0] - q0[0], q1[1] - q0[1], q1[2] - q0[2]
-    rx, ry, rz = p0[0] - q0[0], p0[1] - q0[1], p0[2] - q0[2]
+    [mm^2] (see the module docstring)."""
+    return segment_params_xyz(p0[0], p0[1], p0[2], p1[0], p1[1], p1[2], q0[0], q0[1], q0[2], q1[0], q1[1], q1[2], eps)
+
+
+@njit(cache=True)
+def segment_params_xyz(p0x, p0y, p0z, p1x, p1y, p1z, q0x, q0y, q0z, q1x, q1y, q1z, eps):
+    """:func:`segment_params` of the ends' coordinates: scalar code, no array (a caller
+    that reads the ends out of larger arrays makes no views of them)."""
+    d1x, d1y, d1z = p1x - p0x, p1y - p0y, p1z - p0z
+    d2x, d2y, d2z = q1x - q0x, q1y - q0y, q1z - q0z
+    rx, ry, rz = p0x - q0x, p0y - q0y, p0z - q0z
     a = d1x * d1x + d1y * d1y + d1z * d1z
     e = d2x * d2x + d2y * d2y + d2z * d2z
     f = d2x * rx + d2y * ry + d2z * rz
@@ -78,7 +85,7 @@ def segment_params(p0, p1, q0, q1, eps):
 def closest_points(p0, p1, q0, q1, pa, pb):
     """Closest points ``pa``, ``pb`` (3,) of two capsules' segments p0-p1 and q0-q1; their
     distance [mm] (:data:`CAPSULE_EPS`)."""
-    _, s, t = segment_params(p0, p1, q0, q1, CAPSULE_EPS)
+    _, s, t = segment_params_xyz(p0[0], p0[1], p0[2], p1[0], p1[1], p1[2], q0[0], q0[1], q0[2], q1[0], q1[1], q1[2], CAPSULE_EPS)
     d = 0.0
     for i in range(3):
         pa[i] = p0[i] + (p1[i] - p0[i]) * s

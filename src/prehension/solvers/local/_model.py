@@ -54,7 +54,7 @@ def pose_hand(ws):
     """Joint angles and link poses of the state's unknowns (the one forward-kinematics loop,
     :func:`~prehension.kernels.chain.pose_chain`, with the kernel's closed form of ``Rot``)."""
     _angles(ws.x, ws.lay, ws.q)
-    pose_chain(ws.q, ws.hand.joints, np.bool_(True), ws.Rl, ws.rl, ws.ax, ws.org, ws.tmp, ws.vec)
+    pose_chain(ws.q, ws.hand.joints, np.bool_(True), ws.Rl, ws.rl, ws.ax, ws.org, ws.tmp[0], ws.tmp[1], ws.vec)
 
 
 # -- contact rows ----------------------------------------------------------------------------
