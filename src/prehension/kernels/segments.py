@@ -29,7 +29,10 @@ import numpy as np
 
 from .jit import njit
 
-__all__ = ["CAPSULE_EPS", "MESH_EPS", "clamp01", "segment_params", "segment_params_xyz", "closest_points", "segment_distance_sq", "segment_distances"]
+__all__ = [
+    "CAPSULE_EPS", "MESH_EPS", "clamp01", "segment_params", "segment_params_xyz", "closest_points", "segment_distance_sq",
+    "segment_distances",
+]  # fmt: skip
 
 CAPSULE_EPS = 1e-12  # [mm^2] a capsule's segment shorter than 1e-6 mm is a point
 MESH_EPS = 1e-18  # [mm^2] a mesh edge or a piece of a segment shorter than 1e-9 mm is a point
