@@ -33,12 +33,12 @@ import numpy as np
 
 from ..kernels.aot import aot
 from ..kernels.jit import njit
-from .mesh_arrays import MeshArrays, build_mesh_arrays, empty_mesh_arrays
+from .mesh_arrays import MeshArrays, SdGrid, build_mesh_arrays, empty_mesh_arrays
 from .point_distance import point_query, signed_distances
 from .segment_distance import REL_TOL, capsule_depths, segment_closest, segment_closest_within, segment_distances, segment_min_sd
 
 __all__ = [
-    "MeshArrays", "MeshDistance", "build_mesh_arrays", "empty_mesh_arrays", "segment_closest", "segment_closest_within",
+    "MeshArrays", "MeshDistance", "SdGrid", "build_mesh_arrays", "empty_mesh_arrays", "segment_closest", "segment_closest_within",
     "segment_min_sd", "capsule_depths", "signed_distances", "REL_TOL",
 ]  # fmt: skip
 

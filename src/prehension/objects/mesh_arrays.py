@@ -13,7 +13,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["MeshArrays", "build_mesh_arrays", "empty_mesh_arrays", "LEAF_SIZE", "STACK_DEPTH"]
+__all__ = ["MeshArrays", "SdGrid", "build_mesh_arrays", "empty_mesh_arrays", "LEAF_SIZE", "STACK_DEPTH"]
 
 LEAF_SIZE = 8
 STACK_DEPTH = 128  # traversal stack depth: enough for trees of up to 2^60 leaves
@@ -139,3 +139,28 @@ def empty_mesh_arrays() -> MeshArrays:
     z = lambda *shape: np.zeros(shape)  # noqa: E731
     i = lambda: np.zeros(0, dtype=np.int64)  # noqa: E731
     return MeshArrays(z(0, 3, 3), z(0, 3), z(0, 3, 3), z(0, 3, 3), z(0, 3), z(0, 3), i(), i(), i(), i(), i(), False)
+
+
+class SdGrid(NamedTuple):
+    """The mesh's signed distance at the nodes of a regular grid, each node computed
+    (exactly, :func:`.point_distance.signed_distance_at`) the first time it is read and kept: an approximate,
+    cheap signed distance (trilinear, error up to about the spacing near edges and corners)
+    for the local kernel's *seeing* rows, which only steer the iterations; every verdict
+    still comes from the exact queries.  A node's value depends only on the mesh, so the
+    order in which nodes are filled changes no answer.
+
+    Filled and read by the local solver (:mod:`prehension.solvers.local._sd_grid`); the
+    type itself is the mesh's, beside :class:`MeshArrays` and importable from
+    :mod:`prehension.objects.distance`, where numba's on-disk caches written before the
+    grid moved look it up (a cache index naming a class that no longer exists fails to
+    load instead of being rebuilt).
+
+    Attributes:
+        lo: (3,) position of node (0, 0, 0), object frame [mm].
+        h: spacing [mm].
+        val: (nx, ny, nz) float32 signed distance at node ``lo + h (i, j, k)`` [mm], NaN until read.
+    """
+
+    lo: np.ndarray
+    h: float
+    val: np.ndarray

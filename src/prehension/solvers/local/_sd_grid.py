@@ -10,14 +10,12 @@ is read; every verdict still comes from the exact queries.
 
 from __future__ import annotations
 
-from typing import NamedTuple
-
 import numpy as np
 
 from ...frozen import cached_per_value
 from ...kernels.jit import njit
 from ...objects.distance import MeshDistance
-from ...objects.mesh_arrays import MeshArrays
+from ...objects.mesh_arrays import MeshArrays, SdGrid
 from ...objects.point_distance import dot3, dist_sq, signed_distance_at
 from ...objects.segment_distance import lerp
 
@@ -31,25 +29,6 @@ GRID_PAD_MM = 20.0  # the grid covers the mesh's box grown by this much on every
 # of the good range.
 GRID_MIN_H_MM = 5.0
 GRID_MAX_NODES = 2_000_000  # coarser than GRID_MIN_H_MM when the box would need more (8 MB of float32)
-
-
-class SdGrid(NamedTuple):
-    """The mesh's signed distance at the nodes of a regular grid, each node computed
-    (exactly, :func:`signed_distance_at`) the first time it is read and kept: an approximate,
-    cheap signed distance (trilinear, error up to about the spacing near edges and corners)
-    for the local kernel's *seeing* rows, which only steer the iterations; every verdict
-    still comes from the exact queries.  A node's value depends only on the mesh, so the
-    order in which nodes are filled changes no answer.
-
-    Attributes:
-        lo: (3,) position of node (0, 0, 0), object frame [mm].
-        h: spacing [mm].
-        val: (nx, ny, nz) float32 signed distance at node ``lo + h (i, j, k)`` [mm], NaN until read.
-    """
-
-    lo: np.ndarray
-    h: float
-    val: np.ndarray
 
 
 @cached_per_value
