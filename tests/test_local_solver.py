@@ -509,9 +509,10 @@ def test_compile_pending_tells_a_first_run_from_a_cached_one(tmp_path):
 # read-only array another; the first run pays for every one of them.  Two legitimate
 # exceptions: ``copy`` and ``fill`` serve arrays of several ranks and dtypes.
 _ONE_SIGNATURE = {
-    "_kernel": ("run_states", "solve_state", "start", "iterate", "polish", "repair", "clearance", "_keep",
-                "_restore", "new_workspace", "_seeing_again"),
-    "_step": ("active_set_step", "_update_active_set", "_update_caps", "_turn_rims", "_turn", "_refresh", "stacked_step"),
+    "_kernel": ("run_states", "solve_state", "start", "iterate", "polish", "repair", "clearance", "_step", "_keep",
+                "_restore", "_update_active_set", "_update_caps", "_turn_rims", "_turn", "_refresh",
+                "_seeing_again", "_repair_step"),
+    "_workspace": ("new_workspace",),
     "_linalg": ("dls_dense", "dls_again", "refresh_column", "cholesky_solve"),
     "_model": ("contact_rows", "_hand_side", "_object_side", "_side_point", "inequality_rows", "self_collision_rows",
                "pose_hand", "initial_pose", "move"),

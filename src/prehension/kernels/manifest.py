@@ -86,9 +86,9 @@ SIGNATURES = {
             ('array', 'float64', 2),
             ('namedtuple', 'prehension.solvers.local._layout:HandArrays', (('namedtuple', 'prehension.kernels.chain:JointTables', (('array', 'int64', 1), ('array', 'int64', 1), ('array', 'int64', 1), ('array', 'int64', 1), ('array', 'float64', 2), ('array', 'float64', 2), ('array', 'float64', 2), ('array', 'float64', 2), ('array', 'float64', 3), ('array', 'float64', 3), ('array', 'float64', 3), ('array', 'float64', 3), ('array', 'float64', 3))), 'int64', ('array', 'bool', 2), ('array', 'int64', 1), ('array', 'float64', 2), ('array', 'float64', 2), ('array', 'float64', 1), ('array', 'int64', 1), ('array', 'int64', 1), ('array', 'int64', 1), ('array', 'float64', 2), ('array', 'float64', 1))),
             ('namedtuple', 'prehension.solvers.local._layout:Layout', (('array', 'int64', 1), ('array', 'float64', 1), ('array', 'float64', 1), ('array', 'float64', 1), ('array', 'int64', 3), ('array', 'int64', 1), ('array', 'int64', 2), ('array', 'int64', 1), 'int64', 'int64', 'int64', ('array', 'float64', 1), ('array', 'float64', 1), ('array', 'bool', 1), ('array', 'float64', 1), 'int64', 'int64')),
-            ('namedtuple', 'prehension.solvers.local._kernel:Options', ('float64', 'float64', 'float64', 'float64', 'float64', 'int64', 'int64', 'float64', 'int64', 'float64', 'bool', 'bool', 'float64', 'int64', 'float64', 'bool')),
+            ('namedtuple', 'prehension.solvers.local._workspace:Options', ('float64', 'float64', 'float64', 'float64', 'float64', 'int64', 'int64', 'float64', 'int64', 'float64', 'bool', 'bool', 'float64', 'int64', 'float64', 'bool')),
             ('namedtuple', 'prehension.solvers.local._penetration:ObjectArrays', (('namedtuple', 'prehension.objects.mesh_arrays:MeshArrays', (('array', 'float64', 3), ('array', 'float64', 2), ('array', 'float64', 3), ('array', 'float64', 3), ('array', 'float64', 2), ('array', 'float64', 2), ('array', 'int64', 1), ('array', 'int64', 1), ('array', 'int64', 1), ('array', 'int64', 1), ('array', 'int64', 1), 'bool')), 'bool', ('array', 'bool', 1), ('array', 'float64', 1), 'float64', ('namedtuple', 'prehension.objects.mesh_arrays:SdGrid', (('array', 'float64', 1), 'float64', ('array', 'float32', 3))))),
-            ('namedtuple', 'prehension.solvers.local._kernel:Outputs', (('array', 'int64', 1), ('array', 'int64', 1), ('array', 'int64', 1), ('array', 'int64', 1), ('array', 'float64', 2), ('array', 'float64', 3), ('array', 'float64', 2), ('array', 'float64', 2))),
+            ('namedtuple', 'prehension.solvers.local._workspace:Outputs', (('array', 'int64', 1), ('array', 'int64', 1), ('array', 'int64', 1), ('array', 'int64', 1), ('array', 'float64', 2), ('array', 'float64', 3), ('array', 'float64', 2), ('array', 'float64', 2))),
         ),
     ),
 }
@@ -120,5 +120,5 @@ SOURCES = (
     "solvers/local/_penetration.py",
     "solvers/local/_regions.py",
     "solvers/local/_sd_grid.py",
-    "solvers/local/_step.py",
+    "solvers/local/_workspace.py",
 )

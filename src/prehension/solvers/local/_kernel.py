@@ -19,26 +19,27 @@ function that returns a status code (``MESSAGES`` says what each means, as
    ``COLLIDING`` when that fails; a clear state within ``d_min`` met on the way is
    polished at once (:func:`_polished_clear`), which ends the repair when it succeeds.
 
-One damped step (the active set, the caps held on their rim, the stacked rows of the
-repair) is :mod:`._step`'s.  The caller (:mod:`.solver`) re-checks every answer with the
-foundation's functions.
-The state, its scratch arrays and its options travel as NamedTuples
-(:class:`Workspace`, :class:`Options`, :class:`~._layout.HandArrays`,
-:class:`~._layout.Layout`, :class:`~._penetration.ObjectArrays`).
+The caller (:mod:`.solver`) re-checks every answer with the foundation's functions.
+The state, its scratch arrays and its options travel as NamedTuples and one StructRef
+(:mod:`._workspace`: :class:`~._workspace.Workspace`, :class:`~._workspace.Options`;
+:class:`~._layout.HandArrays`, :class:`~._layout.Layout`,
+:class:`~._penetration.ObjectArrays`).  The steps stay in this module: a compiled function
+calls another module's functions measurably slower than its own module's (measured:
+the damped step in a module of its own cost 8% of a batch of point problems).
 """
 
 from __future__ import annotations
 
-from typing import NamedTuple
-
+import math
 import numpy as np
 
-from ...kernels.jit import HAVE_NUMBA, njit
+from ...kernels.jit import njit
 from . import _regions as RG
-from ._linalg import copy, fill
-from ._model import contact_rows, inequality_rows, initial_pose, move, place_capsules, pose_hand, project_all
-from ._penetration import object_rows
-from ._step import active_set_step, contact_motion, limit_step, stacked_step
+from ._layout import S_KIND, S_OFF, S_X
+from ._linalg import copy, dls_again, dls_dense, fill, refresh_column
+from ._model import contact_rows, inequality_rows, initial_pose, move, pose_hand, project_all
+from ._workspace import MAX_INEQUALITY_ROWS, Options, Outputs, Workspace, new_workspace, penetration_at, residual_at
+from ._workspace import _WorkspaceType  # noqa: F401 -- named here by numba caches written before the workspace moved
 
 __all__ = ["Options", "Workspace", "Outputs", "MESSAGES", "run_states", "residual_at", "penetration_at", "LOCAL_SOLUTIONS"]
 
@@ -54,120 +55,8 @@ MESSAGES = {
     COLLIDING: "a local solution in self-collision or in the object that the repair could not clear",
 }
 LOCAL_SOLUTIONS = (STRICT, WITHIN_DMIN)
-MAX_INEQUALITY_ROWS = 32  # self-collision pairs first, then the object's capsules
 BEST, REPAIRED = 0, 1  # slots of the workspace's saved states
 REPAIR_PATIENCE, REPAIR_GAIN = 6, 0.05  # a repair in collision ends after 6 steps without a clearance 0.05 mm better than its best
-
-
-class Options(NamedTuple):
-    """The kernel's options, named (built by :meth:`.options.LocalOptions.kernel_options`).
-
-    ``alpha`` step size; ``damping_sq`` mu^2 [mm^2]; ``d_min``, ``s_min`` [mm], ``n_stall``,
-    ``k_max``: the paper's ending conditions; ``w_n`` weight of the normal rows [mm];
-    ``max_step`` largest scaled change of one unknown per step [mm]; ``n_polish``,
-    ``polish_tol`` [mm]; ``active_set``; ``procrustes`` (else the paper's psi rule);
-    ``cap_margin`` [rad]; ``n_repair``, ``collision_margin`` [mm]; ``check_collisions``.
-    """
-
-    alpha: float
-    damping_sq: float
-    d_min: float
-    w_n: float
-    s_min: float
-    n_stall: int
-    k_max: int
-    max_step: float
-    n_polish: int
-    polish_tol: float
-    active_set: bool
-    procrustes: bool
-    cap_margin: float
-    n_repair: int
-    collision_margin: float
-    check_collisions: bool
-
-
-WORKSPACE_FIELDS = (
-    "hand", "lay", "opt", "obj",
-    "x", "col_scale", "dx", "frozen", "R", "t", "q", "Rl", "rl", "ax", "org", "f", "f_prev", "J", "Js", "ph", "nh", "po", "no",
-    "A", "L", "y", "rims", "M", "Ms", "g", "err", "keep_x", "keep_R", "keep_t", "keep_err",
-    "pt", "nr", "dpt", "dnr", "work", "tmp", "vec", "cp", "pa", "pb", "ends", "half", "cut", "oseg",
-)  # fmt: skip
-_WORKSPACE_DOC = """One state, its scratch arrays, and what it is solved with.
-
-    ``hand`` (:class:`~._layout.HandArrays`), ``lay`` (:class:`~._layout.Layout`), ``opt``
-    (:class:`Options`), ``obj`` (:class:`~._penetration.ObjectArrays`).  The state: ``x`` (nx) unknowns, ``R`` (3, 3) and ``t`` (3) object
-    pose [mm]; ``col_scale`` (nx) the problem's column scales ``D^-1``; derived: ``q`` angles, ``Rl``/``rl`` link poses, ``ax``/``org`` joint axes and
-    centres, ``f`` (6C) contact rows, ``J`` (6C, nx), ``ph``/``nh``/``po``/``no`` (C, 3)
-    contact points and normals, ``err`` (2) largest contact distance and weighted normal
-    error [mm].  Saved states: ``keep_*`` (slots ``BEST``, ``REPAIRED``).  The rest is
-    scratch: the step (``dx``, ``frozen``, ``A``, ``L``, ``y``, ``Js``; ``rims`` (2C, 3) the caps held
-    on their rim, kept from step to step: :func:`._step._turn_rims`), stacked rows
-    (``M``, ``Ms``, ``g``), regions (``pt``, ``nr``, ``dpt``, ``dnr``, ``work``), capsules
-    (``ends``, ``half``, ``pa``, ``pb``), the object's rows (``cut`` pieces of a segment,
-    ``oseg`` points in the object frame) and 3-vectors.
-
-    A numba StructRef: every phase takes it as one reference, which keeps the compiled
-    functions' signatures -- and so the compilation time -- small."""
-
-if HAVE_NUMBA:
-    from numba import types
-    from numba.experimental import structref
-
-    @structref.register
-    class _WorkspaceType(types.StructRef):
-        def preprocess_fields(self, fields):
-            return tuple((name, types.unliteral(typ)) for name, typ in fields)
-
-    class Workspace(structref.StructRefProxy):
-        __doc__ = _WORKSPACE_DOC
-
-    structref.define_proxy(Workspace, _WorkspaceType, list(WORKSPACE_FIELDS))
-else:  # pragma: no cover - plain Python without numba
-
-    class Workspace:
-        __doc__ = _WORKSPACE_DOC
-
-        def __init__(self, *values):
-            for name, value in zip(WORKSPACE_FIELDS, values):
-                setattr(self, name, value)
-
-
-@njit(cache=True)
-def new_workspace(hand, lay, opt, obj, C, nx):
-    """A workspace for states of ``C`` contacts and ``nx`` unknowns."""
-    n, m = 6 * C, 6 * C + MAX_INEQUALITY_ROWS
-    n_dof, n_links, n_caps = lay.dof_free.shape[0], hand.n_links, max(hand.cap_link.shape[0], 1)
-    z = np.zeros
-    return Workspace(
-        hand, lay, opt, obj,
-        z(nx), z(nx), z(nx), z(nx, dtype=np.bool_), z((3, 3)), z(3), z(n_dof), z((n_links, 3, 3)), z((n_links, 3)),
-        z((n_dof, 3)), z((n_dof, 3)), z(n), z(n), z((n, nx)), z((m, nx)), z((C, 3)), z((C, 3)), z((C, 3)),
-        z((C, 3)), z((m, m)), z((m, m)), z(m), z((2 * C, 3)), z((m, nx)), z((m, nx)), z(m), z(2),
-        z((2, nx)), z((2, 3, 3)), z((2, 3)), z((2, 2)), z(3), z(3), z((3, 2)), z((3, 2)),
-        z((7, RG.WORK_COLS)), z((2, 3, 3)), z(3), z(3), z(3), z(3), z((n_caps, 2, 3)), z(n_caps),
-        z((2, C + 2, 2)), z((7, 3)),
-    )  # fmt: skip
-
-
-class Outputs(NamedTuple):
-    """Per state: ``status`` (a ``MESSAGES`` code), ``iterations``, ``polish_iterations``,
-    ``repair_iterations``, final ``x`` (S, nx), ``R`` (S, 3, 3), ``t`` (S, 3) and ``err``
-    (S, 2): largest contact distance and largest ``w_n |n_h + n_o|`` [mm]."""
-
-    status: np.ndarray
-    iterations: np.ndarray
-    polish_iterations: np.ndarray
-    repair_iterations: np.ndarray
-    x: np.ndarray
-    R: np.ndarray
-    t: np.ndarray
-    err: np.ndarray
-
-    @classmethod
-    def allocate(cls, S: int, nx: int) -> "Outputs":
-        i = lambda: np.zeros(S, dtype=np.int64)  # noqa: E731
-        return cls(i(), i(), i(), i(), np.zeros((S, nx)), np.zeros((S, 3, 3)), np.zeros((S, 3)), np.zeros((S, 2)))
 
 
 # -- saving and restoring a state ---------------------------------------------------------------
@@ -187,6 +76,151 @@ def _restore(ws, data, slot):
     copy(ws.keep_t[slot], ws.t)
     pose_hand(ws)
     contact_rows(ws, data, np.bool_(True))
+
+
+# -- one step ---------------------------------------------------------------------------------------
+@njit(cache=True)
+def _turn(ws, c, i0, ga, gg):
+    """Turn the columns ``(alpha, gamma)`` of a cap of contact ``c`` into (radial, tangent)
+    with the rim's unit gradient ``(ga, gg)``; ``(ga, -gg)`` turns them back."""
+    for r in range(6 * c, 6 * c + 6):
+        u, v = ws.J[r, i0], ws.J[r, i0 + 1]
+        ws.J[r, i0], ws.J[r, i0 + 1] = ga * u + gg * v, -gg * u + ga * v
+
+
+@njit(cache=True)
+def _refresh(ws, k):
+    """Column ``k`` was frozen, released or turned after the step's solve: the solve's
+    product follows (:func:`._linalg.refresh_column`)."""
+    d = 0.0 if ws.frozen[k] else ws.col_scale[k]
+    refresh_column(ws.J, 6 * ws.lay.sides.shape[0], k, d, ws.A, ws.Js)
+
+
+@njit(cache=True)
+def _turn_rims(ws, data):
+    """Before a step's first solve: the caps held on their rim by the previous step that
+    are still on it get their columns turned again and the radial one frozen (the rim's
+    part of the warm-started active set); the others are let go.  ``ws.rims[2 c + side]``
+    is ``(held, g_a, g_g)``."""
+    lay, margin = ws.lay, ws.opt.cap_margin
+    for c in range(lay.sides.shape[0]):
+        for side in range(2):
+            slot, s = 2 * c + side, lay.sides[c, side]
+            if ws.rims[slot, 0] == 0.0:
+                continue
+            i0 = s[S_X]
+            on, ga, gg = RG.rim_gradient(s[S_KIND], s[S_OFF], data, ws.x, i0, margin)
+            ws.rims[slot, 0], ws.rims[slot, 1], ws.rims[slot, 2] = (1.0 if on else 0.0), ga, gg
+            if on:
+                _turn(ws, c, i0, ga, gg)
+                ws.frozen[i0] = True
+
+
+@njit(cache=True)
+def _update_caps(ws, data):
+    """After a solve: hold a cap on its rim when the step pushes it out; let a held cap go
+    when its radial column's unconstrained step ``-J^T y`` points inside.  True if
+    anything changed."""
+    lay, margin = ws.lay, ws.opt.cap_margin
+    again = False
+    for c in range(lay.sides.shape[0]):
+        for side in range(2):
+            slot, s = 2 * c + side, lay.sides[c, side]
+            i0 = s[S_X]
+            if ws.rims[slot, 0] != 0.0:
+                d = 0.0
+                for r in range(6 * c, 6 * c + 6):
+                    d -= ws.J[r, i0] * ws.y[r]
+                if d > 0.0:  # let go; this step's answer keeps it on the rim
+                    _turn(ws, c, i0, ws.rims[slot, 1], -ws.rims[slot, 2])
+                    dt = ws.dx[i0 + 1]
+                    ws.dx[i0], ws.dx[i0 + 1] = -ws.rims[slot, 2] * dt, ws.rims[slot, 1] * dt
+                    ws.frozen[i0], ws.rims[slot, 0] = False, 0.0
+                    _refresh(ws, i0)
+                    _refresh(ws, i0 + 1)
+                continue
+            on, ga, gg = RG.rim_gradient(s[S_KIND], s[S_OFF], data, ws.x, i0, margin)
+            if on and ga * ws.dx[i0] + gg * ws.dx[i0 + 1] < 0.0:
+                _turn(ws, c, i0, ga, gg)
+                ws.dx[i0], ws.dx[i0 + 1] = 0.0, -gg * ws.dx[i0] + ga * ws.dx[i0 + 1]  # the step's tangent part
+                ws.frozen[i0], again = True, True
+                ws.rims[slot, 0], ws.rims[slot, 1], ws.rims[slot, 2] = 1.0, ga, gg
+                _refresh(ws, i0)
+                _refresh(ws, i0 + 1)
+    return again
+
+
+@njit(cache=True)
+def _update_active_set(ws, data):
+    """After a solve: freeze unknowns at a bound that the step pushes out, release frozen
+    ones whose unconstrained step points inside, and the same for caps on their rim
+    (:func:`_update_caps`).  True if anything changed."""
+    lay = ws.lay
+    C = lay.sides.shape[0]
+    again = False
+    for k in range(ws.x.shape[0]):
+        if not lay.boxed[k]:
+            continue
+        at_lo, at_hi = ws.x[k] <= lay.lo[k], ws.x[k] >= lay.hi[k]
+        if ws.frozen[k]:
+            d = 0.0  # sign of the unconstrained step: -J^T y
+            for r in range(6 * C):
+                d -= ws.J[r, k] * ws.y[r]
+            if (at_lo and d > 0.0) or (at_hi and d < 0.0):
+                ws.frozen[k] = False  # in the solve again if there is one, else from the next step on
+                _refresh(ws, k)
+        elif (at_lo and ws.dx[k] < 0.0) or (at_hi and ws.dx[k] > 0.0):
+            ws.frozen[k], again = True, True
+            _refresh(ws, k)
+    return _update_caps(ws, data) or again
+
+
+@njit(cache=True)
+def _step(ws, data, damping_sq, active_set):
+    """One damped step ``ws.dx`` with an active set warm-started from the previous step's
+    (frozen unknowns stay frozen while at their bound, held caps while on their rim);
+    solved once more if the active set changed, the product ``J~ J~^T`` updated for the
+    changed columns only.  False if the system could not be solved."""
+    lay = ws.lay
+    for k in range(ws.x.shape[0]):
+        at_bound = lay.boxed[k] and (ws.x[k] <= lay.lo[k] or ws.x[k] >= lay.hi[k])
+        ws.frozen[k] = ws.frozen[k] and at_bound and active_set
+    if active_set:
+        _turn_rims(ws, data)
+    else:
+        fill(ws.rims, 0.0)
+    args = (ws.J, ws.f, 6 * lay.sides.shape[0], (ws.col_scale, ws.frozen), damping_sq, (ws.A, ws.L, ws.y, ws.dx, ws.Js))
+    ok = dls_dense(*args)
+    if ok and active_set and _update_active_set(ws, data):  # the product updated column by column
+        ok = dls_again(ws.f, args[2], args[3], args[5])
+    for slot in range(ws.rims.shape[0]):  # back to (alpha, gamma); the radial part is 0
+        if ws.rims[slot, 0] != 0.0:
+            i0 = lay.sides[slot // 2, slot % 2, S_X]
+            dt = ws.dx[i0 + 1]
+            ws.dx[i0], ws.dx[i0 + 1] = -ws.rims[slot, 2] * dt, ws.rims[slot, 1] * dt
+            ws.frozen[i0] = False
+    return ok
+
+
+@njit(cache=True)
+def _limit_step(dx, col_scale, alpha, max_step):
+    """``dx *= alpha``, then scaled so that no unknown moves more than ``max_step`` [mm]."""
+    big = 0.0
+    for j in range(dx.shape[0]):
+        if col_scale[j] > 0.0:
+            big = max(big, abs(dx[j]) / col_scale[j])
+    fac = alpha if big * alpha <= max_step else max_step / big
+    for j in range(dx.shape[0]):
+        dx[j] *= fac
+
+
+@njit(cache=True)
+def _motion(f, f_prev, C):
+    """How far the contacts moved in one step (eq. 10): sum of the two rows' changes [mm]."""
+    total = 0.0
+    for r0 in range(0, 6 * C, 3):
+        total += math.sqrt((f[r0] - f_prev[r0]) ** 2 + (f[r0 + 1] - f_prev[r0 + 1]) ** 2 + (f[r0 + 2] - f_prev[r0 + 2]) ** 2)
+    return total
 
 
 # -- the phases -------------------------------------------------------------------------------------
@@ -230,7 +264,7 @@ def iterate(ws, data, seeing):
         if ws.err[0] < opt.d_min and ws.err[1] < opt.d_min:
             return WITHIN_DMIN, k
         if k > 0:
-            stall = stall + 1 if contact_motion(ws.f, ws.f_prev, C) < opt.s_min else 0
+            stall = stall + 1 if _motion(ws.f, ws.f_prev, C) < opt.s_min else 0
             if stall >= opt.n_stall:
                 return STALLED, k
         if k == opt.k_max:
@@ -240,11 +274,11 @@ def iterate(ws, data, seeing):
             copy(ws.J, ws.M[:n])
             copy(ws.f, ws.g[:n])
             rows = inequality_rows(ws, data, opt.collision_margin, n, np.int64(MAX_INEQUALITY_ROWS), np.bool_(True))[0]
-            ok = stacked_step(ws, n + rows, opt.damping_sq)
+            ok = _repair_step(ws, n + rows, opt.damping_sq)
         else:
-            ok = active_set_step(ws, data, opt.damping_sq, opt.active_set)
+            ok = _step(ws, data, opt.damping_sq, opt.active_set)
             if ok:
-                limit_step(ws.dx, ws.col_scale, opt.alpha, opt.max_step)
+                _limit_step(ws.dx, ws.col_scale, opt.alpha, opt.max_step)
         if not ok:
             return SINGULAR, k + 1
         move(ws, data)
@@ -263,7 +297,7 @@ def polish(ws, data):
     it = 0
     while it < opt.n_polish and best > 1.0:
         it += 1
-        if not active_set_step(ws, data, 1e-18, np.bool_(True)):
+        if not _step(ws, data, 1e-18, np.bool_(True)):
             break
         move(ws, data)
         pose_hand(ws)
@@ -282,6 +316,26 @@ def polish(ws, data):
 def clearance(ws, data):
     """Smallest inequality value of the state (negative: in collision) [mm]."""
     return inequality_rows(ws, data, ws.opt.collision_margin, np.int64(0), np.int64(0), np.bool_(False))[1]
+
+
+@njit(cache=True)
+def _repair_step(ws, n_rows, mu2):
+    """One damped (``mu2`` [mm^2]) Gauss-Newton step on the stacked rows ``ws.M``, ``ws.g``
+    (joint limits kept by freezing angles at a bound that the step pushes out)."""
+    lay = ws.lay
+    fill(ws.frozen, False)
+    args = (ws.M, ws.g, n_rows, (ws.col_scale, ws.frozen), mu2, (ws.A, ws.L, ws.y, ws.dx, ws.Ms))
+    ok = dls_dense(*args)
+    if ok:
+        again = False
+        for j in range(ws.x.shape[0]):
+            if lay.boxed[j] and ((ws.x[j] <= lay.lo[j] and ws.dx[j] < 0.0) or (ws.x[j] >= lay.hi[j] and ws.dx[j] > 0.0)):
+                ws.frozen[j], again = True, True
+        if again:
+            ok = dls_dense(*args)
+    if ok:
+        _limit_step(ws.dx, ws.col_scale, 1.0, ws.opt.max_step)
+    return ok
 
 
 @njit(cache=True)
@@ -352,7 +406,7 @@ def repair(ws, data, rows0, cmin0):
             n_pol += it
             if done:
                 return STRICT, rk, n_pol  # polished from a clear state: done
-        if not stacked_step(ws, n + rows, 1e-6):
+        if not _repair_step(ws, n + rows, 1e-6):
             break
         move(ws, data)
         pose_hand(ws)
@@ -425,41 +479,3 @@ def run_states(problem, x0, pdata, hand, lay, opt, obj, out):
         copy(ws.R, out.R[s])
         copy(ws.t, out.t[s])
         copy(ws.err, out.err[s])
-
-
-@njit(cache=True)
-def _state_at(x, R, t, data, model):
-    """A workspace posed at unknowns ``x`` and object pose ``(R, t)`` of one problem, its
-    contact rows computed; ``model = (hand, lay, opt, obj)``."""
-    hand, lay, opt, obj = model
-    ws = new_workspace(hand, lay, opt, obj, lay.sides.shape[0], x.shape[0])
-    copy(lay.col_scale, ws.col_scale)
-    copy(x, ws.x)
-    copy(R, ws.R)
-    copy(t, ws.t)
-    pose_hand(ws)
-    contact_rows(ws, data, np.bool_(True))
-    return ws
-
-
-@njit(cache=True)
-def residual_at(x, R, t, data, model, f, J):
-    """Contact rows ``f`` (6C) and their Jacobian ``J`` (6C, nx) at unknowns ``x`` and object
-    pose ``(R, t)`` of one problem (its ``data`` row), ``model = (hand, lay, opt, obj)``:
-    for tests and the baseline."""
-    ws = _state_at(x, R, t, data, model)
-    copy(ws.f, f)
-    copy(ws.J, J)
-
-
-@njit(cache=True)
-def penetration_at(x, R, t, data, model, margin, g, M):
-    """The object's penetration rows (:func:`._penetration.object_rows`) at a state, as
-    :func:`residual_at`: values ``g`` and Jacobian ``M`` of at most ``len(g)`` rows; returns
-    ``(rows written, smallest value seen)``.  For tests."""
-    ws = _state_at(x, R, t, data, model)
-    place_capsules(ws)
-    n, vmin = object_rows(ws, data, margin, np.int64(0), min(g.shape[0], ws.g.shape[0]), np.bool_(False))
-    copy(ws.g[:n], g[:n])
-    copy(ws.M[:n], M[:n])
-    return n, vmin
