@@ -5,7 +5,7 @@
     python benchmarks/first_run.py --kernels aot jit  # the installed ahead-of-time kernels, then the JIT
 
 ``--kernels aot`` (the default) uses the ahead-of-time compiled kernels when a fresh
-extension is installed (``prehension._compiled``; the row says whether it was), ``jit``
+extension is installed (``prehension.kernels.aot``; the row says whether it was), ``jit``
 forces numba's JIT (``PREHENSION_AOT=0``) -- the first run of an install without them.
 
 Each row runs in a fresh process with an EMPTY numba cache (a temporary ``NUMBA_CACHE_DIR``;
@@ -60,7 +60,7 @@ solve_local(task)
 tt = []
 for _ in range(5):
     a = time.process_time(); solve_local(task); tt.append(time.process_time() - a)
-from prehension._compiled import aot_available
+from prehension.kernels.aot import aot_available
 print(json.dumps(dict(aot=aot_available(), exit=code, first_cpu=first_cpu, first_wall=first_wall, single_ms=1e3 * float(np.median(ts)),
                       batch_ms=batch, teapot_ms=1e3 * float(np.median(tt)))))
 """

@@ -21,7 +21,7 @@ the task, ``solve`` and writing the result file; and the libraries' floor: a fre
 that only imports what the command cannot do without (numpy, numba, scipy.spatial for
 the grasp quality's Qhull, highspy, pydantic, yaml, rich) and, when the command's kernels
 come from numba's JIT cache rather than the ahead-of-time extension
-(``prehension._compiled``), runs numba's one-time target set-up (which such a process pays
+(``prehension.kernels.aot``), runs numba's one-time target set-up (which such a process pays
 before its first cached function loads, and which imports scipy.linalg for numba's BLAS
 check).  Python writes and reuses its bytecode
 (``PYTHONDONTWRITEBYTECODE`` is removed from the children's environment, as on a user's
@@ -150,7 +150,7 @@ cpu_target.target_context.refresh()
 
 def _floor_script() -> tuple[str, str]:
     """The floor's script and its row label: numba's target set-up only if the JIT serves."""
-    from prehension._compiled import aot_available
+    from prehension.kernels.aot import aot_available
 
     if aot_available():
         return _FLOOR_IMPORTS, "imports; AOT, no target set-up"

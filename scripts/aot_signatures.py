@@ -1,4 +1,4 @@
-"""Regenerate ``src/prehension/_aot_signatures.py``: the compiled entry points and their types.
+"""Regenerate ``src/prehension/kernels/manifest.py``: the compiled entry points and their types.
 
     python scripts/aot_signatures.py          # rewrite the file (runs the JIT: minutes on an empty cache)
     python scripts/aot_signatures.py --check  # exit 1 when the committed file is out of date
@@ -14,7 +14,9 @@ seen), and reads each one's compiled signature (one per function:
 ``prehension`` source file the compiled code is built from (``SOURCES``): their hash is
 what an installed extension is checked against before it is used.
 
-``tests/test_aot.py`` checks that the file still matches what the JIT sees.
+The manifest is data only: each signature is written as nested tuples of plain names
+(:func:`type_spec`), which the build (:func:`prehension._aot_build.signatures`) turns back
+into numba types.  ``tests/test_aot.py`` checks that the file still matches what the JIT sees.
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-TARGET = ROOT / "src" / "prehension" / "_aot_signatures.py"
+TARGET = ROOT / "src" / "prehension" / "kernels" / "manifest.py"
 
 
 def run_workloads() -> cProfile.Profile:
@@ -57,7 +59,7 @@ def run_workloads() -> cProfile.Profile:
 
 def entry_points(profile: cProfile.Profile) -> dict:
     """key -> numba signature (return type included) of every entry point called."""
-    from prehension._compiled import loaded_dispatchers
+    from prehension.kernels.aot import loaded_dispatchers
 
     known = loaded_dispatchers()
     entries = {}
@@ -71,34 +73,26 @@ def entry_points(profile: cProfile.Profile) -> dict:
     return dict(sorted(entries.items()))
 
 
-def type_code(t, classes: dict) -> str:
-    """numba type -> Python code building it (``T`` is ``numba.types``)."""
+def type_spec(t):
+    """numba type -> its manifest entry (data): ``"float64"``, ``"int64"``, ``"bool"``,
+    ``"none"``; ``("array", dtype, ndim)`` for a writable C-contiguous array;
+    ``("namedtuple", "module:Class", (fields...))``; ``("tuple", (items...))``."""
     from numba.core import types
 
     if isinstance(t, types.Array):
-        ro = ", readonly=True" if not t.mutable else ""
-        return f'T.Array({type_code(t.dtype, classes)}, {t.ndim}, "{t.layout}"{ro})'
-    if isinstance(t, types.NamedUniTuple):
-        return f"T.NamedUniTuple({type_code(t.dtype, classes)}, {t.count}, {_class(t.instance_class, classes)})"
-    if isinstance(t, types.NamedTuple):
-        inner = ", ".join(type_code(x, classes) for x in t.types)
-        return f"T.NamedTuple([{inner}], {_class(t.instance_class, classes)})"
-    if isinstance(t, types.UniTuple):
-        return f"T.UniTuple({type_code(t.dtype, classes)}, {t.count})"
-    if isinstance(t, types.Tuple):
-        return f"T.Tuple([{', '.join(type_code(x, classes) for x in t.types)}])"
+        if t.layout != "C" or not t.mutable:
+            raise SystemExit(f"an argument is {t}: entry points take writable C-contiguous arrays")
+        return ("array", str(t.dtype), t.ndim)
+    if isinstance(t, types.BaseNamedTuple):
+        cls = t.instance_class
+        return ("namedtuple", f"{cls.__module__}:{cls.__qualname__}", tuple(type_spec(x) for x in t.types))
+    if isinstance(t, types.BaseTuple):
+        return ("tuple", tuple(type_spec(x) for x in t.types))
     if isinstance(t, types.NoneType):
-        return "T.none"
-    if isinstance(t, types.Boolean):
-        return "T.boolean"
-    if isinstance(t, (types.Integer, types.Float)):
-        return f"T.{t.name}"
-    raise SystemExit(f"no code for the numba type {t!r}: extend scripts/aot_signatures.py")
-
-
-def _class(cls, classes: dict) -> str:
-    classes[cls.__name__] = cls.__module__
-    return cls.__name__
+        return "none"
+    if isinstance(t, (types.Boolean, types.Integer, types.Float)):
+        return str(t)
+    raise SystemExit(f"no manifest entry for the numba type {t!r}: extend scripts/aot_signatures.py")
 
 
 def sources(entries: dict) -> tuple[str, ...]:
@@ -117,70 +111,39 @@ def sources(entries: dict) -> tuple[str, ...]:
                          check=True).stdout  # fmt: skip
     pkg = ROOT / "src" / "prehension"
     files = {Path(f).resolve().relative_to(pkg).as_posix() for f in out.split()}
-    return tuple(sorted(files - {"_compiled.py"} | {"_aot_signatures.py"}))  # _compiled: chooses, is not compiled
-
-
-def array_arguments(sig) -> tuple:
-    """((path into the arguments), dtype, ndim) of every array the signature takes."""
-    from numba.core import types
-
-    found = []
-
-    def walk(t, path):
-        if isinstance(t, types.Array):
-            if t.layout != "C" or not t.mutable:
-                raise SystemExit(f"argument {path} is {t}: entry points take writable C-contiguous arrays")
-            found.append((path, str(t.dtype), t.ndim))
-        elif isinstance(t, types.BaseTuple):
-            for i, x in enumerate(t.types):
-                walk(x, path + (i,))
-
-    for i, a in enumerate(sig.args):
-        walk(a, (i,))
-    return tuple(found)
+    return tuple(sorted(files - {"kernels/aot.py"} | {"kernels/manifest.py"}))  # kernels.aot chooses, is not compiled
 
 
 def render(entries: dict, files: tuple[str, ...]) -> str:
-    classes: dict = {}
-    body = [f'        "{key}": {type_code(sig.return_type, classes)}(\n            '
-            + ",\n            ".join(type_code(a, classes) for a in sig.args) + ",\n        ),"
-            for key, sig in entries.items()]  # fmt: skip
-    imports = [f"    from {mod} import {name}" for name, mod in sorted(classes.items())]
+    def signature(key, sig) -> list[str]:
+        args = [f"            {type_spec(a)!r}," for a in sig.args]
+        return [f'    "{key}": (', f"        {type_spec(sig.return_type)!r},", "        (", *args, "        ),", "    ),"]
+
     return "\n".join([
         '"""GENERATED by ``scripts/aot_signatures.py`` -- do not edit; ``tests/test_aot.py`` checks it.',
         "",
-        "The compiled functions Python calls (entry points), each with the one numba signature the",
-        "JIT gives it, for the ahead-of-time build (:mod:`prehension._aot_build`); ``SOURCES``: the",
-        "package's files (relative paths) whose hash an installed extension must match to be used.",
+        "The ahead-of-time build's manifest, data only: the compiled functions Python calls (entry",
+        "points), each with the one signature the JIT gives it (``SIGNATURES``: return type and",
+        "argument types, as ``scripts/aot_signatures.py``'s ``type_spec`` writes them; the build,",
+        ":mod:`prehension._aot_build`, turns them into numba types); ``SOURCES``: the package's",
+        "files (relative paths) whose hash an installed extension must match to be used.",
         '"""',
         "",
         "from __future__ import annotations",
         "",
-        '__all__ = ["ENTRY_POINTS", "ARRAY_ARGUMENTS", "SOURCES", "signatures"]',
+        '__all__ = ["ENTRY_POINTS", "SIGNATURES", "SOURCES"]',
         "",
         "ENTRY_POINTS = (",
         *[f'    "{key}",' for key in entries],
         ")",
         "",
-        "#: (path into the arguments, dtype, ndim) of every array argument, checked on each call",
-        "ARRAY_ARGUMENTS = {",
-        *[f'    "{key}": {array_arguments(sig)!r},' for key, sig in entries.items()],
+        "SIGNATURES = {",
+        *[line for key, sig in entries.items() for line in signature(key, sig)],
         "}",
         "",
         "SOURCES = (",
         *[f'    "{f}",' for f in files],
         ")",
-        "",
-        "",
-        "def signatures() -> dict:",
-        '    """Entry point -> numba signature (imports numba and the kernel modules)."""',
-        "    from numba.core import types as T",
-        "",
-        *imports,
-        "",
-        "    return {",
-        *body,
-        "    }",
         "",
     ])  # fmt: skip
 

@@ -1,4 +1,4 @@
-"""The ahead-of-time compiled entry points (prehension._compiled, _aot_build, _aot_signatures).
+"""The ahead-of-time compiled entry points (prehension.kernels.aot, _aot_build, kernels.manifest).
 
 What the JIT sees at the Python call sites must be what the signatures module records (so the
 install-time build compiles the functions that run); every Python call of a compiled function
@@ -19,11 +19,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import prehension._compiled as C
-from prehension._aot_signatures import ARRAY_ARGUMENTS, ENTRY_POINTS, SOURCES
+import prehension.kernels.aot as C
+from prehension.kernels.manifest import ENTRY_POINTS, SIGNATURES, SOURCES
 from prehension.solvers.local import random_point_problems, solve_local, solve_local_batch
 from prehension.solvers.local import _kernel as K
-from prehension.solvers.local._jit import HAVE_NUMBA
+from prehension.kernels.jit import HAVE_NUMBA
 from prehension.tasks.library import builtin_task_names, load_builtin_task
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -55,7 +55,7 @@ def test_the_call_sites_pass_what_the_signatures_module_records(monkeypatch):
     argument types recorded for the ahead-of-time build (else: python scripts/aot_signatures.py)."""
     from numba import typeof
 
-    from prehension._aot_signatures import signatures
+    from prehension._aot_build import signatures
 
     seen: dict[str, set] = {}
     choose = C._choose
@@ -78,7 +78,7 @@ def test_the_call_sites_pass_what_the_signatures_module_records(monkeypatch):
     profile.disable()
     direct = {C.loaded_dispatchers().get(frame, (None,))[0] for frame in pstats.Stats(profile).stats} - {None}
     expected = signatures()
-    assert set(ENTRY_POINTS) == set(expected) == set(ARRAY_ARGUMENTS)
+    assert set(ENTRY_POINTS) == set(expected) == set(SIGNATURES)
     assert direct <= set(seen), f"compiled functions called from Python without aot(): {direct - set(seen)}"
     assert set(seen) <= set(ENTRY_POINTS), f"not in the signatures module: {set(seen) - set(ENTRY_POINTS)}"
     for key, types in seen.items():
@@ -98,7 +98,19 @@ def test_the_sources_list_is_what_the_build_imports():
     out = subprocess.run([sys.executable, "-c", code, str(build)], capture_output=True, text=True, check=True).stdout
     package = build.parent
     imported = {Path(f).resolve().relative_to(package).as_posix() for f in out.split()}
-    assert imported - {"_compiled.py"} | {"_aot_signatures.py"} == set(SOURCES)  # _compiled chooses, is not compiled
+    assert imported - {"kernels/aot.py"} | {"kernels/manifest.py"} == set(SOURCES)  # kernels.aot chooses, is not compiled
+
+
+def test_the_manifest_is_data_only():
+    """The manifest imports nothing (its signatures are plain names: the build makes the numba
+    types), and every array it records is what the run-time check reads."""
+    import ast
+
+    tree = ast.parse((ROOT / "src" / "prehension" / "kernels" / "manifest.py").read_text())
+    imports = [n for n in ast.walk(tree) if isinstance(n, (ast.Import, ast.ImportFrom)) and n.module != "__future__"]
+    assert not imports and not [n for n in ast.walk(tree) if isinstance(n, (ast.FunctionDef, ast.ClassDef))]
+    fk = C.array_arguments(SIGNATURES["prehension.kernels.chain:pose_chains"][1])
+    assert fk[0] == ((0,), "float64", 2) and ((1, 0), "int64", 1) in fk  # q, then the joint tables' parent
 
 
 def test_a_missing_extension_falls_back_to_the_jit(monkeypatch):
@@ -145,18 +157,19 @@ def test_a_fresh_extension_serves_every_entry_point_and_nothing_compiles():
 
 @needs_aot
 def test_a_call_off_the_compiled_signature_goes_to_the_jit_not_misread():
-    from prehension.hands.kinematics import _chain_arrays, _fk_loop, forward_kinematics
+    from prehension.hands.kinematics import forward_kinematics, joint_tables
+    from prehension.kernels.chain import pose_chains
     from prehension.hands.sa_hand import schunk_sa_hand
 
     hand = schunk_sa_hand()
     q = np.random.default_rng(0).uniform(-0.5, 0.5, (2, hand.n_dof))
-    checked = C.aot(_fk_loop)
+    checked = C.aot(pose_chains)
     R, r = np.zeros((2, len(hand.links), 3, 3)), np.zeros((2, len(hand.links), 3))
     axis, origin = np.zeros((2, hand.n_dof, 3)), np.zeros((2, hand.n_dof, 3))
-    assert checked.mismatch((q, _chain_arrays(hand), R, r, axis, origin)) is None
+    assert checked.mismatch((q, joint_tables(hand), R, r, axis, origin)) is None
     assert "argument 0 is not a writable C-contiguous 2-d float64 array: float64 2-d" in checked.mismatch(
-        (np.asfortranarray(q), _chain_arrays(hand), R, r, axis, origin))
-    assert "int64 2-d" in checked.mismatch((q.astype(np.int64), _chain_arrays(hand), R, r, axis, origin))
+        (np.asfortranarray(q), joint_tables(hand), R, r, axis, origin))
+    assert "int64 2-d" in checked.mismatch((q.astype(np.int64), joint_tables(hand), R, r, axis, origin))
     frozen = q.copy()
     frozen.flags.writeable = False  # another numba type: the JIT serves it
     a, b = forward_kinematics(hand, q), forward_kinematics(hand, frozen)

@@ -476,7 +476,8 @@ def test_hand_arrays_are_built_once_and_not_stored_on_the_hand(sa_hand):
     a2, key2 = hand_arrays(sa_hand)
     assert a1 is a2 and key1 == key2
     fresh = HandArrays.from_hand(sa_hand)
-    assert all(np.array_equal(np.asarray(u), np.asarray(v)) for u, v in zip(fresh, a1))
+    flat = lambda arrays: (*arrays.joints, *arrays[1:])  # noqa: E731
+    assert all(np.array_equal(np.asarray(u), np.asarray(v)) for u, v in zip(flat(fresh), flat(a1)))
     solve_local_batch(random_point_problems(2, sa_hand, seed=1))
     assert not [k for k in vars(sa_hand) if k.startswith("_local")]
 
@@ -495,7 +496,7 @@ def test_compile_pending_tells_a_first_run_from_a_cached_one(tmp_path):
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path), "PREHENSION_AOT": "0"}
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
     assert out.stdout.strip() == "True", out.stderr
-    from prehension._compiled import aot_available
+    from prehension.kernels.aot import aot_available
 
     if aot_available():  # a fresh install with them compiles nothing: no COMPILING_MESSAGE
         env["PREHENSION_AOT"] = "1"
@@ -509,8 +510,9 @@ def test_compile_pending_tells_a_first_run_from_a_cached_one(tmp_path):
 # exceptions: ``copy`` and ``fill`` serve arrays of several ranks and dtypes.
 _ONE_SIGNATURE = {
     "_kernel": ("run_states", "solve_state", "start", "iterate", "polish", "repair", "clearance", "_step", "_keep",
-                "_restore", "new_workspace", "_update_active_set", "_update_caps", "_turn_rims", "_turn", "_refresh",
+                "_restore", "_update_active_set", "_update_caps", "_turn_rims", "_turn", "_refresh",
                 "_seeing_again", "_repair_step"),
+    "_workspace": ("new_workspace",),
     "_linalg": ("dls_dense", "dls_again", "refresh_column", "cholesky_solve"),
     "_model": ("contact_rows", "_hand_side", "_object_side", "_side_point", "inequality_rows", "self_collision_rows",
                "pose_hand", "initial_pose", "move"),
@@ -532,13 +534,13 @@ def test_the_kernel_compiles_each_function_for_one_signature():
     import importlib
 
     from prehension.objects import distance
-    from prehension.solvers.local._jit import HAVE_NUMBA
+    from prehension.kernels.jit import HAVE_NUMBA
 
     if not HAVE_NUMBA:
         pytest.skip("numba is not installed: nothing is compiled")
-    import prehension._compiled
+    import prehension.kernels.aot
 
-    aot = prehension._compiled.use_aot(False)  # the JIT's signatures, not the installed ahead-of-time kernels
+    aot = prehension.kernels.aot.use_aot(False)  # the JIT's signatures, not the installed ahead-of-time kernels
     try:
         solve_local(load_builtin_task("teapot-lid-lifting"))  # compiles (or loads) the kernel with the object's rows
         task = load_builtin_task("teapot-service")
@@ -547,7 +549,7 @@ def test_the_kernel_compiles_each_function_for_one_signature():
         radius.flags.writeable = False  # a read-only radius is copied: one signature for every caller
         task.object.distance.capsule_depth(np.zeros((1, 3)), np.ones((1, 3)), radius)
     finally:
-        prehension._compiled.use_aot(aot)
+        prehension.kernels.aot.use_aot(aot)
     more, missing, checked = {}, [], 0
     for module, names in _ONE_SIGNATURE.items():
         mod = importlib.import_module(f"prehension.solvers.local.{module}")

@@ -79,7 +79,7 @@ def test_segment_distance_is_the_minimum_over_the_segment(bunny, rng):
 def test_long_segments_pruned_by_their_distance_to_each_box_lose_no_triangle(bunny, rng):
     """The traversal prunes a box by its distance to the segment (not to the segment's own
     box): the answer is still the minimum over every triangle, bit for bit."""
-    from prehension.objects import distance as D
+    from prehension.objects import segment_distance as D
 
     _, md = bunny
     m = md.arrays
@@ -99,7 +99,7 @@ def test_long_segments_pruned_by_their_distance_to_each_box_lose_no_triangle(bun
 def test_bounded_segment_queries_are_the_unbounded_answer_below_the_bound(bunny, rng):
     """A search bounded by ``bound`` (the capsule depths search only up to the radius) gives
     the unbounded answer bit for bit when it is below the bound, and the bound otherwise."""
-    from prehension.objects import distance as D
+    from prehension.objects import segment_distance as D
 
     _, md = bunny
     m = md.arrays
@@ -110,7 +110,7 @@ def test_bounded_segment_queries_are_the_unbounded_answer_below_the_bound(bunny,
         b = a + rng.normal(size=3) * 15.0
         exact = D._segment_query(m, a, b)
         for bound in (0.5 * np.sqrt(exact), np.sqrt(exact) + 1e-6, 2.0 * np.sqrt(exact) + 1.0):
-            got = D._segment_query_within(m, a, b, bound * bound)
+            got = D.segment_query_within(m, a, b, bound * bound)
             assert got == (exact if exact < bound * bound else bound * bound)
             within = D.segment_closest_within(m, a, b, pair[0], pair[1], bound)
             assert within == (np.sqrt(exact) if exact < bound * bound else bound)
@@ -141,7 +141,7 @@ def test_the_signed_distance_grid_is_within_its_spacing_of_the_exact_value(bunny
     """Trilinear on the grid: a convex combination of the cell's corner values, each within
     its distance from the point (sd is 1-Lipschitz), so within h sqrt(3) of the exact value;
     each node read holds the exact value at the node, whatever order the nodes were read in."""
-    from prehension.objects.distance import grid_sd, grid_segment_min_sd, in_grid, new_sd_grid
+    from prehension.solvers.local._sd_grid import grid_sd, grid_segment_min_sd, in_grid, new_sd_grid
 
     mesh, md = bunny
     m = md.arrays
@@ -173,12 +173,17 @@ def test_the_signed_distance_grid_is_within_its_spacing_of_the_exact_value(bunny
     assert abs(np.linalg.norm(pair[0] - pair[1]) - max(abs(v), 1e-6)) < 1e-9
 
 
-def test_a_mesh_distance_keeps_one_grid_and_does_not_pickle_it():
+def test_a_mesh_distance_has_one_grid_which_does_not_travel_with_it():
+    """The local solver keeps one grid per mesh beside it (never on it): a pickled copy of
+    the mesh gets its own, unfilled."""
     from prehension.objects.distance import MeshDistance
+    from prehension.solvers.local._sd_grid import sd_grid_of
 
     v = np.array([[0, 0, 0], [10, 0, 0], [0, 10, 0], [0, 0, 10]], float)
     f = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
     md = MeshDistance(v, f)
-    assert md.sd_grid() is md.sd_grid()
-    assert md.sd_grid().val.dtype == np.float32 and np.isnan(md.sd_grid().val).all()
-    assert "_sd_grid" not in pickle.loads(pickle.dumps(md)).__dict__
+    assert sd_grid_of(md) is sd_grid_of(md)
+    assert sd_grid_of(md).val.dtype == np.float32 and np.isnan(sd_grid_of(md).val).all()
+    sd_grid_of(md).val[0, 0, 0] = 1.0
+    copy = pickle.loads(pickle.dumps(md))
+    assert sd_grid_of(copy) is not sd_grid_of(md) and np.isnan(sd_grid_of(copy).val).all()

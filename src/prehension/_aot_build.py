@@ -6,9 +6,10 @@ which returns numba's setuptools ``Extension`` for the module.  It imports the k
 modules without running the package ``__init__`` files (:func:`load_kernel_modules`), so
 the build needs numpy, numba, scipy and PyYAML only -- not the whole library.
 
-What is compiled: every entry point of :mod:`prehension._aot_signatures`, for its one
-recorded signature, plus a marker function ``source_<hash>`` naming the hash of the
-sources it was built from (:func:`prehension._compiled.source_hash`), which the run time
+What is compiled: every entry point of the manifest (:mod:`prehension.kernels.manifest`,
+data only), for its one recorded signature (:func:`signatures` turns the manifest's entries
+into numba types), plus a marker function ``source_<hash>`` naming the hash of the
+sources it was built from (:func:`prehension.kernels.aot.source_hash`), which the run time
 compares before using the module.  Compiling takes about as long as the JIT's first run
 (one to two minutes of CPU), once, at install.
 
@@ -24,7 +25,7 @@ import sys
 import types
 from pathlib import Path
 
-__all__ = ["load_kernel_modules", "make_cc", "extension"]
+__all__ = ["load_kernel_modules", "signatures", "make_cc", "extension"]
 
 PACKAGE_DIR = Path(__file__).resolve().parent
 BASENAME = "_aot"
@@ -42,11 +43,40 @@ def load_kernel_modules(modules: tuple[str, ...] | None = None) -> None:
             package.__file__ = None
             sys.modules[package.__name__] = package
     if modules is None:
-        from prehension._aot_signatures import ENTRY_POINTS
+        from prehension.kernels.manifest import ENTRY_POINTS
 
         modules = tuple(key.split(":")[0] for key in ENTRY_POINTS)
     for module in modules:
         importlib.import_module(module)
+
+
+def numba_type(spec):
+    """A manifest's type entry (data, :data:`prehension.kernels.manifest.SIGNATURES`) -> the numba type."""
+    import numpy as np
+    from numba import from_dtype
+    from numba.core import types
+
+    if spec == "none":
+        return types.none
+    if isinstance(spec, str):
+        return from_dtype(np.dtype(spec))
+    if spec[0] == "array":
+        return types.Array(from_dtype(np.dtype(spec[1])), spec[2], "C")
+    if spec[0] == "namedtuple":
+        module, name = spec[1].split(":")
+        return types.NamedTuple([numba_type(x) for x in spec[2]], getattr(importlib.import_module(module), name))
+    return types.Tuple([numba_type(x) for x in spec[1]])
+
+
+def signatures() -> dict:
+    """Entry point -> numba signature, from the manifest (imports numba and the kernels' modules)."""
+    from prehension.kernels.manifest import SIGNATURES
+
+    load_kernel_modules()
+    out = {}
+    for key, (result, arguments) in SIGNATURES.items():
+        out[key] = numba_type(result)(*(numba_type(a) for a in arguments))
+    return out
 
 
 def _stamp():
@@ -58,8 +88,7 @@ def make_cc(output_dir: str | Path | None = None):
     from numba.pycc import CC
 
     load_kernel_modules()
-    from prehension._aot_signatures import signatures
-    from prehension._compiled import STAMP_PREFIX, export_name, source_hash
+    from prehension.kernels.aot import STAMP_PREFIX, export_name, source_hash
 
     source = types.ModuleType("prehension._aot_build")  # names the extension prehension._aot
     source.__file__ = str(PACKAGE_DIR / "_aot_build.py")

@@ -1,8 +1,8 @@
-"""Compiled capsule-pair distances (numba): one configuration at a time, no large arrays.
+"""Compiled largest self-penetration of a hand (numba): one configuration at a time, no large arrays.
 
-Used by :func:`prehension.hands.collision.max_penetration` (imported lazily, so that
-``import prehension`` does not load numba) and by the local solver's kernel, which needs
-the closest points of two segments for its collision rows.
+Used by :func:`prehension.hands.collision.max_penetration`; the closest points of two
+capsules' segments are :func:`prehension.kernels.segments.closest_points`, which the local
+solver's kernel reads too.
 """
 
 from __future__ import annotations
@@ -11,60 +11,11 @@ import math
 
 import numpy as np
 
-from .._compiled import aot
+from ..kernels.aot import aot
+from ..kernels.jit import njit
+from ..kernels.segments import closest_points
 
-try:  # numba is a dependency; without it the same code runs as (slow) Python.
-    from numba import njit
-except ImportError:  # pragma: no cover - exercised only where numba is missing
-
-    def njit(*args, **kwargs):
-        if len(args) == 1 and callable(args[0]) and not kwargs:
-            return args[0]
-        return lambda f: f
-
-
-__all__ = ["closest_points", "max_depths"]
-
-
-@njit(cache=True)
-def _clamp01(x):
-    return 0.0 if x < 0.0 else (1.0 if x > 1.0 else x)
-
-
-@njit(cache=True)
-def closest_points(p0, p1, q0, q1, pa, pb):
-    """Closest points ``pa``, ``pb`` of segments p0-p1 and q0-q1 (Ericson, sec. 5.1.9); their distance [mm]."""
-    tiny = 1e-12
-    a = e = f = c = b = 0.0
-    for i in range(3):
-        d1 = p1[i] - p0[i]
-        d2 = q1[i] - q0[i]
-        r = p0[i] - q0[i]
-        a += d1 * d1
-        e += d2 * d2
-        f += d2 * r
-        c += d1 * r
-        b += d1 * d2
-    if a <= tiny and e <= tiny:
-        s, t = 0.0, 0.0
-    elif a <= tiny:
-        s, t = 0.0, _clamp01(f / e)
-    elif e <= tiny:
-        s, t = _clamp01(-c / a), 0.0
-    else:
-        denom = a * e - b * b
-        s = _clamp01((b * f - c * e) / denom) if denom > tiny * a * e else 0.0
-        t = (b * s + f) / e
-        if t < 0.0:
-            s, t = _clamp01(-c / a), 0.0
-        elif t > 1.0:
-            s, t = _clamp01((b - c) / a), 1.0
-    d = 0.0
-    for i in range(3):
-        pa[i] = p0[i] + (p1[i] - p0[i]) * s
-        pb[i] = q0[i] + (q1[i] - q0[i]) * t
-        d += (pa[i] - pb[i]) ** 2
-    return math.sqrt(d)
+__all__ = ["max_depths"]
 
 
 @njit(cache=True)

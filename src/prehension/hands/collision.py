@@ -20,8 +20,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._compiled import aot
 from ..frozen import cached_per_value
+from ..kernels.aot import aot
+from ..kernels.jit import njit
+from ..kernels.segments import CAPSULE_EPS, segment_distances, segment_params_xyz
 from .kinematics import HandPose
 from .model import Hand
 
@@ -36,29 +38,14 @@ __all__ = [
 def segment_distance(p0, p1, q0, q1) -> np.ndarray:
     """Distance between segments p0-p1 and q0-q1, all arrays (..., 3) [mm] -> (...)
 
-    The closest-point parameters are found in closed form (Ericson, *Real-Time Collision
-    Detection*, sec. 5.1.9) with every degenerate case (points, parallel segments) handled
-    by clamping, vectorised over the leading axes.
+    The closed form of :func:`prehension.kernels.segments.segment_params` (Ericson, *Real-Time
+    Collision Detection*, sec. 5.1.9; every degenerate case -- points, parallel segments --
+    handled by clamping), over the broadcast leading axes.
     """
-    d1, d2, r = p1 - p0, q1 - q0, p0 - q0
-    a = np.sum(d1 * d1, axis=-1)
-    e = np.sum(d2 * d2, axis=-1)
-    f = np.sum(d2 * r, axis=-1)
-    c = np.sum(d1 * r, axis=-1)
-    b = np.sum(d1 * d2, axis=-1)
-    denom = a * e - b * b
-    tiny = 1e-12
-    safe = lambda x: np.where(x > tiny, x, 1.0)  # noqa: E731
-    s = np.where(denom > tiny * np.maximum(a * e, tiny), np.clip((b * f - c * e) / safe(denom), 0, 1), 0.0)
-    s = np.where(e > tiny, s, np.clip(-c / safe(a), 0.0, 1.0))  # q is a point
-    s = np.where(a > tiny, s, 0.0)  # p is a point
-    t = np.where(e > tiny, (b * s + f) / safe(e), 0.0)
-    # Re-clamp t and recompute s when t left [0, 1].
-    t_c = np.clip(t, 0.0, 1.0)
-    s = np.where((t != t_c) & (a > tiny), np.clip((b * t_c - c) / safe(a), 0.0, 1.0), s)
-    t = t_c
-    diff = (p0 + d1 * s[..., None]) - (q0 + d2 * t[..., None])
-    return np.linalg.norm(diff, axis=-1)
+    arrays = np.broadcast_arrays(*(np.asarray(p, dtype=float) for p in (p0, p1, q0, q1)))
+    shape = arrays[0].shape[:-1]
+    flat = [np.ascontiguousarray(a.reshape(-1, 3)) for a in arrays]
+    return aot(segment_distances)(*flat).reshape(shape)
 
 
 @dataclass(frozen=True, eq=False)
@@ -136,8 +123,8 @@ def _link_spheres(n_links, link_of, a, b, radius) -> tuple[np.ndarray, np.ndarra
 def capsule_clearances(hand: Hand, pose: HandPose) -> tuple[np.ndarray, tuple[tuple[str, str], ...]]:
     """Clearance of every tested capsule pair, (B, P) [mm]; negative means penetration.
 
-    The pairs run through a compiled loop (:func:`_clearances`, numba) with the same
-    closed form as :func:`segment_distance`: a few hundred pairs of thousands of
+    The pairs run through a compiled loop (:func:`_clearances`, numba) with the closed form
+    of :func:`segment_distance`: a few hundred pairs of thousands of
     configurations (the initial-pose samples of a 20-joint hand) take milliseconds.  The
     result itself holds ``B x P`` numbers: for large batches of a hand with many capsules
     use :func:`max_penetration`, whose memory does not grow with ``P``.
@@ -153,50 +140,6 @@ def capsule_clearances(hand: Hand, pose: HandPose) -> tuple[np.ndarray, tuple[tu
     return aot(_clearances)(a, b, pairs.radius, pairs.first, pairs.second), pairs.names
 
 
-try:  # numba is a dependency; without it the same loop runs as (slow) Python
-    from numba import njit
-except ImportError:  # pragma: no cover
-    def njit(*args, **kwargs):
-        return args[0] if len(args) == 1 and callable(args[0]) else (lambda f: f)
-
-
-@njit(cache=True)
-def _clamp01(x):
-    return 0.0 if x < 0.0 else (1.0 if x > 1.0 else x)
-
-
-@njit(cache=True)
-def _segment_distance(a, b, k, i, j) -> float:
-    """Distance between segments ``a[k, i]-b[k, i]`` and ``a[k, j]-b[k, j]`` (scalar code,
-    no temporaries) -- Ericson 5.1.9, the closed form of :func:`segment_distance`."""
-    tiny = 1e-12
-    d1x, d1y, d1z = b[k, i, 0] - a[k, i, 0], b[k, i, 1] - a[k, i, 1], b[k, i, 2] - a[k, i, 2]
-    d2x, d2y, d2z = b[k, j, 0] - a[k, j, 0], b[k, j, 1] - a[k, j, 1], b[k, j, 2] - a[k, j, 2]
-    rx, ry, rz = a[k, i, 0] - a[k, j, 0], a[k, i, 1] - a[k, j, 1], a[k, i, 2] - a[k, j, 2]
-    aa = d1x * d1x + d1y * d1y + d1z * d1z
-    e = d2x * d2x + d2y * d2y + d2z * d2z
-    f = d2x * rx + d2y * ry + d2z * rz
-    c = d1x * rx + d1y * ry + d1z * rz
-    bb = d1x * d2x + d1y * d2y + d1z * d2z
-    if aa <= tiny and e <= tiny:
-        s, t = 0.0, 0.0
-    elif aa <= tiny:
-        s, t = 0.0, _clamp01(f / e)
-    elif e <= tiny:
-        s, t = _clamp01(-c / aa), 0.0
-    else:
-        denom = aa * e - bb * bb
-        s = _clamp01((bb * f - c * e) / denom) if denom > tiny * max(aa * e, tiny) else 0.0
-        t = (bb * s + f) / e
-        if t < 0.0 or t > 1.0:
-            t = _clamp01(t)
-            s = _clamp01((bb * t - c) / aa)
-    x = rx + d1x * s - d2x * t
-    y = ry + d1y * s - d2y * t
-    z = rz + d1z * s - d2z * t
-    return math.sqrt(x * x + y * y + z * z)
-
-
 @njit(cache=True)
 def _clearances(a, b, radius, first, second):
     """``a, b (B, S, 3)`` capsule segments, ``radius (S,)``, pairs ``first, second (P,)`` -> (B, P)."""
@@ -205,7 +148,9 @@ def _clearances(a, b, radius, first, second):
     for k in range(B):
         for p in range(P):
             i, j = first[p], second[p]
-            out[k, p] = _segment_distance(a, b, k, i, j) - radius[i] - radius[j]
+            d2 = segment_params_xyz(a[k, i, 0], a[k, i, 1], a[k, i, 2], b[k, i, 0], b[k, i, 1], b[k, i, 2],
+                                    a[k, j, 0], a[k, j, 1], a[k, j, 2], b[k, j, 0], b[k, j, 1], b[k, j, 2], CAPSULE_EPS)[0]
+            out[k, p] = math.sqrt(d2) - radius[i] - radius[j]
     return out
 
 

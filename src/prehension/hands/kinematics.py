@@ -17,20 +17,18 @@ fixed to such a link move with
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
-from typing import NamedTuple
 
 import numpy as np
 
-from .._compiled import aot
 from ..errors import InvalidConfiguration
 from ..frozen import cached_per_value
 from ..geometry.rotations import skew
-from ._capsules import njit
+from ..kernels.aot import aot
+from ..kernels.chain import JointTables, pose_chains
 from .model import Hand, tree_tables
 
-__all__ = ["HandPose", "as_batch", "forward_kinematics", "point_jacobian", "direction_jacobian"]
+__all__ = ["HandPose", "as_batch", "forward_kinematics", "joint_tables", "point_jacobian", "direction_jacobian"]
 
 
 def as_batch(q, n_dof: int) -> np.ndarray:
@@ -90,35 +88,11 @@ def _axis_terms(axis) -> tuple[np.ndarray, np.ndarray]:
     return k, k @ k
 
 
-class _ChainArrays(NamedTuple):
-    """The joint tree as arrays for :func:`_fk_loop`, built once per hand (:func:`_chain_arrays`).
-
-    Per joint ``k`` (J joints, in tree order): ``parent``, ``child`` link indices and
-    ``offset`` (first dof) (J,) int64; ``universal`` (J,) int64 (1: a second dof);
-    ``origin_in_parent``, ``origin_in_child``, ``axis_in_parent``, ``axis_in_child`` (J, 3)
-    [mm, unit]; ``R_zero`` (J, 3, 3); ``k1``, ``kk1``, ``k2``, ``kk2`` (J, 3, 3): the
-    Rodrigues terms ``[a]_x`` and ``[a]_x^2`` of the first and second axis (zeros when
-    there is none).
-    """
-
-    parent: np.ndarray
-    child: np.ndarray
-    offset: np.ndarray
-    universal: np.ndarray
-    origin_in_parent: np.ndarray
-    origin_in_child: np.ndarray
-    axis_in_parent: np.ndarray
-    axis_in_child: np.ndarray
-    R_zero: np.ndarray
-    k1: np.ndarray
-    kk1: np.ndarray
-    k2: np.ndarray
-    kk2: np.ndarray
-
-
 @cached_per_value
-def _chain_arrays(hand: Hand) -> _ChainArrays:
-    """The hand's :class:`_ChainArrays`, once per hand."""
+def joint_tables(hand: Hand) -> JointTables:
+    """The hand's joint tree as the compiled loop reads it (:class:`~prehension.kernels.chain.JointTables`),
+    built once per hand (weak cache, never on the frozen hand); the local solver's kernel
+    reads the same tables."""
     tables = tree_tables(hand)
     J = len(hand.joints)
     k1, kk1, k2, kk2 = (np.zeros((J, 3, 3)) for _ in range(4))
@@ -127,7 +101,7 @@ def _chain_arrays(hand: Hand) -> _ChainArrays:
         if j.kind == "universal":
             k2[k], kk2[k] = _axis_terms(j.axis_in_child)
     vec = lambda name: np.array([np.broadcast_to(getattr(j, name), 3) for j in hand.joints], dtype=float).reshape(J, 3)  # noqa: E731
-    return _ChainArrays(
+    return JointTables(
         np.asarray(tables["parent"], dtype=np.int64).reshape(J), np.asarray(tables["child"], dtype=np.int64).reshape(J),
         np.array(hand.dof_offsets, dtype=np.int64).reshape(J),
         np.array([j.kind == "universal" for j in hand.joints], dtype=np.int64).reshape(J),
@@ -138,58 +112,6 @@ def _chain_arrays(hand: Hand) -> _ChainArrays:
     )  # fmt: skip
 
 
-@njit(cache=True)
-def _rodrigues(k, kk, j, angle, out):
-    """``I + sin(angle) [a]_x + (1 - cos(angle)) [a]_x^2`` of joint ``j``'s axis terms -> out (3, 3)."""
-    s, c1 = math.sin(angle), 1.0 - math.cos(angle)
-    for i in range(3):
-        for m in range(3):
-            out[i, m] = ((1.0 if i == m else 0.0) + s * k[j, i, m]) + c1 * kk[j, i, m]
-
-
-@njit(cache=True)
-def mat_mat(A, B, out):
-    """``out = A @ B`` for (3, 3) matrices (sums in index order; ``out`` distinct from ``A``
-    and ``B``).  Also the local solver's kernel's 3x3 product (``solvers.local._linalg``)."""
-    for i in range(3):
-        for m in range(3):
-            out[i, m] = A[i, 0] * B[0, m] + A[i, 1] * B[1, m] + A[i, 2] * B[2, m]
-
-
-@njit(cache=True)
-def mat_vec(A, v, out):
-    """``out = A @ v`` for a (3, 3) matrix and a (3,) vector (also the kernel's)."""
-    for i in range(3):
-        out[i] = A[i, 0] * v[0] + A[i, 1] * v[1] + A[i, 2] * v[2]
-
-
-@njit(cache=True)
-def _fk_loop(q, ch, R, r, axis, origin):
-    """Forward kinematics of ``q (B, n_dof)`` through the tree ``ch`` into ``R (B, L, 3, 3)``,
-    ``r (B, L, 3)``, ``axis`` and ``origin (B, n_dof, 3)`` (palm row of ``R`` preset to I)."""
-    rot, tmp, vec = np.empty((3, 3)), np.empty((3, 3)), np.empty(3)
-    for b in range(q.shape[0]):
-        for k in range(ch.parent.shape[0]):
-            p, c, d = ch.parent[k], ch.child[k], ch.offset[k]
-            mat_vec(R[b, p], ch.origin_in_parent[k], vec)
-            for i in range(3):
-                origin[b, d, i] = vec[i] + r[b, p, i]
-            mat_vec(R[b, p], ch.axis_in_parent[k], axis[b, d])
-            _rodrigues(ch.k1, ch.kk1, k, q[b, d], rot)
-            mat_mat(R[b, p], rot, tmp)
-            mat_mat(tmp, ch.R_zero[k], R[b, c])
-            if ch.universal[k] == 1:
-                mat_vec(R[b, c], ch.axis_in_child[k], axis[b, d + 1])
-                for i in range(3):
-                    origin[b, d + 1, i] = origin[b, d, i]
-                _rodrigues(ch.k2, ch.kk2, k, q[b, d + 1], rot)
-                tmp[:, :] = R[b, c]
-                mat_mat(tmp, rot, R[b, c])
-            mat_vec(R[b, c], ch.origin_in_child[k], vec)
-            for i in range(3):
-                r[b, c, i] = origin[b, d, i] - vec[i]
-
-
 def forward_kinematics(hand: Hand, q) -> HandPose:
     """Poses of all links for joint angles ``q (B, n_dof)`` [rad] (the palm is the identity).
 
@@ -197,8 +119,9 @@ def forward_kinematics(hand: Hand, q) -> HandPose:
     ``R_c = R_p Rot(a_k, q_k) R_zero_k`` (times ``Rot(v_k, q_k')`` for a universal joint's
     second axis ``v_k``, fixed in the child), ``r_c = o_k - R_c origin_in_child_k`` with the
     joint centre ``o_k = R_p origin_in_parent_k + r_p``; ``Rot`` is Rodrigues' formula.  The
-    loop over configurations and joints is compiled (numba): one configuration of a
-    20-joint hand takes microseconds.
+    loop over configurations and joints is compiled (numba,
+    :func:`prehension.kernels.chain.pose_chains`): one configuration of a 20-joint hand
+    takes microseconds.
     """
     q = np.ascontiguousarray(as_batch(q, hand.n_dof))
     B, L = q.shape[0], len(hand.links)
@@ -207,7 +130,7 @@ def forward_kinematics(hand: Hand, q) -> HandPose:
     R[:, 0] = np.eye(3)
     axis = np.zeros((B, hand.n_dof, 3))
     origin = np.zeros((B, hand.n_dof, 3))
-    aot(_fk_loop)(q, _chain_arrays(hand), R, r, axis, origin)
+    aot(pose_chains)(q, joint_tables(hand), R, r, axis, origin)
     return HandPose(R, r, axis, origin)
 
 

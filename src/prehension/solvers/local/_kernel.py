@@ -20,24 +20,26 @@ function that returns a status code (``MESSAGES`` says what each means, as
    polished at once (:func:`_polished_clear`), which ends the repair when it succeeds.
 
 The caller (:mod:`.solver`) re-checks every answer with the foundation's functions.
-The state, its scratch arrays and its options travel as NamedTuples
-(:class:`Workspace`, :class:`Options`, :class:`~._layout.HandArrays`,
-:class:`~._layout.Layout`, :class:`~._penetration.ObjectArrays`).
+The state, its scratch arrays and its options travel as NamedTuples and one StructRef
+(:mod:`._workspace`: :class:`~._workspace.Workspace`, :class:`~._workspace.Options`;
+:class:`~._layout.HandArrays`, :class:`~._layout.Layout`,
+:class:`~._penetration.ObjectArrays`).  The steps stay in this module: a compiled function
+calls another module's functions measurably slower than its own module's (measured:
+the damped step in a module of its own cost 8% of a batch of point problems).
 """
 
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
-
 import numpy as np
 
+from ...kernels.jit import njit
 from . import _regions as RG
-from ._jit import HAVE_NUMBA, njit
 from ._layout import S_KIND, S_OFF, S_X
 from ._linalg import copy, dls_again, dls_dense, fill, refresh_column
-from ._model import contact_rows, inequality_rows, initial_pose, move, place_capsules, pose_hand, project_all
-from ._penetration import object_rows
+from ._model import contact_rows, inequality_rows, initial_pose, move, pose_hand, project_all
+from ._workspace import MAX_INEQUALITY_ROWS, Options, Outputs, Workspace, new_workspace, penetration_at, residual_at
+from ._workspace import _WorkspaceType  # noqa: F401 -- named here by numba caches written before the workspace moved
 
 __all__ = ["Options", "Workspace", "Outputs", "MESSAGES", "run_states", "residual_at", "penetration_at", "LOCAL_SOLUTIONS"]
 
@@ -53,120 +55,8 @@ MESSAGES = {
     COLLIDING: "a local solution in self-collision or in the object that the repair could not clear",
 }
 LOCAL_SOLUTIONS = (STRICT, WITHIN_DMIN)
-MAX_INEQUALITY_ROWS = 32  # self-collision pairs first, then the object's capsules
 BEST, REPAIRED = 0, 1  # slots of the workspace's saved states
 REPAIR_PATIENCE, REPAIR_GAIN = 6, 0.05  # a repair in collision ends after 6 steps without a clearance 0.05 mm better than its best
-
-
-class Options(NamedTuple):
-    """The kernel's options, named (built by :meth:`.options.LocalOptions.kernel_options`).
-
-    ``alpha`` step size; ``damping_sq`` mu^2 [mm^2]; ``d_min``, ``s_min`` [mm], ``n_stall``,
-    ``k_max``: the paper's ending conditions; ``w_n`` weight of the normal rows [mm];
-    ``max_step`` largest scaled change of one unknown per step [mm]; ``n_polish``,
-    ``polish_tol`` [mm]; ``active_set``; ``procrustes`` (else the paper's psi rule);
-    ``cap_margin`` [rad]; ``n_repair``, ``collision_margin`` [mm]; ``check_collisions``.
-    """
-
-    alpha: float
-    damping_sq: float
-    d_min: float
-    w_n: float
-    s_min: float
-    n_stall: int
-    k_max: int
-    max_step: float
-    n_polish: int
-    polish_tol: float
-    active_set: bool
-    procrustes: bool
-    cap_margin: float
-    n_repair: int
-    collision_margin: float
-    check_collisions: bool
-
-
-WORKSPACE_FIELDS = (
-    "hand", "lay", "opt", "obj",
-    "x", "col_scale", "dx", "frozen", "R", "t", "q", "Rl", "rl", "ax", "org", "f", "f_prev", "J", "Js", "ph", "nh", "po", "no",
-    "A", "L", "y", "rims", "M", "Ms", "g", "err", "keep_x", "keep_R", "keep_t", "keep_err",
-    "pt", "nr", "dpt", "dnr", "work", "tmp", "vec", "cp", "pa", "pb", "ends", "half", "cut", "oseg",
-)  # fmt: skip
-_WORKSPACE_DOC = """One state, its scratch arrays, and what it is solved with.
-
-    ``hand`` (:class:`~._layout.HandArrays`), ``lay`` (:class:`~._layout.Layout`), ``opt``
-    (:class:`Options`), ``obj`` (:class:`~._penetration.ObjectArrays`).  The state: ``x`` (nx) unknowns, ``R`` (3, 3) and ``t`` (3) object
-    pose [mm]; ``col_scale`` (nx) the problem's column scales ``D^-1``; derived: ``q`` angles, ``Rl``/``rl`` link poses, ``ax``/``org`` joint axes and
-    centres, ``f`` (6C) contact rows, ``J`` (6C, nx), ``ph``/``nh``/``po``/``no`` (C, 3)
-    contact points and normals, ``err`` (2) largest contact distance and weighted normal
-    error [mm].  Saved states: ``keep_*`` (slots ``BEST``, ``REPAIRED``).  The rest is
-    scratch: the step (``dx``, ``frozen``, ``A``, ``L``, ``y``, ``Js``; ``rims`` (2C, 3) the caps held
-    on their rim, kept from step to step: :func:`_turn_rims`), stacked rows
-    (``M``, ``Ms``, ``g``), regions (``pt``, ``nr``, ``dpt``, ``dnr``, ``work``), capsules
-    (``ends``, ``half``, ``pa``, ``pb``), the object's rows (``cut`` pieces of a segment,
-    ``oseg`` points in the object frame) and 3-vectors.
-
-    A numba StructRef: every phase takes it as one reference, which keeps the compiled
-    functions' signatures -- and so the compilation time -- small."""
-
-if HAVE_NUMBA:
-    from numba import types
-    from numba.experimental import structref
-
-    @structref.register
-    class _WorkspaceType(types.StructRef):
-        def preprocess_fields(self, fields):
-            return tuple((name, types.unliteral(typ)) for name, typ in fields)
-
-    class Workspace(structref.StructRefProxy):
-        __doc__ = _WORKSPACE_DOC
-
-    structref.define_proxy(Workspace, _WorkspaceType, list(WORKSPACE_FIELDS))
-else:  # pragma: no cover - plain Python without numba
-
-    class Workspace:
-        __doc__ = _WORKSPACE_DOC
-
-        def __init__(self, *values):
-            for name, value in zip(WORKSPACE_FIELDS, values):
-                setattr(self, name, value)
-
-
-@njit(cache=True)
-def new_workspace(hand, lay, opt, obj, C, nx):
-    """A workspace for states of ``C`` contacts and ``nx`` unknowns."""
-    n, m = 6 * C, 6 * C + MAX_INEQUALITY_ROWS
-    n_dof, n_links, n_caps = lay.dof_free.shape[0], hand.n_links, max(hand.cap_link.shape[0], 1)
-    z = np.zeros
-    return Workspace(
-        hand, lay, opt, obj,
-        z(nx), z(nx), z(nx), z(nx, dtype=np.bool_), z((3, 3)), z(3), z(n_dof), z((n_links, 3, 3)), z((n_links, 3)),
-        z((n_dof, 3)), z((n_dof, 3)), z(n), z(n), z((n, nx)), z((m, nx)), z((C, 3)), z((C, 3)), z((C, 3)),
-        z((C, 3)), z((m, m)), z((m, m)), z(m), z((2 * C, 3)), z((m, nx)), z((m, nx)), z(m), z(2),
-        z((2, nx)), z((2, 3, 3)), z((2, 3)), z((2, 2)), z(3), z(3), z((3, 2)), z((3, 2)),
-        z((7, RG.WORK_COLS)), z((2, 3, 3)), z(3), z(3), z(3), z(3), z((n_caps, 2, 3)), z(n_caps),
-        z((2, C + 2, 2)), z((7, 3)),
-    )  # fmt: skip
-
-
-class Outputs(NamedTuple):
-    """Per state: ``status`` (a ``MESSAGES`` code), ``iterations``, ``polish_iterations``,
-    ``repair_iterations``, final ``x`` (S, nx), ``R`` (S, 3, 3), ``t`` (S, 3) and ``err``
-    (S, 2): largest contact distance and largest ``w_n |n_h + n_o|`` [mm]."""
-
-    status: np.ndarray
-    iterations: np.ndarray
-    polish_iterations: np.ndarray
-    repair_iterations: np.ndarray
-    x: np.ndarray
-    R: np.ndarray
-    t: np.ndarray
-    err: np.ndarray
-
-    @classmethod
-    def allocate(cls, S: int, nx: int) -> "Outputs":
-        i = lambda: np.zeros(S, dtype=np.int64)  # noqa: E731
-        return cls(i(), i(), i(), i(), np.zeros((S, nx)), np.zeros((S, 3, 3)), np.zeros((S, 3)), np.zeros((S, 2)))
 
 
 # -- saving and restoring a state ---------------------------------------------------------------
@@ -589,41 +479,3 @@ def run_states(problem, x0, pdata, hand, lay, opt, obj, out):
         copy(ws.R, out.R[s])
         copy(ws.t, out.t[s])
         copy(ws.err, out.err[s])
-
-
-@njit(cache=True)
-def _state_at(x, R, t, data, model):
-    """A workspace posed at unknowns ``x`` and object pose ``(R, t)`` of one problem, its
-    contact rows computed; ``model = (hand, lay, opt, obj)``."""
-    hand, lay, opt, obj = model
-    ws = new_workspace(hand, lay, opt, obj, lay.sides.shape[0], x.shape[0])
-    copy(lay.col_scale, ws.col_scale)
-    copy(x, ws.x)
-    copy(R, ws.R)
-    copy(t, ws.t)
-    pose_hand(ws)
-    contact_rows(ws, data, np.bool_(True))
-    return ws
-
-
-@njit(cache=True)
-def residual_at(x, R, t, data, model, f, J):
-    """Contact rows ``f`` (6C) and their Jacobian ``J`` (6C, nx) at unknowns ``x`` and object
-    pose ``(R, t)`` of one problem (its ``data`` row), ``model = (hand, lay, opt, obj)``:
-    for tests and the baseline."""
-    ws = _state_at(x, R, t, data, model)
-    copy(ws.f, f)
-    copy(ws.J, J)
-
-
-@njit(cache=True)
-def penetration_at(x, R, t, data, model, margin, g, M):
-    """The object's penetration rows (:func:`._penetration.object_rows`) at a state, as
-    :func:`residual_at`: values ``g`` and Jacobian ``M`` of at most ``len(g)`` rows; returns
-    ``(rows written, smallest value seen)``.  For tests."""
-    ws = _state_at(x, R, t, data, model)
-    place_capsules(ws)
-    n, vmin = object_rows(ws, data, margin, np.int64(0), min(g.shape[0], ws.g.shape[0]), np.bool_(False))
-    copy(ws.g[:n], g[:n])
-    copy(ws.M[:n], M[:n])
-    return n, vmin

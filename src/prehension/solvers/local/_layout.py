@@ -28,13 +28,15 @@ import numpy as np
 
 from ...errors import InvalidTask
 from ...frozen import IdentityCache, cached_per_value
-from ...geometry.regions import Region, SphereCap
+from ...geometry.regions import Region
 from ...hands.collision import collision_pairs
+from ...hands.kinematics import joint_tables
 from ...hands.model import Hand
+from ...kernels.chain import JointTables
 from . import _regions as RG
 from ._penetration import NO_OBJECT, ObjectArrays
 
-__all__ = ["HandArrays", "hand_arrays", "Layout", "Group", "build_group", "SIDE_COLUMNS"]
+__all__ = ["HandArrays", "hand_arrays", "Layout", "Group", "ContactRegions", "build_group", "SIDE_COLUMNS"]
 
 _BOUND_SHRINK = 1e-12  # rad: derived bounds of coupled angles stay strictly inside
 
@@ -46,25 +48,16 @@ SIDE_COLUMNS = 6
 class HandArrays(NamedTuple):
     """A hand as flat arrays (palm frame, mm, rad); built once per hand.
 
-    Joints (``NJ``) in tree order: ``parent``/``child`` link indices, ``kind`` (0 revolute,
-    1 universal), ``dof`` (index of the first angle), ``origin_in_parent``/``origin_in_child``
-    (NJ, 3), ``axis_in_parent``/``axis_in_child`` (NJ, 3), ``R_zero`` (NJ, 3, 3).  Links:
-    ``n_links``, ``moves`` (n_links, n_dof) whether an angle moves a link.  Capsules
+    ``joints``: the joint tree (:class:`~prehension.kernels.chain.JointTables`, the same
+    tables as the foundation's forward kinematics).  Links: ``n_links``, ``moves``
+    (n_links, n_dof) whether an angle moves a link.  Capsules
     (:class:`~prehension.hands.collision.CollisionPairs`): ``cap_link`` (S,), ``cap_a``,
     ``cap_b`` (S, 3), ``cap_radius`` (S,), pairs ``pair_first``/``pair_second`` (P,) grouped
     by their two links (``group_start`` (K + 1,)) and each link's bounding sphere
     ``link_centre`` (n_links, 3), ``link_radius`` (n_links,).
     """
 
-    parent: np.ndarray
-    child: np.ndarray
-    kind: np.ndarray
-    dof: np.ndarray
-    origin_in_parent: np.ndarray
-    origin_in_child: np.ndarray
-    axis_in_parent: np.ndarray
-    axis_in_child: np.ndarray
-    R_zero: np.ndarray
+    joints: JointTables
     n_links: int
     moves: np.ndarray
     cap_link: np.ndarray
@@ -80,23 +73,13 @@ class HandArrays(NamedTuple):
     @classmethod
     def from_hand(cls, hand: Hand) -> "HandArrays":
         names = hand.link_names
-        NJ = len(hand.joints)
         f = lambda rows, shape: np.ascontiguousarray(np.array(rows, dtype=float).reshape(shape))  # noqa: E731
         moves = np.zeros((len(names), hand.n_dof), dtype=np.bool_)
         for li, link in enumerate(names):
             moves[li, list(hand.chain_dofs(link))] = True
         pairs = collision_pairs(hand)
         return cls(
-            np.array([names.index(j.parent) for j in hand.joints], dtype=np.int64),
-            np.array([names.index(j.child) for j in hand.joints], dtype=np.int64),
-            np.array([0 if j.kind == "revolute" else 1 for j in hand.joints], dtype=np.int64),
-            np.array(hand.dof_offsets, dtype=np.int64),
-            f([j.origin_in_parent for j in hand.joints], (NJ, 3)),
-            f([j.origin_in_child for j in hand.joints], (NJ, 3)),
-            f([j.axis_in_parent for j in hand.joints], (NJ, 3)),
-            f([j.axis_in_child if j.axis_in_child is not None else np.zeros(3) for j in hand.joints], (NJ, 3)),
-            f([j.R_parent_child_zero for j in hand.joints], (NJ, 3, 3)),
-            len(names), moves,
+            joint_tables(hand), len(names), moves,
             pairs.link.astype(np.int64), f(pairs.a, (-1, 3)), f(pairs.b, (-1, 3)), f(pairs.radius, (-1,)),
             pairs.first.astype(np.int64), pairs.second.astype(np.int64), pairs.group_start.astype(np.int64),
             f(pairs.link_centre, (-1, 3)), f(pairs.link_radius, (-1,)),
@@ -105,7 +88,7 @@ class HandArrays(NamedTuple):
     def digest(self, hand: Hand) -> str:
         """What makes two hands the same for the kernel (kinematics, limits, couplings, capsules)."""
         h = hashlib.sha1()
-        for a in self:
+        for a in (*self.joints, *self[1:]):
             h.update(np.asarray(a).tobytes())
         h.update(repr((hand.link_names, hand.dof_names, hand.lower.tolist(), hand.upper.tolist(),
                        [(c.dof, c.source, c.ratio, c.offset) for c in hand.couplings])).encode())  # fmt: skip
@@ -294,52 +277,62 @@ class _Unknowns:
         return first, k
 
 
-def _tip_finger(hand: Hand, link: str, region: Region) -> str | None:
+def _tip_finger(hand: Hand, link: str, kind: int) -> str | None:
+    """The finger whose fingertip cap a hand region of ``kind`` (the local stage's code,
+    :func:`._regions.code`) on ``link`` is, or None."""
     finger = hand.finger_of_link(link)
-    if finger is None or not isinstance(region, SphereCap):
+    if finger is None or kind != RG.K_CAP:
         return None
     return finger if hand.finger(finger).tip_link == link else None
 
 
-def build_group(
-    hand: Hand,
-    active: np.ndarray,
-    idle: np.ndarray,
-    contact_names: list[str],
-    hand_regions: list[tuple[str, Region]],
-    object_regions: list[Region],
-    pdata: np.ndarray,
-    object_sizes: list[float],
-    joint_scale_mm: float,
-) -> Group:
+@dataclass(frozen=True)
+class ContactRegions:
+    """One contact of a group as its first problem has it: what :func:`build_group` lays out.
+
+    Attributes:
+        name: the contact's name.
+        link: the link of its hand region.
+        hand_region, object_region: its two regions (their kinds and degrees fix the layout).
+        object_size: the object region's size [mm per parameter unit] (the scale of its
+            parameters in the step).
+    """
+
+    name: str
+    link: str
+    hand_region: Region
+    object_region: Region
+    object_size: float
+
+
+def build_group(hand: Hand, active: np.ndarray, idle: np.ndarray, contacts: list[ContactRegions], pdata: np.ndarray,
+                joint_scale_mm: float) -> Group:  # fmt: skip
     """A group from the regions of its first problem (kinds and sizes) and every problem's data.
 
     Args:
         active, idle: (n_dof,) angles that move, and the held value of the others [rad].
-        contact_names: per contact its name.
-        hand_regions: per contact ``(link, region)`` of the first problem.
-        object_regions: per contact the object region of the first problem.
+        contacts: per contact its :class:`ContactRegions` (of the first problem).
         pdata: (P, nd) region data of every problem (hand, object per contact), then the
             pivot (3) and the object's extent (distance from the pivot to the farthest
             object reference point) [mm].
-        object_sizes: per contact, the object region's size [mm per parameter unit].
         joint_scale_mm: weight of one radian in the step [mm].
     """
     arrays, _ = hand_arrays(hand)
     free, dof_free, ratio, offset, q_fixed, qlo, qhi = free_dof_map(hand, active, idle)
     unknowns = _Unknowns(qlo, qhi, joint_scale_mm, [hand.dof_names[d] for d in free])
-    C = len(contact_names)
-    sides = np.zeros((C, 2, SIDE_COLUMNS), dtype=np.int64)
+    sides = np.zeros((len(contacts), 2, SIDE_COLUMNS), dtype=np.int64)
     specs, off = [], 0
-    for c, ((link, hreg), oreg) in enumerate(zip(hand_regions, object_regions)):
-        tip = _tip_finger(hand, link, hreg)
+    for c, contact in enumerate(contacts):
+        codes = (RG.code(contact.hand_region), RG.code(contact.object_region))
+        tip = _tip_finger(hand, contact.link, codes[0][0])
         names = [f"{tip}.tip.alpha", f"{tip}.tip.gamma"] if tip else None
-        for s, (region, size, nm) in enumerate(((hreg, RG.size(hreg), names), (oreg, object_sizes[c], None))):
-            kind, m, n, nd = RG.code(region)
+        sizes = ((contact.hand_region, RG.size(contact.hand_region), names), (contact.object_region, contact.object_size, None))
+        for s, ((region, size, nm), (kind, m, n, nd)) in enumerate(zip(sizes, codes)):
             x0, k = unknowns.add(region, size, nm)
             sides[c, s] = (kind, off, m, n, x0, k)
             off += nd
-        specs.append(ContactSpec(contact_names[c], link, tip))
+        specs.append(ContactSpec(contact.name, contact.link, tip))
+    hand_regions = [(contact.link, contact.hand_region) for contact in contacts]
     links = np.array([hand.link_index(link) for link, _ in hand_regions], dtype=np.int64)
     chain, chain_len = _chains(hand, hand_regions)
     anchor, pa, pb = _anchor_and_pair(hand, specs)

@@ -18,8 +18,8 @@ from __future__ import annotations
 
 import math
 
-from ...hands.kinematics import mat_mat, mat_vec  # the 3x3 products forward kinematics compiles too
-from ._jit import njit
+from ...kernels.chain import mat_mat, mat_vec, rot  # the 3x3 products forward kinematics compiles too
+from ...kernels.jit import njit
 
 __all__ = ["copy", "fill", "dot", "rot", "mat_mat", "mat_vec", "cross", "cholesky_solve", "dls_dense", "refresh_column", "dls_again"]
 
@@ -52,22 +52,6 @@ def fill(dst, value):
 def dot(a, b):
     """``a . b`` of two 3-vectors."""
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-
-
-@njit(cache=True)
-def rot(u0, u1, u2, th, out):
-    """Rodrigues: ``out = Rot(u, th)`` for a unit axis ``u``."""
-    c, s = math.cos(th), math.sin(th)
-    v = 1.0 - c
-    out[0, 0] = c + u0 * u0 * v
-    out[0, 1] = u0 * u1 * v - u2 * s
-    out[0, 2] = u0 * u2 * v + u1 * s
-    out[1, 0] = u1 * u0 * v + u2 * s
-    out[1, 1] = c + u1 * u1 * v
-    out[1, 2] = u1 * u2 * v - u0 * s
-    out[2, 0] = u2 * u0 * v - u1 * s
-    out[2, 1] = u2 * u1 * v + u0 * s
-    out[2, 2] = c + u2 * u2 * v
 
 
 @njit(cache=True)

@@ -29,9 +29,10 @@ import math
 
 import numpy as np
 
-from ...hands._capsules import closest_points
+from ...kernels.chain import pose_chain
+from ...kernels.jit import njit
+from ...kernels.segments import closest_points
 from . import _regions as RG
-from ._jit import njit
 from ._layout import S_K, S_KIND, S_OFF, S_X
 from ._linalg import cross, dot, fill, mat_mat, mat_vec, rot
 from ._penetration import object_rows
@@ -49,41 +50,11 @@ def _angles(x, lay, q):
 
 
 @njit(cache=True)
-def _forward_kinematics(q, hand, Rl, rl, ax, org, tmp, vec):
-    """Link poses ``Rl, rl`` and each angle's axis ``ax`` and centre ``org`` (palm frame)."""
-    for i in range(3):
-        rl[0, i] = 0.0
-        for j in range(3):
-            Rl[0, i, j] = 1.0 if i == j else 0.0
-    for k in range(hand.parent.shape[0]):
-        p, c, d = hand.parent[k], hand.child[k], hand.dof[k]
-        mat_vec(Rl[p], hand.origin_in_parent[k], vec)
-        for i in range(3):
-            org[d, i] = vec[i] + rl[p, i]
-        mat_vec(Rl[p], hand.axis_in_parent[k], ax[d])
-        u = hand.axis_in_parent[k]
-        rot(u[0], u[1], u[2], q[d], tmp[0])
-        mat_mat(Rl[p], tmp[0], tmp[1])
-        mat_mat(tmp[1], hand.R_zero[k], Rl[c])
-        if hand.kind[k] == 1:  # universal: the second axis, fixed in the child
-            mat_vec(Rl[c], hand.axis_in_child[k], ax[d + 1])
-            v = hand.axis_in_child[k]
-            rot(v[0], v[1], v[2], q[d + 1], tmp[0])
-            for i in range(3):
-                org[d + 1, i] = org[d, i]
-                for j in range(3):
-                    tmp[1, i, j] = Rl[c, i, j]
-            mat_mat(tmp[1], tmp[0], Rl[c])
-        mat_vec(Rl[c], hand.origin_in_child[k], vec)
-        for i in range(3):
-            rl[c, i] = org[d, i] - vec[i]
-
-
-@njit(cache=True)
 def pose_hand(ws):
-    """Joint angles and link poses of the state's unknowns."""
+    """Joint angles and link poses of the state's unknowns (the one forward-kinematics loop,
+    :func:`~prehension.kernels.chain.pose_chain`, with the kernel's closed form of ``Rot``)."""
     _angles(ws.x, ws.lay, ws.q)
-    _forward_kinematics(ws.q, ws.hand, ws.Rl, ws.rl, ws.ax, ws.org, ws.tmp, ws.vec)
+    pose_chain(ws.q, ws.hand.joints, np.bool_(True), ws.Rl, ws.rl, ws.ax, ws.org, ws.tmp[0], ws.tmp[1], ws.vec)
 
 
 # -- contact rows ----------------------------------------------------------------------------

@@ -45,9 +45,11 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ...objects.distance import REL_TOL, MeshArrays, SdGrid, in_grid, empty_mesh_arrays, empty_sd_grid, grid_segment_min_sd, segment_min_sd
-from ._jit import njit
+from ...kernels.jit import njit
+from ...objects.mesh_arrays import MeshArrays, empty_mesh_arrays
+from ...objects.segment_distance import REL_TOL, segment_min_sd
 from ._linalg import cross, mat_vec
+from ._sd_grid import SdGrid, empty_sd_grid, grid_segment_min_sd, in_grid
 
 __all__ = ["ObjectArrays", "NO_OBJECT", "object_rows", "pad_rows", "PAD_ROW_MM", "PAD_CLEAR_MM"]
 
@@ -64,7 +66,7 @@ class ObjectArrays(NamedTuple):
     each contact's pad radius [mm] (0 for a point or patch hand region); ``step``: spacing of the depth samples of a piece
     that reaches inside [mm] (the residual function's
     :data:`~prehension.tasks.object_collision.SAMPLE_MM`); ``grid``: the mesh's lazily
-    filled signed-distance grid (:class:`~prehension.objects.distance.SdGrid`), which the
+    filled signed-distance grid (:class:`._sd_grid.SdGrid`), which the
     seeing iterations' rows read instead of the exact queries.
     """
 
@@ -140,7 +142,7 @@ def _capsule_value(ws, s, best, reach, coarse):
     the pads cover it; at least ``reach`` is all that is known of a capsule whose value is
     at least ``reach``), with the worst piece's pair (object frame) in ``best (2, 3)`` and
     that pair's distance [mm] (0: no direction) second.  ``coarse``: a piece inside the
-    grid's box is measured on the grid (:func:`~prehension.objects.distance.grid_segment_min_sd`)."""
+    grid's box is measured on the grid (:func:`._sd_grid.grid_segment_min_sd`)."""
     obj, oseg = ws.obj, ws.oseg
     value = 1e300
     for k in range(_cut(ws, s, ws.cut)):
@@ -221,7 +223,7 @@ def object_rows(ws, data, margin, row0, max_rows, every):
     counted as ``margin`` (its distance is searched only up to there).  The capsules must be placed
     (:func:`._model.place_capsules`) and the contact points ``ws.ph`` current.  ``row0`` and
     ``max_rows`` are int64: callers pass ``np.int64(0)``, never a literal ``0``, so that the
-    function compiles once (see :mod:`._jit`).  ``every`` (``np.bool_``): the rows of
+    function compiles once (see :mod:`prehension.kernels.jit`).  ``every`` (``np.bool_``): the rows of
     :func:`._kernel.iterate`'s seeing steps: the idle fingers' capsules too, at their idle
     angles (rows in the object pose's columns only), so that the idle fingers need no
     settling out of a palm that approached the object; and values read on the mesh's

@@ -28,7 +28,7 @@ import numpy as np
 
 from ...errors import InvalidTask
 from ...geometry.regions import BezierRegion, PointRegion, Region, SphereCap
-from ._jit import njit
+from ...kernels.jit import njit
 
 __all__ = [
     "K_POINT", "K_CAP", "K_BEZIER", "MAX_DEGREE", "code", "pack", "reference_point", "size", "unknown_box",

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..._compiled import aot
+from ...kernels.aot import aot
 from ...deadline import TimeLimitReached, seconds_left
 from . import _kernel as K
 from ._checks import Verdicts

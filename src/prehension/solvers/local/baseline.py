@@ -21,7 +21,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from . import _kernel as K
-from ._jit import njit
+from ...kernels.jit import njit
 from ._linalg import mat_mat, mat_vec, rot
 from .options import LocalOptions
 from .problems import PointProblems

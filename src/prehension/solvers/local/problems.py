@@ -32,8 +32,9 @@ from ...hands.model import Hand
 from ...objects.model import GraspObject
 from ...tasks.model import Contact, Task
 from . import _regions as RG
-from ._layout import Group, build_group, hand_arrays
+from ._layout import ContactRegions, Group, build_group, hand_arrays
 from ._penetration import NO_OBJECT, ObjectArrays
+from ._sd_grid import sd_grid_of
 
 __all__ = ["PointProblems", "random_point_problems", "SA_FOUR_TIPS", "group_from_tasks", "structure_key"]
 
@@ -112,11 +113,10 @@ class PointProblems:
         extent = np.max(np.linalg.norm(self.points - piv[:, None], axis=-1), axis=1, initial=0.0)
         pdata = np.concatenate(blocks + [piv, extent[:, None]], axis=1)
         first = [PointRegion(self.points[0, c], self.normals[0, c]) for c in range(C)] if P else []
-        return build_group(
-            hand, _active_mask(hand, self.fingers), np.clip(0.0, hand.lower, hand.upper),
-            [f"{h}->p{c}" for c, h in enumerate(self.hand_regions)], [(h.link, h.region) for h in hregs], first,
-            pdata, [1.0] * C, joint_scale_mm,
-        )  # fmt: skip
+        contacts = [ContactRegions(f"{name}->p{c}", h.link, h.region, first[c], 1.0)
+                    for c, (name, h) in enumerate(zip(self.hand_regions, hregs))]  # fmt: skip
+        return build_group(hand, _active_mask(hand, self.fingers), np.clip(0.0, hand.lower, hand.upper), contacts, pdata,
+                           joint_scale_mm)  # fmt: skip
 
 
 def _active_mask(hand: Hand, fingers) -> np.ndarray:
@@ -379,7 +379,7 @@ def object_arrays(task: Task) -> ObjectArrays:
     checked = np.isin(collision_pairs(task.hand).link, moving_links(task))
     pads = np.array([pad_radius(task.hand_region(c)) for c in task.contacts], dtype=float)
     distance = task.object.distance
-    return ObjectArrays(distance.arrays, True, checked.astype(np.bool_), pads, float(SAMPLE_MM), distance.sd_grid())
+    return ObjectArrays(distance.arrays, True, checked.astype(np.bool_), pads, float(SAMPLE_MM), sd_grid_of(distance))
 
 
 def group_from_tasks(tasks, joint_scale_mm: float = 40.0) -> Group:
@@ -402,12 +402,9 @@ def group_from_tasks(tasks, joint_scale_mm: float = 40.0) -> Group:
     if template is not None and template.hand is first.hand:
         _TEMPLATES.move_to_end(shape)
         return replace(template, pdata=np.ascontiguousarray(rows, dtype=float), obj=object_arrays(first))  # with_data
-    group = build_group(
-        first.hand, first.active_mask, first.idle_vector, [c.name for c in first.contacts],
-        [(first.hand_region(c).link, first.hand_region(c).region) for c in first.contacts],
-        [first.object_region(c) for c in first.contacts], rows,
-        [RG.size(first.object_region(c)) for c in first.contacts], joint_scale_mm,
-    )  # fmt: skip
+    contacts = [ContactRegions(c.name, first.hand_region(c).link, first.hand_region(c).region, first.object_region(c),
+                               RG.size(first.object_region(c))) for c in first.contacts]  # fmt: skip
+    group = build_group(first.hand, first.active_mask, first.idle_vector, contacts, rows, joint_scale_mm)
     _TEMPLATES[shape] = group
     while len(_TEMPLATES) > _TEMPLATES_KEPT:
         _TEMPLATES.popitem(last=False)

@@ -31,9 +31,9 @@ def _entry_points():
 
 def compile_pending() -> bool:
     """True when the next solve compiles: no fresh ahead-of-time kernels are installed
-    (:mod:`prehension._compiled`) and no usable compiled kernel is cached on disk."""
-    from ..._compiled import aot_available
-    from ._jit import HAVE_NUMBA
+    (:mod:`prehension.kernels.aot`) and no usable compiled kernel is cached on disk."""
+    from ...kernels.aot import aot_available
+    from ...kernels.jit import HAVE_NUMBA
 
     if not HAVE_NUMBA or aot_available():  # the installed ahead-of-time kernels run at once
         return False

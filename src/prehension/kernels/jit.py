@@ -1,8 +1,9 @@
-"""``njit`` for the local solver's compiled modules: numba's when installed, else a no-op.
+"""``njit`` for every compiled module of the package: numba's when installed, else a no-op.
 
-Every compiled function is cached on disk (``cache=True``), so a process after the first
-loads machine code instead of compiling it; :func:`prehension.solvers.local.warm_up`
-compiles (or loads) everything at once and says how long it took.
+The one fallback shim: without numba the same code runs as (slow) Python.  Every compiled
+function is cached on disk (``cache=True``), so a process after the first loads machine
+code instead of compiling it; :func:`prehension.solvers.local.warm_up` compiles (or loads)
+the local solver's kernel at once and says how long it took.
 
 One signature per function: numba types a constant argument (``0``, ``True``, a module
 constant such as ``BEST``) as a *literal* and compiles a specialisation of the callee -- and

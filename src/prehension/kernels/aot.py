@@ -1,7 +1,7 @@
 """The compiled entry points: ahead-of-time machine code when it is installed and fresh, else numba's JIT.
 
 ``pip install`` compiles the functions Python calls into the compiled kernels (the *entry
-points*, :mod:`prehension._aot_signatures`) into the extension module ``prehension._aot``
+points*, :mod:`prehension.kernels.manifest`) into the extension module ``prehension._aot``
 (:mod:`prehension._aot_build`; numba's ``pycc``), so that a fresh install's first solve runs
 at once instead of spending one to two minutes in numba's JIT.  A Python call site reads
 
@@ -20,14 +20,14 @@ else the numba dispatcher itself.  ``PREHENSION_AOT=0`` forces the JIT (tests co
 Calls between compiled functions stay inside the JIT world (or inside the extension): only
 Python's calls go through :func:`aot`.
 
-The extension's functions take exactly the types recorded in the signatures module (the
+The extension's functions take exactly the types recorded in the manifest (the
 call sites pass writable C-contiguous arrays of the recorded dtypes, as the JIT's one
 signature per function already requires); :func:`aot` checks the array arguments'
 dtype, rank, contiguity and writability against them on every call (microseconds), and a
 call that does not match (e.g. a read-only angle array given to ``forward_kinematics``) runs
 in the JIT instead, never in machine code that would read its memory the wrong way.
 
-This module imports neither numba nor the kernels.
+This module imports neither numba nor the kernels; it reads the manifest (data only).
 """
 
 from __future__ import annotations
@@ -38,11 +38,16 @@ import os
 from functools import lru_cache
 from pathlib import Path
 
-__all__ = ["aot", "aot_available", "use_aot", "source_hash", "export_name", "loaded_dispatchers", "STAMP_PREFIX", "EXTENSION"]
+from .manifest import SIGNATURES, SOURCES
+
+__all__ = [
+    "aot", "aot_available", "use_aot", "source_hash", "export_name", "array_arguments", "loaded_dispatchers",
+    "STAMP_PREFIX", "EXTENSION",
+]  # fmt: skip
 
 EXTENSION = "prehension._aot"
 STAMP_PREFIX = "source_"
-_PACKAGE = Path(__file__).resolve().parent
+_PACKAGE = Path(__file__).resolve().parent.parent  # src/prehension: SOURCES are relative to it
 
 
 def export_name(key: str) -> str:
@@ -53,8 +58,6 @@ def export_name(key: str) -> str:
 
 def source_hash() -> str:
     """A hash of every source file the compiled entry points are built from (24 hex digits)."""
-    from ._aot_signatures import SOURCES
-
     h = hashlib.sha256()
     for rel in SOURCES:
         h.update(rel.encode() + b"\0" + (_PACKAGE / rel).read_bytes() + b"\0")
@@ -111,9 +114,25 @@ def _choose(function):
     compiled = getattr(module, export_name(key), None) if module is not None else None
     if compiled is None:
         return function
-    from ._aot_signatures import ARRAY_ARGUMENTS
+    return _Checked(key, compiled, array_arguments(SIGNATURES[key][1]), function)
 
-    return _Checked(key, compiled, ARRAY_ARGUMENTS[key], function)
+
+def array_arguments(arguments: tuple) -> tuple:
+    """``((path into the arguments), dtype, ndim)`` of every array among a manifest's
+    argument types (:data:`~prehension.kernels.manifest.SIGNATURES`): what
+    :class:`_Checked` checks on each call."""
+    found = []
+
+    def walk(spec, path):
+        if isinstance(spec, tuple) and spec[0] == "array":
+            found.append((path, spec[1], spec[2]))
+        elif isinstance(spec, tuple):
+            for i, item in enumerate(spec[-1]):
+                walk(item, path + (i,))
+
+    for i, spec in enumerate(arguments):
+        walk(spec, (i,))
+    return tuple(found)
 
 
 class _Checked:
@@ -155,7 +174,7 @@ class _Checked:
 def loaded_dispatchers() -> dict:
     """Every numba dispatcher defined in a loaded ``prehension`` module, keyed by its code's
     ``(file, first line, name)`` (as cProfile names a call): ``(module:qualname, dispatcher)``.
-    For :mod:`scripts/aot_signatures.py` and the tests that find Python's calls of compiled
+    For ``scripts/aot_signatures.py`` and the tests that find Python's calls of compiled
     functions."""
     import sys
 
