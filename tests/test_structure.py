@@ -72,3 +72,9 @@ def test_layers_place_a_module_by_its_longest_prefix_and_catch_an_upward_import(
     modules = _tree(tmp_path, {})
     assert structure.upward_imports(modules)[0] == [("prehension.low.base", "prehension.high")]
 
+
+def test_the_package_meets_the_structure_limits(capsys):
+    """Issue 29's done-when, on the package itself: no cycle, no upward import, region kinds
+    in at most 7 modules, no module over 600 lines, no function over 60 lines or 8 parameters."""
+    code = structure.main(["--check"])
+    assert code == 0, capsys.readouterr().out
