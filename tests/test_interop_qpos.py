@@ -1,4 +1,4 @@
-"""The MuJoCo qpos of a grasp (prehension.interop.qpos): frames, units, joint order, round trips."""
+"""The MuJoCo qpos of a grasp (prehension.hands.qpos): frames, units, joint order, round trips."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from conftest import random_angles
 from prehension.errors import InvalidConfiguration
 from prehension.hands.kinematics import forward_kinematics
 from prehension.interop import qpos_configuration, qpos_joint_order, solution_qpos, transform_from_base
-from prehension.interop.qpos import base_from_transform, grasp_qpos
+from prehension.hands.qpos import base_from_transform, grasp_qpos
 from prehension.results import read_result
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "quality" / "box-four-fingers.result.json"
@@ -133,3 +133,17 @@ def test_the_package_names_the_qpos_functions_and_the_cli_lists_the_readers_form
 
     assert prehension.solution_qpos is solution_qpos and prehension.qpos_configuration is qpos_configuration
     assert CLI_FORMATS == IMPORT_FORMATS
+
+
+def test_solution_qpos_is_the_method_of_the_solution():
+    """``Solution.qpos(model)`` (the issue's Python side) is ``solution_qpos``, and its inverse
+    gives back the solution's angles and pose."""
+    from prehension import load_builtin_task, solve
+    from prehension.hands.qpos import qpos_configuration, solution_qpos
+
+    task = load_builtin_task("scalpel-handling")
+    (solution, *_) = solve(task, "local").solutions
+    qpos = solution.qpos(task)
+    assert np.array_equal(qpos, solution_qpos(solution, task.hand))
+    q, T = qpos_configuration(qpos, task)
+    assert np.allclose(q, solution.q, atol=1e-12, rtol=0) and np.allclose(T, solution.T_palm_object, atol=1e-9, rtol=0)

@@ -14,7 +14,7 @@ from prehension.interop.dexgraspbench import read_dexgraspbench, record_from_dic
 from prehension.interop.dexgraspnet import read_dexgraspnet, write_dexgraspnet
 from prehension.interop.json_m import read_json_m, write_json_m
 from prehension.interop.npy import load_npy, save_npy
-from prehension.interop.qpos import base_from_transform
+from prehension.hands.qpos import base_from_transform
 from prehension.interop.readers import read_records
 from prehension.interop.records import GraspRecord
 from test_interop_qpos import random_pose

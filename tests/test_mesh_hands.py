@@ -287,7 +287,7 @@ def test_the_qpos_joint_order_of_an_mjcf_hand_with_glb_meshes_is_mujocos(tmp_pat
     """The interop records take an MJCF hand's joint order from MuJoCo's compile of the file;
     with a GLB finger that compile must go through the hand reader's (it used to fail and
     fall back, silently, to the hand's own order)."""
-    from prehension.interop.qpos import _mjcf_joint_names
+    from prehension.hands.qpos import _mjcf_joint_names
 
     path, _ = _mjcf_hand(tmp_path, 3, ".glb")
     assert _mjcf_joint_names(str(path), "glb-finger") == ("j",)

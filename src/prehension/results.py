@@ -100,6 +100,16 @@ class Solution:
         """(n_dof,) joint angles [rad] in hand order."""
         return np.array(list(self.joint_angles.values()))
 
+    def qpos(self, model) -> np.ndarray:
+        """The MuJoCo ``qpos`` ``(7 + n_dof,)`` of this grasp for ``model`` (the
+        :class:`~prehension.hands.model.Hand`, or a task): the palm's pose in the object frame
+        (``x, y, z`` [m], quaternion ``w, x, y, z``), then the joint angles [rad] in the MJCF's
+        order.  The inverse is :func:`prehension.hands.qpos.qpos_configuration`; frames and
+        order: :mod:`prehension.hands.qpos`, docs/interop.md."""
+        from .hands.qpos import solution_qpos
+
+        return solution_qpos(self, model)
+
     def configuration(self) -> Configuration:
         return Configuration(
             self.q, self.T_palm_object, tuple((c.hand_params, c.object_params) for c in self.contacts)

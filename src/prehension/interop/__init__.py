@@ -6,6 +6,6 @@ See docs/interop.md for the frames, units and which field maps to which.
 
 from __future__ import annotations
 
-from .qpos import base_from_transform, qpos_configuration, qpos_joint_order, solution_qpos, transform_from_base
+from ..hands.qpos import base_from_transform, qpos_configuration, qpos_joint_order, solution_qpos, transform_from_base
 
 __all__ = ["solution_qpos", "qpos_configuration", "qpos_joint_order", "base_from_transform", "transform_from_base"]

@@ -9,7 +9,7 @@ see docs/interop.md):
 * ``obj_pose`` (7,): the object's pose in the world, ``x, y, z`` [m], ``w, x, y, z``;
 * ``pregrasp_qpos``, ``grasp_qpos``, ``squeeze_qpos`` (7 + n,): the hand's root body pose in
   the world (metres, w-x-y-z), then its joints in the MJCF's order
-  (:mod:`prehension.interop.qpos`); older files keep the 7 numbers apart in
+  (:mod:`prehension.hands.qpos`); older files keep the 7 numbers apart in
   ``pregrasp_pose`` / ``grasp_pose`` / ``squeeze_pose`` and only the joints in ``*_qpos``:
   both are read.
 
@@ -28,7 +28,7 @@ import numpy as np
 from ..errors import InvalidTask
 from ..hands.model import Hand
 from .npy import load_npy, plain_value, save_npy
-from .qpos import BASE_SIZE, MM_PER_M, base_from_transform, qpos_joint_order, transform_from_base
+from ..hands.qpos import BASE_SIZE, MM_PER_M, base_from_transform, qpos_joint_order, transform_from_base
 from .records import GraspRecord, record_from_qpos
 
 __all__ = ["record_to_dict", "record_from_dict", "grasp_files", "write_dexgraspbench", "read_dexgraspbench", "STAGES"]

@@ -23,7 +23,7 @@ from scipy.spatial.transform import Rotation
 from ..errors import InvalidTask
 from ..hands.model import Hand
 from .npy import load_npy, plain_value, save_npy
-from .qpos import MM_PER_M
+from ..hands.qpos import MM_PER_M
 from .records import GraspRecord, check_metres
 
 __all__ = ["record_to_dict", "record_from_dict", "write_dexgraspnet", "read_dexgraspnet", "TRANSLATION", "ROTATION"]

@@ -8,7 +8,7 @@ result files (mm) nor pickled ``.npy``.
      "grasps": [{"grasp_qpos": [x, y, z, w, qx, qy, qz, q1, ...],
                  "pregrasp_qpos": [...], "squeeze_qpos": [...]}]}
 
-Each ``*_qpos`` is the MuJoCo qpos of :mod:`prehension.interop.qpos` (the palm in the
+Each ``*_qpos`` is the MuJoCo qpos of :mod:`prehension.hands.qpos` (the palm in the
 object frame, metres, w-x-y-z; the joints in ``joint_order``).
 """
 
@@ -18,7 +18,7 @@ from ..atomic import read_json, write_json_atomic
 from ..errors import InvalidTask
 from ..hands.model import Hand
 from .dexgraspbench import STAGES
-from .qpos import MM_PER_M, qpos_joint_order
+from ..hands.qpos import MM_PER_M, qpos_joint_order
 from .records import GraspRecord, record_from_qpos
 
 __all__ = ["TAG", "to_dict", "write_json_m", "read_json_m"]

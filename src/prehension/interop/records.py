@@ -16,7 +16,7 @@ import numpy as np
 
 from ..errors import InvalidTask
 from ..hands.model import Hand
-from .qpos import grasp_qpos, qpos_configuration
+from ..hands.qpos import grasp_qpos, qpos_configuration
 
 __all__ = ["GraspRecord", "records_from_result", "record_from_qpos", "object_file", "check_metres", "MAX_BASE_M"]
 
@@ -56,7 +56,7 @@ class GraspRecord:
 
     def qpos(self, hand: Hand, which: str = "grasp") -> np.ndarray | None:
         """``(7 + n_dof,)`` MuJoCo qpos of the grasp, the pre-grasp or the squeeze
-        (:func:`~prehension.interop.qpos.grasp_qpos`); ``None`` when the record lacks it."""
+        (:func:`~prehension.hands.qpos.grasp_qpos`); ``None`` when the record lacks it."""
         angles = {"grasp": self.joint_angles, "pregrasp": self.pregrasp, "squeeze": self.squeeze}[which]
         return None if angles is None else grasp_qpos(hand, self.T_palm_object, angles)
 
@@ -111,7 +111,7 @@ def _record(task, entry: dict, path: str, scale: float, source: str) -> GraspRec
 
 def record_from_qpos(hand: Hand, grasp, pregrasp=None, squeeze=None, *, object_path: str = "",
                      object_scale_mm: float = 1.0, source: str = "record") -> GraspRecord:  # fmt: skip
-    """A record of ``hand`` from MuJoCo qpos vectors (:func:`~prehension.interop.qpos.qpos_configuration`);
+    """A record of ``hand`` from MuJoCo qpos vectors (:func:`~prehension.hands.qpos.qpos_configuration`);
     the pre-grasp and squeeze keep their own angles, the base pose is the grasp's."""
     q, T = qpos_configuration(grasp, hand, f"{source}: grasp qpos")
     check_metres(T, source)

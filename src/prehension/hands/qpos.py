@@ -26,8 +26,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..errors import InvalidConfiguration
-from ..hands.mjcf import compile_mjcf
-from ..hands.model import Hand
+from .mjcf import compile_mjcf
+from .model import Hand
 
 __all__ = [
     "BASE_SIZE", "MM_PER_M", "QUATERNION_TOLERANCE", "qpos_joint_order", "base_from_transform", "transform_from_base",
