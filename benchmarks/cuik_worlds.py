@@ -40,16 +40,12 @@ def _reason(message: str) -> str:
 
 
 def _import(world, path: Path):
-    try:
+    """A task when the file states contacts (``in_patch``) or the importer has no
+    ``hand_from_world`` (before it existed); else a hand."""
+    to_hand = getattr(cuik_import, "hand_from_world", None)
+    if to_hand is None or any(j.kind == "in_patch" for j in world.joints):
         return "task", cuik_import.task_from_world(world)
-    except Exception as task_error:  # noqa: BLE001 - the table reports every refusal
-        to_hand = getattr(cuik_import, "hand_from_world", None)
-        if to_hand is None:
-            raise
-        try:
-            return "hand", to_hand(world)
-        except Exception:  # noqa: BLE001
-            raise task_error from None
+    return "hand", to_hand(world)
 
 
 def _one(path: Path, time_limit: float) -> tuple[str, str, str]:
