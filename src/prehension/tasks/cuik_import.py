@@ -325,7 +325,7 @@ def hand_from_world(world: WorldFile, *, angle2: str = "2011", couple_distal: bo
         raise ValueError("angle2 must be '2011' or 'current'")
     world, crevolute = prepare_world(world, task=False)
     ctx = _Ctx(world)
-    for joint in world.joints:
+    for joint in sorted(world.joints, key=lambda j: j.kind != "in_patch"):
         if joint.kind == "in_patch":
             raise ctx.fail("the file states contacts (in_patch): it is a grasp task; import it as a task", joint)
         if joint.kind == "spherical":

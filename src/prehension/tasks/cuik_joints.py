@@ -65,7 +65,7 @@ class JointReader(ShapeReader):
         except Problem as problem:
             where = "" if problem.line == keyword.line else f" starting at line {keyword.line}"
             raise Problem(f"{problem.message} (in the {kind} joint{where}; expected "
-                          f"'{JOINT_SYNTAX[kind]}')", problem.line) from None
+                          f"'{JOINT_SYNTAX[kind]}')", problem.line, problem.source) from None
         return WorldJoint(**{**joint, "kind": kind, "line": keyword.line, "name": name})
 
     # -- pieces

@@ -59,10 +59,11 @@ class ShapeReader(ExpressionReader):
     """Reads shapes, colours, link dynamics and transforms (over :class:`ExpressionReader`)."""
 
     # -- colours
-    def starts_color(self) -> bool:
-        token = self.peek()
-        return token.is_word("color", *COLOR_RGB) or (token.kind == "num" and self.peek(1).is_op("*")
-                                                        and self.peek(2).is_word("color", *COLOR_RGB))
+    def starts_color(self, ahead: int = 0) -> bool:
+        """A colour starts here: a colour word, or ``NUMBER *`` before one."""
+        while self.peek(ahead).kind == "num" and self.peek(ahead + 1).is_op("*"):
+            ahead += 2
+        return self.peek(ahead).is_word("color", *COLOR_RGB)
 
     def optional_color(self) -> Color | None:
         """``colour := term ("+" term)*``, ``term := NUMBER "*" term | NAME | color(r,g,b)``
@@ -71,7 +72,7 @@ class ShapeReader(ExpressionReader):
         if not self.starts_color():
             return None
         color = self.color_term()
-        while self.peek().is_op("+") and (self.peek(1).is_word("color", *COLOR_RGB) or self.peek(1).kind == "num"):
+        while self.peek().is_op("+") and self.starts_color(1):
             self.advance()
             other = self.color_term()
             color = tuple(a + b for a, b in zip(_rgb(color), _rgb(other)))  # type: ignore[assignment]
