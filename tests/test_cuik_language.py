@@ -234,6 +234,12 @@ def test_crevolute_couples_to_the_previous_revolute_joint():
     assert _couplings(turned) == [("b", "a", -1.0)]
 
 
+def test_a_link_no_joint_names_is_left_out_of_a_hand_and_said_so():
+    hand = _hand(_FORWARD.replace("b\n[JOINTS]", "b\ncan - body \"can.off\" red\n[JOINTS]"))
+    assert [link.name for link in hand.links] == ["palm", "a", "b"]
+    assert "left out: link(s) can" in hand.notes[-1]
+
+
 def test_a_range_of_a_whole_turn_or_more_is_unlimited():
     hand = _hand(_FORWARD.replace("range [0,1]", "range [-2*pi,2*pi]"))
     assert (hand.joints[0].lower, hand.joints[0].upper) == ((-math.pi,), (math.pi,))

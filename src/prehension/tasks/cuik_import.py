@@ -1,4 +1,5 @@
-"""Turn a CuikSuite ``.world`` grasp problem into a :class:`~prehension.tasks.model.Task`.
+"""Turn a CuikSuite ``.world`` grasp problem into a :class:`~prehension.tasks.model.Task`
+(or a world without contacts into a :class:`~prehension.hands.model.Hand`).
 
 The parser (:mod:`prehension.tasks.cuik_parser`) reads the syntax; this module gives
 the joints their meaning, as the IJRR 2011 files use them (``shared/cuik-ijrr/README.md``):
@@ -22,12 +23,20 @@ the joints their meaning, as the IJRR 2011 files use them (``shared/cuik-ijrr/RE
 * A joint without ``range`` is unlimited ([-180, 180] deg; its zero is then arbitrary).
   ``avoid limits`` only biases CuikSuite's search and is ignored.
 
-The file states no coupling.  ``couplings`` adds ``(angle, source)`` pairs (equal angles),
-and ``couple_distal=True`` couples the last two revolute joints of every finger, as the
-SA hand does.  Fingers are the chains that leave the ground link, named after their tip
-link; the fingers taking part are those that carry a contact.  Everything else in a file
-(other joint kinds, a spherical joint that is not a contact, several free bodies) is
-refused with an error naming the line.
+* ``crevolute`` is a revolute joint whose angle equals the previous revolute joint's
+  (a coupling); ``fix: L1 L2 T`` folds L2 into L1; a revolute joint written from the
+  outer link to the inner one is turned round; a range of a whole turn or more is
+  [-180, 180] deg.  :mod:`prehension.tasks.cuik_scope` does these, and refuses what
+  prehension cannot model (prismatic joints, bars/legs/springs/cables, ``[EQUATIONS]``,
+  obstacles a ``[COLLISIONS]`` check asks to avoid) naming the construct, line and why.
+
+``couplings`` adds ``(angle, source)`` pairs (equal angles) to the file's crevolute
+ones, and ``couple_distal=True`` couples the last two revolute joints of every finger,
+as the SA hand does.  Fingers are the chains that leave the ground link, named after
+their tip link; the fingers taking part are those that carry a contact.  Anything else
+(a closed kinematic loop, a spherical joint that is not a contact, several free bodies)
+is refused with an error naming the line.  A world without contacts is a mechanism:
+:func:`hand_from_world` reads it as a hand (no regions).
 
 The object's body file (``body "file.off"`` of the object link), when it is a closed mesh
 that the contact regions lie on, is its collision solid (mm): the hand may not pass
@@ -211,7 +220,8 @@ def _contacts(ctx: _Ctx, hand_links: set[str]):
     if unused:
         raise ctx.fail(f"SPHERICAL joint to {sorted(unused)[0]!r} has no in_patch: a contact needs both", spheres[sorted(unused)[0]])
     if not objects:
-        raise ctx.fail("the file states no contact (no in_patch joint); a grasp task needs at least one")
+        raise ctx.fail("the file states no contact (no in_patch joint); a grasp task needs at least one (a world "
+                       "without contacts is a mechanism: prehension.tasks.cuik_import.hand_from_world reads it as a hand)")
     if len(objects) != 1:
         raise ctx.fail(f"expected exactly one object carrying the contact patches, found {sorted(objects) or 'none'}")
     return hand_regions, object_regions, contacts, objects.pop()
@@ -319,11 +329,15 @@ def task_from_world(
 def hand_from_world(world: WorldFile, *, angle2: str = "2011", couple_distal: bool = False) -> Hand:
     """The hand (or any tree mechanism) a world without contacts states: its first link the
     palm, its revolute, crevolute and universal joints (``fix`` joints folded) the
-    fingers; no regions.  A world with ``in_patch`` contacts is a task
+    fingers; no regions.  Links no joint names (a scene's objects) are left out, as the
+    hand's last note says.  A world with ``in_patch`` contacts is a task
     (:func:`task_from_world`); a spherical (ball) joint is refused."""
     if angle2 not in ("2011", "current"):
         raise ValueError("angle2 must be '2011' or 'current'")
     world, crevolute = prepare_world(world, task=False)
+    joined = {name for j in world.joints for name in (j.link1, j.link2)}
+    loose = [link.name for link in world.links[1:] if link.name not in joined]
+    world = replace(world, links=tuple(link for link in world.links if link.name not in loose))
     ctx = _Ctx(world)
     for joint in sorted(world.joints, key=lambda j: j.kind != "in_patch"):
         if joint.kind == "in_patch":
@@ -338,6 +352,9 @@ def hand_from_world(world: WorldFile, *, angle2: str = "2011", couple_distal: bo
     except PrehensionError as exc:
         raise WorldFileError(str(exc), path=world.path) from None
     _check_all_links_used(ctx, {ground} | {j.child for j in joints}, set(), None)
+    if loose:
+        hand = replace(hand, notes=hand.notes + (f"left out: link(s) {', '.join(loose)} (no joint connects them: "
+                                                 "bodies of the scene, not of the hand)",))
     return hand
 
 
