@@ -14,7 +14,7 @@ from prehension import evaluate, solve
 from prehension.errors import WorldFileError
 from prehension.hands.kinematics import forward_kinematics
 from prehension.solve import SolveOptions
-from prehension.tasks.cuik_import import hand_from_world, import_world, task_from_world
+from prehension.tasks.cuik_import import hand_from_world, task_from_world
 from prehension.tasks.cuik_parser import evaluate_expression, parse_world, read_world
 
 LINKS = "[LINKS]\nbase: box (0,0,0) (1,2,3)\narm: sphere 2 (4,5,6) cylinder 1 (0,0,0) (0,0,9)\n"
@@ -88,7 +88,8 @@ def test_every_body_shape():
     )
     line, prism, segments, body = world.links[0].bodies
     assert (line.kind, line.points, line.color) == ("line", ((0, 0, 0), (1, 0, 0)), "red")
-    assert (prism.kind, prism.points, prism.radius, prism.status) == ("prism", ((0, 0, 0), (1, 0, 0), (0, 1, 0)), 5.0, "hidden")
+    assert (prism.kind, prism.points, prism.radius, prism.status) == (
+        "prism", ((0, 0, 0), (1, 0, 0), (0, 1, 0)), 5.0, "hidden")
     assert (segments.kind, segments.points, segments.color) == ("segments", ((0, 0, 0), (1, 0, 0), (1, 1, 0)), "blue")
     assert (body.kind, body.path, body.granularity, body.status) == ("off", "m.off", 3, "decoration")
 
@@ -109,7 +110,8 @@ def test_link_dynamics_and_the_end_effector_separator():
 
 def test_every_joint_kind_parses_with_its_options():
     world = parse_world(LINKS + "c: body \"c.off\"\nd\n[JOINTS]\n"
-        "revolute: base (0,0,0)+(0,0,1) arm (0,0,0)+(0,0,1) range [0,1] +(1,0,0) +(1,0,0) avoid limits 2 velocity 3 torque 4\n"
+        "revolute: base (0,0,0)+(0,0,1) arm (0,0,0)+(0,0,1) range [0,1] +(1,0,0) +(1,0,0)\n"
+        "          avoid limits 2 velocity 3 torque 4\n"
         "crevolute: arm (0,0,0)+(0,0,1) c (0,0,0)+(0,0,1) range [0,1] +(1,0,0) +(1,0,0)\n"
         "prismatic: base (0,0,0)+(1,0,0) d (0,0,0)+(1,0,0) range [0,5] cost 2 friction 0.1 damping 0.2\n"
         "fix: base c Txyz(1,2,3)\n"

@@ -190,7 +190,8 @@ def _order_from(ground: str, joints: list[Joint], ctx: _Ctx, lines: dict) -> lis
             stack.append(j.child)
     loose = [j for j in joints if j not in ordered]
     if loose:
-        raise ctx.fail(f"joint to {loose[0].child!r} is not connected to the ground link {ground!r}", lines[id(loose[0])])
+        raise ctx.fail(f"joint to {loose[0].child!r} is not connected to the ground link {ground!r}",
+                       lines[id(loose[0])])
     return ordered
 
 
@@ -221,7 +222,8 @@ def _contacts(ctx: _Ctx, hand_links: set[str]):
         raise ctx.fail(f"SPHERICAL joint to {sorted(unused)[0]!r} has no in_patch: a contact needs both", spheres[sorted(unused)[0]])
     if not objects:
         raise ctx.fail("the file states no contact (no in_patch joint); a grasp task needs at least one (a world "
-                       "without contacts is a mechanism: prehension.tasks.cuik_import.hand_from_world reads it as a hand)")
+                       "without contacts is a mechanism: prehension.tasks.cuik_import.hand_from_world reads it "
+                       "as a hand)")
     if len(objects) != 1:
         raise ctx.fail(f"expected exactly one object carrying the contact patches, found {sorted(objects) or 'none'}")
     return hand_regions, object_regions, contacts, objects.pop()

@@ -228,8 +228,9 @@ class _Parser(JointReader):
             self.fail(f"included file {relative!r} not found (looked for {path})", token)
         text = _decoded(path.read_bytes())
         tokens = tokenize(text, source=str(path))
-        return [t if t.kind != "id" or t.text.lower() in KEYWORDS or t.text.upper() in SECTIONS
-                else Token("id", f"{prefix}__{t.text}", t.line, t.source) for t in tokens]
+        header = {i for i in range(1, len(tokens) - 1) if tokens[i - 1].is_op("[") and tokens[i + 1].is_op("]")}
+        return [t if t.kind != "id" or t.text.lower() in KEYWORDS or i in header
+                else Token("id", f"{prefix}__{t.text}", t.line, t.source) for i, t in enumerate(tokens)]
 
     def joint_statement(self) -> None:
         self.joints.append(self.joint())

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 
-from .cuik_expressions import FUNCTIONS, SECTIONS, ExpressionReader, Token, Vec3
+from .cuik_expressions import FUNCTIONS, ExpressionReader, Token, Vec3
 from .cuik_records import COLOR_RGB, JOINT_KINDS, Color, WorldBody
 
 __all__ = ["ShapeReader", "KEYWORDS", "SHAPES"]
@@ -27,8 +27,8 @@ KEYWORDS = frozenset(
      "rest", "stiffness", "length", "radius", "color", "range", "reference", "check", "all",
      "connected", "selfcollisions", "avoid", "limits", "eqfile"}
     | set(COLOR_RGB) | set(SHAPES) | set(_STATUS) | set(_INERTIA_SHAPES) | set(_TRANSFORMS)
-    | set(FUNCTIONS) - {"log"} | set(JOINT_KINDS) | {s.lower() for s in SECTIONS}
-)
+    | set(FUNCTIONS) - {"log"} | set(JOINT_KINDS)
+)  # section names are no keywords: "[LINKS]" is one token in CuikSuite, a link may be called "links"
 
 
 def _product(a: list[list[float]], b: list[list[float]]) -> list[list[float]]:
