@@ -308,3 +308,68 @@ def test_a_task_file_is_not_a_hand_and_a_hand_file_is_not_a_task():
                        "in_patch: X (0,0,0) (0,0,1) obj (0,0,0) (0,10,0) (10,0,0) (10,10,0)\n")
     with pytest.raises(WorldFileError, match="states contacts \\(in_patch\\): it is a grasp task"):
         _hand(task)
+
+
+# --------------------------------------------------------------------------- seeded random draws
+
+
+def _elementary(kind, values):
+    """The test's own 4x4 of one CuikSuite transform (independent of the parser's)."""
+    t = np.eye(4)
+    if kind.startswith("T"):
+        t[:3, 3] = values if kind == "Txyz" else np.eye(3)["xyz".index(kind[1])] * values[0]
+    else:
+        c, s = math.cos(values[0]), math.sin(values[0])
+        i, j = {"Rx": (1, 2), "Ry": (2, 0), "Rz": (0, 1)}[kind]
+        t[i, i], t[i, j], t[j, i], t[j, j] = c, -s, s, c
+    return t
+
+
+def _vec(v):
+    return "(" + ",".join(repr(float(x)) for x in v) + ")"
+
+
+def _unit_and_perpendicular(rng):
+    d = rng.normal(size=3)
+    d /= np.linalg.norm(d)
+    a = np.cross(d, rng.normal(size=3))
+    return d, a / np.linalg.norm(a)
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_random_fix_chains_fold_into_the_same_motion(seed):
+    """A random chain of transforms on a fix joint, then a random revolute joint: the folded
+    hand moves as the hand written with the joint already in the palm frame."""
+    rng = np.random.default_rng(seed)
+    kinds = rng.choice(["Tx", "Ty", "Tz", "Txyz", "Rx", "Ry", "Rz"], size=rng.integers(1, 5))
+    text, T = [], np.eye(4)
+    for kind in kinds:
+        values = rng.uniform(-50, 50, size=3) if kind == "Txyz" else rng.uniform(-3, 3, size=1)
+        text.append(f"{kind}({','.join(repr(float(v)) for v in values)})")
+        T = T @ _elementary(kind, values)
+    p, q = rng.uniform(-30, 30, size=(2, 3))
+    (d, a), (e, b) = _unit_and_perpendicular(rng), _unit_and_perpendicular(rng)
+    R, t = T[:3, :3], T[:3, 3]
+    joint = "revolute: {} {}+{} finger {}+{} range [-1,1] +{} +{}\n"
+    folded = _hand("[LINKS]\npalm\nmount\nfinger\n[JOINTS]\nfix: palm mount " + "*".join(text) + "\n"
+                   + joint.format("mount", _vec(p), _vec(d), _vec(q), _vec(e), _vec(a), _vec(b)))
+    direct = _hand("[LINKS]\npalm\nfinger\n[JOINTS]\n"
+                   + joint.format("palm", _vec(R @ p + t), _vec(R @ d), _vec(q), _vec(e), _vec(R @ a), _vec(b)))
+    angles = rng.uniform(-1, 1, size=(16, 1))
+    assert _poses(folded, angles) == pytest.approx(_poses(direct, angles), abs=1e-8)
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_random_backwards_revolute_joints_move_as_written_forwards(seed):
+    rng = np.random.default_rng(100 + seed)
+    p1, q1, p2, q2 = rng.uniform(-30, 30, size=(4, 3))
+    (d1, a1), (e1, b1), (d2, a2), (e2, b2) = (_unit_and_perpendicular(rng) for _ in range(4))
+    lo, hi = (float(x) for x in np.sort(rng.uniform(-3, 3, size=2)))
+    first = f"revolute: palm {_vec(p1)}+{_vec(d1)} a {_vec(q1)}+{_vec(e1)} range [-1,1] +{_vec(a1)} +{_vec(b1)}\n"
+    forward = f"revolute: a {_vec(p2)}+{_vec(d2)} b {_vec(q2)}+{_vec(e2)} range [{lo!r},{hi!r}] +{_vec(a2)} +{_vec(b2)}\n"
+    backward = f"revolute: b {_vec(q2)}+{_vec(e2)} a {_vec(p2)}+{_vec(d2)} range [{-hi!r},{-lo!r}] +{_vec(b2)} +{_vec(a2)}\n"
+    head = "[LINKS]\npalm\na\nb\n[JOINTS]\n"
+    one, other = _hand(head + first + forward), _hand(head + first + backward)
+    assert other.joints[1].lower + other.joints[1].upper == pytest.approx((lo, hi))
+    angles = np.column_stack([rng.uniform(-1, 1, 16), rng.uniform(lo, hi, 16)])
+    assert _poses(other, angles) == pytest.approx(_poses(one, angles), abs=1e-8)
