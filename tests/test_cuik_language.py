@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from prehension import evaluate, solve
+from prehension.cli import EXIT_BAD_INPUT, main
 from prehension.errors import WorldFileError
 from prehension.hands.kinematics import forward_kinematics
 from prehension.solve import SolveOptions
@@ -373,3 +374,22 @@ def test_random_backwards_revolute_joints_move_as_written_forwards(seed):
     assert other.joints[1].lower + other.joints[1].upper == pytest.approx((lo, hi))
     angles = np.column_stack([rng.uniform(-1, 1, 16), rng.uniform(lo, hi, 16)])
     assert _poses(other, angles) == pytest.approx(_poses(one, angles), abs=1e-8)
+
+
+# --------------------------------------------------------------------------- the command line
+
+
+@pytest.mark.parametrize("command", ["import-cuik", "solve"])
+@pytest.mark.parametrize("statement, message", [
+    ("revolute: b (0,0,0)+(0,1,0) palm (0,0,0)+(0,1,0)", "revolute joint to 'b' closes a kinematic loop"),
+    ("prismatic: palm (0,0,0)+(1,0,0) b (0,0,0)+(1,0,0) range [0,1]", "prismatic joint between 'palm' and 'b'"),
+    ("", "the file states no contact"),
+])
+def test_the_command_line_names_the_refusal_without_a_traceback(tmp_path, capsys, command, statement, message):
+    world = tmp_path / "w.world"
+    world.write_text(_FORWARD + statement + "\n")
+    argv = [command, str(world)] + (["-o", str(tmp_path / "t.yaml")] if command == "import-cuik" else [])
+    assert main(argv) == EXIT_BAD_INPUT
+    err = capsys.readouterr().err
+    assert message in err and "w.world" in err and "Traceback" not in err
+    assert not (tmp_path / "t.yaml").exists()
