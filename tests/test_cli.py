@@ -69,10 +69,10 @@ def test_import_cuik_writes_a_task_that_reloads(tmp_path, capsys):
 
 def test_import_cuik_unsupported_joint_names_the_line(tmp_path, capsys):
     world = tmp_path / "bad.world"
-    world.write_text("[LINKS]\npalm\nf\n[JOINTS]\nprismatic: palm (0,0,0)+(1,0,0) f (0,0,0)+(1,0,0)\n")
+    world.write_text("[LINKS]\npalm\nf\n[JOINTS]\nprismatic: palm (0,0,0)+(1,0,0) f (0,0,0)+(1,0,0) range [0,1]\n")
     assert main(["import-cuik", str(world), "-o", str(tmp_path / "x.yaml")]) == EXIT_BAD_INPUT
     err = capsys.readouterr().err
-    assert "bad.world:5" in err and "prismatic" in err
+    assert "bad.world:5" in err and "prismatic joint between 'palm' and 'f'" in err and "revolute and universal" in err
     assert not (tmp_path / "x.yaml").exists()
 
 

@@ -184,8 +184,9 @@ def test_reference_vector_not_orthogonal_to_axis_is_refused():
 
 
 def test_unsupported_joint_kind_names_the_line():
-    with pytest.raises(WorldFileError, match=r"t.world:\d+: .*prismatic.*supported joints: revolute, universal, spherical, in_patch"):
-        _import_text(WORLD_HEAD + "prismatic: palm (0,0,0)+(1,0,0) f1 (0,0,0)+(1,0,0)\n")
+    with pytest.raises(WorldFileError, match=r"t.world:\d+: prismatic joint between 'palm' and 'f1': prehension's hands "
+                       r"have revolute and universal joints only"):
+        _import_text(WORLD_HEAD + "prismatic: palm (0,0,0)+(1,0,0) f1 (0,0,0)+(1,0,0) range [0, 1]\n")
 
 
 @requires_cuik

@@ -7,14 +7,19 @@ points and ranges built of them, evaluated as they are read, never with Python's
 
 Lexical rules
 -------------
-* ``%`` starts a comment that runs to the end of the line; ``/* ... */`` (and
-  ``/** ... */``) is a block comment.  Whitespace and newlines separate tokens and are
+* ``%``, ``#`` and ``//`` start a comment that runs to the end of the line; ``/* ... */``
+  (and ``/** ... */``) is a block comment.  Whitespace and newlines separate tokens and are
   otherwise insignificant: a statement may span several lines.
 * Keywords (section names, joint kinds, ``range``, ``avoid``, ``limits``, ``body``,
   colours, ``pi``, function names...) are case-insensitive; identifiers (constant and
   link names) are case-sensitive.
 * Numbers: ``12``, ``1.5``, ``.5``, ``5.``, ``1e-3``, ``2.5E+2``.  Strings: ``"..."``
-  on one line.
+  on one line.  A scoped name ``a::b`` is the identifier ``a__b`` (CuikSuite turns each
+  ``:`` into ``_``).
+* Comparisons ``==``, ``!=``, ``<=``, ``>=``, ``<``, ``>`` (1 when true, else 0) bind
+  loosest, left to right; ``(c ? a : b)`` is ``a`` when ``c`` is not 0, else ``b``.
+  ``PARAMETER(name)`` (a value of CuikSuite's solver parameter file) is refused: prehension
+  has no such file, so the value is unknown.
 
 CuikSuite's grammar makes unary minus bind tighter than ``^`` and ``^``
 left-associative, unlike the usual mathematical convention.  So that an imported file
@@ -35,13 +40,17 @@ from typing import Callable, Mapping, NoReturn
 
 from ..errors import WorldFileError
 
-__all__ = ["Vec3", "Problem", "Token", "tokenize", "FUNCTIONS", "ExpressionReader", "evaluate_expression"]
+__all__ = ["Vec3", "Problem", "Token", "tokenize", "FUNCTIONS", "SECTIONS", "ExpressionReader", "evaluate_expression"]
 
 Vec3 = tuple[float, float, float]
 
 _BINARY: dict[str, Callable[[float, float], float]] = {
     "+": operator.add, "-": operator.sub, "*": operator.mul, "/": operator.truediv,
+    "==": operator.eq, "!=": operator.ne, "<=": operator.le, ">=": operator.ge,
+    "<": operator.lt, ">": operator.gt,
 }
+_COMPARISONS = ("==", "!=", "<=", ">=", "<", ">")
+SECTIONS = ("CONSTANTS", "LINKS", "JOINTS", "OBSTACLES", "COLLISIONS", "INCLUDE", "EQUATIONS")
 
 
 def _cot(x: float) -> float:
@@ -59,10 +68,11 @@ FUNCTIONS: dict[str, tuple[int, Callable[..., float]]] = {
 class Problem(Exception):
     """Internal: a parse error before the file path is attached."""
 
-    def __init__(self, message: str, line: int):
+    def __init__(self, message: str, line: int, source: str | None = None):
         super().__init__(message)
         self.message = message
         self.line = line
+        self.source = source  # the included file the line is in (None: the world file)
 
 
 @dataclass(frozen=True)
@@ -70,6 +80,7 @@ class Token:
     kind: str  # "num", "id", "str", "op", "eof"
     text: str
     line: int
+    source: str | None = None  # the included file the token comes from (None: the world file)
 
     def is_op(self, text: str) -> bool:
         return self.kind == "op" and self.text == text
@@ -84,38 +95,39 @@ class Token:
 _TOKEN_RE = re.compile(
     r"""(?P<ws>[ \t\r\f\v]+)
       | (?P<nl>\n)
-      | (?P<comment>%[^\n]*)
+      | (?P<comment>(?:%|\#|//)[^\n]*)
       | (?P<block>/\*)
       | (?P<num>(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)
-      | (?P<id>[A-Za-z_][A-Za-z0-9_]*)
+      | (?P<id>[A-Za-z_][A-Za-z0-9_]*(?:::[A-Za-z][A-Za-z0-9_]*)*)
       | (?P<str>"[^"\n]*")
-      | (?P<op>:=|[:()\[\],+\-*/^])
+      | (?P<op>:=|==|!=|<=|>=|[<>?;:()\[\],+\-*/^])
     """,
     re.VERBOSE,
 )
 
 
-def tokenize(text: str) -> list[Token]:
+def tokenize(text: str, source: str | None = None) -> list[Token]:
+    """The tokens of ``text``; ``source`` labels them (an included file), else ``None``."""
     tokens: list[Token] = []
     pos, line = 0, 1
     while pos < len(text):
         match = _TOKEN_RE.match(text, pos)
         if match is None:
-            raise Problem(_bad_character(text, pos), line)
+            raise Problem(_bad_character(text, pos), line, source)
         kind, lexeme = match.lastgroup, match.group()
         if kind == "block":
             end = text.find("*/", pos + 2)
             if end < 0:
-                raise Problem("unterminated block comment '/*' (no closing '*/')", line)
+                raise Problem("unterminated block comment '/*' (no closing '*/')", line, source)
             line += text.count("\n", pos, end)
             pos = end + 2
             continue
         if kind == "nl":
             line += 1
         elif kind in ("num", "id", "str", "op"):
-            tokens.append(Token(kind, lexeme, line))
+            tokens.append(Token(kind, lexeme.replace(":", "_") if kind == "id" else lexeme, line, source))
         pos = match.end()
-    tokens.append(Token("eof", "", line))
+    tokens.append(Token("eof", "", line, source))
     return tokens
 
 
@@ -144,7 +156,8 @@ class ExpressionReader:
         return token
 
     def fail(self, message: str, token: Token | None = None) -> NoReturn:
-        raise Problem(message, (token or self.peek()).line)
+        token = token or self.peek()
+        raise Problem(message, token.line, token.source)
 
     def expect_op(self, text: str, what: str) -> Token:
         token = self.peek()
@@ -165,6 +178,10 @@ class ExpressionReader:
 
     # -- expressions
     def expr(self) -> float:
+        """Comparisons (1 or 0) over sums, the loosest binding, as CuikSuite reads them."""
+        return self.chain(_COMPARISONS, self.additive)
+
+    def additive(self) -> float:
         return self.chain(("+", "-"), self.term)
 
     def term(self) -> float:
@@ -185,10 +202,10 @@ class ExpressionReader:
         starts_next = (
             token.kind == "eof"
             or (token.kind == "id" and after.is_op(":="))
-            or (token.is_op("[") and after.kind == "id" and after.text.upper() in ("CONSTANTS", "LINKS", "JOINTS"))
+            or (token.is_op("[") and after.kind == "id" and after.text.upper() in SECTIONS)
         )  # fmt: skip
         if starts_next and token.line > op.line or token.kind == "eof":
-            raise Problem(f"the expression ends with a dangling '{op.text}': an operand must follow it", op.line)
+            raise Problem(f"the expression ends with a dangling '{op.text}': an operand must follow it", op.line, op.source)
 
     def unary(self) -> float:
         token = self.peek()
@@ -223,7 +240,7 @@ class ExpressionReader:
         op = self.advance()
         exponent = self.signed_primary()
         if self.peek().is_op("^"):
-            raise Problem("'a^b^c' is ambiguous (CuikSuite reads (a^b)^c); add parentheses", self.peek().line)
+            raise Problem("'a^b^c' is ambiguous (CuikSuite reads (a^b)^c); add parentheses", self.peek().line, self.peek().source)
         return self.checked(op, partial(math.pow, base, exponent), f"{base:g}^{exponent:g}"), True
 
     def signed_primary(self) -> float:
@@ -243,6 +260,12 @@ class ExpressionReader:
         if token.is_op("("):
             self.advance()
             value = self.expr()
+            if self.peek().is_op("?"):  # (c ? a : b)
+                self.advance()
+                chosen = self.expr()
+                self.expect_op(":", f"in the '(c ? a : b)' opened at line {token.line}")
+                other = self.expr()
+                value = chosen if value != 0.0 else other
             self.expect_op(")", f"to close the '(' opened at line {token.line}")
             return value
         if token.kind == "id":
@@ -257,6 +280,9 @@ class ExpressionReader:
             return math.pi
         if lower in FUNCTIONS:
             return self.call(token)
+        if lower == "parameter" and self.peek().is_op("("):
+            self.fail("PARAMETER(...) reads CuikSuite's solver parameter file (.param), which "
+                      "prehension does not have; write the value (or a constant) instead", token)
         if token.text in self.constants:
             return self.constants[token.text]
         self.fail(f"undefined constant '{token.text}' (a constant must be defined with "

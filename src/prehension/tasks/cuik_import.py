@@ -1,4 +1,5 @@
-"""Turn a CuikSuite ``.world`` grasp problem into a :class:`~prehension.tasks.model.Task`.
+"""Turn a CuikSuite ``.world`` grasp problem into a :class:`~prehension.tasks.model.Task`
+(or a world without contacts into a :class:`~prehension.hands.model.Hand`).
 
 The parser (:mod:`prehension.tasks.cuik_parser`) reads the syntax; this module gives
 the joints their meaning, as the IJRR 2011 files use them (``shared/cuik-ijrr/README.md``):
@@ -22,12 +23,20 @@ the joints their meaning, as the IJRR 2011 files use them (``shared/cuik-ijrr/RE
 * A joint without ``range`` is unlimited ([-180, 180] deg; its zero is then arbitrary).
   ``avoid limits`` only biases CuikSuite's search and is ignored.
 
-The file states no coupling.  ``couplings`` adds ``(angle, source)`` pairs (equal angles),
-and ``couple_distal=True`` couples the last two revolute joints of every finger, as the
-SA hand does.  Fingers are the chains that leave the ground link, named after their tip
-link; the fingers taking part are those that carry a contact.  Everything else in a file
-(other joint kinds, a spherical joint that is not a contact, several free bodies) is
-refused with an error naming the line.
+* ``crevolute`` is a revolute joint whose angle equals the previous revolute joint's
+  (a coupling); ``fix: L1 L2 T`` folds L2 into L1; a revolute joint written from the
+  outer link to the inner one is turned round; a range of a whole turn or more is
+  [-180, 180] deg.  :mod:`prehension.tasks.cuik_scope` does these, and refuses what
+  prehension cannot model (prismatic joints, bars/legs/springs/cables, ``[EQUATIONS]``,
+  obstacles a ``[COLLISIONS]`` check asks to avoid) naming the construct, line and why.
+
+``couplings`` adds ``(angle, source)`` pairs (equal angles) to the file's crevolute
+ones, and ``couple_distal=True`` couples the last two revolute joints of every finger,
+as the SA hand does.  Fingers are the chains that leave the ground link, named after
+their tip link; the fingers taking part are those that carry a contact.  Anything else
+(a closed kinematic loop, a spherical joint that is not a contact, several free bodies)
+is refused with an error naming the line.  A world without contacts is a mechanism:
+:func:`hand_from_world` reads it as a hand (no regions).
 
 The object's body file (``body "file.off"`` of the object link), when it is a closed mesh
 that the contact regions lie on, is its collision solid (mm): the hand may not pass
@@ -55,9 +64,10 @@ from ..hands.sa_hand import schunk_sa_hand
 from ..objects.model import GraspObject
 from ..objects.solid import MeshFileSolid
 from .cuik_parser import WorldFile, WorldJoint, read_world
+from .cuik_scope import prepare_world
 from .model import Contact, Task
 
-__all__ = ["task_from_world", "import_world"]
+__all__ = ["task_from_world", "hand_from_world", "import_world"]
 
 _ORTHO_TOL = 1e-3  # the files round reference vectors to 5 digits
 
@@ -101,9 +111,14 @@ def _any_perpendicular(axis: np.ndarray) -> np.ndarray:
 
 
 def _limits(joint: WorldJoint, n: int) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """The ranges as limits; none, or a range of a whole turn or more (every angle
+    reachable, as CuikSuite allows), is [-pi, pi]."""
     if not joint.ranges:
         return (-np.pi,) * n, (np.pi,) * n
-    return tuple(float(lo) for lo, _ in joint.ranges), tuple(float(hi) for _, hi in joint.ranges)
+    whole = [hi - lo >= 2 * np.pi for lo, hi in joint.ranges]
+    lower = tuple(-np.pi if w else float(lo) for w, (lo, _) in zip(whole, joint.ranges))
+    upper = tuple(np.pi if w else float(hi) for w, (_, hi) in zip(whole, joint.ranges))
+    return lower, upper
 
 
 def _axes_and_references(joint: WorldJoint, ctx: _Ctx):
@@ -143,22 +158,28 @@ def _hand_tree(ctx: _Ctx, angle2: str) -> tuple[list[Joint], str]:
     ground = ctx.world.ground
     if ground is None:
         raise ctx.fail("the file has no [LINKS]; its first link is the palm")
-    joints = []
+    joints, lines = [], {}
     for j in ctx.world.joints:
-        if j.kind == "revolute":
+        if j.kind in ("revolute", "crevolute"):
             joints.append(_revolute(j, ctx))
         elif j.kind == "universal":
             joints.append(_universal(j, ctx, angle2))
-    return _order_from(ground, joints, ctx), ground
+        else:
+            continue
+        lines[id(joints[-1])] = j
+    return _order_from(ground, joints, ctx, lines), ground
 
 
-def _order_from(ground: str, joints: list[Joint], ctx: _Ctx) -> list[Joint]:
+def _order_from(ground: str, joints: list[Joint], ctx: _Ctx, lines: dict) -> list[Joint]:
     """Joints ordered palm-outwards; refuses loops and links with two parents."""
     children: dict[str, list[Joint]] = {}
     seen_child: dict[str, Joint] = {}
     for j in joints:
         if j.child in seen_child or j.child == ground:
-            raise ctx.fail(f"link {j.child!r} has two parent joints (a closed loop): prehension reads hands that are trees")
+            first = lines[id(seen_child[j.child])].line if j.child in seen_child else None
+            before = f" (the joint at line {first} already reaches it)" if first else " (the ground link)"
+            raise ctx.fail(f"{lines[id(j)].kind} joint to {j.child!r} closes a kinematic loop: {j.child!r} is "
+                           f"already placed{before}; prehension reads hands that are trees", lines[id(j)])
         seen_child[j.child] = j
         children.setdefault(j.parent, []).append(j)
     ordered, stack = [], [ground]
@@ -169,7 +190,8 @@ def _order_from(ground: str, joints: list[Joint], ctx: _Ctx) -> list[Joint]:
             stack.append(j.child)
     loose = [j for j in joints if j not in ordered]
     if loose:
-        raise ctx.fail(f"joint to {loose[0].child!r} is not connected to the ground link {ground!r}")
+        raise ctx.fail(f"joint to {loose[0].child!r} is not connected to the ground link {ground!r}",
+                       lines[id(loose[0])])
     return ordered
 
 
@@ -199,7 +221,9 @@ def _contacts(ctx: _Ctx, hand_links: set[str]):
     if unused:
         raise ctx.fail(f"SPHERICAL joint to {sorted(unused)[0]!r} has no in_patch: a contact needs both", spheres[sorted(unused)[0]])
     if not objects:
-        raise ctx.fail("the file states no contact (no in_patch joint); a grasp task needs at least one")
+        raise ctx.fail("the file states no contact (no in_patch joint); a grasp task needs at least one (a world "
+                       "without contacts is a mechanism: prehension.tasks.cuik_import.hand_from_world reads it "
+                       "as a hand)")
     if len(objects) != 1:
         raise ctx.fail(f"expected exactly one object carrying the contact patches, found {sorted(objects) or 'none'}")
     return hand_regions, object_regions, contacts, objects.pop()
@@ -253,6 +277,26 @@ def _distal_couplings(fingers, joints) -> list[Coupling]:
     return out
 
 
+def _file_couplings(crevolute, couplings, couple_distal, fingers, joints) -> list[Coupling]:
+    """The file's crevolute couplings, then the ones asked for (``(angle, source)``), then
+    (``couple_distal``) the distal ones not yet coupled."""
+    cpl = [Coupling(a, b, ratio) for a, b, ratio in crevolute]
+    cpl += [Coupling(a, b) for a, b in couplings if a not in {x.dof for x in cpl}]
+    if couple_distal:
+        cpl += [c for c in _distal_couplings(fingers, joints) if c.dof not in {x.dof for x in cpl}]
+    return cpl
+
+
+def _hand_of(ctx: _Ctx, angle2: str, crevolute, couplings, couple_distal, regions) -> tuple[Hand, list[Joint], str]:
+    joints, ground = _hand_tree(ctx, angle2)
+    fingers = _fingers(ground, joints)
+    cpl = _file_couplings(crevolute, couplings, couple_distal, fingers, joints)
+    links = [Link(ground)] + [Link(j.child) for j in joints]
+    stem = Path(ctx.world.path).stem if ctx.world.path else "world"
+    hand = _with_sa_geometry(Hand(stem, tuple(links), tuple(joints), tuple(cpl), tuple(fingers), regions))
+    return hand, joints, ground
+
+
 def task_from_world(
     world: WorldFile,
     *,
@@ -264,29 +308,66 @@ def task_from_world(
     """The task a parsed world file states (see the module docstring)."""
     if angle2 not in ("2011", "current"):
         raise ValueError("angle2 must be '2011' or 'current'")
+    world, crevolute = prepare_world(world, task=True)
     ctx = _Ctx(world)
     joints, ground = _hand_tree(ctx, angle2)
     hand_links = {ground} | {j.child for j in joints}
     hand_regions, object_regions, contacts, obj_name = _contacts(ctx, hand_links)
     _check_all_links_used(ctx, hand_links, set(hand_regions), obj_name)
-    fingers = _fingers(ground, joints)
-    cpl = [Coupling(a, b) for a, b in couplings]
-    if couple_distal:
-        cpl += [c for c in _distal_couplings(fingers, joints) if c.dof not in {x.dof for x in cpl}]
-    links = [Link(ground)] + [Link(j.child) for j in joints]
-    stem = Path(world.path).stem if world.path else "world"
     try:
-        hand = _with_sa_geometry(Hand(stem, tuple(links), tuple(joints), tuple(cpl), tuple(fingers), hand_regions))
+        hand, _, _ = _hand_of(ctx, angle2, crevolute, couplings, couple_distal, hand_regions)
         _check_body_files(world)
         obj, judged = _object(obj_name, object_regions, _object_mesh(world, obj_name))
         used = sorted({hand.finger_of_link(r.link) for r in hand_regions.values()} - {None})
-        task_name = name or (Path(world.path).resolve().parent.name if world.path else stem) or stem
-        about = f"imported from {world.path}; {judged}; {hand.notes[-1]}"
+        task_name = name or (Path(world.path).resolve().parent.name if world.path else hand.name) or hand.name
+        about = f"imported from {world.path}; {judged}; {hand.notes[-1]}{_unread(world)}"
         return Task(task_name, hand, obj, tuple(contacts), tuple(used), description=about)
     except WorldFileError:
         raise
     except PrehensionError as exc:
         raise WorldFileError(str(exc), path=world.path) from None
+
+
+def hand_from_world(world: WorldFile, *, angle2: str = "2011", couple_distal: bool = False) -> Hand:
+    """The hand (or any tree mechanism) a world without contacts states: its first link the
+    palm, its revolute, crevolute and universal joints (``fix`` joints folded) the
+    fingers; no regions.  Links no joint names (a scene's objects) are left out, as the
+    hand's last note says.  A world with ``in_patch`` contacts is a task
+    (:func:`task_from_world`); a spherical (ball) joint is refused."""
+    if angle2 not in ("2011", "current"):
+        raise ValueError("angle2 must be '2011' or 'current'")
+    world, crevolute = prepare_world(world, task=False)
+    joined = {name for j in world.joints for name in (j.link1, j.link2)}
+    loose = [link.name for link in world.links[1:] if link.name not in joined]
+    world = replace(world, links=tuple(link for link in world.links if link.name not in loose))
+    ctx = _Ctx(world)
+    for joint in sorted(world.joints, key=lambda j: j.kind != "in_patch"):
+        if joint.kind == "in_patch":
+            raise ctx.fail("the file states contacts (in_patch): it is a grasp task; import it as a task", joint)
+        if joint.kind == "spherical":
+            raise ctx.fail(f"spherical joint between {joint.link1!r} and {joint.link2!r} that is no fingertip "
+                           "contact (a ball joint): prehension's hands have revolute and universal joints only", joint)
+    try:
+        hand, joints, ground = _hand_of(ctx, angle2, crevolute, (), couple_distal, {})
+    except WorldFileError:
+        raise
+    except PrehensionError as exc:
+        raise WorldFileError(str(exc), path=world.path) from None
+    _check_all_links_used(ctx, {ground} | {j.child for j in joints}, set(), None)
+    if loose:
+        hand = replace(hand, notes=hand.notes + (f"left out: link(s) {', '.join(loose)} (no joint connects them: "
+                                                 "bodies of the scene, not of the hand)",))
+    return hand
+
+
+def _unread(world: WorldFile) -> str:
+    """What of the file the task leaves aside, in words (empty when nothing)."""
+    parts = []
+    if world.obstacles:
+        parts.append(f"{len(world.obstacles)} obstacle(s) display only (no [COLLISIONS] check names them)")
+    if world.collisions:
+        parts.append("the [COLLISIONS] statements are not read (collisions are judged as said above)")
+    return "".join(f"; {p}" for p in parts)
 
 
 SA_GEOMETRY = "hand collisions: the built-in SA hand's capsules (this world's hand moves as the SA hand)"

@@ -1,37 +1,62 @@
 """Parser for CuikSuite ``.world`` files: syntax and constant evaluation only.
 
-This module reads the subset of CuikSuite's world language used by the grasp
-problems of Rosales et al. (IJRR 2011) and returns plain frozen records.  It does
-not interpret the kinematics: points, displacements and reference vectors are kept
-as written (after evaluating their expressions), in the frame of the link they are
-written for.
+This module reads the whole world language of CuikSuite (as its documentation and
+examples use it) and returns plain frozen records (:mod:`prehension.tasks.cuik_records`).
+It does not interpret the kinematics: points, displacements and reference vectors are
+kept as written (after evaluating their expressions), in the frame of the link they are
+written for.  What a task can be made of, and what is refused and why, is
+:mod:`prehension.tasks.cuik_import` (and ``docs/cuik.md``).
 
-The tokens, and the expressions with their evaluation, are
-:mod:`prehension.tasks.cuik_expressions` (its docstring has the lexical rules).
+The tokens and expressions are :mod:`prehension.tasks.cuik_expressions` (its docstring
+has the lexical rules: ``%``, ``#``, ``//`` and ``/* */`` comments, case-insensitive
+keywords, ``a::b`` names); bodies, colours, dynamics and transforms are
+:mod:`prehension.tasks.cuik_shapes`; the joints :mod:`prehension.tasks.cuik_joints`.
 
 Grammar (``[x]`` optional, ``x*`` repeated, ``|`` alternatives)
 ----------------------------------------------------------------
 ::
 
     world      := section*
-    section    := "[CONSTANTS]" constant* | "[LINKS]" link* | "[JOINTS]" joint*
-    constant   := NAME ":=" expr
-    link       := NAME [":" [colour] shape*]
+    section    := "[CONSTANTS]" (NAME ":=" expr | "print" NAME)*
+                | "[LINKS]" link* | "[JOINTS]" joint* | "[OBSTACLES]" (NAME ":" shape)*
+                | "[COLLISIONS]" (["do" "not"] "check" ":" what)*
+                | "[INCLUDE]" (NAME ":" STRING)* | "[EQUATIONS]" "eqfile" ":" STRING
+    what       := "all" | "selfcollisions" | "connected" | LINK ["," LINK]
+    link       := NAME [(":" | "-") [colour] shape* [dynamics]]     ("-": an end effector)
     shape      := "body" STRING [colour] [granularity] [status]
+                | "box" point point2 [colour] [status]
+                | "prism" point point point expr [colour] [status]
                 | "sphere" expr point [colour] [granularity] [status]
                 | "cylinder" expr point point2 [colour] [granularity] [status]
-                | "box" point point2 [colour] [status]
-    colour     := red | green | blue | black | grey | white | yellow | purple | cyan
-                | "color" "(" expr "," expr "," expr ")"
+                | "line" point point2 [colour] [status]
+                | "segments" "(" x,y,z (";" x,y,z)* ")" [colour]
+    colour     := cterm ("+" cterm)*
+    cterm      := NUMBER "*" cterm | red | green | blue | black | grey | white | yellow
+                | purple | cyan | "color" "(" expr "," expr "," expr ")"
     granularity:= "granularity" INTEGER
     status     := "hidden" | "decoration"
-    joint      := "revolute" ":" LINK point point2 LINK point point2
-                      ["range" range ["reference"] ref ref | "reference" ref ref] [avoid]
-                | "universal" ":" LINK point point2 LINK point point2
-                      ["range" range ref range ref | "reference" ref ref] [avoid]
-                | "spherical" ":" LINK point LINK point
-                      ["range" "[" expr "]" ref ref] [avoid]
-                | "in_patch" ":" LINK point point2 LINK point point point point [avoid]
+    dynamics   := ["mass" expr] ["inertia" "matrix" inertia] ["inertial" "frame" transforms]
+    transforms := transform ("*" transform)*
+    transform  := "Id" | ("Tx"|"Ty"|"Tz"|"Rx"|"Ry"|"Rz") "(" expr ")" | "Txyz" "(" e "," e "," e ")"
+                | "TR" "(" 4 exprs ";" 4 exprs ";" 4 exprs ")" ["^-1"]
+    joint      := ("revolute" | "crevolute") ":" LINK jpoint point2 LINK jpoint point2
+                      ["range" range ["reference"] ref ref | "reference" ref ref] [avoid] jdyn
+                | "universal" ":" LINK jpoint point2 LINK jpoint point2
+                      ["range" range ref range ref | "reference" ref ref] [avoid] jdyn
+                | "spherical" ":" LINK jpoint LINK jpoint ["range" "[" expr "]" ref ref] [avoid] jdyn
+                | "in_patch" ":" LINK jpoint point2 LINK jpoint jpoint jpoint jpoint [avoid] jdyn
+                | "prismatic" ":" LINK jpoint point2 LINK jpoint point2 "range" range [avoid] jdyn
+                | "fix" ":" LINK LINK transforms
+                | "sph_sph" NAME ":" LINK jpoint LINK jpoint "length" expr "radius" expr
+                      [granularity] [colour] [status] [dynamics] jdyn
+                | ("sph_prs_sph" | "spring" | "xyspring") NAME ":" LINK jpoint LINK jpoint
+                      "range" range "radius" expr [granularity] [colour] [status] ["rest" expr]
+                      ["stiffness" expr] jdyn
+                | ("c_cable" | "c_spring" | "c_leg") NAME ":" LINK jpoint LINK jpoint
+                      "radius" expr [granularity] [colour] [status] ["rest" expr] ["stiffness" expr]
+    jpoint     := point | INTEGER | INTEGER ":" INTEGER   (vertex N of body 0 / of body B)
+    jdyn       := (("velocity" | "acceleration" | "effort" | "torque" | "force" | "cost"
+                   | "friction" | "damping") expr)*
     point      := "(" expr "," expr "," expr ")"
     point2     := "+" point          (a displacement from the previous point)
                 | point              (a second point, stored minus the previous one)
@@ -39,228 +64,82 @@ Grammar (``[x]`` optional, ``x*`` repeated, ``|`` alternatives)
                                       point on link 1 (first ref) / link 2 (second ref))
     range      := "[" expr "," expr "]"
     avoid      := "avoid" "limits" [expr]
-    expr       := term (("+" | "-") term)*
-    term       := unary (("*" | "/") unary)*
-    unary      := ("+" | "-") unary | power
-    power      := primary ["^" ("+" | "-")* primary]   (a^b^c and -a^b are refused)
-    primary    := NUMBER | "pi" | NAME | "(" expr ")" | FUNCTION "(" expr ["," expr] ")"
-    FUNCTION   := sin | cos | tan | cot | asin | acos | atan | atan2 | sqrt | exp
-                | log | abs                        (atan2 takes two arguments)
 
-CuikSuite's reading of ``-a^b`` and ``a^b^c`` differs from the usual convention; both
-are refused with a request for parentheses (:mod:`prehension.tasks.cuik_expressions`).
-A name must be a constant defined earlier.
-
-Everything else CuikSuite accepts (``[OBSTACLES]``, ``[COLLISIONS]``, ``[INCLUDE]``,
-prismatic/fix/... joints, masses, joint dynamics, body-vertex references, colour
-arithmetic) is rejected with a :class:`~prehension.errors.WorldFileError` that names
-the line and says what is supported.  The first link listed is the ground link; links
-and joints keep the order of the file.
+An included file (``[INCLUDE] arm: "arm.world"``, relative to the including file) is read
+in place, every name it defines prefixed ``arm__`` (as CuikSuite does); an error in it
+names that file.  ``print NAME`` is accepted and prints nothing.  Names of constants and
+of links live apart (as in CuikSuite); a name must not be a keyword; a constant must be
+defined before it is used.  The first link listed is the ground link; links and joints
+keep the order of the file.  A file that is not UTF-8 is read as Latin-1 (comments in old
+examples).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Mapping, Union
 
 from ..errors import WorldFileError
 from ..frozen import FrozenMap
-from .cuik_expressions import FUNCTIONS, ExpressionReader, Problem, Token, Vec3, evaluate_expression, tokenize
+from .cuik_expressions import SECTIONS, Problem, Token, evaluate_expression, tokenize
+from .cuik_joints import JointReader
+from .cuik_records import (
+    COLOR_RGB, IMPORTED_JOINTS, JOINT_KINDS, Color, Vec3, WorldBody, WorldCollision, WorldFile, WorldJoint, WorldLink,
+)
+from .cuik_shapes import KEYWORDS, SHAPES
 
 __all__ = [
-    "Vec3",
-    "Color",
-    "WorldBody",
-    "WorldLink",
-    "WorldJoint",
-    "WorldFile",
-    "JOINT_KINDS",
-    "parse_world",
-    "read_world",
-    "evaluate_expression",
+    "Vec3", "Color", "COLOR_RGB", "WorldBody", "WorldLink", "WorldJoint", "WorldCollision", "WorldFile",
+    "JOINT_KINDS", "IMPORTED_JOINTS", "parse_world", "read_world", "evaluate_expression",
 ]
 
-Color = Union[str, Vec3]
-
-JOINT_KINDS = ("revolute", "universal", "spherical", "in_patch")
-_SUPPORTED_JOINTS = "supported joints: " + ", ".join(JOINT_KINDS)
-_SUPPORTED_SECTIONS = ("CONSTANTS", "LINKS", "JOINTS")
-_SUPPORTED_SECTIONS_TEXT = "prehension reads [CONSTANTS], [LINKS], [JOINTS]"
-_SUPPORTED_SHAPES = "supported bodies: body \"file.off\", sphere, cylinder, box"
-
-_JOINT_SYNTAX = {
-    "revolute": "revolute: LINK (x,y,z)+(dx,dy,dz) LINK (x,y,z)+(dx,dy,dz) "
-    "[range [lo,hi] +(a) +(b)] [avoid limits]",
-    "universal": "universal: LINK (x,y,z)+(dx,dy,dz) LINK (x,y,z)+(dx,dy,dz) "
-    "[range [lo1,hi1] +(a1) [lo2,hi2] +(a2)] [avoid limits]",
-    "spherical": "spherical: LINK (x,y,z) LINK (x,y,z) [range [beta] +(m) +(n)] [avoid limits]",
-    "in_patch": "in_patch: LINK (x,y,z) (dx,dy,dz) LINK (P0) (P1) (P2) (P3) [avoid limits]",
-}
-_UNSUPPORTED_JOINTS = frozenset(
-    {"fix", "prismatic", "crevolute", "cylindrical", "sph_sph", "sph_prs_sph",
-     "spring", "xyspring", "c_cable", "c_spring", "c_leg", "planar"}
-)
-_COLORS = frozenset({"red", "green", "blue", "black", "grey", "white", "yellow", "purple", "cyan"})
-_SHAPES = frozenset({"body", "sphere", "cylinder", "box"})
-_UNSUPPORTED_SHAPES = frozenset({"prism", "line", "segments", "ellipsoid"})
-_STATUS = frozenset({"hidden", "decoration"})
+_SECTIONS_TEXT = "sections: " + ", ".join(f"[{name}]" for name in SECTIONS)
+_MAX_INCLUDES = 16
 
 
-_RESERVED = (
-    frozenset({"pi", "color", "granularity", "range", "reference", "avoid", "limits"})
-    | _COLORS | _SHAPES | _UNSUPPORTED_SHAPES | _STATUS | frozenset(FUNCTIONS)
-    | frozenset(JOINT_KINDS) | _UNSUPPORTED_JOINTS
-)
-
-
-# --------------------------------------------------------------------------- records
-
-
-@dataclass(frozen=True)
-class WorldBody:
-    """One display body of a link, as written (not interpreted).
-
-    ``kind`` is ``"off"`` (``body "file.off"``; ``path`` is the file name as written,
-    relative to the world file), ``"sphere"`` (``radius``, ``points = (centre,)``),
-    ``"cylinder"`` (``radius``, ``points = (end1, end2)``) or ``"box"``
-    (``points = (corner1, corner2)``); a ``+(...)`` second point is resolved to an
-    absolute one.  ``color`` is the body's colour, or the link's when the body states
-    none (a name such as ``"white"``, or an RGB triple); ``status`` is ``"hidden"``,
-    ``"decoration"`` or ``None``.
-    """
-
-    kind: str
-    line: int
-    path: str | None = None
-    radius: float | None = None
-    points: tuple[Vec3, ...] = ()
-    color: Color | None = None
-    granularity: int | None = None
-    status: str | None = None
-
-
-@dataclass(frozen=True)
-class WorldLink:
-    """A link: its name, the line of the name, its default colour and its bodies."""
-
-    name: str
-    line: int
-    bodies: tuple[WorldBody, ...] = ()
-    color: Color | None = None
-
-
-@dataclass(frozen=True)
-class WorldJoint:
-    """One joint statement of ``[JOINTS]``, with every expression evaluated.
-
-    * ``kind``: ``"revolute"``, ``"universal"``, ``"spherical"`` or ``"in_patch"``;
-      ``line``: the line of the joint keyword.
-    * ``point1`` / ``point2``: the joint point written for ``link1`` / ``link2`` (each in
-      its link's frame); ``point2`` is ``None`` for ``in_patch``.
-    * ``axis1`` / ``axis2``: the displacement written after ``point1`` / ``point2``
-      (``+(d)`` is stored as ``d``; a plain second point ``(q)`` as ``q - point``).
-      Revolute and universal have both; ``in_patch`` has ``axis1`` (its direction);
-      spherical has neither.
-    * ``ranges``: ``((lo, hi),)`` for a revolute joint, ``((lo1, hi1), (lo2, hi2))`` for
-      a universal joint, ``()`` without ``range`` (and for spherical/in_patch).
-    * ``cone_angle``: the ``range [beta]`` of a spherical joint, else ``None``.
-    * ``range_vectors``: the two reference vectors as written -- revolute ``(a, b)``,
-      universal ``(a1, a2)``, spherical ``(m, n)`` -- the first relative to ``point1``,
-      the second to ``point2``; ``()`` when none are given.
-    * ``patch``: the four ``in_patch`` control points in the order written, else ``None``.
-    * ``avoid_limits`` and its optional weight ``avoid_limits_weight``.
-    """
-
-    kind: str
-    line: int
-    link1: str
-    link2: str
-    point1: Vec3
-    point2: Vec3 | None
-    axis1: Vec3 | None
-    axis2: Vec3 | None
-    ranges: tuple[tuple[float, float], ...] = ()
-    range_vectors: tuple[Vec3, ...] = ()
-    cone_angle: float | None = None
-    patch: tuple[Vec3, Vec3, Vec3, Vec3] | None = None
-    avoid_limits: bool = False
-    avoid_limits_weight: float | None = None
-
-
-@dataclass(frozen=True)
-class WorldFile:
-    """A parsed world: evaluated constants (read-only mappings), links, joints."""
-
-    path: str | None
-    constants: Mapping[str, float]
-    constant_lines: Mapping[str, int]
-    links: tuple[WorldLink, ...]
-    joints: tuple[WorldJoint, ...]
-
-    @property
-    def ground(self) -> str | None:
-        """The name of the first link listed (the ground), or ``None`` without links."""
-        return self.links[0].name if self.links else None
-
-    def link(self, name: str) -> WorldLink:
-        """The link called ``name`` (``KeyError`` if there is none)."""
-        for link in self.links:
-            if link.name == name:
-                return link
-        raise KeyError(name)
-
-
-# --------------------------------------------------------------------------- parser
-
-
-class _Parser(ExpressionReader):
+class _Parser(JointReader):
     """Recursive-descent parser of the statements over the token list; evaluates as it reads."""
 
-    def __init__(self, tokens: list[Token], constants: Mapping[str, float] | None = None):
-        super().__init__(tokens, constants)
+    def __init__(self, tokens: list[Token], folder: Path | None):
+        super().__init__(tokens)
+        self.folder = folder
         self.constant_lines: dict[str, int] = {}
         self.links: dict[str, WorldLink] = {}
         self.joints: list[WorldJoint] = []
+        self.obstacles: dict[str, WorldLink] = {}
+        self.collisions: list[WorldCollision] = []
+        self.equations: list[tuple[str, int]] = []
         self.section: str | None = None
+        self.includes = 0
 
     # -- statements
     def parse(self) -> None:
+        statement = {"CONSTANTS": self.constant, "LINKS": self.link, "JOINTS": self.joint_statement,
+                     "OBSTACLES": self.obstacle, "COLLISIONS": self.collision, "INCLUDE": self.include,
+                     "EQUATIONS": self.equation}
         while self.peek().kind != "eof":
             if self.peek().is_op("["):
                 self.section_header()
             elif self.section is None:
-                self.fail(f"expected a section header such as [CONSTANTS] before "
-                          f"{self.peek().describe()}")
-            elif self.section == "CONSTANTS":
-                self.constant()
-            elif self.section == "LINKS":
-                self.link()
+                self.fail(f"expected a section header such as [CONSTANTS] before {self.peek().describe()}")
             else:
-                self.joint()
+                statement[self.section]()
 
     def section_header(self) -> None:
         opened = self.advance()
         name = self.peek()
         if name.kind != "id" or not self.peek(1).is_op("]"):
-            self.fail("malformed section header: expected [NAME]; " + _SUPPORTED_SECTIONS_TEXT,
-                      opened)
+            self.fail("malformed section header: expected [NAME]; " + _SECTIONS_TEXT, opened)
         self.pos += 2
-        if name.text.upper() not in _SUPPORTED_SECTIONS:
-            self.fail(f"section [{name.text}] is not supported; {_SUPPORTED_SECTIONS_TEXT}",
-                      opened)
+        if name.text.upper() not in SECTIONS:
+            self.fail(f"unknown section [{name.text}]; {_SECTIONS_TEXT}", opened)
         self.section = name.text.upper()
 
-    def new_name(self, kind: str) -> Token:
-        token = self.peek()
-        if token.kind != "id":
-            self.fail(f"expected a {kind} name, found {token.describe()}")
-        if token.text.lower() in _RESERVED:
-            self.fail(f"'{token.text}' is a keyword and cannot be used as a {kind} name")
-        return self.advance()
-
     def constant(self) -> None:
-        name = self.new_name("constant")
+        if self.peek().is_word("print") and self.peek(1).kind == "id":
+            self.advance()
+            self.name_value()  # must be defined; CuikSuite prints it, prehension does not
+            return
+        name = self.name_token("constant")
         self.expect_op(":=", f"after constant name '{name.text}'")
         value = self.expr()
         if name.text in self.constant_lines:
@@ -269,212 +148,133 @@ class _Parser(ExpressionReader):
         self.constants[name.text] = value
         self.constant_lines[name.text] = name.line
 
+    def new_body_name(self, kind: str) -> Token:
+        name = self.name_token(kind)
+        for what, known in (("link", self.links), ("obstacle", self.obstacles)):
+            if name.text in known:
+                self.fail(f"{kind} '{name.text}' is defined twice: at line {known[name.text].line} "
+                          f"(as a {what}) and again at line {name.line}", name)
+        return name
+
     def link(self) -> None:
-        name = self.new_name("link")
-        if name.text in self.links:
-            self.fail(f"link '{name.text}' is defined twice: at line "
-                      f"{self.links[name.text].line} and again at line {name.line}", name)
-        if name.text in self.constant_lines:
-            self.fail(f"link '{name.text}' has the name of the constant defined at line "
-                      f"{self.constant_lines[name.text]}", name)
-        color, bodies = None, []
-        if self.peek().is_op(":"):
-            self.advance()
-            color = self.optional_color()
-            while self.peek().is_word(*_SHAPES, *_UNSUPPORTED_SHAPES):
-                bodies.append(self.shape(color))
-        self.links[name.text] = WorldLink(name.text, name.line, tuple(bodies), color)
+        name = self.new_body_name("link")
+        fields: dict = {"name": name.text, "line": name.line}
+        if self.peek().is_op(":") or self.peek().is_op("-"):
+            fields["end_effector"] = self.advance().is_op("-")
+            color = fields["color"] = self.optional_color()
+            fields["bodies"] = tuple(self.shape(color) for _ in iter(lambda: self.peek().is_word(*SHAPES), False))
+            fields["mass"] = self.link_dynamics()
+        self.links[name.text] = WorldLink(**fields)
 
-    def optional_color(self) -> Color | None:
-        token = self.peek()
-        if token.is_word(*_COLORS):
-            self.advance()
-            return token.text.lower()
-        if token.is_word("color"):
-            self.advance()
-            return self.point("an RGB colour")
-        return None
+    def obstacle(self) -> None:
+        name = self.new_body_name("obstacle")
+        self.expect_op(":", f"after obstacle name '{name.text}'")
+        if not self.peek().is_word(*SHAPES):
+            self.fail(f"expected the obstacle's shape ({', '.join(SHAPES)}), found {self.peek().describe()}")
+        self.obstacles[name.text] = WorldLink(name.text, name.line, (self.shape(None),))
 
-    def shape(self, link_color: Color | None) -> WorldBody:
-        token = self.advance()
-        kind = token.text.lower()
-        if kind in _UNSUPPORTED_SHAPES:
-            self.fail(f"body shape '{kind}' is not supported; {_SUPPORTED_SHAPES}", token)
-        fields: dict = {"kind": kind, "line": token.line}
-        if kind == "body":
-            path = self.peek()
-            if path.kind != "str":
-                self.fail(f"expected a quoted file name after 'body', found {path.describe()}")
-            self.advance()
-            fields.update(kind="off", path=path.text[1:-1])
-        elif kind == "sphere":
-            fields.update(radius=self.expr(), points=(self.point("the sphere centre"),))
+    def collision(self) -> None:
+        first = self.peek()
+        check = not (first.is_word("do") and self.peek(1).is_word("not"))
+        if not check:
+            self.pos += 2
+        self.expect_word("check", "(a collision statement is '[do not] check: all | selfcollisions | "
+                                  "connected | LINK [, LINK]')")
+        self.expect_op(":", "after 'check'")
+        if self.peek().is_word("all", "selfcollisions", "connected"):
+            what: tuple[str, ...] = (self.advance().text.lower(),)
         else:
-            if kind == "cylinder":
-                fields["radius"] = self.expr()
-            first = self.point(f"the first {kind} point")
-            d = self.displacement(first, f"the second {kind} point")
-            fields["points"] = (first, (first[0] + d[0], first[1] + d[1], first[2] + d[2]))
-        color = self.optional_color()
-        fields["color"] = color if color is not None else link_color
-        if kind != "box" and self.accept_word("granularity"):
-            fields["granularity"] = self.integer("after 'granularity'")
-        if self.peek().is_word(*_STATUS):
-            fields["status"] = self.advance().text.lower()
-        return WorldBody(**fields)
+            what = (self.body_ref(),)
+            if self.peek().is_op(","):
+                self.advance()
+                what += (self.body_ref(),)
+        self.collisions.append(WorldCollision(check, what, first.line))
 
-    def integer(self, what: str) -> int:
+    def body_ref(self) -> str:
         token = self.peek()
-        if token.kind != "num" or not token.text.isdigit():
-            self.fail(f"expected an integer {what}, found {token.describe()}")
+        bars = {j.name for j in self.joints if j.name}
+        if token.kind != "id" or not any(token.text in known for known in (self.links, self.obstacles, bars)):
+            self.fail(f"expected a link, obstacle or bar name, found {token.describe()}")
+        return self.advance().text
+
+    def equation(self) -> None:
+        self.expect_word("eqfile", "([EQUATIONS] holds 'eqfile: \"file.cuik\"')")
+        self.expect_op(":", "after 'eqfile'")
+        token = self.peek()
+        if token.kind != "str":
+            self.fail(f"expected a quoted file name after 'eqfile:', found {token.describe()}")
+        self.equations.append((self.advance().text[1:-1], token.line))
+
+    def include(self) -> None:
+        """``NAME: "file.world"``: the file's tokens in place, its names prefixed ``NAME__``."""
+        name = self.name_token("include")
+        self.expect_op(":", f"after include name '{name.text}'")
+        token = self.peek()
+        if token.kind != "str":
+            self.fail(f"expected a quoted file name after '{name.text}:', found {token.describe()}")
         self.advance()
-        return int(token.text)
+        self.includes += 1
+        if self.includes > _MAX_INCLUDES:
+            self.fail("includes nested too deeply (a file that includes itself?)", token)
+        included = self.included_tokens(token, name.text)
+        resume = [Token("op", "[", token.line, token.source), Token("id", "INCLUDE", token.line, token.source),
+                  Token("op", "]", token.line, token.source)]
+        self.tokens[self.pos:self.pos] = included[:-1] + resume
 
-    # -- joints
-    def joint(self) -> None:
-        keyword = self.peek()
-        kind = keyword.text.lower() if keyword.kind == "id" else ""
-        if kind in _UNSUPPORTED_JOINTS:
-            self.fail(f"joint type '{keyword.text}' is not supported; {_SUPPORTED_JOINTS}")
-        if kind not in JOINT_KINDS or not self.peek(1).is_op(":"):
-            self.fail(f"expected a joint statement 'KIND: ...', found {keyword.describe()}; "
-                      f"{_SUPPORTED_JOINTS}")
-        self.pos += 2
-        try:
-            joint = getattr(self, f"joint_{kind}")(keyword.line)
-        except Problem as problem:
-            where = "" if problem.line == keyword.line else f" starting at line {keyword.line}"
-            raise Problem(f"{problem.message} (in the {kind} joint{where}; expected "
-                           f"'{_JOINT_SYNTAX[kind]}'; {_SUPPORTED_JOINTS})", problem.line) from None
-        self.joints.append(joint)
+    def included_tokens(self, token: Token, prefix: str) -> list[Token]:
+        relative = token.text[1:-1]
+        path = (self.folder / relative) if self.folder is not None else Path(relative)
+        if not path.is_file():
+            self.fail(f"included file {relative!r} not found (looked for {path})", token)
+        text = _decoded(path.read_bytes())
+        tokens = tokenize(text, source=str(path))
+        header = {i for i in range(1, len(tokens) - 1) if tokens[i - 1].is_op("[") and tokens[i + 1].is_op("]")}
+        return [t if t.kind != "id" or t.text.lower() in KEYWORDS or i in header
+                else Token("id", f"{prefix}__{t.text}", t.line, t.source) for i, t in enumerate(tokens)]
 
-    def link_ref(self) -> str:
-        token = self.peek()
-        if token.kind != "id":
-            self.fail(f"expected a link name, found {token.describe()}")
-        if token.text not in self.links:
-            known = ", ".join(self.links) or "none"
-            self.fail(f"unknown link '{token.text}' (links defined in [LINKS] so far: {known})")
-        self.advance()
-        return token.text
-
-    def two_links(self, link1: str, link2: str, line: int) -> None:
-        if link1 == link2:
-            raise Problem(f"a joint must connect two different links, got '{link1}' twice", line)
-
-    def avoid(self) -> tuple[bool, float | None]:
-        if not self.accept_word("avoid"):
-            return False, None
-        self.expect_word("limits", "after 'avoid'")
-        return True, (self.expr() if self.starts_weight() else None)
-
-    def starts_weight(self) -> bool:
-        token = self.peek()
-        if token.kind == "num" or token.is_op("(") or token.is_op("-") or token.is_op("+"):
-            return True
-        if token.kind != "id" or self.peek(1).is_op(":"):
-            return False
-        return token.text in self.constants or token.text.lower() in ("pi", *FUNCTIONS)
-
-    def pair(self) -> tuple[str, Vec3, Vec3]:
-        link = self.link_ref()
-        point = self.point(f"the joint point on '{link}'")
-        axis = self.displacement(point, f"the axis displacement on '{link}'")
-        return link, point, axis
-
-    def refs(self, point1: Vec3, point2: Vec3) -> tuple[Vec3, Vec3]:
-        first = self.displacement(point1, "the first reference vector")
-        second = self.displacement(point2, "the second reference vector")
-        return first, second
-
-    def joint_revolute(self, line: int) -> WorldJoint:
-        return self.axis_joint("revolute", line)
-
-    def joint_universal(self, line: int) -> WorldJoint:
-        return self.axis_joint("universal", line)
-
-    def axis_joint(self, kind: str, line: int) -> WorldJoint:
-        """A revolute (one axis) or universal (two axes) joint: two ``link point axis``
-        triples, then optionally ``range [lo, hi] [reference] ref1 ref2`` (revolute) or
-        ``range [lo1, hi1] ref1 [lo2, hi2] ref2`` (universal), or ``reference ref1 ref2``,
-        then ``avoid limits [weight]``."""
-        link1, p1, a1 = self.pair()
-        link2, p2, a2 = self.pair()
-        self.two_links(link1, link2, line)
-        ranges: tuple[tuple[float, float], ...] = ()
-        vectors: tuple[Vec3, ...] = ()
-        if self.accept_word("range"):
-            if kind == "revolute":
-                ranges = (self.interval(),)
-                self.accept_word("reference")
-                vectors = self.refs(p1, p2)
-            else:
-                range1 = self.interval()
-                ref1 = self.displacement(p1, "the first reference vector")
-                range2 = self.interval()
-                ref2 = self.displacement(p2, "the second reference vector")
-                ranges, vectors = (range1, range2), (ref1, ref2)
-        elif self.accept_word("reference"):
-            vectors = self.refs(p1, p2)
-        avoid, weight = self.avoid()
-        return WorldJoint(kind, line, link1, link2, p1, p2, a1, a2, ranges, vectors,
-                          avoid_limits=avoid, avoid_limits_weight=weight)
-
-    def joint_spherical(self, line: int) -> WorldJoint:
-        link1 = self.link_ref()
-        p1 = self.point(f"the joint point on '{link1}'")
-        link2 = self.link_ref()
-        p2 = self.point(f"the joint point on '{link2}'")
-        self.two_links(link1, link2, line)
-        beta: float | None = None
-        vectors: tuple[Vec3, ...] = ()
-        if self.accept_word("range"):
-            opened = self.expect_op("[", "to start the cone angle [beta]")
-            beta = self.expr()
-            self.expect_op("]", f"to close the cone angle opened at line {opened.line}")
-            vectors = self.refs(p1, p2)
-        avoid, weight = self.avoid()
-        return WorldJoint("spherical", line, link1, link2, p1, p2, None, None, (), vectors,
-                          cone_angle=beta, avoid_limits=avoid, avoid_limits_weight=weight)
-
-    def joint_in_patch(self, line: int) -> WorldJoint:
-        link1, p1, direction = self.pair()
-        link2 = self.link_ref()
-        self.two_links(link1, link2, line)
-        c = [self.point(f"patch control point P{i}") for i in range(4)]
-        avoid, weight = self.avoid()
-        return WorldJoint("in_patch", line, link1, link2, p1, None, direction, None,
-                          patch=(c[0], c[1], c[2], c[3]), avoid_limits=avoid,
-                          avoid_limits_weight=weight)
+    def joint_statement(self) -> None:
+        self.joints.append(self.joint())
 
 
 # --------------------------------------------------------------------------- API
 
 
 def parse_world(text: str, path: str | None = None) -> WorldFile:
-    """Parse the text of a ``.world`` file; ``path`` only labels error messages.
+    """Parse the text of a ``.world`` file; ``path`` labels error messages and is where
+    included files and the body files of vertex references are looked for.
 
-    Raises :class:`WorldFileError` (with ``path`` and ``line``) on any syntax error,
-    undefined or duplicated name, arithmetic error or unsupported construct.
+    Raises :class:`WorldFileError` (with ``path`` -- or the included file's -- and
+    ``line``) on any syntax error, undefined or duplicated name, or arithmetic error.
     """
     if not text.strip():
         raise WorldFileError("the world file is empty", path=path)
     try:
-        parser = _Parser(tokenize(text))
+        parser = _Parser(tokenize(text), Path(path).resolve().parent if path else None)
         parser.parse()
     except Problem as problem:
-        raise WorldFileError(problem.message, path=path, line=problem.line) from None
+        raise WorldFileError(problem.message, path=problem.source or path, line=problem.line) from None
     return WorldFile(
         path=path,
         constants=FrozenMap(dict(parser.constants)),
         constant_lines=FrozenMap(dict(parser.constant_lines)),
         links=tuple(parser.links.values()),
         joints=tuple(parser.joints),
+        obstacles=tuple(parser.obstacles.values()),
+        collisions=tuple(parser.collisions),
+        equations=tuple(parser.equations),
     )
 
 
+def _decoded(data: bytes) -> str:
+    """UTF-8 text, else Latin-1 (every byte is a character: old examples' comments)."""
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError:
+        return data.decode("latin-1")
+
+
 def read_world(path: str | Path) -> WorldFile:
-    """Read and parse the ``.world`` file at ``path`` (UTF-8 text)."""
+    """Read and parse the ``.world`` file at ``path`` (UTF-8, else Latin-1 text)."""
     name = str(path)
     try:
         data = Path(path).read_bytes()
@@ -485,9 +285,4 @@ def read_world(path: str | Path) -> WorldFile:
     except OSError as exc:
         reason = exc.strerror or str(exc)
         raise WorldFileError(f"cannot read the world file: {reason}", path=name) from None
-    try:
-        text = data.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise WorldFileError(f"the world file is not UTF-8 text (byte {exc.start})",
-                             path=name) from None
-    return parse_world(text, path=name)
+    return parse_world(_decoded(data), path=name)
