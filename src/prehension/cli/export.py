@@ -3,7 +3,8 @@
 Grasp records (:mod:`prehension.interop`): ``dexgraspbench`` (one ``.npy`` dict per grasp:
 ``-o FILE.npy`` for one, ``-o FOLDER`` for ``0.npy, 1.npy, ...``, named by solution number), ``dexgraspnet`` (one
 ``.npy``, a list of dicts), ``json-m`` (JSON in metres).  Scenes
-(:mod:`prehension.interop.scene`): ``glb``, ``obj``, ``ply``, one solution posed.
+(:mod:`prehension.interop.scene`): ``glb``, ``obj``, ``ply``, one solution posed, each link
+drawn as its hand file's meshes where it has them (``--draw capsules``: as its capsules).
 """
 
 from __future__ import annotations
@@ -33,6 +34,9 @@ def add_parser(sub) -> None:
     p.add_argument("--units", choices=("m", "mm"), help="scene lengths (default m; grasp records are always in metres)")
     p.add_argument("--stage", choices=("grasp", "pregrasp", "squeeze"),
                    help="scene: the hand at its grasp (default), pre-grasp or squeeze angles")  # fmt: skip
+    p.add_argument("--draw", choices=("meshes", "capsules"),
+                   help="scene: each link as its hand file's meshes where it has them (default), or every link as "
+                        "the capsules prehension checks")  # fmt: skip
     p.add_argument("--force", action="store_true", help="overwrite output files that exist")
 
 
@@ -65,7 +69,7 @@ def cmd_export(args, console: Console) -> int:
     if not args.result.is_file():
         raise PrehensionError(not_a_file("result file", args.result))
     if args.format in RECORD_FORMATS:
-        unused = [o for o, v in (("--units", args.units), ("--stage", args.stage)) if v is not None]
+        unused = [o for o, v in (("--units", args.units), ("--stage", args.stage), ("--draw", args.draw)) if v is not None]
         if unused:
             raise PrehensionError(f"{', '.join(unused)}: for scenes (glb, obj, ply) only; a {args.format} record is in "
                                   "metres and carries every stage the solution has")  # fmt: skip
@@ -97,7 +101,7 @@ def _export_scene(args, task, data, console: Console) -> int:
 
     from ..atomic import write_bytes_atomic
     from ..interop.records import records_from_result
-    from ..interop.scene import grasp_scene, scene_bytes
+    from ..interop.scene import grasp_scene, hand_meshes, scene_bytes
 
     k = 0 if args.solution is None else args.solution
     stage, units = args.stage or "grasp", args.units or "m"
@@ -107,8 +111,19 @@ def _export_scene(args, task, data, console: Console) -> int:
         raise PrehensionError(f"{args.result}: solution {k} stores no {stage}; export --stage grasp")
     _outputs(args, 1)
     q = np.array([angles[d] for d in task.hand.dof_names])
-    scene = grasp_scene(task, q, record.T_palm_object, units)
+    meshes, why = hand_meshes(task.hand) if args.draw != "capsules" else ({}, "")
+    scene = grasp_scene(task, q, record.T_palm_object, units, meshes)
     write_bytes_atomic(args.output, scene_bytes(scene, args.format))
     console.print(f"wrote {args.output}: solution {k} ({stage}), {len(task.hand.links)} links and the object, "
-                  f"object frame, {units}")  # fmt: skip
+                  f"object frame, {units}; {_drawn_text(scene.metadata['drawn'], why)}")  # fmt: skip
     return EXIT_OK
+
+
+def _drawn_text(drawn: dict, why: str) -> str:
+    """How the links were drawn, for the user: meshes, capsules, and why not meshes."""
+    meshed = [n for n, d in drawn.items() if d == "mesh"]
+    if not meshed:
+        return "links drawn as capsules" + (f" ({why})" if why else "")
+    failed = [n for n, d in drawn.items() if d == "capsules"]
+    text = f"{len(meshed)} link(s) drawn as their meshes"
+    return text + (f", {len(failed)} as capsules (no readable mesh): {', '.join(failed)}" if failed else "")
