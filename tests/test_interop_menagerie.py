@@ -23,7 +23,7 @@ from prehension.hands.link_meshes import link_mesh_triangles  # noqa: E402
 from prehension.hands.mjcf import compile_mjcf  # noqa: E402
 from prehension.interop.scene import OBJECT_NODE  # noqa: E402
 
-MJCF = """<mujoco model="toy_gripper">
+MJCF_TEMPLATE = """<mujoco model="toy_gripper">
   <compiler angle="radian" meshdir="assets" autolimits="true"/>
   <option integrator="implicitfast"/>
   <default>
@@ -50,27 +50,7 @@ MJCF = """<mujoco model="toy_gripper">
     <body name="hand" childclass="toy" pos="0 0 0.1" quat="1 0 0 0">
       <geom class="visual" mesh="palm"/>
       <geom class="collision" size="0.045 0.02 0.01"/>
-      <body name="left_base" pos="-0.03 0 0.01">
-        <joint name="left_j1" class="left"/>
-        <geom class="visual" mesh="link"/>
-        <geom class="collision" pos="0 0 0.025" size="0.006 0.006 0.025"/>
-        <body name="left_tip" pos="0 0 0.05">
-          <joint name="left_j2" class="left"/>
-          <geom class="visual" mesh="tip"/>
-          <geom class="collision" pos="0 0 0.015" size="0.006 0.006 0.015"/>
-        </body>
-      </body>
-      <body name="right_base" pos="0.03 0 0.01">
-        <joint name="right_j1" class="right"/>
-        <geom class="visual" mesh="link"/>
-        <geom class="collision" pos="0 0 0.025" size="0.006 0.006 0.025"/>
-        <body name="right_tip" pos="0 0 0.05">
-          <joint name="right_j2" class="right"/>
-          <geom class="visual" mesh="tip"/>
-          <geom class="collision" pos="0 0 0.015" size="0.006 0.006 0.015"/>
-        </body>
-      </body>
-    </body>
+{fingers}    </body>
   </worldbody>
   <contact><exclude body1="hand" body2="left_base"/><exclude body1="hand" body2="right_base"/></contact>
   <actuator>
@@ -79,6 +59,19 @@ MJCF = """<mujoco model="toy_gripper">
   </actuator>
 </mujoco>
 """
+FINGER = """      <body name="{side}_base" pos="{x} 0 0.01">
+        <joint name="{side}_j1" class="{side}"/>
+        <geom class="visual" mesh="link"/>
+        <geom class="collision" pos="0 0 0.025" size="0.006 0.006 0.025"/>
+        <body name="{side}_tip" pos="0 0 0.05">
+          <joint name="{side}_j2" class="{side}"/>
+          <geom class="visual" mesh="tip"/>
+          <geom class="collision" pos="0 0 0.015" size="0.006 0.006 0.015"/>
+        </body>
+      </body>
+"""
+MJCF = MJCF_TEMPLATE.replace("{fingers}", FINGER.format(side="left", x=-0.03) + FINGER.format(side="right", x=0.03))
+
 TASK = """prehension: task/1
 name: toy-pinch
 hand: {mjcf: hand.xml}
