@@ -2,7 +2,8 @@
 
 Grasp records (:mod:`prehension.interop`): ``dexgraspbench`` (one ``.npy`` dict per grasp:
 ``-o FILE.npy`` for one, ``-o FOLDER`` for ``0.npy, 1.npy, ...``, named by solution number), ``dexgraspnet`` (one
-``.npy``, a list of dicts), ``json-m`` (JSON in metres).  Scenes
+``.npy``, a list of dicts), ``json-m`` (JSON in metres), ``moveit`` (``moveit_msgs/Grasp``
+messages as YAML or JSON, :mod:`prehension.interop.moveit`).  Scenes
 (:mod:`prehension.interop.scene`): ``glb``, ``obj``, ``ply``, one solution posed, each link
 drawn as its hand file's meshes where it has them (``--draw capsules``: as its capsules).
 """
@@ -18,13 +19,13 @@ from .codes import EXIT_OK
 
 __all__ = ["add_parser", "cmd_export", "RECORD_FORMATS", "FORMATS"]
 
-RECORD_FORMATS = ("dexgraspbench", "dexgraspnet", "json-m")
+RECORD_FORMATS = ("dexgraspbench", "dexgraspnet", "json-m", "moveit")
 FORMATS = RECORD_FORMATS + ("glb", "obj", "ply")
-_SUFFIXES = {"dexgraspnet": (".npy",), "json-m": (".json",), "glb": (".glb",), "obj": (".obj",), "ply": (".ply",)}
+_SUFFIXES = {"dexgraspnet": (".npy",), "json-m": (".json",), "moveit": (".yaml", ".yml", ".json"), "glb": (".glb",), "obj": (".obj",), "ply": (".ply",)}
 
 
 def add_parser(sub) -> None:
-    p = sub.add_parser("export", help="write a result's grasps for other tools (DexGraspBench, DexGraspNet, JSON in metres) "
+    p = sub.add_parser("export", help="write a result's grasps for other tools (DexGraspBench, DexGraspNet, JSON in metres, MoveIt) "
                                       "or its posed hand and object as a scene (GLB, OBJ, PLY)")  # fmt: skip
     p.add_argument("result", type=Path, help="result file (.json) of 'prehension solve'")
     p.add_argument("--format", required=True, choices=FORMATS, metavar="FORMAT", help=f"one of {', '.join(FORMATS)}")
@@ -37,6 +38,9 @@ def add_parser(sub) -> None:
     p.add_argument("--draw", choices=("meshes", "capsules"),
                    help="scene: each link as its hand file's meshes where it has them (default), or every link as "
                         "the capsules prehension checks")  # fmt: skip
+    p.add_argument("--frame", choices=("object", "palm"),
+                   help="moveit: grasp_pose is the palm's pose in the object frame (default, what MoveIt's pick "
+                        "expects) or the object's pose in the palm frame")  # fmt: skip
     p.add_argument("--force", action="store_true", help="overwrite output files that exist")
 
 
@@ -73,7 +77,11 @@ def cmd_export(args, console: Console) -> int:
         if unused:
             raise PrehensionError(f"{', '.join(unused)}: for scenes (glb, obj, ply) only; a {args.format} record is in "
                                   "metres and carries every stage the solution has")  # fmt: skip
+        if args.frame is not None and args.format != "moveit":
+            raise PrehensionError(f"--frame: for --format moveit only (a {args.format} record holds the palm's pose in the object frame)")
         return _export_records(args, *read_result(args.result), console)
+    if args.frame is not None:
+        raise PrehensionError("--frame: for --format moveit only (a scene is in the object frame)")
     return _export_scene(args, *read_result(args.result), console)
 
 
@@ -87,6 +95,8 @@ def _export_records(args, task, data, console: Console) -> int:
     _outputs(args, len(records))
     if args.format == "dexgraspbench":  # a folder's files are named by solution number
         write_dexgraspbench(records, task.hand, args.output, args.solution or 0)
+    elif args.format == "moveit":
+        _write_moveit(args, task, data, records)
     else:
         {"dexgraspnet": write_dexgraspnet, "json-m": write_json_m}[args.format](records, task.hand, args.output)
     stages = [s for s in ("pregrasp", "squeeze") if all(getattr(r, s) is not None for r in records)]
@@ -94,6 +104,15 @@ def _export_records(args, task, data, console: Console) -> int:
     extra = " (the grasp only: the format has no pre-grasp or squeeze)" if args.format == "dexgraspnet" else extra
     console.print(f"wrote {args.output}: {len(records)} grasp(s) of hand {task.hand.name!r} as {args.format}{extra}")
     return EXIT_OK
+
+
+def _write_moveit(args, task, data, records) -> None:
+    from ..atomic import write_text_atomic
+    from ..interop.moveit import moveit_grasps, moveit_text
+
+    entries = data["solutions"] if args.solution is None else [data["solutions"][args.solution]]
+    grasps = moveit_grasps(task, records, entries, args.solution or 0, args.frame or "object")
+    write_text_atomic(args.output, moveit_text(grasps, args.output))
 
 
 def _export_scene(args, task, data, console: Console) -> int:
