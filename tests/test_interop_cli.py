@@ -153,3 +153,66 @@ def test_export_and_import_refuse_a_special_output_and_leave_it(special, command
     assert words in err and out.name in err
     assert _fingerprint(out) == before
     assert not [p for p in short_dir.iterdir() if p.name.startswith(".")]  # no temporary file left
+
+
+def test_a_folder_of_grasp_files_is_read_in_natural_order(exported, tmp_path):
+    from prehension.cli.import_grasps import grasp_files
+
+    folder = tmp_path / "other_tool"
+    folder.mkdir()
+    for name in ("10.npy", "2.npy", "1.npy"):
+        (folder / name).write_bytes((exported / "g.npy").read_bytes())
+    (folder / "notes.txt").write_text("not a grasp")
+    (folder / "sub").mkdir()
+    assert [p.name for p in grasp_files([folder])] == ["1.npy", "2.npy", "10.npy"]
+    out = tmp_path / "judged.jsonl"
+    assert main(["import-grasps", str(folder), "--object", str(TASK), "-o", str(out)]) == EXIT_OK
+    assert [line["id"] for line in records(out)] == ["1.npy", "2.npy", "10.npy"]
+    assert [line["status"] for line in records(out)] == ["solved"] * 3
+    assert main(["check", str(out)]) == EXIT_OK
+    assert main(["import-grasps", str(folder / "sub"), "--object", str(TASK), "-o", str(tmp_path / "e.jsonl")]) == EXIT_BAD_INPUT
+
+
+def test_metres_and_millimetres_confused_are_named_with_the_fix(exported, box_mesh, tmp_path, capsys):
+    """A bare mesh 1000x off (its units misread) and a record whose pose is 1000x too small
+    (metres where millimetres are expected) or too large are errors naming the fix."""
+    capsys.readouterr()
+    args = ["import-grasps", str(exported / "g.npy"), "--hand", "sa", "--object", str(box_mesh), "-o", str(tmp_path / "m.jsonl")]
+    assert main([*args, "--mesh-scale", "1000"]) == EXIT_BAD_INPUT
+    err = " ".join(capsys.readouterr().err.split())
+    assert "a mesh in millimetres read as metres" in err and "give --mesh-scale 1" in err
+    assert main([*args, "--mesh-scale", "0.001"]) == EXIT_BAD_INPUT
+    err = " ".join(capsys.readouterr().err.split())
+    assert "a mesh in metres read as millimetres" in err and "give --mesh-scale 1" in err
+    data = json.loads((exported / "g.json").read_text())
+    for factor, said in ((1e-3, "1000x too small (metres given where millimetres are expected?)"),
+                         (1e3, "the record's lengths are metres (were millimetres written?)")):  # over 10 m: fmt: skip
+        bad = json.loads(json.dumps(data))
+        bad["grasps"][0]["grasp_qpos"][:3] = [v * factor for v in bad["grasps"][0]["grasp_qpos"][:3]]
+        path = tmp_path / f"scaled{factor:g}.json"
+        path.write_text(json.dumps(bad))
+        out = tmp_path / "s.jsonl"
+        code = main(["import-grasps", str(path), "--object", str(TASK), "-o", str(out)])
+        err = " ".join(capsys.readouterr().err.split())
+        assert code == EXIT_BAD_INPUT and said in err and "Traceback" not in err and not out.exists()
+    near = json.loads(json.dumps(data))  # 0.5 mm off: a grasp that misses a little is judged, not refused
+    near["grasps"][0]["grasp_qpos"][0] += 0.0005
+    (tmp_path / "near.json").write_text(json.dumps(near))
+    assert main(["import-grasps", str(tmp_path / "near.json"), "--object", str(TASK), "-o", str(tmp_path / "n.jsonl")]) == EXIT_OK
+
+
+def test_a_pose_1000x_too_large_is_named_below_the_10_m_check():
+    """A record that reaches the judge with its palm 1000x too far (a small hand, millimetres
+    as metres under the 10 m check) is refused, not stored as approximate."""
+    from dataclasses import replace
+
+    from prehension.errors import InvalidTask
+    from prehension.interop.imported import imported_result
+
+    task, data = read_result(EXAMPLE)
+    record = records_from_result(task, data, 0)[0]
+    assert imported_result(task, record)["status"] == "solved"
+    T = np.array(record.T_palm_object)
+    T[:3, 3] *= 1000.0
+    with pytest.raises(InvalidTask, match="1000x too large"):
+        imported_result(task, replace(record, T_palm_object=T))

@@ -13,6 +13,7 @@ from .codes import EXIT_OK
 __all__ = ["add_parser", "cmd_import_grasps"]
 
 _TASK_SUFFIXES = (".yaml", ".yml", ".world")
+_GRASP_SUFFIXES = (".npy", ".json")  # what a folder given for FILE is searched for
 
 
 IMPORT_FORMATS = ("auto", "dexgraspbench", "dexgraspnet", "json-m")  # prehension.interop.readers (not imported at start-up)
@@ -21,7 +22,8 @@ IMPORT_FORMATS = ("auto", "dexgraspbench", "dexgraspnet", "json-m")  # prehensio
 def add_parser(sub) -> None:
     p = sub.add_parser("import-grasps", help="judge grasps made by other tools (DexGraspBench, DexGraspNet, json-m): "
                                              "write result records that 'prehension check' re-verifies")  # fmt: skip
-    p.add_argument("files", nargs="+", type=Path, help="grasp files (.npy, .json)")
+    p.add_argument("files", nargs="+", type=Path, metavar="FILE|FOLDER",
+                   help="grasp files (.npy, .json), or folders: every .npy and .json file in each, in natural order")  # fmt: skip
     p.add_argument("--hand", help="the hand the grasps are for (built-in name or hand file); default: the task's")
     p.add_argument("--object", required=True, metavar="MESH|TASK",
                    help="a task (built-in name or task file: its contacts judge the grasps) or a mesh file (contacts "
@@ -44,12 +46,13 @@ def cmd_import_grasps(args, console: Console) -> int:
 
     from ..atomic import check_output_path, write_text_atomic
 
-    check_output_path(args.output, "output", inputs=[*args.files, args.object], suffixes=(".jsonl",))
+    files = grasp_files(args.files)
+    check_output_path(args.output, "output", inputs=[*files, args.object], suffixes=(".jsonl",))
     if args.output.exists() and not args.force:
         raise PrehensionError(f"{args.output} already exists; pass --force to overwrite it")
     task, hand = _task_and_hand(args)
     lines, counts = [], {}
-    for path in args.files:
+    for path in files:
         for line in _judged(args, path, task, hand):
             lines.append(json.dumps(line))
             counts[line["status"]] = counts.get(line["status"], 0) + 1
@@ -57,6 +60,27 @@ def cmd_import_grasps(args, console: Console) -> int:
     summary = ", ".join(f"{n} {s}" for s, n in sorted(counts.items()))
     console.print(f"wrote {args.output}: {len(lines)} grasp(s) judged ({summary}); re-verify with: prehension check {args.output}")
     return EXIT_OK
+
+
+def grasp_files(paths) -> list[Path]:
+    """The files to read: each file as given, each folder's ``.npy`` and ``.json`` files (not
+    its subfolders), in natural order (``2.npy`` before ``10.npy``, as DexGraspBench
+    numbers them).  A folder without such files is an error naming it."""
+    import re
+
+    def natural(p: Path):
+        return [(0, int(t), "") if t.isdigit() else (1, 0, t) for t in re.split(r"(\d+)", p.name) if t]
+
+    out = []
+    for path in paths:
+        if not path.is_dir():
+            out.append(path)
+            continue
+        found = sorted((p for p in path.iterdir() if p.is_file() and p.suffix.lower() in _GRASP_SUFFIXES), key=natural)
+        if not found:
+            raise PrehensionError(f"folder {path} holds no grasp file ({', '.join(_GRASP_SUFFIXES)}); give the files or a folder that holds them")
+        out += found
+    return out
 
 
 def _task_and_hand(args):

@@ -1,6 +1,9 @@
 """``prehension simulate RESULT``: does the grasp hold in a physics engine?
 
-Every solution of the result file (or the one ``--solution`` names) is first re-derived
+``RESULT`` is a result file, or a JSON-lines file of records (``batch``, ``plan``,
+``import-grasps``) of which one is simulated: ``--record K`` (its position, from 0) or
+``--task NAME`` (its id or its task's name; the only record when the file holds one).
+Every solution of the result (or the one ``--solution`` names) is first re-derived
 as ``prehension check`` would (:func:`prehension.verification.claims.verify_result_file`): a file whose
 claims do not hold is refused, never simulated.  Then the DexGraspBench protocol runs
 (:mod:`prehension.sim`).  Exit code: 0 when every simulated grasp holds, 7 when one drops
@@ -33,7 +36,10 @@ PHYSICS_TAG = "physics/1"
 def add_parser(sub) -> None:
     p = sub.add_parser("simulate", help="push the grasped object in MuJoCo along six directions: does the grasp hold? "
                                         '(needs: pip install "prehension[sim]")')  # fmt: skip
-    p.add_argument("result", type=Path, help="result file (.json) written by 'prehension solve'")
+    p.add_argument("result", type=Path, help="result file (.json) written by 'prehension solve', or JSON lines (.jsonl) "
+                                             "of 'batch', 'plan' or 'import-grasps': one record, picked by --record or --task")  # fmt: skip
+    p.add_argument("--record", type=int, default=None, metavar="K", help="JSON lines: the K-th record (from 0, in file order)")
+    p.add_argument("--task", default=None, metavar="NAME", help="JSON lines: the record of this id or task name")
     p.add_argument("--solution", type=int, default=None, metavar="K", help="simulate only solution K (from 0; default: every one)")
     p.add_argument("-o", "--output", type=Path, help="write the outcome as JSON here")
     p.add_argument("--seed", type=types.seed, default=0, help="seed of --jitter (default 0)")
@@ -62,21 +68,19 @@ class StoredGrasp(NamedTuple):
     pregrasp_q: np.ndarray | None = None  # the stored pre-grasp's angles (None: the file has none)
 
 
-def stored_grasps(path: Path, index: int | None):
-    """``(task, [(k, StoredGrasp)])`` of a result file whose claims hold."""
-    from ..verification.claims import verify_result_file
+def stored_grasps(path: Path, index: int | None, record: int | None = None, task: str | None = None):
+    """``(task, [(k, StoredGrasp)])`` of a result file whose claims hold, or of one record of
+    a JSON-lines file (``record``: its position; ``task``: its id or task name)."""
+    from ..verification.claims import verify_result
 
-    if not path.is_file():
-        raise InvalidTask(not_a_file("result file", path))
-    checked = verify_result_file(path, reprove=False, physics=False)  # the physics test runs next anyway
+    data, where = result_of(path, record, task)
+    checked = verify_result(data, source=where, base_dir=path.parent, reprove=False, physics=False)  # physics runs next
     if not checked.holds:
         failures = "; ".join(f"{f.what}: {f.detail}" for f in checked.failures[:3])
-        raise PrehensionError(f"{path} does not hold (see 'prehension check {path}'): {failures}")
-    from ..atomic import read_json
-
-    solutions = read_json(path, "result file").get("solutions") or []
+        raise PrehensionError(f"{where} does not hold (see 'prehension check {path}'): {failures}")
+    solutions = data.get("solutions") or []
     if not solutions:
-        raise PrehensionError(f"{path} holds no solution to simulate (status {checked.status})")
+        raise PrehensionError(f"{where} holds no solution to simulate (status {checked.status})")
     if index is not None and not 0 <= index < len(solutions):
         raise PrehensionError(f"--solution {index} is out of range: the result holds {len(solutions)} solution(s), numbered 0 to {len(solutions) - 1}")
     picked = range(len(solutions)) if index is None else [index]
@@ -88,6 +92,63 @@ def stored_grasps(path: Path, index: int | None):
         q_pre = None if pre is None else np.array([float(pre["joint_angles_rad"][d]) for d in names])
         grasps.append((k, StoredGrasp(q, np.array(solutions[k]["T_palm_object"], float), checked.reports[k].contacts, q_pre)))
     return checked.task, grasps
+
+
+def result_of(path: Path, record: int | None, task: str | None) -> tuple[dict, str]:
+    """``(the result dict, where it is for messages)``: the file's, or the record's that
+    ``record`` / ``task`` picks in a ``.jsonl`` file (with its task put back)."""
+    from ..atomic import read_json
+
+    if path.suffix.lower() != ".jsonl":
+        if not path.is_file():
+            raise InvalidTask(not_a_file("result file", path))
+        if record is not None or task is not None:
+            raise PrehensionError("--record and --task pick a record of a JSON-lines file (.jsonl); a result file (.json) holds one result")
+        return read_json(path, "result file"), str(path)
+    from ..batch.journal import TaskLines, with_task
+    from .check import _records
+
+    lines = TaskLines()
+    records = list(_records(path, lines))
+    n, picked = _pick(path, records, record, task, lines.tasks)
+    where = f"{path}:{n} (record {picked.get('id')!r})"
+    if not isinstance(picked.get("result"), dict):
+        raise PrehensionError(f"{where} stores no result (status {picked.get('status')!r}, {picked.get('message') or 'no message'})")
+    return with_task(picked, lines.tasks, where, lines.files)["result"], where
+
+
+def _record_names(record: dict, tasks: dict) -> tuple[str, ...]:
+    """A record's id, its task's label (a batch's file stem) and its task's name (embedded
+    in its result, or on the task line a compact record refers to)."""
+    result = record.get("result") if isinstance(record.get("result"), dict) else {}
+    task = result.get("task") if isinstance(result.get("task"), dict) else tasks.get(record.get("task_ref")) or {}
+    names = (record.get("id"), record.get("task"), task.get("name") if isinstance(task, dict) else None)
+    return tuple(dict.fromkeys(str(v) for v in names if v is not None))
+
+
+def _pick(path: Path, records: list, record: int | None, task: str | None, tasks: dict) -> tuple[int, dict]:
+    """The ``(line, record)`` that ``record`` or ``task`` names (the only one when neither)."""
+    if not records:
+        raise PrehensionError(f"{path} holds no record")
+    if record is not None and task is not None:
+        raise PrehensionError("give --record K or --task NAME, not both")
+    if record is not None:
+        if not 0 <= record < len(records):
+            raise PrehensionError(f"--record {record} is out of range: {path} holds {len(records)} record(s), numbered 0 to {len(records) - 1}")
+        return records[record]
+    if task is not None:
+        found = [r for r in records if task in _record_names(r[1], tasks)]
+        if len(found) == 1:
+            return found[0]
+        if found:
+            lines = ", ".join(str(n) for n, _ in found)
+            raise PrehensionError(f"--task {task!r} names {len(found)} records of {path} (lines {lines}); pick one with --record K")
+    elif len(records) == 1:
+        return records[0]
+    ids = "; ".join(f"{k}: {' / '.join(_record_names(r, tasks))}" for k, (_, r) in enumerate(records[:10]))
+    ids += "; ..." if len(records) > 10 else ""
+    what = f"no record of {path} has the id or task name {task!r}" if task is not None else f"{path} holds {len(records)} records"
+    raise PrehensionError(f"{what}; pick one with --record K or --task NAME (records: {ids})")
 
 
 _FLAGS = {"squeeze_mm": "--squeeze", "mass_kg": "--mass", "friction": "--friction", "jitter_mm": "--jitter-mm",
@@ -115,7 +176,7 @@ def cmd_simulate(args, console: Console) -> int:
     require_mujoco()  # before any work: say what to install (main() prints the message as text)
     options = sim_options(args)
     out = check_output_path(args.output, "output", inputs=[args.result], suffixes=(".json",)) if args.output else None
-    task, grasps = stored_grasps(args.result, args.solution)
+    task, grasps = stored_grasps(args.result, args.solution, args.record, args.task)
     reports = []
     try:
         for k, g in grasps:  # SIGTERM and SIGHUP arrive as KeyboardInterrupt too (cli.terminate)
@@ -149,6 +210,8 @@ def _report(args, console: Console, out, task, reports, interrupted: bool) -> No
     """Write (atomically) and print the outcome of the grasps in ``reports``."""
     data = {"prehension": PHYSICS_TAG, "result": str(args.result), "task": task.name, "interrupted": interrupted,
             "grasps": [dict(solution=k, **r.to_dict()) for k, r in reports]}  # fmt: skip
+    picked = {"record": getattr(args, "record", None), "record_task": getattr(args, "task", None)}
+    data.update({k: v for k, v in picked.items() if v is not None})
     if out is not None:
         write_json_atomic(out, data)
     if args.json:

@@ -49,7 +49,7 @@ from .description import RawHand, RawShape
 from .fingers import CLOSURES, closure, finger_chains, finger_names, make_fingers
 from .fingertips import PadFrame, TipOverride, apply_override, cap_axis, fit_fingertip, pad_frame
 from .kinematics import forward_kinematics
-from .model import Capsule, Hand, HandRegion, Link, NamedFrame
+from .model import Capsule, Hand, HandRegion, Link, LinkMesh, NamedFrame
 from .provenance import ShapeFit
 from .shapes import shape_capsules, surface_points
 from .tree import couplings, make_joint, rooted
@@ -127,8 +127,19 @@ def _fit_label(used: list[RawShape]) -> str:
     return "collision mesh" if kinds == {True} else ("collision shapes" if kinds == {False} else "collision meshes and shapes")
 
 
+def _drawn(shapes: list[RawShape]) -> tuple[LinkMesh, ...]:
+    """The mesh files that draw a link: its visual shapes when each is a mesh file, else its
+    collision shapes when each is, else none (the link is drawn as its capsules)."""
+    for role in ("visual", "collision"):
+        group = [s for s in shapes if s.role == role]
+        if group and all(s.file is not None for s in group):
+            return tuple(replace(s.file, T_link_mesh=s.T_link_shape @ s.file.T_link_mesh) for s in group)
+    return ()
+
+
 def _links(names: list[str], shapes: dict[str, list[RawShape]], warnings: list[str]) -> list[Link]:
-    """One link per name, its capsules enclosing its collision shapes, with their fit."""
+    """One link per name, its capsules enclosing its collision shapes, with their fit, and
+    the mesh files that draw it."""
     links = []
     for n in names:
         used, verts, complete = _readable(shapes.get(n, []), warnings)
@@ -136,7 +147,7 @@ def _links(names: list[str], shapes: dict[str, list[RawShape]], warnings: list[s
         caps, fit = cached_link_fit(key, lambda: _capsules(used, warnings))
         if not caps and shapes.get(n):
             warnings.append(f"warning: link {n!r} has no collision shape: it is not checked for self-collision")
-        links.append(Link(n, tuple(caps), fit))
+        links.append(Link(n, tuple(caps), fit, _drawn(shapes.get(n, []))))
     return links
 
 

@@ -21,6 +21,8 @@ from typing import Callable, Literal
 
 import numpy as np
 
+from .model import LinkMesh
+
 __all__ = ["RawShape", "RawJoint", "RawCoupling", "RawHand", "SHAPE_KINDS"]
 
 SHAPE_KINDS = ("sphere", "capsule", "cylinder", "box", "ellipsoid", "mesh")
@@ -41,6 +43,10 @@ class RawShape:
             frame [mm]; it may raise ``OSError`` / ``ValueError`` (missing or unreadable
             file), which the assembler reports as a warning.
         what: how messages name it (``"link 'a' collision 0"``).
+        file: for a mesh, the file that draws it (:class:`~prehension.hands.model.LinkMesh`,
+            its ``T_link_mesh`` the file's frame in the *shape* frame: the identity for a
+            URDF mesh, MuJoCo's re-centring for an MJCF one); the assembler moves it into
+            the link frame.  ``None``: a primitive, or a mesh without a file.
     """
 
     kind: str
@@ -49,6 +55,7 @@ class RawShape:
     size: tuple[float, ...] = ()
     vertices: Callable[[], np.ndarray] | None = None
     what: str = ""
+    file: LinkMesh | None = None
 
 
 @dataclass(frozen=True, eq=False)

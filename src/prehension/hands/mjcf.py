@@ -41,6 +41,9 @@ Conventions
   or one of a format neither reads, is an error naming the mesh, the file and the formats
   read (MuJoCo refuses a model whose mesh it cannot load, and so does prehension).
   ``<contact><exclude>`` pairs are kept as collision exclusions.
+* **Drawing**: a mesh geom's file is kept as a reference (:class:`~prehension.hands.model.LinkMesh`)
+  in the file's own frame (MuJoCo's re-centring, ``mesh_pos`` / ``mesh_quat``, undone)
+  with its scale, for scenes only.
 """
 
 from __future__ import annotations
@@ -56,7 +59,7 @@ from ..objects.mesh_io import read_triangles
 from .assemble import ImportOptions, assemble
 from .description import RawCoupling, RawHand, RawJoint, RawShape
 from .fingertips import TipOverride
-from .model import Hand
+from .model import Hand, LinkMesh
 
 __all__ = [
     "hand_from_mjcf", "read_mjcf", "compile_mjcf", "require_mujoco", "urdf_to_mjcf", "INSTALL_HINT", "MUJOCO_MESH_SUFFIXES",
@@ -111,12 +114,12 @@ def read_mjcf(path, length_unit: float = 1000.0, root: str | None = None) -> Raw
     """
     mujoco = require_mujoco()
     where = str(path)
-    model = compile_mjcf(path)
+    model, files = _compile(path)
     unit = float(length_unit)
     try:
         if not (math.isfinite(unit) and unit > 0):
             raise InvalidHand(f"length_unit must be a positive number (mm per MJCF unit), got {unit}")
-        return _Reader(mujoco, model, unit, where).raw(root)
+        return _Reader(mujoco, model, unit, where, files).raw(root)
     except InvalidHand as exc:
         raise InvalidHand(f"{where}: {exc}") from None
 
@@ -126,16 +129,25 @@ def compile_mjcf(path):
     MuJoCo does not read (PLY, OFF, GLB, GLTF, DAE) read through trimesh and handed to MuJoCo
     as vertices and faces (which MuJoCo then scales, centres and uses as if it had read the
     file).  Raises :class:`InvalidHand` naming the file (and the mesh) when it cannot."""
+    return _compile(path)[0]
+
+
+def _compile(path):
+    """``(compile_mjcf(path), the absolute path of each mesh's file, None for a mesh given
+    by its vertices)``, the meshes in the model's order."""
     mujoco = require_mujoco()
     path = Path(os.fspath(path))
     try:
         spec = mujoco.MjSpec.from_file(os.fspath(path))
     except (ValueError, OSError) as exc:  # mujoco raises ValueError with the parser's message
         raise InvalidHand(f"{path}: MuJoCo cannot read the file: {str(exc).strip()}") from None
+    mesh_dir = path.parent / spec.meshdir
+    files = [str((mesh_dir / (Path(m.file).name if spec.strippath else m.file)).resolve()) if m.file else None
+             for m in spec.meshes]  # fmt: skip
     for mesh in spec.meshes:
-        _read_other_mesh(mesh, path.parent / spec.meshdir, spec.strippath, path)
+        _read_other_mesh(mesh, mesh_dir, spec.strippath, path)
     try:
-        return spec.compile()
+        return spec.compile(), files
     except (ValueError, OSError) as exc:  # mujoco raises ValueError with the compiler's message
         raise InvalidHand(f"{path}: MuJoCo cannot compile the file: {str(exc).strip()}") from None
 
@@ -210,8 +222,9 @@ def _rotation(axis, angle: float) -> np.ndarray:
 class _Reader:
     """Reads one compiled ``MjModel`` (a small class: the model and its name tables)."""
 
-    def __init__(self, mujoco, model, unit: float, where: str):
+    def __init__(self, mujoco, model, unit: float, where: str, files=()):
         self.mj, self.m, self.unit, self.where = mujoco, model, unit, where
+        self.files = list(files) + [None] * (model.nmesh - len(files))  # each mesh's file (None: not known)
         self.warnings: list[str] = []
         obj = mujoco.mjtObj
         self.body = [self._name(obj.mjOBJ_BODY, i) or f"body{i}" for i in range(model.nbody)]
@@ -365,9 +378,20 @@ class _Reader:
             mesh = int(m.geom_dataid[g])
             adr, n = int(m.mesh_vertadr[mesh]), int(m.mesh_vertnum[mesh])
             vertices = self.unit * np.array(m.mesh_vert[adr : adr + n], dtype=float)
-            return RawShape("mesh", role, T, (), lambda v=vertices: v, what)
+            return RawShape("mesh", role, T, (), lambda v=vertices: v, what, self._mesh_file(mesh, role))
         self.warnings.append(f"warning: {what}: a {kind.name[len('mjGEOM_'):].lower()} is not a hand shape; skipped")
         return None
+
+    def _mesh_file(self, mesh: int, role: str) -> LinkMesh | None:
+        """The file that draws ``mesh``: MuJoCo stores a mesh scaled and moved to its own
+        frame (``v = R^T (s * v_file - p)``, ``p, R`` = ``mesh_pos, mesh_quat``), which is
+        the geom's, so the file's frame in the geom's is ``[R | p]^-1``."""
+        m, file = self.m, self.files[mesh]
+        if file is None:
+            return None
+        T_mesh = _transform(_quat_matrix(m.mesh_quat[mesh]), self.unit * np.asarray(m.mesh_pos[mesh], dtype=float))
+        T_geom_file = np.linalg.inv(T_mesh)
+        return LinkMesh(file, T_geom_file, tuple(self.unit * float(x) for x in m.mesh_scale[mesh]), role)
 
     def _shapes(self) -> dict[str, list[RawShape]]:
         out: dict[str, list[RawShape]] = {}

@@ -48,7 +48,7 @@ from ..geometry.regions import Region
 from ..geometry.vectors import unit3, vec3
 from .provenance import HandSource, ShapeFit, TipFit
 
-__all__ = ["Joint", "Coupling", "Capsule", "Link", "Finger", "HandRegion", "NamedFrame", "Hand"]
+__all__ = ["Joint", "Coupling", "Capsule", "LinkMesh", "Link", "Finger", "HandRegion", "NamedFrame", "Hand"]
 
 _ORTHO_TOL = 1e-6
 
@@ -186,20 +186,56 @@ class Capsule:
 
 
 @dataclass(frozen=True, eq=False)
+class LinkMesh:
+    """A mesh file that draws a link: a reference, read only when drawn
+    (:mod:`prehension.interop.scene`), never by a check or a solver.
+
+    A point ``v`` of the file (its own units) is at ``T_link_mesh @ (scale * v)`` in the
+    link frame [mm].
+
+    Attributes:
+        path: absolute path of the mesh file (any format trimesh reads).
+        T_link_mesh: (4, 4) the file's frame in the link frame [mm].
+        scale: (3,) mm per file unit along the file's axes (a URDF ``scale`` times the
+            file's length unit).
+        role: ``"visual"`` or ``"collision"``: which of the file's shapes it is.
+    """
+
+    path: str
+    T_link_mesh: np.ndarray
+    scale: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    role: Literal["visual", "collision"] = "visual"
+
+    def __post_init__(self):
+        T = np.array(self.T_link_mesh, dtype=float)
+        if T.shape != (4, 4) or not np.all(np.isfinite(T)):
+            raise InvalidHand(f"mesh {self.path}: T_link_mesh must be a finite 4x4 transform")
+        T.setflags(write=False)
+        object.__setattr__(self, "T_link_mesh", T)
+        object.__setattr__(self, "scale", tuple(float(x) for x in self.scale))
+
+
+@dataclass(frozen=True, eq=False)
 class Link:
     """A rigid body of the hand with its collision shapes (link frame, mm).
 
     ``fit`` says how the capsules stand for the link's own geometry
     (:class:`~prehension.hands.provenance.ShapeFit`: what they miss, how far they stick
     out); ``None`` when they were given as they are (an inline hand, a link without shapes).
+    ``meshes`` are the mesh files that draw the link (:class:`LinkMesh`: a hand file's
+    visual meshes, else its collision meshes; empty for other hands): for pictures and
+    scenes only.  The capsules are what every check judges, so ``meshes`` is left out of
+    what identifies a task (``metadata={"digest": False}``: a checkpoint's fingerprint).
     """
 
     name: str
     collision: tuple[Capsule, ...] = ()
     fit: ShapeFit | None = None
+    meshes: tuple[LinkMesh, ...] = field(default=(), metadata={"digest": False})
 
     def __post_init__(self):
         object.__setattr__(self, "collision", tuple(self.collision))
+        object.__setattr__(self, "meshes", tuple(self.meshes))
 
 
 @dataclass(frozen=True, eq=False)

@@ -28,7 +28,9 @@ Conventions
   relative to the URDF's folder (``package://pkg/`` is stripped; ``pkg/...`` is also
   searched in the folders above); for URDF text given as a string, relative to the
   working directory.  A missing, unreadable or unsupported mesh is skipped with a warning
-  that names the file (and, for a format not read, the formats that are).
+  that names the file (and, for a format not read, the formats that are).  Each mesh is
+  also kept as a reference that draws its link in scenes
+  (:class:`~prehension.hands.model.LinkMesh`: absolute path, origin, scale x length unit).
 """
 
 from __future__ import annotations
@@ -47,7 +49,7 @@ from ..objects.mesh_io import check_mesh_suffix
 from .assemble import ImportOptions, assemble
 from .description import RawCoupling, RawHand, RawJoint, RawShape
 from .fingertips import TipOverride
-from .model import Hand
+from .model import Hand, LinkMesh
 from .shapes import mesh_capsule, read_mesh_vertices
 
 __all__ = ["hand_from_urdf", "load_urdf_hand", "read_urdf", "read_mesh_vertices", "mesh_capsule"]
@@ -234,8 +236,10 @@ def _mesh_shape(geom: ET.Element, base_dir: Path, unit: float, what: str, role: 
     scale = geom.get("scale", "1 1 1").split()
     scale = _floats(" ".join(scale * 3 if len(scale) == 1 else scale), 3, f"{what} mesh scale", ())
     check_mesh_suffix(path)  # an InvalidObject (a ValueError) naming the file and the formats read
-    loader = functools.partial(_vertices_mm, str(path), tuple(float(s) for s in scale), unit)
-    return RawShape("mesh", role, T, (), loader, what)
+    scale = tuple(float(s) for s in scale)
+    loader = functools.partial(_vertices_mm, str(path), scale, unit)
+    drawn = LinkMesh(str(path.resolve()), np.eye(4), tuple(unit * s for s in scale), role)
+    return RawShape("mesh", role, T, (), loader, what, drawn)
 
 
 def _shape(geom: ET.Element, base_dir: Path, unit: float, what: str, role: str, T) -> RawShape:

@@ -1,5 +1,6 @@
 """The field's formats, in and out: grasp records (DexGraspBench/BODex ``.npy``, DexGraspNet
-``.npy``, JSON in metres), MuJoCo ``qpos`` and posed scenes (GLB, OBJ, PLY).
+``.npy``, JSON in metres), ``moveit_msgs/Grasp`` messages (out), MuJoCo ``qpos`` and posed
+scenes (GLB, OBJ, PLY) drawn with the hand file's link meshes.
 
 See docs/interop.md for the frames, units and which field maps to which.
 """

@@ -91,26 +91,44 @@ def measured_task(hand, mesh_path: str, scale_mm: float, q, T_palm_object, name:
         InvalidTask: no hand region within :data:`TOUCH_MM` of the object (the grasp touches
             nothing: another object, another scale, or millimetres read as metres).
     """
-    solid = MeshFileSolid(str(mesh_path), float(scale_mm))
-    try:
-        closed, distance = True, solid_geometry(solid, True)[1]
-    except InvalidObject:  # an open mesh: regions and display only, no collision rows
-        closed, distance = False, solid_geometry(solid, False)[1]
     if not hand.regions:
         raise InvalidTask(f"hand {hand.name!r} has no contact regions: nothing to measure on {name!r}; give a task (--object TASK)")
-    measured = measured_contacts(hand, distance, q, T_palm_object)
+    solid, closed, measured = _measure(hand, mesh_path, scale_mm, q, T_palm_object)
     touching = [m for m in measured if abs(m["distance_mm"]) <= TOUCH_MM]
     if not touching:
         nearest = min(measured, key=lambda m: abs(m["distance_mm"]))
         where = "inside it" if nearest["distance_mm"] < 0 else "away"
         raise InvalidTask(f"{name}: no contact region of hand {hand.name!r} is within {TOUCH_MM:g} mm of the object's "
-                          f"surface (the nearest, {nearest['hand_region']!r}, is {abs(nearest['distance_mm']):.4g} mm "
-                          f"{where}); is the record for this object, at this scale and in these units?")  # fmt: skip
+                          f"surface at {scale_mm:g} mm per mesh unit (the nearest, {nearest['hand_region']!r}, is "
+                          f"{abs(nearest['distance_mm']):.4g} mm {where}); "
+                          + _units_hint(hand, mesh_path, scale_mm, q, T_palm_object))  # fmt: skip
     regions = {f"at_{m['hand_region']}": PointRegion(m["object_point_mm"], m["object_normal"]) for m in touching}
     obj = GraspObject(name, regions, solid=solid, collisions=closed)
     contacts = tuple(Contact(m["hand_region"], f"at_{m['hand_region']}", m["hand_region"]) for m in touching)
     fingers = tuple(dict.fromkeys(f for m in touching if (f := hand.finger_of_link(m["link"])) is not None))
     return _task(name, hand, obj, contacts, fingers, q), measured
+
+
+def _measure(hand, mesh_path: str, scale_mm: float, q, T_palm_object):
+    """``(solid, closed, measured_contacts)`` of the mesh at ``scale_mm`` mm per unit."""
+    solid = MeshFileSolid(str(mesh_path), float(scale_mm))
+    try:
+        closed, distance = True, solid_geometry(solid, True)[1]
+    except InvalidObject:  # an open mesh: regions and display only, no collision rows
+        closed, distance = False, solid_geometry(solid, False)[1]
+    return solid, closed, measured_contacts(hand, distance, q, T_palm_object)
+
+
+def _units_hint(hand, mesh_path: str, scale_mm: float, q, T_palm_object) -> str:
+    """Whether the grasp touches the mesh 1000 times larger or smaller (metres and
+    millimetres confused: the mesh, or the pose, 1000x off), said with the scale to give."""
+    for factor, why in ((1000.0, "a mesh in metres read as millimetres"), (1e-3, "a mesh in millimetres read as metres")):
+        measured = _measure(hand, mesh_path, scale_mm * factor, q, T_palm_object)[2]
+        n = sum(abs(m["distance_mm"]) <= TOUCH_MM for m in measured)
+        if n:
+            return (f"at {scale_mm * factor:g} mm per unit ({why}, or a pose 1000x {'too small' if factor > 1 else 'too large'}) "
+                    f"{n} region(s) touch it: give --mesh-scale {scale_mm * factor:g}")  # fmt: skip
+    return "is the record for this object, at this scale and in these units?"
 
 
 def _task(name, hand, obj, contacts, fingers, q) -> Task:
@@ -143,6 +161,22 @@ def _solution(task: Task, q: np.ndarray, T: np.ndarray, report, tolerances: Tole
     return Solution(dict(zip(task.hand.dof_names, q.tolist())), T.copy(), links, contacts, report, tolerances, moved)
 
 
+def _check_pose_units(task: Task, q: np.ndarray, T: np.ndarray, report, source: str) -> None:
+    """Refuse a grasp whose contacts miss by more than :data:`TOUCH_MM` but hold strictly with
+    the palm's position 1000x larger or smaller: metres and millimetres confused (a pose
+    1000x too small or too large), not a grasp that misses."""
+    if report.worst("contact_distance") <= TOUCH_MM:
+        return
+    for factor, what in ((1000.0, "too small (metres given where millimetres are expected?)"),
+                         (1e-3, "too large (millimetres given where metres are expected?)")):  # fmt: skip
+        scaled = T.copy()
+        scaled[:3, 3] *= factor
+        if evaluate(task, Configuration(q, scaled), Tolerances()).ok:
+            raise InvalidTask(f"{source}: the palm's position is 1000x {what}: as given the contacts miss by up to "
+                              f"{report.worst('contact_distance'):.4g} mm, with it {factor:g}x they all hold; fix the "
+                              "record's units")  # fmt: skip
+
+
 def imported_result(task: Task, record, *, measured: list[dict] | None = None, format_name: str = "") -> dict:
     """The result dict (``prehension: result/1``, method ``"imported"``) of one record of a
     grasp of ``task`` (see the module docstring for its status and tolerances).
@@ -156,6 +190,8 @@ def imported_result(task: Task, record, *, measured: list[dict] | None = None, f
     q = np.array([record.joint_angles[d] for d in task.hand.dof_names])
     T = np.asarray(record.T_palm_object, dtype=float)
     report = evaluate(task, Configuration(q, T), Tolerances())
+    if not report.ok:
+        _check_pose_units(task, q, T, report, record.source)
     tolerances = Tolerances() if report.ok else _admitting(report)
     solution = _solution(task, q, T, report.judged(tolerances), tolerances)
     status = Status.SOLVED if report.ok else Status.APPROXIMATE

@@ -5,13 +5,21 @@ The scene is in the **object frame** (the object at the identity, as the grasp r
 ``T_object_palm @ T_palm_L`` (forward kinematics of the chosen stage's joint angles), the
 object mesh (:meth:`GraspObject.display_mesh`) at the identity.
 
-One node per link, named as the link, and one node named ``object``.  A hand model holds
-its links' collision **capsules** (the geometry every check of prehension judges), so each
-link is drawn as its capsules (trimesh capsules; a capsule with ``a == b`` a sphere); a link
-without shapes is an empty node.  Lengths in metres (``units="m"``, what glTF, Blender and
-three.js expect) or millimetres.  GLB keeps the nodes with their transforms; OBJ keeps one
-named object per link, the vertices posed; PLY holds one mesh, every part joined (the
-format has no names).
+One node per link, named as the link, and one node named ``object``.  A link is drawn as its
+**mesh files** where the hand has them (:attr:`Link.meshes`: a URDF's or MJCF's visual
+meshes, else its collision meshes), else as its collision **capsules** (the geometry every
+check of prehension judges: trimesh capsules, a capsule with ``a == b`` a sphere); a link
+with neither is an empty node.  ``meshes={}`` (``export --draw capsules``) draws every
+link as its capsules.  A
+result file holds its hand inline, without meshes: :func:`hand_meshes` takes them from the
+hand file the result names (:attr:`Hand.source`) while that file is unchanged.  The built-in
+SA hand is drawn as its capsules: its published shapes are the CuikSuite bodies (GPL,
+never shipped), and a scene should not depend on what a machine happens to hold.  A mesh
+file that cannot be read leaves its link drawn as capsules, said in the scene's
+``metadata["drawn"]`` (per link: ``"mesh"``, ``"capsules"`` or ``"none"``).  Lengths in
+metres (``units="m"``, what glTF, Blender and three.js expect) or millimetres.  GLB keeps
+the nodes with their transforms; OBJ keeps one named object per link, the vertices posed;
+PLY holds one mesh, every part joined (the format has no names).
 """
 
 from __future__ import annotations
@@ -22,9 +30,11 @@ import trimesh
 
 from ..errors import InvalidTask
 from ..hands.kinematics import forward_kinematics
+from ..hands.link_meshes import link_mesh_triangles
 from ..hands.model import Capsule
+from ..tasks.format.hand_files import source_hand
 
-__all__ = ["SCENE_FORMATS", "UNITS", "OBJECT_NODE", "grasp_scene", "scene_bytes", "capsule_mesh"]
+__all__ = ["SCENE_FORMATS", "UNITS", "OBJECT_NODE", "grasp_scene", "hand_meshes", "scene_bytes", "capsule_mesh"]
 
 SCENE_FORMATS = ("glb", "obj", "ply")
 UNITS = {"m": 1e-3, "mm": 1.0}  # scene units per mm
@@ -46,9 +56,36 @@ def capsule_mesh(cap: Capsule, sections: int = 24):
     return mesh
 
 
-def _link_mesh(link):
+def _capsules(link):
     parts = [capsule_mesh(c) for c in link.collision]
     return trimesh.util.concatenate(parts) if parts else None
+
+
+def _link_mesh(link, meshes) -> tuple:
+    """``(trimesh of the link in its frame [mm] or None, what was drawn)``."""
+    if meshes:
+        try:
+            parts = [trimesh.Trimesh(*link_mesh_triangles(m), process=False) for m in meshes]
+            return trimesh.util.concatenate(parts), "mesh"
+        except ValueError:  # InvalidObject: the file is gone or unreadable; the capsules stand in
+            pass
+    mesh = _capsules(link)
+    return mesh, ("none" if mesh is None else "capsules")
+
+
+def hand_meshes(hand) -> tuple[dict, str]:
+    """``({link name: its LinkMesh files}, a note)``: the hand's own link meshes, else those of
+    the hand file it was read from (:attr:`Hand.source`, a result's inline hand) while that
+    file is unchanged; the note says why there are none when the file is missing or changed."""
+    own = {link.name: link.meshes for link in hand.links if link.meshes}
+    if own or hand.source is None or hand.source.format not in ("urdf", "mjcf"):
+        return own, ""
+    if hand.source.changed():
+        return {}, f"hand file {hand.source.path} is missing or changed since the result was written"
+    base = source_hand(hand.source)
+    if base is None:
+        return {}, f"hand file {hand.source.path} no longer gives a hand"
+    return {link.name: link.meshes for link in base.links if link.meshes and link.name in hand.link_names}, ""
 
 
 def _scaled(T: np.ndarray, s: float) -> np.ndarray:
@@ -57,11 +94,17 @@ def _scaled(T: np.ndarray, s: float) -> np.ndarray:
     return out
 
 
-def grasp_scene(task, q, T_palm_object, units: str = "m"):
+def grasp_scene(task, q, T_palm_object, units: str = "m", meshes=None):
     """The :class:`trimesh.Scene` of ``task``'s hand at angles ``q`` (n_dof,) [rad] with the
-    object at ``T_palm_object`` (4, 4) [mm] (see the module docstring for frames and names)."""
+    object at ``T_palm_object`` (4, 4) [mm] (see the module docstring for frames and names).
+
+    ``meshes``: per link name, the :class:`~prehension.hands.model.LinkMesh` files that draw
+    it (default: each link's own :attr:`~prehension.hands.model.Link.meshes`; ``{}``: every
+    link as its capsules)."""
     if units not in UNITS:
         raise InvalidTask(f"unknown units {units!r}; use one of {sorted(UNITS)}")
+    if meshes is None:
+        meshes = {link.name: link.meshes for link in task.hand.links}
     s = UNITS[units]
     hand = task.hand
     if OBJECT_NODE in hand.link_names:
@@ -69,9 +112,10 @@ def grasp_scene(task, q, T_palm_object, units: str = "m"):
     T_object_palm = np.linalg.inv(np.asarray(T_palm_object, dtype=float))
     T_palm_link = forward_kinematics(hand, np.asarray(q, dtype=float)).T_palm_link[0]
     scene = trimesh.Scene()
+    drawn = scene.metadata.setdefault("drawn", {})
     for link, T in zip(hand.links, T_palm_link):
         pose = _scaled(T_object_palm @ T, s)
-        mesh = _link_mesh(link)
+        mesh, drawn[link.name] = _link_mesh(link, meshes.get(link.name, ()))
         if mesh is None:
             scene.graph.update(frame_to=link.name, frame_from=scene.graph.base_frame, matrix=pose)
         else:

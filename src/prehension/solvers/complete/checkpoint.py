@@ -216,10 +216,13 @@ def _system_digest(form: Formulation) -> "hashlib._Hash":
 def _model_digest(value, h: "hashlib._Hash") -> None:
     """Feed a value of the task model to ``h``: dataclasses by type and fields, mappings by
     sorted key, sequences item by item, arrays by dtype, shape and bytes, numbers by
-    ``repr`` (exact), and any other value by its ``repr``."""
+    ``repr`` (exact), and any other value by its ``repr``.  A field marked
+    ``metadata={"digest": False}`` (what only draws the model) is left out."""
     if is_dataclass(value) and not isinstance(value, type):
         h.update(f"<{type(value).__qualname__}>".encode())
         for f in fields(value):
+            if not f.metadata.get("digest", True):  # drawing only (a link's meshes): judged by nothing
+                continue
             h.update(f.name.encode() + b"=")
             _model_digest(getattr(value, f.name), h)
     elif isinstance(value, Mapping):

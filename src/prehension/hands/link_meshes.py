@@ -1,0 +1,47 @@
+"""The triangles of a link's mesh files (:class:`~prehension.hands.model.LinkMesh`), read
+when a link is drawn.
+
+A hand keeps only references to the files that draw its links (path, pose, scale): they
+travel with it to worker processes for free and are read by nothing that checks or solves.
+Drawing reads them through :func:`~prehension.objects.mesh_io.read_triangles` (any format
+trimesh reads, a scene flattened with its node transforms applied), each file once per
+process while it is unchanged (an in-memory cache keyed by the path, the file's size and
+modification time).
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+
+import numpy as np
+
+from ..objects.mesh_io import read_triangles
+from .model import LinkMesh
+
+__all__ = ["link_mesh_triangles"]
+
+
+@functools.lru_cache(maxsize=128)
+def _file_triangles(path: str, size: int, mtime_ns: int) -> tuple[np.ndarray, np.ndarray]:
+    del size, mtime_ns  # the key: a file changed on disk is read again
+    vertices, faces = read_triangles(path)
+    vertices.setflags(write=False)
+    faces.setflags(write=False)
+    return vertices, faces
+
+
+def link_mesh_triangles(mesh: LinkMesh) -> tuple[np.ndarray, np.ndarray]:
+    """``mesh``'s triangles in its link's frame: vertices ``(V, 3)`` [mm] and faces ``(F, 3)``.
+
+    Raises:
+        InvalidObject: (a ``ValueError``) the file is missing, unreadable or holds no
+            triangles; the message names the file.
+    """
+    try:
+        stat = os.stat(mesh.path)
+        vertices, faces = _file_triangles(mesh.path, stat.st_size, stat.st_mtime_ns)
+    except OSError:  # gone: read_triangles says so, naming the file
+        vertices, faces = read_triangles(mesh.path)
+    T = mesh.T_link_mesh
+    return (vertices * np.asarray(mesh.scale)) @ T[:3, :3].T + T[:3, 3], faces
