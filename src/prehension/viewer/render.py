@@ -219,7 +219,8 @@ def _annotate(fig, scene: Scene, columns: int) -> None:
     from matplotlib.patches import Patch
 
     fig.text(0.015, 0.975, scene.title, fontsize=11, weight="bold", va="top", color="#1d2630")
-    fig.text(0.015, 0.94, scene.caption[0] if scene.caption else "", fontsize=9, va="top", color="#3d4853")
+    line = dict(scene.stages).get(scene.stage) if scene.stage != "grasp" else None  # a stage: what it shows
+    fig.text(0.015, 0.94, line or (scene.caption[0] if scene.caption else ""), fontsize=9, va="top", color="#3d4853")
     handles = [Patch(facecolor=e.color, edgecolor="#00000040", label=e.label) for e in scene.legend]
     fig.legend(handles=handles, loc="lower left", bbox_to_anchor=(0.01, 0.005), ncol=columns, frameon=False, fontsize=8.5,
                columnspacing=2.5)  # fmt: skip
