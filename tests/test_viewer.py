@@ -365,3 +365,16 @@ def test_view_and_render_take_a_stage(result_file, tmp_path, capsys):
     capsys.readouterr()
     assert main(["render", "teapot-lid-lifting", "-o", str(tmp_path / "t.png"), "--stage", "squeeze"]) == EXIT_BAD_INPUT
     assert "no stage 'squeeze' to show" in capsys.readouterr().err
+
+
+def test_the_picture_keys_only_the_stage_it_draws(result_file):
+    from prehension.viewer.render import _legend
+    from prehension.viewer.stages import with_stage
+
+    loaded = load_grasp(result_file)
+    scene = build_scene(loaded.task, loaded.pose, status=loaded.status)
+    labels = lambda s: [e.label for e in _legend(s)]  # noqa: E731
+    assert "hand at the pre-grasp" not in labels(scene) and "hand at the squeeze" not in labels(scene)
+    assert "hand at the pre-grasp" in labels(with_stage(scene, "pregrasp"))
+    assert "hand at the squeeze" in labels(with_stage(scene, "squeeze"))
+    assert {e.label for e in scene.legend} >= {"hand at the pre-grasp", "hand at the squeeze"}  # the page keys them all

@@ -116,8 +116,11 @@ class Layer:
 
 @dataclass(frozen=True)
 class LegendEntry:
+    """A colour key; ``stage``: shown with that stage of the grasp only (``None``: always)."""
+
     label: str
     color: str
+    stage: str | None = None
 
 
 @dataclass(frozen=True, eq=False)

@@ -44,7 +44,7 @@ def stage_layers(task: Task, pose: GraspPose) -> tuple[Layer, ...]:
 
 def stage_legend(pose: GraspPose) -> tuple[LegendEntry, ...]:
     """The colour key of each stored stage's hand."""
-    return tuple(LegendEntry(f"hand at the {_NAMES[s.name]}", _COLORS[s.name]) for s in pose.stages)
+    return tuple(LegendEntry(f"hand at the {_NAMES[s.name]}", _COLORS[s.name], s.name) for s in pose.stages)
 
 
 def stage_choices(pose: GraspPose) -> tuple[tuple[str, str], ...]:
