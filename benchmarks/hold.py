@@ -27,6 +27,14 @@ largest time, and the hold rates over the solved 3- and 4-contact tasks.
     python benchmarks/hold.py --quick              # 2 tasks per mesh, no built-in tasks
     python benchmarks/hold.py --torsion 5          # soft fingers
     python benchmarks/hold.py --physics --tasks bunny --limit 4    # the physics columns, in parts
+    python benchmarks/hold.py --per-candidate --best 10            # every candidate's epsilon and verdict
+
+``--per-candidate`` (needs MuJoCo): per task, every candidate of ``--best N`` in rank order
+with its epsilon (hard fingers, and soft fingers with the physics test's 20 mm torsion),
+the pushes it held and why the others failed (moved / turned how far), and how often
+each measure orders two candidates of one task as the physics test does (concordant
+pairs among those the test tells apart): is there a measure to rank ``--hold``'s
+candidates by?
 """
 
 from __future__ import annotations
@@ -76,13 +84,38 @@ def _fitted_patch(radius_mm: float):
     return patch
 
 
+USER_TOLERANCE_MM = 0.5  # the largest deviation `prehension region` accepts without a warning (an object's default surface tolerance)
+
+
+def _user_patch(radius_mm: float):
+    """The region a user gets from ``prehension region --at CENTRE --radius R`` (degree 2)
+    with the largest ``R`` of ``radius_mm``, 3/4, 1/2 and 1/3 of it that the command
+    accepts without a warning (largest deviation from the mesh at most 0.5 mm: the
+    object's default surface tolerance); else the planar patch inside the face."""
+
+    def patch(mesh, distance, centre, inradius):
+        for radius in (radius_mm, 0.75 * radius_mm, 0.5 * radius_mm, radius_mm / 3):
+            try:
+                picked = region_from_mesh(mesh, at=centre, radius=radius, degree=2, distance=distance)
+            except PrehensionError:  # not a height field there
+                continue
+            if picked.max_deviation_mm <= USER_TOLERANCE_MM:
+                return picked.region
+        return _patch(mesh, distance, centre, inradius)
+
+    return patch
+
+
+REGION_MAKERS = {"strict": _fitted_patch, "user": _user_patch}
+
+
 def _tasks(args) -> list:
     rows = []
     if SHARED.is_dir():
         made = mesh_tasks(np.random.default_rng(args.seed), 2 if args.quick else args.per_mesh, counts=(3, 4),
-                          patch=_fitted_patch(args.region_mm))  # fmt: skip
+                          patch=REGION_MAKERS[getattr(args, "regions", "strict")](args.region_mm))  # fmt: skip
         rows += [task for _, task in made if len(task.contacts) >= 3]  # a mesh short of opposed faces gives fewer
-    if not args.quick:
+    if not (args.quick or getattr(args, "meshes_only", False)):
         rows += [load_builtin_task(n) for n in builtin_task_names()]
         rows += [resolve_task(str(p)) for p in sorted(EXAMPLES.glob("*.yaml"))]
     return rows
@@ -134,6 +167,32 @@ def _measure(task, quality: QualityOptions, n: int, seed: int, physics: bool) ->
             "pregrasp": pregrasp(task, first.solutions[0]) if first.solutions else None}  # fmt: skip
 
 
+def _per_candidate(console: Console, tasks, args) -> None:
+    """Every candidate of ``--best N``: epsilon (hard, soft 20 mm), physics verdict; then the concordance summary."""
+    from itertools import combinations
+
+    from prehension.sim import SimOptions, simulate_grasp
+
+    soft = QualityOptions(torsion_mm=SimOptions().torsion_mm)
+    concordant = {"epsilon": [0, 0], "epsilon, soft": [0, 0]}
+    for task in tasks:
+        best = solve_best(task, BestOptions(n=args.best), SolveOptions(method="local", seed=args.seed))
+        rows = []
+        for k, s in enumerate(best.solutions):
+            r = simulate_grasp(task, s, SimOptions())
+            failed = ", ".join(f"{p.direction} {p.shift_mm:.0f} mm {p.turn_deg:.0f} deg" for p in r.pushes if not p.held)
+            rows.append((grasp_quality(task, s, QualityOptions()).epsilon, grasp_quality(task, s, soft).epsilon, r.held,
+                         "rejected" if r.rejected else failed))  # fmt: skip
+            console.print(f"{task.name} #{k + 1}: epsilon {rows[-1][0]:.4f}, soft {rows[-1][1]:.4f}, held {r.held}/6"
+                          + (f"; failed: {rows[-1][3]}" if rows[-1][3] else ""))  # fmt: skip
+        for i, j in combinations(range(len(rows)), 2):
+            for col, key in ((0, "epsilon"), (1, "epsilon, soft")):
+                if rows[i][2] != rows[j][2] and rows[i][col] != rows[j][col]:
+                    concordant[key][(rows[i][2] - rows[j][2]) * (rows[i][col] - rows[j][col]) < 0] += 1
+    for key, (same, other) in concordant.items():
+        console.print(f"{key}: orders {same} of {same + other} candidate pairs the physics test tells apart as the test does")
+
+
 def _fmt(eps) -> str:
     return "-" if eps is None else f"{eps:.4f}"
 
@@ -142,6 +201,13 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--per-mesh", type=int, default=4, help="tasks per shared mesh, 3 and 4 contacts in turn (default 4)")
     parser.add_argument("--region-mm", type=float, default=12.0, help="radius of each mesh region [mm] (default 12)")
+    parser.add_argument("--regions", choices=tuple(REGION_MAKERS), default="strict",
+                        help="how mesh regions are made: strict (default; within 0.3 mm on a 7x7 grid, else the planar "
+                             "patch inside one face) or user (what `prehension region --radius R` accepts without a "
+                             "warning: deviation <= 0.5 mm, R = 12, 9, 6, 4 mm)")  # fmt: skip
+    parser.add_argument("--meshes-only", action="store_true", help="only the tasks on ../shared/objects (no built-ins)")
+    parser.add_argument("--per-candidate", action="store_true",
+                        help="every candidate of --best N: epsilon and physics verdict (needs MuJoCo; the docstring)")  # fmt: skip
     parser.add_argument("--best", type=int, default=5, help="N of --best N (default 5)")
     parser.add_argument("--torsion", type=float, default=0.0, help="soft fingers: torsional friction [mm] (default 0)")
     parser.add_argument("--quick", action="store_true", help="2 tasks per mesh, no built-in tasks")
@@ -160,6 +226,9 @@ def main() -> None:
         table.add_column(col, justify="left" if col == "task" else "right")
     rows = []
     tasks = [t for t in _tasks(args) if args.tasks is None or args.tasks in t.name][args.skip:]
+    if args.per_candidate:
+        _per_candidate(console, [t for t in tasks[: args.limit] if len(t.contacts) in (3, 4)], args)
+        return
     for task in tasks[: args.limit]:
         m = _measure(task, quality, args.best, args.seed, args.physics)
         rows.append(m)

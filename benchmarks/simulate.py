@@ -1,8 +1,9 @@
 """``prehension simulate``: seconds per grasp, cold and warm, and where the physics scene starts.
 
 Rows: one solved task per mesh of ../shared/objects (the tasks of ``objects.py``), one per
-built-in object, and a procedural noisy blob of 81,920 triangles (an icosphere with twelve
-seeded bumps and dents, ~70 mm across; two fingertip patches at its ends along x).  Each
+built-in object, and a procedural noisy blob of 128,160 triangles (a UV sphere of 180 x 180
+segments, closed, with twelve seeded bumps and dents, ~70 mm across; two fingertip patches at its
+ends along x; ``--blob-segments`` sets its size: about 4 n^2 triangles).  Each
 row solves the task (local solver), writes the result, then runs ``prehension simulate``
 twice as a user would, each in a new process: *cold* with an empty geometry cache (the
 convex decomposition computed), *warm* with the cache the cold run left (read back).
@@ -14,6 +15,7 @@ The last row is the blob with 200 triangles removed (an open mesh, ``collisions:
 
     python benchmarks/simulate.py            # every row
     python benchmarks/simulate.py --quick    # the blob, a random solid and the guitar
+    python benchmarks/simulate.py --blob     # the blob and the open blob only
 """
 
 from __future__ import annotations
@@ -47,11 +49,16 @@ from objects import SHARED, mesh_tasks  # noqa: E402 - the shared-mesh tasks of 
 BUILTIN = ("teapot-service", "guitar-tuning", "scalpel-handling")
 
 
-def blob_obj(path: Path, seed: int = 0, radius: float = 35.0, hole: int = 0) -> Path:
-    """Write the noisy blob (OBJ, mm; ``hole`` triangles removed) to ``path``."""
+BLOB_SEGMENTS = 180  # a UV sphere of 180 x 180 segments: 128,160 triangles (the issue: a mesh of >= 100k faces)
+
+
+def blob_obj(path: Path, seed: int = 0, radius: float = 35.0, hole: int = 0, segments: int = BLOB_SEGMENTS) -> Path:
+    """Write the noisy blob (OBJ, mm; ``hole`` triangles removed) to ``path``: a closed UV
+    sphere of ``segments`` x ``segments`` (about ``4 segments^2`` triangles), twelve seeded
+    bumps and dents."""
     import trimesh
 
-    sphere = trimesh.creation.icosphere(subdivisions=6)  # 81,920 triangles
+    sphere = trimesh.creation.uv_sphere(count=[segments, segments])
     rng = np.random.default_rng(seed)
     v = sphere.vertices
     r = np.ones(len(v))
@@ -93,8 +100,10 @@ def _simulate(result: Path, cache: Path) -> tuple[float, int, dict | None, str]:
     return seconds, run.returncode, grasp, run.stderr.strip().splitlines()[-1] if run.stderr.strip() else ""
 
 
-def rows(quick: bool, folder: Path) -> list[tuple[str, Task]]:
-    out = [("blob (81,920 tri)", blob_task(blob_obj(folder / "blob.obj")))]
+def rows(quick: bool, folder: Path, segments: int, blob_only: bool = False) -> list[tuple[str, Task]]:
+    out = [("blob", blob_task(blob_obj(folder / "blob.obj", segments=segments)))]
+    if blob_only:
+        return out
     if SHARED.is_dir():
         shared = mesh_tasks(np.random.default_rng(0), 1)
         out += shared[1:2] if quick else shared
@@ -105,6 +114,9 @@ def rows(quick: bool, folder: Path) -> list[tuple[str, Task]]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="the blob, one random solid and the guitar")
+    parser.add_argument("--blob", action="store_true", help="the blob and the open blob only")
+    parser.add_argument("--blob-segments", type=int, default=BLOB_SEGMENTS,
+                        help=f"the blob's UV segments (default {BLOB_SEGMENTS}: 128,160 triangles)")  # fmt: skip
     args = parser.parse_args()
     console = Console(width=160)
     table = Table(title="prehension simulate: seconds per grasp (each run a new process) and the start")
@@ -113,7 +125,7 @@ def main() -> None:
         table.add_column(col, justify="left" if col == "task" else "right")
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
-        for name, task in rows(args.quick, folder):
+        for name, task in rows(args.quick, folder, args.blob_segments, args.blob):
             result = solve(task, "local")
             faces = str(len(task.object.surface.faces))
             if not result.solutions:
@@ -130,12 +142,12 @@ def main() -> None:
             hand = grasp["hand_penetration_mm"]
             table.add_row(name, faces, f"{cold:.1f}", f"{warm:.1f}", str(code), f"{grasp['initial_penetration_mm']:.2f}",
                           "-" if hand is None else f"{hand:.2f}", f"{grasp['approximation_mm']:.2f}", str(grasp["object_pieces"]))  # fmt: skip
-        open_task = blob_task(blob_obj(folder / "open.obj", hole=200), closed=False)
+        open_task = blob_task(blob_obj(folder / "open.obj", hole=200, segments=args.blob_segments), closed=False)
         result = solve(open_task, "local")
         if result.solutions:
             write_result(result, folder / "open.json", quality_entries(result), approach_entries_of(result))
             seconds, code, _, err = _simulate(folder / "open.json", folder / "cache-open")
-            table.add_row("open blob (81,720 tri)", str(len(open_task.object.surface.faces)), f"{seconds:.1f}", "", str(code), err[:80])
+            table.add_row("open blob (200 removed)", str(len(open_task.object.surface.faces)), f"{seconds:.1f}", "", str(code), err[:80])
     console.print(table)
 
 

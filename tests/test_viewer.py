@@ -290,3 +290,91 @@ def test_a_region_kind_the_scene_does_not_know_is_drawn_as_nothing_and_has_no_so
     assert region_mesh(Blob()).faces.shape == (0, 3)
     with pytest.raises(TypeError, match="Blob"):
         region_solid(Blob())
+
+
+# -- stages: pre-grasp, grasp, squeeze ----------------------------------------------------
+def test_the_stored_pre_grasp_and_squeeze_are_drawn_at_their_angles(result_file):
+    from prehension.viewer.grasp import link_poses
+
+    loaded = load_grasp(result_file)
+    stored = json.loads(result_file.read_text())["solutions"][0]
+    task = loaded.task
+    assert [s.name for s in loaded.pose.stages] == ["pregrasp", "squeeze"]
+    scene = build_scene(task, loaded.pose, status=loaded.status)
+    assert [key for key, _ in scene.stages] == ["pregrasp", "grasp", "squeeze"] and scene.stage == "grasp"
+    for name in ("pregrasp", "squeeze"):
+        q = np.array([stored[name]["joint_angles_rad"][d] for d in task.hand.dof_names])
+        layer = scene.layer(f"hand_{name}")
+        assert layer.stage == name and not layer.visible
+        drawn = _rows(np.concatenate([m.vertices_mm for m in layer.meshes]))
+        poses = link_poses(task, q)
+        for link in task.hand.links:
+            for capsule in link.collision:
+                assert _rows(capsule_mesh(capsule).transformed(poses[link.name]).vertices) <= drawn, (name, link.name)
+    hand = _rows(np.concatenate([m.vertices_mm for m in scene.layer("hand").meshes]))
+    assert hand != _rows(np.concatenate([m.vertices_mm for m in scene.layer("hand_pregrasp").meshes]))  # the fingers moved
+    assert "backed off 15 mm" in dict(scene.stages)["pregrasp"] and "balanced 10 mm" in dict(scene.stages)["squeeze"]
+
+
+def test_one_stage_is_shown_at_a_time(result_file):
+    from prehension.viewer.stages import with_stage
+
+    loaded = load_grasp(result_file)
+    scene = build_scene(loaded.task, loaded.pose, status=loaded.status)
+    shown = lambda s: {l.key for l in s.layers if l.visible and l.stage is not None}  # noqa: E731
+    assert shown(scene) == {"hand", "hand_regions", "pads"} & {l.key for l in scene.layers}
+    assert shown(with_stage(scene, "pregrasp")) == {"hand_pregrasp"}
+    assert shown(with_stage(scene, "squeeze")) == {"hand_squeeze"}
+    unstaged = {l.key for l in scene.layers if l.stage is None and l.visible}
+    assert {"object", "contacts"} <= unstaged == {l.key for l in with_stage(scene, "pregrasp").layers if l.stage is None and l.visible}
+    data = scene_to_html(with_stage(scene, "squeeze"))
+    scene_json = _scene_json(data)
+    assert scene_json["stage"] == "squeeze" and [s["key"] for s in scene_json["stages"]] == ["pregrasp", "grasp", "squeeze"]
+    assert {l["key"]: l["visible"] for l in scene_json["layers"] if l["stage"]}["hand_squeeze"] is True
+    with pytest.raises(PrehensionError, match="no stage 'pregrasp' to show.*stores no pre-grasp or squeeze"):
+        with_stage(build_scene(load_builtin_task("teapot-lid-lifting")), "pregrasp")
+
+
+def test_a_result_without_stored_stages_is_drawn_as_before(result_file, tmp_path):
+    data = json.loads(result_file.read_text())
+    for key in ("pregrasp", "squeeze"):
+        del data["solutions"][0][key]
+    old = tmp_path / "old.json"
+    old.write_text(json.dumps(data))
+    loaded = load_grasp(old)
+    scene = build_scene(loaded.task, loaded.pose, status=loaded.status)
+    assert loaded.pose.stages == () and scene.stages == () and all(l.stage is None for l in scene.layers)
+    data["solutions"][0]["pregrasp"] = {"joint_angles_rad": {}}  # malformed: named, not a traceback
+    old.write_text(json.dumps(data))
+    with pytest.raises(PrehensionError, match="solution 0 of the result is malformed"):
+        load_grasp(old)
+
+
+def test_view_and_render_take_a_stage(result_file, tmp_path, capsys):
+    page = tmp_path / "lid.html"
+    assert main(["view", str(result_file), "-o", str(page), "--stage", "pregrasp"]) == EXIT_OK
+    assert _scene_json(page.read_text())["stage"] == "pregrasp"
+    image = pytest.importorskip("matplotlib.image")
+    pictures = {}
+    for stage in ("pregrasp", "grasp", "squeeze"):
+        out = tmp_path / f"{stage}.png"
+        assert main(["render", str(result_file), "-o", str(out), "--size", "360x280", "--stage", stage]) == EXIT_OK
+        pictures[stage] = image.imread(out)[..., :3]
+    assert np.abs(pictures["pregrasp"] - pictures["grasp"]).max() > 0.2  # the fingers stand elsewhere
+    assert np.abs(pictures["squeeze"] - pictures["grasp"]).max() > 0.2
+    capsys.readouterr()
+    assert main(["render", "teapot-lid-lifting", "-o", str(tmp_path / "t.png"), "--stage", "squeeze"]) == EXIT_BAD_INPUT
+    assert "no stage 'squeeze' to show" in capsys.readouterr().err
+
+
+def test_the_picture_keys_only_the_stage_it_draws(result_file):
+    from prehension.viewer.render import _legend
+    from prehension.viewer.stages import with_stage
+
+    loaded = load_grasp(result_file)
+    scene = build_scene(loaded.task, loaded.pose, status=loaded.status)
+    labels = lambda s: [e.label for e in _legend(s)]  # noqa: E731
+    assert "hand at the pre-grasp" not in labels(scene) and "hand at the squeeze" not in labels(scene)
+    assert "hand at the pre-grasp" in labels(with_stage(scene, "pregrasp"))
+    assert "hand at the squeeze" in labels(with_stage(scene, "squeeze"))
+    assert {e.label for e in scene.legend} >= {"hand at the pre-grasp", "hand at the squeeze"}  # the page keys them all

@@ -21,7 +21,8 @@ from prehension.quality import quality_entries
 from prehension.pregrasp import approach_entries_of
 from prehension.solve import solve
 from prehension.tasks.library import load_builtin_task
-from prehension.viewer import build_scene, write_html
+from prehension.viewer import build_scene, load_grasp, write_html
+from prehension.viewer.stages import with_stage
 from prehension.viewer.model import BACKGROUND
 
 CHROMIUM = next((shutil.which(n) for n in ("chromium", "chromium-browser") if shutil.which(n)), None)
@@ -61,6 +62,10 @@ def pages(tmp_path_factory):
     write_result(result, folder / "lid.json", quality_entries(result), approach_entries_of(result))
     write_html(build_scene(result.task, result.solutions[0]), folder / "grasp.html")
     write_html(build_scene(load_builtin_task("scalpel-handling")), folder / "task.html")
+    loaded = load_grasp(folder / "lid.json")  # the stored pre-grasp and squeeze: a stage selector
+    scene = build_scene(loaded.task, loaded.pose, status=loaded.status)
+    for stage in ("pregrasp", "grasp", "squeeze"):
+        write_html(with_stage(scene, stage), folder / f"{stage}.html")
     return folder
 
 
@@ -100,3 +105,19 @@ def test_the_error_trap_reports_a_broken_page(pages, tmp_path):
     status = _status(run.stdout)
     assert status.get("data-status") == "error" and "error:" in status["text"]
     assert _console_lines(run.stderr, page)  # Chromium logged the uncaught error too
+
+
+def test_the_stage_selector_is_built_and_each_stage_draws_its_hand(pages, tmp_path):
+    image = pytest.importorskip("matplotlib.image")
+    run = _chromium(pages / "squeeze.html", tmp_path / "profile", "--dump-dom")
+    assert _status(run.stdout).get("data-status") == "ok" and _console_lines(run.stderr, pages / "squeeze.html") == []
+    assert re.search(r'<fieldset id="stages" data-stage="squeeze"', run.stdout)
+    radios = re.findall(r'<input type="radio" name="stage" data-stage="(\w+)"', run.stdout)
+    assert radios == ["pregrasp", "grasp", "squeeze"]
+    assert 'data-layer="hand"' not in run.stdout  # the hands are chosen by stage, not by a checkbox
+    shots = {}
+    for stage in ("pregrasp", "grasp"):
+        shot = tmp_path / f"{stage}.png"
+        _chromium(pages / f"{stage}.html", tmp_path / f"profile-{stage}", f"--screenshot={shot}")
+        shots[stage] = image.imread(shot)[..., :3][:, WINDOW[0] // 2 :]
+    assert (np.abs(shots["pregrasp"] - shots["grasp"]).max(axis=2) > 0.1).mean() > 0.005  # the fingers stand elsewhere

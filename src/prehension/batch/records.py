@@ -68,7 +68,7 @@ def error_line(head: RecordHead, status: str, message: str, seconds: float) -> R
 
 
 def result_line(head: RecordHead, result, loaded, seconds: float, qualities: Sequence[dict],
-                extra: Mapping[str, Any] | None = None, self_contained: bool = False) -> RecordLine:  # fmt: skip
+                extra: Mapping[str, Any] | None = None, self_contained: bool = False, physics=None) -> RecordLine:  # fmt: skip
     """The record of a solved (or given up, or proven infeasible) task.
 
     Args:
@@ -77,12 +77,14 @@ def result_line(head: RecordHead, result, loaded, seconds: float, qualities: Seq
         seconds: the task's time on the worker [s].
         qualities: the ``"quality"`` entry of each solution
             (:func:`~prehension.quality.quality_entries`), measured by the caller.
-        extra: fields after ``result`` (``physics``).
+        extra: fields after ``result`` (``physics``, ``held``).
         self_contained: embed the task in the result, else refer to its task line.
+        physics: per solution, its physics verdict stored with it (``batch --hold``, as
+            ``solve --hold`` stores it; :func:`~prehension.results.result_to_dict`), or ``None``.
     """
     from ..results import result_to_dict
 
-    data = result_to_dict(result, qualities, embed_task=False)  # no pre-grasp: docs/batch.md
+    data = result_to_dict(result, qualities, embed_task=False, physics=physics)  # no pre-grasp: docs/batch.md
     fields = dict(status=result.status, seconds=seconds, message=result.message)
     entry_id = head.entry["id"]
     if self_contained:

@@ -68,6 +68,11 @@ class BatchOptions:
         quality: the :class:`~prehension.quality.QualityOptions` of the stored quality.
         simulate: a :class:`~prehension.sim.SimOptions`: each record also gets ``"physics"``,
             the physics test of every solution (:func:`prehension.batch_extras.physics_records`).
+        hold: a :class:`~prehension.sim.SimOptions`: each task as ``solve --hold`` (needs
+            ``best``: its candidates): the result keeps the first candidate that holds,
+            or every candidate tried when none does, each solution's verdict stored with
+            it (``"physics"``, as in a result file) and the record gets ``"held"``
+            (``true``/``false``; ``null``: not judged) (:func:`prehension.batch_extras.hold_task`).
         sequences: initial-pose sequences of ``prehension offline`` (their JSON
             mappings); a task uses the one made for its hand (by name), if any, else
             its hand's default.
@@ -84,6 +89,7 @@ class BatchOptions:
     best: Any = None
     quality: Any = None
     simulate: Any = None
+    hold: Any = None
     sequences: tuple = ()
 
     def __post_init__(self):
@@ -97,6 +103,9 @@ class BatchOptions:
         need(self.chunk_size is None or self.chunk_size >= 1, f"chunk size must be >= 1, got {self.chunk_size}")
         need(self.max_tasks is None or self.max_tasks >= 0, f"max tasks must be >= 0, got {self.max_tasks}")
         need(self.delay_s >= 0, f"delay must be >= 0 s, got {self.delay_s}")
+        need(self.hold is None or self.best is not None, "hold runs the candidates of best: give best (e.g. BestOptions(n=5))")
+        need(self.hold is None or self.simulate is None,
+             "hold already stores the physics verdict of every solution it keeps: give hold or simulate, not both")  # fmt: skip
         hands = [s.get("hand") for s in self.sequences]
         need(len(set(hands)) == len(hands), f"give one initial-pose sequence per hand, got several for {hands}")
 
@@ -114,10 +123,10 @@ class BatchOptions:
         (milliseconds a task), enough to make Dask's ~4 ms per Dask task negligible and to
         solve tasks together -- up to :data:`MAX_LOCAL_CHUNK` -- while giving every worker
         at least four chunks; one task per Dask task for ``auto`` and ``complete``, and
-        with ``best`` or ``simulate`` (seconds a task: balance first)."""
+        with ``best``, ``simulate`` or ``hold`` (seconds a task: balance first)."""
         if self.chunk_size is not None:
             return self.chunk_size
-        if self.method != "local" or self.best is not None or self.simulate is not None:
+        if self.method != "local" or self.best is not None or self.simulate is not None or self.hold is not None:
             return 1
         return max(1, min(MAX_LOCAL_CHUNK, math.ceil(tasks / (4 * max(workers, 1)))))
 
@@ -181,23 +190,19 @@ class _Chunk:
 
     def add(self, entry, loaded, result, seconds: float) -> None:
         """The record of ``result`` (its ``seconds`` set to the task's time so far): the
-        physics test (``simulate``, counted as solving), the quality of every solution,
-        then the JSON line."""
+        physics test (``simulate`` or ``hold``, counted as solving), the quality of every
+        solution, then the JSON line."""
         from ..quality import quality_entries
 
         started = _clock()
         try:
-            extra = {}
-            if self.options.simulate is not None:
-                from ..batch_extras import physics_records
-
-                extra["physics"] = physics_records(loaded.task, result, self.options.simulate, self.seed(entry))
-                seconds += self.spent("solve", started)
-                started = _clock()
+            result, extra, physics = self._physics(entry, loaded, result)
+            seconds += self.spent("solve", started)
+            started = _clock()
             qualities = quality_entries(result, self.options.quality)
             seconds += self.spent("quality", started)
             started = _clock()
-            line = result_line(self.head(entry), result, loaded, seconds, qualities, extra, self.options.self_contained)
+            line = result_line(self.head(entry), result, loaded, seconds, qualities, extra, self.options.self_contained, physics)
             if line.task_ref is not None:
                 self.tasks.setdefault(line.task_ref, loaded.task_line)
                 self.files.update(loaded.file_lines)
@@ -206,6 +211,21 @@ class _Chunk:
             return
         self.spent("record", started)
         self.records.append(line)
+
+    def _physics(self, entry, loaded, result):
+        """``(result, record fields, per-solution verdicts or None)`` after the physics test
+        the options ask for: ``simulate`` (record field ``physics``) or ``hold`` (the
+        result as ``solve --hold`` answers, record field ``held``)."""
+        if self.options.simulate is not None:
+            from ..batch_extras import physics_records
+
+            return result, {"physics": physics_records(loaded.task, result, self.options.simulate, self.seed(entry))}, None
+        if self.options.hold is not None:
+            from ..batch_extras import hold_task
+
+            held = hold_task(result, self.options.hold, self.seed(entry))
+            return held.result, {"held": held.held}, held.physics
+        return result, {}, None
 
     def output(self) -> ChunkOutput:
         return ChunkOutput(self.records, self.tasks, self.stages, self.files)

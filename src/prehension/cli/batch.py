@@ -1,6 +1,8 @@
 """``prehension batch``: solve every task of a ``.jsonl`` file or a folder on a Dask cluster.
 
-Exit codes: 0 every task of the input has a done record (solved, infeasible or gave up);
+Exit codes: 0 every task of the input has a done record (solved, infeasible or gave up;
+with ``--hold`` a solved task whose candidates all drop is done too: its record says
+``"held": false``);
 2 bad input (a malformed line, named by file and line, or tasks recorded ``invalid``);
 1 some task ended in ``error`` (a crash; its record says which); 4 stopped before every
 task was done -- by Ctrl-C (as ``prehension solve`` when interrupted) or ``--max-tasks`` --
@@ -89,6 +91,8 @@ def cmd_batch(args, console: Console) -> int:
 
         summary = run_batch(entries, args.output, client, options, progress)
     _report(console, summary)
+    if args.hold:
+        _report_hold(console, args.output)
     return _exit_code(summary)
 
 
@@ -112,6 +116,16 @@ def _report(console: Console, summary) -> None:
         console.print("[bold yellow]interrupted[/]: what finished is saved; run the same command again to go on")
     if summary.counts.get("invalid") or summary.counts.get("error"):
         console.print("tasks recorded invalid or error (their message says why) are solved again by the next run")
+
+
+def _report_hold(console: Console, output) -> None:
+    """``--hold``: how many tasks of the output hold in the physics test (their records' ``held``)."""
+    from ..batch import read_records
+
+    held = [r.get("held") for r in read_records(output) if r.get("status") == "solved"]
+    judged = [h for h in held if h is not None]
+    unjudged = f"; {len(held) - len(judged)} not judged (their message says why)" if len(judged) < len(held) else ""
+    console.print(f"hold: {sum(judged)} of {len(judged)} solved tasks hold in the physics test{unjudged}")
 
 
 def _exit_code(summary) -> int:

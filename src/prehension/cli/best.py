@@ -14,8 +14,10 @@ from . import args as types
 
 __all__ = [
     "add_quality_arguments", "add_best_arguments", "add_require_argument", "add_batch_arguments", "quality_options", "best_options", "batch_extras",
-    "quality_lines", "best_table",
+    "quality_lines", "best_table", "HOLD_CANDIDATES",
 ]  # fmt: skip
+
+HOLD_CANDIDATES = 5  # --hold without --best: the candidates of --best 5 (solve and batch)
 
 
 def add_quality_arguments(p) -> None:
@@ -58,8 +60,9 @@ _BEST_DEFAULTS = {"rank": "q1", "starts": 100, "distinct_deg": 5.0, "distinct_mm
 
 
 def _needs_best(args) -> str | None:
-    """``--rank``, ``--starts``, ``--distinct-*``, ``--ascent-steps`` only tell ``--best`` how to work."""
-    if args.best is not None:
+    """``--rank``, ``--starts``, ``--distinct-*``, ``--ascent-steps`` only tell ``--best`` how to work
+    (``--hold`` implies ``--best 5``)."""
+    if args.best is not None or getattr(args, "hold", False):
         return None
     given = [f"--{k.replace('_', '-')}" for k in _BEST_DEFAULTS if getattr(args, k) is not None]
     if given:
@@ -68,24 +71,38 @@ def _needs_best(args) -> str | None:
 
 
 def add_batch_arguments(p) -> None:
-    """``batch``: the same quality and ``--best`` options, and ``--simulate``."""
+    """``batch``: the same quality and ``--best`` options, ``--simulate`` and ``--hold``."""
     add_quality_arguments(p)
     add_best_arguments(p)
-    p.add_argument("--simulate", action="store_true",
-                   help='run the physics test (prehension simulate) on every solution, on the cluster; each record '
-                        'gets "physics" (needs: pip install "prehension[sim]")')  # fmt: skip
+    physics = p.add_mutually_exclusive_group()
+    physics.add_argument("--simulate", action="store_true",
+                         help='run the physics test (prehension simulate) on every solution, on the cluster; each '
+                              'record gets "physics" (needs: pip install "prehension[sim]")')  # fmt: skip
+    physics.add_argument("--hold", action="store_true",
+                         help=f"physics in the loop, as solve --hold: each task keeps the first candidate of --best N "
+                              f"(--best {HOLD_CANDIDATES} unless given) that holds in the physics test, its verdict "
+                              f"stored; each record gets \"held\" (needs: pip install \"prehension[sim]\")")  # fmt: skip
 
 
 def batch_extras(args) -> dict:
-    """``best``, ``quality`` and ``simulate`` of :class:`~prehension.batch.BatchOptions`;
-    checks that MuJoCo is installed before a cluster starts when ``--simulate`` asks for it."""
-    simulate = None
-    if args.simulate:
+    """``best``, ``quality``, ``simulate`` and ``hold`` of :class:`~prehension.batch.BatchOptions`;
+    checks that MuJoCo is installed before a cluster starts when ``--simulate`` or ``--hold``
+    asks for it (``--hold`` without ``--best``: ``--best 5``, as ``solve --hold``)."""
+    physics = None
+    if args.simulate or args.hold:
         from ..sim import SimOptions, require_mujoco
 
         require_mujoco()
-        simulate = SimOptions()
-    return {"best": best_options(args, None), "quality": quality_options(args), "simulate": simulate}
+        physics = SimOptions()
+    implied = args.hold and args.best is None
+    if implied:
+        args.best = HOLD_CANDIDATES
+    try:
+        best = best_options(args, None)
+    except PrehensionError as exc:
+        raise PrehensionError(f"--hold runs the candidates of --best {HOLD_CANDIDATES}: {exc}" if implied else str(exc)) from None
+    hold = physics if args.hold else None
+    return {"best": best, "quality": quality_options(args), "simulate": None if args.hold else physics, "hold": hold}
 
 
 def quality_options(args):

@@ -24,7 +24,8 @@ from ..errors import PrehensionError, not_a_file
 from ..results import Status, result_to_dict, write_result
 from . import args as types
 from .best import (
-    add_best_arguments, add_quality_arguments, add_require_argument, best_options, best_table, quality_lines, quality_options,
+    HOLD_CANDIDATES, add_best_arguments, add_quality_arguments, add_require_argument, best_options, best_table, quality_lines,
+    quality_options,
 )  # fmt: skip
 from .codes import EXIT_APPROXIMATE, EXIT_DROPPED, EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK
 from .hands import print_hand_warnings
@@ -37,7 +38,6 @@ EXIT_OF_STATUS = {
     Status.SOLVED: EXIT_OK, Status.INFEASIBLE: EXIT_INFEASIBLE, Status.GAVE_UP: EXIT_GAVE_UP,
     Status.APPROXIMATE: EXIT_APPROXIMATE,
 }  # fmt: skip
-HOLD_CANDIDATES = 5  # --hold without --best: the candidates of --best 5
 TASK_HELP = "built-in task name, task file (.yaml) or CuikSuite file (.world)"
 
 

@@ -27,7 +27,8 @@ def add_parsers(sub) -> None:
     render.add_argument("--azim", type=finite, default=None, metavar="DEG", help="view azimuth [deg] (default 35)")
     render.add_argument("--size", default="900x700", metavar="WxH", help="picture size in pixels (default 900x700)")
     render.add_argument(
-        "--layers", metavar="A,B", help="layers to draw (default: hand,object,hand_regions,pads,object_regions,contacts; also frames)"
+        "--layers", metavar="A,B", help="layers to draw (default: hand,object,hand_regions,pads,object_regions,contacts; also frames, and "
+        "hand_pregrasp, hand_squeeze of a result's stages)"
     )
 
 
@@ -36,6 +37,9 @@ def _common(p, suffix: str) -> None:
     p.add_argument("-o", "--output", type=Path, help=f"file to write (default: the input's name with {suffix})")
     p.add_argument("--solution", type=int, default=None, metavar="K",
                    help="result files: which solution to show, from 0 (default 0)")  # fmt: skip
+    p.add_argument("--stage", choices=("pregrasp", "grasp", "squeeze"), default=None,
+                   help="result files: which stage of the grasp to show -- the pre-grasp (fingers backed off), the "
+                        "grasp, or the squeeze targets of the physics test (default: grasp; the page can switch)")  # fmt: skip
 
 
 def _load_scene(args):
@@ -43,11 +47,15 @@ def _load_scene(args):
     from ..viewer import build_hand_scene, build_scene, load_grasp
     from .hands import hand_named
 
+    from ..viewer.stages import with_stage
+
     hand = hand_named(args.input) if args.solution is None else None
     if hand is not None:
-        return build_hand_scene(hand)
-    loaded = load_grasp(args.input, args.solution)
-    return build_scene(loaded.task, loaded.pose, status=loaded.status)
+        scene = build_hand_scene(hand)
+    else:
+        loaded = load_grasp(args.input, args.solution)
+        scene = build_scene(loaded.task, loaded.pose, status=loaded.status)
+    return scene if args.stage is None else with_stage(scene, args.stage)
 
 
 def _output(args, suffixes: tuple[str, ...]) -> Path:

@@ -28,7 +28,7 @@ from ..hands.kinematics import forward_kinematics
 from ..tasks.model import Configuration, Task
 
 __all__ = [
-    "ContactMarker", "GraspPose", "LoadedGrasp", "link_poses", "reference_angles", "beside_the_hand",
+    "ContactMarker", "Stage", "GraspPose", "LoadedGrasp", "link_poses", "reference_angles", "beside_the_hand",
     "pose_from_configuration", "pose_from_solution", "pose_from_result", "load_grasp",
 ]  # fmt: skip
 
@@ -47,6 +47,24 @@ class ContactMarker:
 
 
 @dataclass(frozen=True, eq=False)
+class Stage:
+    """A stage of an executable grasp other than the grasp itself: the hand at other joint
+    angles, the object where the grasp holds it.
+
+    Attributes:
+        name: ``"pregrasp"`` (every participating finger backed off along its contact
+            normal) or ``"squeeze"`` (the physics test's squeeze targets); see
+            :mod:`prehension.pregrasp`.
+        q: (n_dof,) joint angles [rad].
+        note: one line for people (distances, collision-free or not).
+    """
+
+    name: str
+    q: np.ndarray
+    note: str
+
+
+@dataclass(frozen=True, eq=False)
 class GraspPose:
     """Where everything is.
 
@@ -59,6 +77,8 @@ class GraspPose:
         note: one line for people ("solution 1 of 3, local solver", "reference pose").
         max_distance_mm: largest contact distance of the solution (``None`` without one).
         max_angle_deg: largest contact normal misalignment (``None`` without one).
+        stages: the pre-grasp and squeeze a result file stores with the solution
+            (:class:`Stage`; empty when it stores none or the grasp is not from a file).
     """
 
     T_palm_link: Mapping[str, np.ndarray]
@@ -68,11 +88,13 @@ class GraspPose:
     note: str = "reference pose"
     max_distance_mm: float | None = None
     max_angle_deg: float | None = None
+    stages: tuple[Stage, ...] = ()
 
     def __post_init__(self):
         object.__setattr__(self, "T_palm_link", FrozenMap({k: np.asarray(v, float) for k, v in self.T_palm_link.items()}))
         object.__setattr__(self, "T_palm_object", np.asarray(self.T_palm_object, dtype=float))
         object.__setattr__(self, "contacts", tuple(self.contacts))
+        object.__setattr__(self, "stages", tuple(self.stages))
 
     @property
     def has_solution(self) -> bool:
@@ -150,11 +172,34 @@ def pose_from_result(task: Task, data: dict, index: int) -> GraspPose:
         T_palm_object = _array(sol["T_palm_object"], (4, 4))
         dist = max(float(c["distance_mm"]) for c in sol["contacts"])
         angle = max(float(c["normal_angle_deg"]) for c in sol["contacts"])
-    except (KeyError, TypeError, ValueError) as exc:
+        stages = _stages(task, sol)
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
         reason = f"missing {exc}" if isinstance(exc, KeyError) else str(exc)
         raise InvalidTask(f"solution {index} of the result is malformed or from a different task: {reason}") from None
     note = f"solution {index + 1} of {len(solutions)}, {data.get('method', '?')} solver"
-    return GraspPose(links, T_palm_object, contacts, data.get("status", "solved"), note, dist, angle)
+    return GraspPose(links, T_palm_object, contacts, data.get("status", "solved"), note, dist, angle, stages)
+
+
+def _stages(task: Task, sol: dict) -> tuple[Stage, ...]:
+    """The pre-grasp and squeeze a stored solution carries (:mod:`prehension.pregrasp`), with their notes."""
+    out = []
+    for name, entry in (("pregrasp", sol.get("pregrasp")), ("squeeze", sol.get("squeeze"))):
+        if entry is None:
+            continue
+        q = _array([entry["joint_angles_rad"][d] for d in task.hand.dof_names], (task.hand.n_dof,))
+        out.append(Stage(name, q, _pregrasp_note(entry) if name == "pregrasp" else _squeeze_note(entry)))
+    return tuple(out)
+
+
+def _pregrasp_note(entry: dict) -> str:
+    reached = [float(r) for r in entry["reached_mm"]]
+    judged = "collision-free" if entry["collision_free"] else "collides: " + ", ".join(map(str, entry["failed"]))
+    return f"pre-grasp: fingers backed off {float(entry['back_off_mm']):g} mm (reached {min(reached):.1f}-{max(reached):.1f}), {judged}"
+
+
+def _squeeze_note(entry: dict) -> str:
+    depths = [float(d) for d in entry["depths_mm"]]
+    return f"squeeze: {entry['kind']} {float(entry['squeeze_mm']):g} mm targets, contacts {min(depths):.1f}-{max(depths):.1f} mm deep"
 
 
 _CONTACT_KEYS = ("hand_point", "hand_normal", "object_point", "object_normal")

@@ -33,7 +33,7 @@ def _floats(a: np.ndarray) -> list:
 
 def _layer_to_dict(layer: Layer) -> dict:
     return {
-        "key": layer.key, "label": layer.label, "visible": layer.visible, "onTop": layer.on_top,
+        "key": layer.key, "label": layer.label, "visible": layer.visible, "onTop": layer.on_top, "stage": layer.stage,
         "meshes": [{"color": m.color, "opacity": m.opacity, "closed": m.closed,
                     "v": _floats(m.vertices_mm), "f": m.faces.ravel().tolist()} for m in layer.meshes],
         "lines": [{"color": l.color, "width": l.width_px, "dashed": l.dashed, "p": _floats(l.points_mm)}
@@ -52,6 +52,7 @@ def scene_to_dict(scene: Scene) -> dict:
         "lighting": {"lightInCamera": list(LIGHT_IN_CAMERA), "ambient": AMBIENT, "background": BACKGROUND},
         "bounds": {"lo": _floats(lo), "hi": _floats(hi)},
         "legend": [{"label": e.label, "color": e.color} for e in scene.legend],
+        "stages": [{"key": key, "label": label} for key, label in scene.stages], "stage": scene.stage,
         "layers": [_layer_to_dict(l) for l in scene.layers],
     }  # fmt: skip
 

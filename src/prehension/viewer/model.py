@@ -28,6 +28,8 @@ HAND_COLOR = "#a9b4bf"
 PALM_COLOR = "#8f9baa"
 OBJECT_COLOR = "#d9c49a"
 PENETRATION_COLOR = "#d62728"  # links (and pads) that reach into the object
+PREGRASP_COLOR = "#8fc1e3"  # the hand at the pre-grasp (light blue)
+SQUEEZE_COLOR = "#6d7f94"  # the hand at the squeeze targets (dark slate grey)
 PAD_COLOR = "#b39ddb"  # the contacts' pads: a fingertip cap's ball (lavender: none of the contact colours)
 OBJECT_OPACITY = 0.38
 SPARE_REGION_COLOR = "#a9b7c6"  # object regions no contact names
@@ -90,6 +92,9 @@ class Layer:
         label: what the toggle says.
         visible: shown at first.
         on_top: drawn over every surface (markers that must not hide inside bodies).
+        stage: the stage of the grasp the layer belongs to (``"grasp"``, ``"pregrasp"``,
+            ``"squeeze"``: shown only with its stage, chosen with the page's stage
+            selector or ``render --stage``), or ``None``: every stage.
     """
 
     key: str
@@ -100,6 +105,7 @@ class Layer:
     arrows: tuple[ArrowSet, ...] = ()
     visible: bool = True
     on_top: bool = False
+    stage: str | None = None
 
     def all_points_mm(self) -> np.ndarray:
         """(N, 3) every vertex, line point, dot and arrow end of the layer [mm]."""
@@ -110,8 +116,11 @@ class Layer:
 
 @dataclass(frozen=True)
 class LegendEntry:
+    """A colour key; ``stage``: shown with that stage of the grasp only (``None``: always)."""
+
     label: str
     color: str
+    stage: str | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -126,6 +135,9 @@ class Scene:
         layers: the layers, drawn in this order.
         legend: colour keys.
         view_elev_deg, view_azim_deg: initial view direction (as matplotlib's elev/azim).
+        stages: ``(stage, label)`` of each stage of the grasp the scene can show
+            (:mod:`.stages`; empty: one picture, no stages).
+        stage: the stage shown (its layers visible, the other stages' hidden).
     """
 
     task_name: str
@@ -136,6 +148,8 @@ class Scene:
     legend: tuple[LegendEntry, ...]
     view_elev_deg: float = 18.0
     view_azim_deg: float = 35.0
+    stages: tuple[tuple[str, str], ...] = ()
+    stage: str = "grasp"
 
     def layer(self, key: str) -> Layer:
         for layer in self.layers:

@@ -75,7 +75,7 @@ def render_image(
     fig = Figure(figsize=(size_px[0] / dpi, size_px[1] / dpi), dpi=dpi, facecolor=BACKGROUND)
     FigureCanvasAgg(fig)
     columns = 2 if size_px[0] >= 700 else 1
-    bottom = min(0.4, (12 + 17 * -(-len(scene.legend) // columns)) / size_px[1])  # room for the legend
+    bottom = min(0.4, (12 + 17 * -(-len(_legend(scene)) // columns)) / size_px[1])  # room for the legend
     ax = fig.add_axes((0.0, bottom, 1.0, 0.9 - bottom), projection="3d", facecolor=BACKGROUND)
     basis = camera_basis(elev, azim)
     points = _points(shown)
@@ -215,11 +215,17 @@ def _draw_scale_bar(ax, bar: _ScaleBar) -> None:
     ax.text(*bar.label_at, f"{bar.length_mm:g} mm", ha="center", va="center", fontsize=9, color="#1d2630", zorder=7)
 
 
+def _legend(scene: Scene) -> list:
+    """The legend entries of what the picture draws (another stage's hand is not drawn)."""
+    return [e for e in scene.legend if e.stage is None or e.stage == scene.stage]
+
+
 def _annotate(fig, scene: Scene, columns: int) -> None:
     from matplotlib.patches import Patch
 
     fig.text(0.015, 0.975, scene.title, fontsize=11, weight="bold", va="top", color="#1d2630")
-    fig.text(0.015, 0.94, scene.caption[0] if scene.caption else "", fontsize=9, va="top", color="#3d4853")
-    handles = [Patch(facecolor=e.color, edgecolor="#00000040", label=e.label) for e in scene.legend]
+    line = dict(scene.stages).get(scene.stage) if scene.stage != "grasp" else None  # a stage: what it shows
+    fig.text(0.015, 0.94, line or (scene.caption[0] if scene.caption else ""), fontsize=9, va="top", color="#3d4853")
+    handles = [Patch(facecolor=e.color, edgecolor="#00000040", label=e.label) for e in _legend(scene)]
     fig.legend(handles=handles, loc="lower left", bbox_to_anchor=(0.01, 0.005), ncol=columns, frameon=False, fontsize=8.5,
                columnspacing=2.5)  # fmt: skip

@@ -19,6 +19,7 @@ from .layers import (
     all_hand_regions_layer, contact_layer, frame_layer, hand_layer, hand_region_layer, object_extent_mm, object_layer,
     object_region_layer, pad_layer, penetrating_links, sunk_pads,
 )  # fmt: skip
+from .stages import stage_choices, stage_layers, stage_legend, tag_grasp_layers
 from .model import (
     AXIS_COLORS, CONTACT_COLORS, HAND_COLOR, OBJECT_COLOR, OBJECT_NORMAL_COLOR, PAD_COLOR, PENETRATION_COLOR, Layer,
     LegendEntry, Polyline, Scene,
@@ -58,6 +59,8 @@ def build_scene(task: Task, grasp=None, *, status: str | None = None) -> Scene:
     )
     if pose.has_solution:
         layers += (friction_cone_layer(pose, colors, scale_mm),)
+    if pose.stages:  # pre-grasp and squeeze stored with the solution: one stage shown at a time
+        layers = tag_grasp_layers(layers) + stage_layers(task, pose)
     status = status or pose.status
     legend = _legend(task, colors, has_hand=bool(layers[0].meshes), has_object=bool(layers[1].meshes))
     if layers[3].meshes:
@@ -66,7 +69,8 @@ def build_scene(task: Task, grasp=None, *, status: str | None = None) -> Scene:
         legend += (LegendEntry("link or pad into the object (> 0.5 mm)", PENETRATION_COLOR),)
     sunk_names = {f"{name} pad": depth for name, depth in sunk.items()}
     caption = _caption(pose) + ((_penetration_line({**red, **sunk_names}),) if red or sunk else ())
-    return Scene(task.name, status, _title(task, pose, status), caption, layers, legend)
+    legend += stage_legend(pose)
+    return Scene(task.name, status, _title(task, pose, status), caption, layers, legend, stages=stage_choices(pose))
 
 
 def build_hand_scene(hand) -> Scene:

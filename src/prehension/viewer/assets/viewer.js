@@ -320,9 +320,11 @@
       p.textContent = line;
       caption.appendChild(p);
     });
+    buildStages();
     var box = document.getElementById("layers");
     scene.layers.forEach(function (layer) {
       if (!layer.meshes.length && !layer.lines.length && !layer.points.length && !layer.arrows.length) { return; }
+      if (layer.stage) { return; } // shown with its stage (the stage selector), not on its own
       var label = document.createElement("label"), input = document.createElement("input");
       input.type = "checkbox";
       input.checked = layer.visible;
@@ -346,6 +348,31 @@
       panel.classList.toggle("collapsed");
       this.innerHTML = panel.classList.contains("collapsed") ? "&#9776;" : "&#8211;";
     });
+  }
+
+  // Pre-grasp, grasp, squeeze: one stage at a time; a layer with a stage is visible with it only.
+  function showStage(key) {
+    scene.stage = key;
+    scene.layers.forEach(function (l) { if (l.stage) { l.visible = l.stage === key; } });
+    document.getElementById("stages").setAttribute("data-stage", key);
+    requestDraw();
+  }
+
+  function buildStages() {
+    var box = document.getElementById("stages");
+    if (!scene.stages || !scene.stages.length) { box.style.display = "none"; return; }
+    scene.stages.forEach(function (stage) {
+      var label = document.createElement("label"), input = document.createElement("input");
+      input.type = "radio";
+      input.name = "stage";
+      input.checked = stage.key === scene.stage;
+      input.setAttribute("data-stage", stage.key);
+      input.addEventListener("change", function () { if (input.checked) { showStage(stage.key); } });
+      label.appendChild(input);
+      label.appendChild(document.createTextNode(" " + stage.label));
+      box.appendChild(label);
+    });
+    box.setAttribute("data-stage", scene.stage);
   }
 
   // ---- interaction --------------------------------------------------------------------------
@@ -403,7 +430,7 @@
     requestDraw();
   }
 
-  window.prehensionViewer = { draw: drawScene, camera: cam, reset: resetCamera }; // for scripting and tests
+  window.prehensionViewer = { draw: drawScene, camera: cam, reset: resetCamera, stage: showStage }; // for scripting and tests
   buildPanel();
   resize();
   resetCamera();
