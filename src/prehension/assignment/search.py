@@ -22,6 +22,8 @@ and the local solver's batch answers exactly as it does for the task alone.
 
 from __future__ import annotations
 
+import logging
+import math
 import time
 from collections import Counter
 from dataclasses import dataclass, field
@@ -37,6 +39,9 @@ from .solving import solve_tasks
 
 __all__ = ["AssignmentOptions", "AssignmentOutcome", "Impossible", "Undecided", "AssignmentProgress", "AssignmentReport",
            "search_assignments", "assignment_seed"]  # fmt: skip
+
+_LOG = logging.getLogger("prehension.assignment")
+MAX_CHUNK = 32  # assignments per call of the local solver's batch path, at most (default)
 
 
 @dataclass(frozen=True)
@@ -58,7 +63,10 @@ class AssignmentOptions:
             first.  ``None``: no physics.
         executor: a :class:`concurrent.futures.Executor` (e.g.
             :class:`prehension.parallel.DaskExecutor`) the chunks run on; ``None``: here.
-        chunk_size: assignments per call of the local solver's batch path.
+        chunk_size: assignments per call of the local solver's batch path (``None``:
+            enough for four chunks per worker -- progress and balance -- up to 32).
+        time_limit_s: the whole search's limit [s] (``None``: none): checked as chunks
+            finish; the assignments not solved by then are undecided, saying so.
     """
 
     seed: int = 0
@@ -69,15 +77,18 @@ class AssignmentOptions:
     quality: Any = None
     hold: Any = None
     executor: Any = None
-    chunk_size: int = 32
+    chunk_size: int | None = None
+    time_limit_s: float | None = None
 
     def __post_init__(self):
         if not (isinstance(self.seed, int) and self.seed >= 0):
             raise PrehensionError(f"assignment search: seed must be an integer >= 0, got {self.seed!r}")
         if not (isinstance(self.complete_time_s, (int, float)) and self.complete_time_s >= 0):
             raise PrehensionError(f"assignment search: complete_time_s must be >= 0 s, got {self.complete_time_s!r}")
-        if not (isinstance(self.chunk_size, int) and self.chunk_size >= 1):
+        if self.chunk_size is not None and not (isinstance(self.chunk_size, int) and self.chunk_size >= 1):
             raise PrehensionError(f"assignment search: chunk_size must be an integer >= 1, got {self.chunk_size!r}")
+        if self.time_limit_s is not None and not (isinstance(self.time_limit_s, (int, float)) and self.time_limit_s > 0):
+            raise PrehensionError(f"assignment search: time_limit_s must be > 0 s or None, got {self.time_limit_s!r}")
 
     def without_executor(self) -> "AssignmentOptions":
         from dataclasses import replace
@@ -92,17 +103,21 @@ def assignment_seed(seed: int, assignment: Assignment) -> int:
 
 class Impossible(NamedTuple):
     """An assignment proven impossible: ``proof`` is a :class:`~.span.SpanProof` or the
-    complete solver's ``infeasible`` :class:`~prehension.results.SolveResult`."""
+    complete solver's ``infeasible`` :class:`~prehension.results.SolveResult`; ``task``
+    the assignment's concrete task."""
 
     assignment: Assignment
     proof: SpanProof | SolveResult
+    task: Task | None = None
 
 
 class Undecided(NamedTuple):
-    """An assignment neither solved nor disproved, and why."""
+    """An assignment neither solved nor disproved, why, and the solver's answer (``None``
+    when no solver ran on it: the search's time limit came first)."""
 
     assignment: Assignment
     reason: str
+    result: SolveResult | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -192,6 +207,9 @@ class _Collect:
         self.undecided: list[Undecided] = []
 
     def report(self) -> None:
+        decided = sum(self.counts.values())
+        _LOG.info("assignments decided: %d / %d (%s)", decided, self.total,
+                  ", ".join(f"{n} {k}" for k, n in sorted(self.counts.items())) or "starting")  # fmt: skip
         if self.progress is not None:
             self.progress(AssignmentProgress(sum(self.counts.values()), self.total, dict(self.counts)))
 
@@ -206,9 +224,9 @@ class _Collect:
         if result.success:
             self.add(_outcome(assignment, task, result, self.options))
         elif result.status == Status.INFEASIBLE:
-            self.add(Impossible(assignment, result))
+            self.add(Impossible(assignment, result, task))
         else:
-            self.add(Undecided(assignment, f"{result.status}: {result.message}"))
+            self.add(Undecided(assignment, f"{result.status}: {result.message}", result))
 
 
 def _outcome(assignment: Assignment, task: Task, result: SolveResult, options: AssignmentOptions) -> AssignmentOutcome:
@@ -254,7 +272,7 @@ def search_assignments(
     collect.report()
     to_solve = _span_step(open_task, todo, options, collect)
     collect.report()
-    _solve_step(to_solve, options, collect)
+    _solve_step(to_solve, options, collect, started)
     feasible = sorted(collect.feasible, key=lambda o: o.score, reverse=True) if options.rank else collect.feasible
     return AssignmentReport(open_task, feasible, collect.infeasible, collect.undecided, len(every),
                             len(every) - len(todo), time.perf_counter() - started)  # fmt: skip
@@ -268,33 +286,50 @@ def _span_step(open_task: OpenTask, todo: list[Assignment], options: AssignmentO
         task = concrete_task(open_task, assignment)
         proof = prove_by_span(task) if options.span else None
         if proof is not None:
-            collect.add(Impossible(assignment, proof))
+            collect.add(Impossible(assignment, proof, task))
         else:
             out.append((assignment, task))
     return out
 
 
-def _solve_step(items: list[tuple[Assignment, Task]], options: AssignmentOptions, collect: _Collect) -> None:
-    """Solve ``items`` a chunk at a time, here or on ``options.executor`` (at most two
-    chunks per worker in flight; results taken as chunks finish)."""
-    size = options.chunk_size
+def _solve_step(items: list[tuple[Assignment, Task]], options: AssignmentOptions, collect: _Collect, started: float) -> None:
+    """Solve ``items`` a chunk at a time, here or on ``options.executor`` (results taken
+    as chunks finish); what the time limit leaves unsolved is undecided, saying so."""
+    workers = getattr(options.executor, "max_workers", 1) if options.executor is not None else 1
+    size = options.chunk_size or max(1, min(MAX_CHUNK, math.ceil(len(items) / (4 * max(workers, 1)))))
     chunks = [items[k : k + size] for k in range(0, len(items), size)]
     plain = options.without_executor()
-
-    def run(chunk):
-        return solve_tasks([t for _, t in chunk], [assignment_seed(options.seed, a) for a, _ in chunk], plain)
-
+    seeds = [[assignment_seed(options.seed, a) for a, _ in chunk] for chunk in chunks]
+    deadline = None if options.time_limit_s is None else started + options.time_limit_s
     if options.executor is None:
-        for chunk in chunks:
-            _accept(chunk, run(chunk), collect)
+        for k, chunk in enumerate(chunks):
+            if deadline is not None and time.perf_counter() >= deadline:
+                _out_of_time([i for c in chunks[k:] for i in c], options, collect)
+                return
+            _accept(chunk, solve_tasks([t for _, t in chunk], seeds[k], plain), collect)
         return
-    from concurrent.futures import as_completed
+    from concurrent.futures import FIRST_COMPLETED, wait
 
-    futures = {options.executor.submit(solve_tasks, [t for _, t in chunk],
-                                       [assignment_seed(options.seed, a) for a, _ in chunk], plain): chunk
-               for chunk in chunks}  # fmt: skip
-    for future in as_completed(futures):
-        _accept(futures[future], future.result(), collect)
+    pending = {options.executor.submit(solve_tasks, [t for _, t in c], s, plain): c for c, s in zip(chunks, seeds)}
+    try:
+        while pending:
+            left = None if deadline is None else max(0.0, deadline - time.perf_counter())
+            done, _ = wait(list(pending), timeout=left, return_when=FIRST_COMPLETED)
+            if not done:  # the time limit
+                _out_of_time([i for c in pending.values() for i in c], options, collect)
+                return
+            for future in done:
+                _accept(pending.pop(future), future.result(), collect)
+    finally:
+        for future in pending:
+            future.cancel()
+
+
+def _out_of_time(items, options: AssignmentOptions, collect: _Collect) -> None:
+    reason = f"the search's time limit ({options.time_limit_s:g} s) was reached before this assignment was solved"
+    for assignment, task in items:
+        collect.add(Undecided(assignment, reason, SolveResult(task, "local", Status.GAVE_UP, reason)))
+    collect.report()
 
 
 def _accept(chunk, results, collect: _Collect) -> None:
