@@ -311,7 +311,8 @@ def _solve_step(items: list[tuple[Assignment, Task]], options: AssignmentOptions
     calls = []
     for k in range(0, len(items), size):
         chunk = items[k : k + size]
-        calls.append((chunk, solve_local_chunk, ([t for _, t in chunk], [assignment_seed(options.seed, a) for a, _ in chunk], plain)))
+        seeds = [assignment_seed(options.seed, a) for a, _ in chunk]
+        calls.append((chunk, solve_local_chunk, ([t for _, t in chunk], seeds, plain, deadline)))
     left = []  # (assignment, task, local answer) the local solver did not solve
 
     def local_done(chunk, results):
@@ -322,6 +323,7 @@ def _solve_step(items: list[tuple[Assignment, Task]], options: AssignmentOptions
                 left.append((assignment, task, result))
 
     if not _run_calls(calls, options.executor, deadline, local_done, collect):
+        _out_of_time(left, collect)  # solved by no one: the local solver could not, the complete one had no time
         return
     calls = [([(a, t, r)], complete_one, (t, r, assignment_seed(options.seed, a), plain, deadline)) for a, t, r in left]
     _run_calls(calls, options.executor, deadline, lambda chunk, result: collect.result(chunk[0][0], chunk[0][1], result), collect)

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import replace
 from typing import Sequence
 
 from ..results import SolveResult, Status
@@ -46,14 +47,20 @@ def solve_alone(task: Task, seed: int, options) -> SolveResult:
     return complete_after_local(task, local, _complete_options(options, seed, local.seconds, options.complete_time_s))
 
 
-def solve_local_chunk(tasks: Sequence[Task], seeds: Sequence[int], options) -> list[SolveResult]:
+def solve_local_chunk(tasks: Sequence[Task], seeds: Sequence[int], options, deadline: float | None = None) -> list[SolveResult]:
     """The local solver's verified answer for every task of ``tasks`` (one hand), each
-    with its seed, in one call of the batch path; ``seconds`` is each task's share."""
+    with its seed, in one call of the batch path; ``seconds`` is each task's share.  The
+    call stops at ``deadline`` (a :func:`time.time` instant; ``None``: none): the tasks it
+    did not finish give up, saying so."""
     from ..solvers.local import LocalOptions, solve_local_batch
 
     if not tasks:
         return []
     local_options = options.local_options or LocalOptions()
+    if deadline is not None:
+        left = max(deadline - time.time(), 1e-3)
+        if local_options.time_limit_s is None or local_options.time_limit_s > left:
+            local_options = replace(local_options, time_limit_s=left)
     started = time.perf_counter()
     batch = solve_local_batch(list(tasks), local_options, None, list(seeds))
     share = (time.perf_counter() - started) / len(tasks)
