@@ -26,7 +26,7 @@ import logging
 import math
 import time
 from collections import Counter
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Callable, Iterable, Mapping
 
 from ..batch.solving import task_seed
@@ -35,7 +35,7 @@ from ..results import SolveResult, Status
 from ..tasks.model import Task
 from .model import Assignment, OpenTask, concrete_task, enumerate_assignments
 from .span import SpanProof, prove_by_span
-from .solving import complete_one, solve_local_chunk
+from .solving import complete_job, local_job, ship
 
 __all__ = ["AssignmentOptions", "AssignmentOutcome", "Impossible", "Undecided", "AssignmentProgress", "AssignmentReport",
            "search_assignments", "assignment_seed"]  # fmt: skip
@@ -91,8 +91,6 @@ class AssignmentOptions:
             raise PrehensionError(f"assignment search: time_limit_s must be > 0 s or None, got {self.time_limit_s!r}")
 
     def without_executor(self) -> "AssignmentOptions":
-        from dataclasses import replace
-
         return replace(self, executor=None)
 
 
@@ -280,7 +278,7 @@ def search_assignments(
     collect.report()
     to_solve = _span_step(open_task, todo, options, collect)
     collect.report()
-    _solve_step(to_solve, options, collect, started)
+    _solve_step(open_task, to_solve, options, collect, started)
     feasible = sorted(collect.feasible, key=lambda o: o.score, reverse=True) if options.rank else collect.feasible
     return AssignmentReport(open_task, feasible, collect.infeasible, collect.undecided, len(every),
                             len(every) - len(todo), time.perf_counter() - started)  # fmt: skip
@@ -300,33 +298,42 @@ def _span_step(open_task: OpenTask, todo: list[Assignment], options: AssignmentO
     return out
 
 
-def _solve_step(items: list[tuple[Assignment, Task]], options: AssignmentOptions, collect: _Collect, started: float) -> None:
+def _solve_step(open_task: OpenTask, items: list[tuple[Assignment, Task]], options: AssignmentOptions, collect: _Collect,
+                started: float) -> None:  # fmt: skip
     """Phase 1: the local solver on every assignment, a chunk at a time; phase 2: the
     complete solver on each one it did not solve (one assignment a call), while the
-    search's time limit allows.  Here, or on ``options.executor``."""
+    search's time limit allows.  Here, or on ``options.executor`` (the open task shipped
+    pickled, unpickled once per worker: :func:`.solving.ship`)."""
     deadline = None if options.time_limit_s is None else time.time() + options.time_limit_s - (time.perf_counter() - started)
     workers = getattr(options.executor, "max_workers", 1) if options.executor is not None else 1
     size = options.chunk_size or max(1, min(MAX_CHUNK, math.ceil(len(items) / (4 * max(workers, 1)))))
     plain = options.without_executor()
+    source = open_task if options.executor is None else ship(open_task)
     calls = []
     for k in range(0, len(items), size):
         chunk = items[k : k + size]
         seeds = [assignment_seed(options.seed, a) for a, _ in chunk]
-        calls.append((chunk, solve_local_chunk, ([t for _, t in chunk], seeds, plain, deadline)))
+        calls.append((chunk, local_job, (source, [a for a, _ in chunk], seeds, plain, deadline)))
     left = []  # (assignment, task, local answer) the local solver did not solve
 
     def local_done(chunk, results):
         for (assignment, task), result in zip(chunk, results):
+            result = replace(result, task=task)
             if result.success or options.complete_time_s <= 0:
                 collect.result(assignment, task, result)
             else:
                 left.append((assignment, task, result))
 
+    def complete_done(chunk, result):
+        assignment, task, _ = chunk[0]
+        collect.result(assignment, task, replace(result, task=task))
+
     if not _run_calls(calls, options.executor, deadline, local_done, collect):
         _out_of_time(left, collect)  # solved by no one: the local solver could not, the complete one had no time
         return
-    calls = [([(a, t, r)], complete_one, (t, r, assignment_seed(options.seed, a), plain, deadline)) for a, t, r in left]
-    _run_calls(calls, options.executor, deadline, lambda chunk, result: collect.result(chunk[0][0], chunk[0][1], result), collect)
+    calls = [([(a, t, r)], complete_job, (source, a, replace(r, task=None), assignment_seed(options.seed, a), plain, deadline))
+             for a, t, r in left]  # fmt: skip
+    _run_calls(calls, options.executor, deadline, complete_done, collect)
 
 
 def _run_calls(calls, executor, deadline, done, collect: _Collect) -> bool:

@@ -19,16 +19,20 @@ what the agreement test compares the search with.
 
 from __future__ import annotations
 
+import hashlib
 import math
+import pickle
 import time
+from collections import OrderedDict
 from dataclasses import replace
-from typing import Sequence
+from typing import NamedTuple, Sequence
 
 from ..results import SolveResult, Status
 from ..solve import SolveOptions, complete_after_local, solve
 from ..tasks.model import Task
+from ..tasks.open_task import Assignment, OpenTask, concrete_task
 
-__all__ = ["solve_local_chunk", "complete_one", "solve_alone", "DEADLINE_NOTE"]
+__all__ = ["solve_local_chunk", "complete_one", "solve_alone", "DEADLINE_NOTE", "Shipped", "ship", "local_job", "complete_job"]
 
 DEADLINE_NOTE = "the search's time limit was reached before the complete solver could run on it"
 
@@ -77,3 +81,50 @@ def complete_one(task: Task, local: SolveResult, seed: int, options, deadline: f
     if seconds <= 0:
         return SolveResult(task, local.method, Status.GAVE_UP, f"{local.message}; {DEADLINE_NOTE}", (), local.seconds, local.stats)
     return complete_after_local(task, local, _complete_options(options, seed, local.seconds, seconds))
+
+
+# -- jobs: what an executor runs ---------------------------------------------------------------
+class Shipped(NamedTuple):
+    """An open task as it travels to workers: pickled once by the client, with its digest."""
+
+    key: str
+    blob: bytes
+
+
+def ship(task: OpenTask) -> Shipped:
+    blob = pickle.dumps(task, protocol=pickle.HIGHEST_PROTOCOL)
+    return Shipped(hashlib.sha256(blob).hexdigest(), blob)
+
+
+_OPEN: OrderedDict = OrderedDict()  # per worker process: the open tasks it has unpickled, by digest
+_OPEN_SIZE = 4
+
+
+def _open(source: OpenTask | Shipped) -> OpenTask:
+    """The open task of a job; a shipped one is unpickled once per worker process, so that
+    its hand and object -- and the solvers' tables and distance grids made for them -- are
+    the same objects from chunk to chunk."""
+    if isinstance(source, OpenTask):
+        return source
+    task = _OPEN.get(source.key)
+    if task is None:
+        task = _OPEN[source.key] = pickle.loads(source.blob)
+        while len(_OPEN) > _OPEN_SIZE:
+            _OPEN.popitem(last=False)
+    _OPEN.move_to_end(source.key)
+    return task
+
+
+def local_job(source, assignments: Sequence[Assignment], seeds: Sequence[int], options, deadline=None) -> list[SolveResult]:
+    """:func:`solve_local_chunk` on the concrete tasks of ``assignments``; the answers
+    without their task (the caller holds it: nothing large travels back)."""
+    task = _open(source)
+    tasks = [concrete_task(task, a) for a in assignments]
+    return [replace(r, task=None) for r in solve_local_chunk(tasks, seeds, options, deadline)]
+
+
+def complete_job(source, assignment: Assignment, local: SolveResult, seed: int, options, deadline=None) -> SolveResult:
+    """:func:`complete_one` on one assignment, from its local answer (without its task);
+    the answer without its task."""
+    task = concrete_task(_open(source), assignment)
+    return replace(complete_one(task, replace(local, task=task), seed, options, deadline), task=None)
