@@ -32,7 +32,7 @@ from ..errors import InvalidTask, PrehensionError
 from ..frozen import FrozenMap
 from ..hands.model import Hand
 from ..objects.model import GraspObject
-from .model import Contact, Task
+from .model import Contact, Task, check_head, validate_task
 
 __all__ = ["OpenContact", "OpenTask", "Assignment", "enumerate_assignments", "concrete_task", "fingers_of_regions"]
 
@@ -87,18 +87,10 @@ class OpenTask:
         if self.fingers is not None:
             object.__setattr__(self, "fingers", tuple(self.fingers))
         object.__setattr__(self, "idle_angles", FrozenMap(dict(self.idle_angles)))
-        try:
-            self._validate()
-        except InvalidTask:
-            raise
-        except PrehensionError as exc:
-            raise InvalidTask(f"task {self.name!r}: {exc}") from None
+        validate_task(self.name, self._validate)
 
     def _validate(self) -> None:
-        if not isinstance(self.name, str) or not self.name.strip():
-            raise InvalidTask(f"a task needs a non-empty name, got {self.name!r}")
-        if not self.contacts:
-            raise InvalidTask(f"task {self.name!r} has no contacts; give at least one hand/object region pair")
+        check_head(self.name, self.contacts)
         for f in self.fingers or ():
             self.hand.finger(f)
         for c in self.contacts:

@@ -148,9 +148,13 @@ def loads_task(text: str, source: str = "<string>", *, base_dir: Path | None = N
 
 def load_task(path) -> Task:
     """Read a task file; relative paths inside it are taken from its folder."""
+    return _load(path, loads_task)
+
+
+def _load(path, loads):
     path = Path(path)
     source = str(path)
-    return loads_task(read_text(path, source), source, base_dir=path.parent)
+    return loads(read_text(path, source), source, base_dir=path.parent)
 
 
 def loads_open_task(text: str, source: str = "<string>", *, base_dir: Path | None = None) -> OpenTask:
@@ -160,9 +164,7 @@ def loads_open_task(text: str, source: str = "<string>", *, base_dir: Path | Non
 
 def load_open_task(path) -> OpenTask:
     """Read a task file, open or not, as an :class:`~prehension.tasks.open_task.OpenTask`."""
-    path = Path(path)
-    source = str(path)
-    return loads_open_task(read_text(path, source), source, base_dir=path.parent)
+    return _load(path, loads_open_task)
 
 
 def is_open_task_file(path) -> bool:
