@@ -68,12 +68,13 @@ def open_task(object_name: str, hand, candidates) -> OpenTask:
 
 
 def run(task: OpenTask, options: AssignmentOptions) -> tuple[dict, object]:
-    started = time.perf_counter()
+    started, cpu = time.perf_counter(), time.process_time()
     report = search_assignments(task, options)
-    seconds = time.perf_counter() - started
+    seconds, cpu = time.perf_counter() - started, time.process_time() - cpu
     span = sum(1 for _, p in report.infeasible if getattr(p, "kind", None) == "span")
     row = {"assignments": report.total, "feasible": len(report.feasible), "span": span,
-           "complete": len(report.infeasible) - span, "undecided": len(report.undecided), "seconds": seconds}  # fmt: skip
+           "complete": len(report.infeasible) - span, "undecided": len(report.undecided), "seconds": seconds,
+           "cpu": cpu if options.executor is None else None}  # fmt: skip
     return row, report
 
 
@@ -100,7 +101,7 @@ def main(argv=None) -> int:
     p.add_argument("--hand", choices=("svh", "sa"), default="sa")
     p.add_argument("--workers", type=int, nargs="+", default=[1, 2])
     p.add_argument("--assignment-time", type=float, default=0.5, help="complete solver per undecided assignment [s]")
-    p.add_argument("--time-limit", type=float, default=30.0, help="whole search [s]")
+    p.add_argument("--time-limit", type=float, default=30.0, help="whole search [s] (0: none)")
     p.add_argument("--initial-poses", type=int, default=None,
                    help="local solver's initial poses per assignment (default: LocalOptions' 64)")
     p.add_argument("--agree", type=int, default=0, help="assignments solved one by one against the search (per object)")
@@ -112,15 +113,18 @@ def main(argv=None) -> int:
     small = open_task(args.objects[0], hand, candidates[:4])
     warm = search_assignments(small, AssignmentOptions(complete_time_s=0))
     print(f"warm-up (numba, spans): {warm.total} assignments in {warm.seconds:.1f} s; load {os.getloadavg()[0]:.1f}\n")
-    print("| object | hand | workers | assignments | feasible | impossible (span) | impossible (complete) | undecided | wall [s] | agree |")
-    print("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+    print("| object | hand | workers | assignments | feasible | impossible (span) | impossible (complete) | undecided | wall [s] "
+          "| CPU [s] | agree |")
+    print("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
     for name in args.objects:
         task = open_task(name, hand, candidates)
         for workers in args.workers:
             row, report, agree = _measure(task, args, workers, small)
             print(f"| {name} | {args.hand} | {workers} | {row['assignments']} | {row['feasible']} | {row['span']} | "
-                  f"{row['complete']} | {row['undecided']} | {row['seconds']:.1f} | {agree} |", flush=True)  # fmt: skip
-    print(f"\nload average after: {os.getloadavg()[0]:.1f}")
+                  f"{row['complete']} | {row['undecided']} | {row['seconds']:.1f} | "
+                  f"{'-' if row['cpu'] is None else format(row['cpu'], '.1f')} | {agree} |", flush=True)  # fmt: skip
+    print(f"\nload average after: {os.getloadavg()[0]:.1f}; initial poses {args.initial_poses or 64}, "
+          f"--assignment-time {args.assignment_time:g} s, --time-limit {args.time_limit:g} s")
     return 0
 
 
@@ -132,7 +136,7 @@ def _measure(task: OpenTask, args, workers: int, small: OpenTask):
             warm = [executor.submit(search_assignments, small, AssignmentOptions(complete_time_s=0)) for _ in range(workers)]
             [f.result() for f in warm]
         local = None if args.initial_poses is None else LocalOptions(i_max=args.initial_poses)
-        options = AssignmentOptions(complete_time_s=args.assignment_time, time_limit_s=args.time_limit, executor=executor,
+        options = AssignmentOptions(complete_time_s=args.assignment_time, time_limit_s=args.time_limit or None, executor=executor,
                                     local_options=local)  # fmt: skip
         row, report = run(task, options)
     agree = "-"

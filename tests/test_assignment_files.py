@@ -132,6 +132,10 @@ def test_open_task_bad_options(open_file, tmp_path, capsys):
     closed.write_text(dumps_task(pincer_task(40.0)))
     assert main(["solve", str(closed), "--assignment-time", "3", "-o", str(tmp_path / "c.json")]) == EXIT_BAD_INPUT
     assert "not an open task" in capsys.readouterr().err
+    assert main(["solve", str(closed), "--initial-poses", "4", "-o", str(tmp_path / "c.json")]) == EXIT_BAD_INPUT
+    assert "--initial-poses is an option of the assignment search" in capsys.readouterr().err
+    assert main(["solve", str(path), "--initial-poses", "4", "-o", str(tmp_path / "four.jsonl")]) == EXIT_OK
+    assert " of 4 " in _records(tmp_path / "four.jsonl")["pad->A, tip->B"]["message"]  # initial pose k of 4
 
 
 def test_local_only_leaves_the_rest_undecided(open_file, tmp_path, capsys):
