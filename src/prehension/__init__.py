@@ -26,6 +26,7 @@ from .errors import (
 # starts in a fraction of the time.  ``from prehension import X`` and ``prehension.X``
 # work as with eager imports; ``dir(prehension)`` lists every name.
 _SOURCES = {
+    ".assignment": ("OpenContact", "OpenTask", "Assignment", "AssignmentOptions", "AssignmentReport", "search_assignments"),
     ".geometry.bezier": ("BezierPatch",),
     ".geometry.regions": ("BezierRegion", "PointRegion", "Region", "SphereCap"),
     ".hands.kinematics": ("HandPose", "forward_kinematics"),
@@ -48,7 +49,7 @@ _SOURCES = {
     ".tasks.model": ("Configuration", "Contact", "Task"),
     ".verification.residuals": ("ResidualReport", "Tolerances", "evaluate"),
     ".tasks.variants": ("move_object_region", "turn_object_region"),
-    ".tasks.yaml_io": ("dump_task", "dumps_task", "load_task", "loads_task"),
+    ".tasks.yaml_io": ("dump_task", "dumps_task", "load_task", "loads_task", "load_open_task"),
 }
 _MODULE_OF = {name: module for module, names in _SOURCES.items() for name in names}
 
@@ -77,6 +78,8 @@ __all__ = [
     "solve", "SolveOptions", "SolveResult", "Solution", "Status", "make_solution", "write_result", "read_result",
     # does the grasp hold? (the physics test: prehension.sim, extra "sim")
     "grasp_quality", "QualityOptions", "GraspQuality", "quality_entries", "approach_entries_of", "solve_best", "BestOptions",
+    # which finger goes where: the assignment search (docs/assignment.md)
+    "OpenContact", "OpenTask", "Assignment", "AssignmentOptions", "AssignmentReport", "search_assignments", "load_open_task",
 ]  # fmt: skip
 
 

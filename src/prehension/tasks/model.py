@@ -42,6 +42,25 @@ class Contact:
             object.__setattr__(self, "name", f"{self.hand_region}->{self.object_region}")
 
 
+def validate_task(name, check) -> None:
+    """Run ``check()``; an error other than :class:`InvalidTask` (an unknown link, region,
+    finger...) becomes one that names the task."""
+    try:
+        check()
+    except InvalidTask:
+        raise
+    except PrehensionError as exc:
+        raise InvalidTask(f"task {name!r}: {exc}") from None
+
+
+def check_head(name, contacts) -> None:
+    """A task's name is a non-empty string and it has at least one contact."""
+    if not isinstance(name, str) or not name.strip():
+        raise InvalidTask(f"a task needs a non-empty name, got {name!r}")
+    if not contacts:
+        raise InvalidTask(f"task {name!r} has no contacts; give at least one hand/object region pair")
+
+
 @dataclass(frozen=True, eq=False)
 class Task:
     """A grasp configuration problem.
@@ -71,18 +90,10 @@ class Task:
         object.__setattr__(self, "contacts", tuple(self.contacts))
         object.__setattr__(self, "fingers", tuple(self.fingers))
         object.__setattr__(self, "idle_angles", FrozenMap(dict(self.idle_angles)))
-        try:
-            self._validate()
-        except InvalidTask:
-            raise
-        except PrehensionError as exc:  # unknown link/region/finger...: say which task
-            raise InvalidTask(f"task {self.name!r}: {exc}") from None
+        validate_task(self.name, self._validate)
 
     def _validate(self) -> None:
-        if not isinstance(self.name, str) or not self.name.strip():
-            raise InvalidTask(f"a task needs a non-empty name, got {self.name!r}")
-        if not self.contacts:
-            raise InvalidTask(f"task {self.name!r} has no contacts; give at least one hand/object region pair")
+        check_head(self.name, self.contacts)
         for f in self.fingers:
             self.hand.finger(f)
         names = [c.name for c in self.contacts]
