@@ -59,10 +59,15 @@ from prehension.objects.mesh_io import load_mesh
 from prehension.objects.model import GraspObject
 from prehension.objects.pick import region_from_mesh
 from prehension.objects.solid import MeshFileSolid
-from prehension.solve import SolveOptions, solve
+from prehension.solve import solve
 from prehension.tasks.library import builtin_task_names, load_builtin_task
 from prehension.tasks.model import Contact, Task
-from prehension.verification.residuals import evaluate
+
+try:  # the code of today; --baseline may run this script with older code, which has neither
+    from prehension.solve import SolveOptions
+    from prehension.verification.residuals import evaluate
+except ImportError:  # older code: solve(task, method, complete_options=...); only --times-json runs there
+    SolveOptions = evaluate = None
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from remeasure import deepest  # noqa: E402
@@ -154,8 +159,12 @@ def _run(task: Task, method: str, collide: bool, time_limit: float):
     from prehension.solvers.complete.search import BranchAndPruneOptions
 
     variant = replace(task, object=replace(task.object, collisions=collide))
+    complete = BranchAndPruneOptions(time_limit_s=time_limit)
     t0 = time.perf_counter()
-    result = solve(variant, SolveOptions(method=method, complete_options=BranchAndPruneOptions(time_limit_s=time_limit)))
+    if SolveOptions is None:  # older code (--baseline)
+        result = solve(variant, method, complete_options=complete)
+    else:
+        result = solve(variant, SolveOptions(method=method, complete_options=complete))
     return result, time.perf_counter() - t0
 
 
