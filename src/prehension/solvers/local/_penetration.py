@@ -47,6 +47,7 @@ import numpy as np
 
 from ...kernels.jit import njit
 from ...objects.mesh_arrays import MeshArrays, empty_mesh_arrays
+from ...objects.point_distance import signed_distance_at
 from ...objects.segment_distance import REL_TOL, segment_min_sd
 from ._linalg import cross, mat_vec
 from ._sd_grid import GRID_PAD_MM, SdGrid, empty_sd_grid, grid_segment_min_sd, grid_span, in_grid
@@ -262,6 +263,21 @@ def object_rows(ws, data, margin, row0, max_rows, every):
 
 
 @njit(cache=True)
+def _point_sd(m, p, pair, bound):
+    """:func:`~prehension.objects.segment_distance.segment_min_sd` of the point ``p`` (3,),
+    in one query: its signed distance, ``bound`` when it lies outside and farther (then no
+    pair); ``pair[0]`` the point, ``pair[1]`` its closest surface point.  The same value:
+    for a point, the segment's sampled minimum inside is the point's own (measured: a third
+    of the time)."""
+    sd = signed_distance_at(m, p, pair[1], bound)
+    if sd >= bound:
+        return bound
+    for i in range(3):
+        pair[0, i] = p[i]
+    return sd
+
+
+@njit(cache=True)
 def pad_rows(ws, data, row0, max_rows, coarse):
     """Each contact's pad against the object (see the module docstring): rows
     ``sd(c) - rho + PAD_ROW_MM`` of the pads deeper than :data:`PAD_ROW_MM`, from ``row0``,
@@ -282,7 +298,7 @@ def pad_rows(ws, data, row0, max_rows, coarse):
             if abs(sd - obj.pad[c] + PAD_ROW_MM) < obj.grid.h:  # near the row's depth: measured exactly
                 sd = np.inf
         if sd == np.inf:
-            sd = segment_min_sd(obj.mesh, oseg[0], oseg[0], obj.step, oseg[5:7], obj.pad[c] + PAD_CLEAR_MM, REL_TOL)
+            sd = _point_sd(obj.mesh, oseg[0], oseg[5:7], obj.pad[c] + PAD_CLEAR_MM)
         value = sd - obj.pad[c]
         vmin = min(vmin, value + PAD_CLEAR_MM)
         gap = math.sqrt((oseg[5, 0] - oseg[6, 0]) ** 2 + (oseg[5, 1] - oseg[6, 1]) ** 2 + (oseg[5, 2] - oseg[6, 2]) ** 2)
