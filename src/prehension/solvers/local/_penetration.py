@@ -52,7 +52,7 @@ from ...objects.segment_distance import REL_TOL, segment_min_sd
 from ._linalg import cross, mat_vec
 from ._sd_grid import GRID_PAD_MM, SdGrid, empty_sd_grid, grid_segment_min_sd, grid_span, in_grid
 
-__all__ = ["ObjectArrays", "NO_OBJECT", "object_rows", "pad_rows", "PAD_ROW_MM", "PAD_CLEAR_MM"]
+__all__ = ["ObjectArrays", "NO_OBJECT", "object_rows", "pad_rows", "surely_in_object", "PAD_ROW_MM", "PAD_CLEAR_MM"]
 
 PAD_ROW_MM = 0.2  # a pad deeper than this into the object gets a row, which pushes it back to this depth [mm]
 PAD_CLEAR_MM = 0.35  # a pad this deep or less is clear (the residual function allows 0.5 mm) [mm]
@@ -275,6 +275,41 @@ def _point_sd(m, p, pair, bound):
     for i in range(3):
         pair[0, i] = p[i]
     return sd
+
+
+@njit(cache=True)
+def surely_in_object(ws):
+    """Whether the grid proves that a checked capsule reaches into the object, so that the
+    exact clearance (:func:`object_rows`) is negative without being measured.
+
+    The trilinear reading ``I(p)`` is within ``h sqrt(3)`` of the signed distance (a convex
+    combination of the cell's corner values, each exact and within its distance from ``p``:
+    sd is 1-Lipschitz; ``tests/test_mesh_distance.py``), so ``I(p) + h sqrt(3) < r`` at a
+    sample ``p`` of a kept piece (:func:`_cut`: outside the pads) gives ``sd(p) - r < 0``:
+    the exact value of that capsule is negative (the exact distance of a piece wholly
+    outside is at most ``sd(p)``; a piece meeting the surface counts at most ``-r``).  False
+    says nothing: the exact query decides.  The capsules must be placed
+    (:func:`._model.place_capsules`) and the contact points ``ws.ph`` current."""
+    obj, oseg = ws.obj, ws.oseg
+    g = obj.grid
+    if not obj.active or g.val.shape[0] <= 1:
+        return False
+    err = g.h * math.sqrt(3.0) + 1e-3  # and the float32 storage's rounding
+    for s in range(ws.hand.cap_link.shape[0]):
+        if not obj.checked[s] or _far_from_object(ws, s, 0.0):
+            continue
+        for k in range(_cut(ws, s, ws.cut)):
+            u0, u1 = ws.cut[0, k, 0], ws.cut[0, k, 1]
+            _piece_end(ws, s, u0, oseg[0])
+            _piece_end(ws, s, u1, oseg[1])
+            g0, g1 = grid_span(g, oseg[0], oseg[1])
+            if g0 > g1:
+                continue
+            _piece_end(ws, s, u0 + g0 * (u1 - u0), oseg[0])
+            _piece_end(ws, s, u0 + g1 * (u1 - u0), oseg[1])
+            if grid_segment_min_sd(obj.mesh, g, oseg[0], oseg[1], oseg[2:4]) + err < ws.hand.cap_radius[s]:
+                return True
+    return False
 
 
 @njit(cache=True)
