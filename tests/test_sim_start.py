@@ -39,12 +39,14 @@ def guitar_tuning():
 
 
 def test_the_guitar_starts_where_the_solver_says(guitar_tuning):
-    """The coarse pieces fill the guitar's concavity under the palm (more than 10 mm off the
-    mesh); refined, what MuJoCo sees at the start is the hand's own penetration."""
+    """The coarse pieces stray off the mesh next to the hand (they fill the guitar's concavity:
+    more than 10 mm off under the palm of the local solver's answer before 2026-11-27, 3.7 mm
+    next to today's, which sits elsewhere), by more than the approximation allowed; refined,
+    what MuJoCo sees at the start is the hand's own penetration."""
     task, grasp = guitar_tuning
     coarse = [p for p, _ in solid_pieces(task.object)]
     strays = _strays(mujoco, task, grasp.T_palm_object, grasp.q, coarse, QUICK, solver_distance(task))
-    assert max(strays.values()) > 10.0
+    assert max(strays.values()) > 4 * APPROXIMATION_MM
     report = simulate_grasp(task, grasp, QUICK)
     assert report.approximation_mm <= APPROXIMATION_MM
     assert report.object_pieces > len(coarse)

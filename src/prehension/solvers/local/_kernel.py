@@ -37,7 +37,8 @@ from ...kernels.jit import njit
 from . import _regions as RG
 from ._layout import S_KIND, S_OFF, S_X
 from ._linalg import copy, dls_again, dls_dense, fill, refresh_column
-from ._model import contact_rows, inequality_rows, initial_pose, move, pose_hand, project_all
+from ._model import contact_rows, inequality_rows, initial_pose, move, place_capsules, pose_hand, project_all
+from ._penetration import surely_in_object
 from ._workspace import MAX_INEQUALITY_ROWS, Options, Outputs, Workspace, new_workspace, penetration_at, residual_at
 from ._workspace import _WorkspaceType  # noqa: F401 -- named here by numba caches written before the workspace moved
 
@@ -444,12 +445,16 @@ def solve_state(x0, ws, data):
         code, n_pol = polish(ws, data)
     if not opt.check_collisions:
         return code, k, n_pol, 0
-    rows, cmin = first_inequality_rows(ws, data)
-    if cmin >= 0.0:
-        return code, k, n_pol, 0
-    if opt.n_repair == 0:
-        return COLLIDING, k, n_pol, 0
-    if ws.obj.active:  # through the object: from the start again, seeing it
+    seeing, rows, cmin = opt.n_repair > 0 and ws.obj.active, 0, -1.0
+    if seeing:  # the grid proves some answers through the object: seen at once, no exact query
+        place_capsules(ws)
+    if not (seeing and surely_in_object(ws)):
+        rows, cmin = first_inequality_rows(ws, data)
+        if cmin >= 0.0:
+            return code, k, n_pol, 0
+        if opt.n_repair == 0:
+            return COLLIDING, k, n_pol, 0
+    if seeing:  # through the object: from the start again, seeing it
         code, k, n_pol, rows, cmin = _seeing_again(x0, ws, data, k, n_pol)
         if code != WITHIN_DMIN and code != STRICT:
             return COLLIDING, k, n_pol, 0

@@ -47,11 +47,12 @@ import numpy as np
 
 from ...kernels.jit import njit
 from ...objects.mesh_arrays import MeshArrays, empty_mesh_arrays
+from ...objects.point_distance import signed_distance_at
 from ...objects.segment_distance import REL_TOL, segment_min_sd
 from ._linalg import cross, mat_vec
-from ._sd_grid import SdGrid, empty_sd_grid, grid_segment_min_sd, in_grid
+from ._sd_grid import GRID_PAD_MM, SdGrid, empty_sd_grid, grid_segment_min_sd, grid_span, in_grid
 
-__all__ = ["ObjectArrays", "NO_OBJECT", "object_rows", "pad_rows", "PAD_ROW_MM", "PAD_CLEAR_MM"]
+__all__ = ["ObjectArrays", "NO_OBJECT", "object_rows", "pad_rows", "surely_in_object", "PAD_ROW_MM", "PAD_CLEAR_MM"]
 
 PAD_ROW_MM = 0.2  # a pad deeper than this into the object gets a row, which pushes it back to this depth [mm]
 PAD_CLEAR_MM = 0.35  # a pad this deep or less is clear (the residual function allows 0.5 mm) [mm]
@@ -142,13 +143,28 @@ def _capsule_value(ws, s, best, reach, coarse):
     the pads cover it; at least ``reach`` is all that is known of a capsule whose value is
     at least ``reach``), with the worst piece's pair (object frame) in ``best (2, 3)`` and
     that pair's distance [mm] (0: no direction) second.  ``coarse``: a piece inside the
-    grid's box is measured on the grid (:func:`._sd_grid.grid_segment_min_sd`)."""
+    grid's box is measured on the grid (:func:`._sd_grid.grid_segment_min_sd`): its part
+    inside the box, when the rest, at least :data:`~._sd_grid.GRID_PAD_MM` from the
+    surface, is clear of the object (a capsule of radius ``r <= GRID_PAD_MM``: every capsule
+    of the hands shipped), and a piece wholly outside the box counts as farther than the
+    reach.  These rows only steer (a capsule just within the reach outside the box gets
+    none); an exact query costs tens of microseconds, a grid read well under one."""
     obj, oseg = ws.obj, ws.oseg
     value = 1e300
+    coarse = coarse and obj.grid.val.shape[0] > 1 and ws.hand.cap_radius[s] <= GRID_PAD_MM
     for k in range(_cut(ws, s, ws.cut)):
-        _piece_end(ws, s, ws.cut[0, k, 0], oseg[0])
-        _piece_end(ws, s, ws.cut[0, k, 1], oseg[1])
-        if coarse and in_grid(obj.grid, oseg[0]) and in_grid(obj.grid, oseg[1]):
+        u0, u1 = ws.cut[0, k, 0], ws.cut[0, k, 1]
+        if coarse:  # on the grid, the piece's part inside the grid's box (the rest is clear of the object)
+            _piece_end(ws, s, u0, oseg[0])
+            _piece_end(ws, s, u1, oseg[1])
+            g0, g1 = grid_span(obj.grid, oseg[0], oseg[1])
+            if g0 > g1:
+                value = min(value, reach)
+                continue
+            u0, u1 = u0 + g0 * (u1 - u0), u0 + g1 * (u1 - u0)
+        _piece_end(ws, s, u0, oseg[0])
+        _piece_end(ws, s, u1, oseg[1])
+        if coarse:
             sd = grid_segment_min_sd(obj.mesh, obj.grid, oseg[0], oseg[1], oseg[2:4])
         else:
             sd = segment_min_sd(obj.mesh, oseg[0], oseg[1], obj.step, oseg[2:4], ws.hand.cap_radius[s] + reach, REL_TOL)
@@ -242,15 +258,68 @@ def object_rows(ws, data, margin, row0, max_rows, every):
             _penetration_row(ws, data, ws.hand.cap_link[s], 1.0 if value + ws.hand.cap_radius[s] >= 0.0 else -1.0, row0 + nrows)
             ws.g[row0 + nrows] = value - margin
             nrows += 1
-    n_pads, vpad = pad_rows(ws, data, row0 + nrows, max_rows - nrows)
+    n_pads, vpad = pad_rows(ws, data, row0 + nrows, max_rows - nrows, every)
     return nrows + n_pads, min(vmin, vpad)
 
 
 @njit(cache=True)
-def pad_rows(ws, data, row0, max_rows):
+def _point_sd(m, p, pair, bound):
+    """:func:`~prehension.objects.segment_distance.segment_min_sd` of the point ``p`` (3,),
+    in one query: its signed distance, ``bound`` when it lies outside and farther (then no
+    pair); ``pair[0]`` the point, ``pair[1]`` its closest surface point.  The same value:
+    for a point, the segment's sampled minimum inside is the point's own (measured: a third
+    of the time)."""
+    sd = signed_distance_at(m, p, pair[1], bound)
+    if sd >= bound:
+        return bound
+    for i in range(3):
+        pair[0, i] = p[i]
+    return sd
+
+
+@njit(cache=True)
+def surely_in_object(ws):
+    """Whether the grid proves that a checked capsule reaches into the object, so that the
+    exact clearance (:func:`object_rows`) is negative without being measured.
+
+    The trilinear reading ``I(p)`` is within ``h sqrt(3)`` of the signed distance (a convex
+    combination of the cell's corner values, each exact and within its distance from ``p``:
+    sd is 1-Lipschitz; ``tests/test_mesh_distance.py``), so ``I(p) + h sqrt(3) < r`` at a
+    sample ``p`` of a kept piece (:func:`_cut`: outside the pads) gives ``sd(p) - r < 0``:
+    the exact value of that capsule is negative (the exact distance of a piece wholly
+    outside is at most ``sd(p)``; a piece meeting the surface counts at most ``-r``).  False
+    says nothing: the exact query decides.  The capsules must be placed
+    (:func:`._model.place_capsules`) and the contact points ``ws.ph`` current."""
+    obj, oseg = ws.obj, ws.oseg
+    g = obj.grid
+    if not obj.active or g.val.shape[0] <= 1:
+        return False
+    err = g.h * math.sqrt(3.0) + 1e-3  # and the float32 storage's rounding
+    for s in range(ws.hand.cap_link.shape[0]):
+        if not obj.checked[s] or _far_from_object(ws, s, 0.0):
+            continue
+        for k in range(_cut(ws, s, ws.cut)):
+            u0, u1 = ws.cut[0, k, 0], ws.cut[0, k, 1]
+            _piece_end(ws, s, u0, oseg[0])
+            _piece_end(ws, s, u1, oseg[1])
+            g0, g1 = grid_span(g, oseg[0], oseg[1])
+            if g0 > g1:
+                continue
+            _piece_end(ws, s, u0 + g0 * (u1 - u0), oseg[0])
+            _piece_end(ws, s, u0 + g1 * (u1 - u0), oseg[1])
+            if grid_segment_min_sd(obj.mesh, g, oseg[0], oseg[1], oseg[2:4]) + err < ws.hand.cap_radius[s]:
+                return True
+    return False
+
+
+@njit(cache=True)
+def pad_rows(ws, data, row0, max_rows, coarse):
     """Each contact's pad against the object (see the module docstring): rows
     ``sd(c) - rho + PAD_ROW_MM`` of the pads deeper than :data:`PAD_ROW_MM`, from ``row0``,
-    at most ``max_rows``; ``(rows written, smallest value sd(c) - rho + PAD_CLEAR_MM)``."""
+    at most ``max_rows``; ``(rows written, smallest value sd(c) - rho + PAD_CLEAR_MM)``.
+    ``coarse`` (``np.bool_``; the seeing steps): a pad centre in the grid's box whose grid value
+    is more than a grid spacing from the row's depth is read on the grid (no exact query:
+    these rows only steer), the others exactly."""
     obj, lay, oseg = ws.obj, ws.lay, ws.oseg
     nrows, vmin = 0, 1e300
     for c in range(lay.link.shape[0]):
@@ -258,7 +327,13 @@ def pad_rows(ws, data, row0, max_rows):
             ws.vec[i] = ws.ph[c, i] - obj.pad[c] * ws.nh[c, i] - ws.t[i]  # the pad's centre, palm frame less t
         for i in range(3):
             oseg[0, i] = ws.R[0, i] * ws.vec[0] + ws.R[1, i] * ws.vec[1] + ws.R[2, i] * ws.vec[2]
-        sd = segment_min_sd(obj.mesh, oseg[0], oseg[0], obj.step, oseg[5:7], obj.pad[c] + PAD_CLEAR_MM, REL_TOL)
+        sd = np.inf
+        if coarse and obj.grid.val.shape[0] > 1 and in_grid(obj.grid, oseg[0]):
+            sd = grid_segment_min_sd(obj.mesh, obj.grid, oseg[0], oseg[0], oseg[5:7])
+            if abs(sd - obj.pad[c] + PAD_ROW_MM) < obj.grid.h:  # near the row's depth: measured exactly
+                sd = np.inf
+        if sd == np.inf:
+            sd = _point_sd(obj.mesh, oseg[0], oseg[5:7], obj.pad[c] + PAD_CLEAR_MM)
         value = sd - obj.pad[c]
         vmin = min(vmin, value + PAD_CLEAR_MM)
         gap = math.sqrt((oseg[5, 0] - oseg[6, 0]) ** 2 + (oseg[5, 1] - oseg[6, 1]) ** 2 + (oseg[5, 2] - oseg[6, 2]) ** 2)

@@ -19,7 +19,8 @@ from ...objects.mesh_arrays import MeshArrays, SdGrid
 from ...objects.point_distance import dot3, dist_sq, signed_distance_at
 from ...objects.segment_distance import lerp
 
-__all__ = ["SdGrid", "sd_grid_of", "new_sd_grid", "empty_sd_grid", "in_grid", "grid_sd", "grid_segment_min_sd"]
+__all__ = ["SdGrid", "sd_grid_of", "new_sd_grid", "empty_sd_grid", "in_grid", "grid_span", "grid_sd", "grid_segment_min_sd",
+           "GRID_PAD_MM"]
 
 GRID_PAD_MM = 20.0  # the grid covers the mesh's box grown by this much on every side
 # Finest spacing.  Measured (2026-11-23, builtin tasks x8 in one batch, and the 39 tasks of
@@ -75,6 +76,24 @@ def in_grid(g, p):
 
 
 @njit(cache=True)
+def grid_span(g, p0, p1):
+    """The part of segment ``p0``-``p1`` inside the grid's box, as the interval ``(u0, u1)``
+    of its parameter in [0, 1] (``u0 > u1``: none of it).  The rest lies at least
+    :data:`GRID_PAD_MM` from the mesh's box, so at least that far from the surface, outside."""
+    u0, u1 = 0.0, 1.0
+    for a in range(3):
+        lo, hi = g.lo[a], g.lo[a] + (g.val.shape[a] - 1) * g.h
+        d = p1[a] - p0[a]
+        if abs(d) < 1e-12:
+            if p0[a] < lo or p0[a] > hi:
+                return 1.0, 0.0
+            continue
+        s, e = (lo - p0[a]) / d, (hi - p0[a]) / d
+        u0, u1 = max(u0, min(s, e)), min(u1, max(s, e))
+    return u0, u1
+
+
+@njit(cache=True)
 def _fill_cell(m, g, i, j, k):
     """Compute the nodes of cell ``(i, j, k)`` not computed yet (their first read)."""
     for n in range(8):
@@ -113,24 +132,62 @@ def grid_sd(m, g, p, grad):
 
 
 @njit(cache=True)
+def _trilinear(g, x, y, z):
+    """The trilinear value of the grid at ``(x, y, z)``: NaN where a node of its cell is not
+    computed yet.  Calls nothing: a loop of these stays free of the reference counting a call
+    with the grid's arrays costs (measured: 15x the reads)."""
+    val, h, lo = g.val, g.h, g.lo
+    u, v, w = (x - lo[0]) / h, (y - lo[1]) / h, (z - lo[2]) / h
+    i = min(max(int(np.floor(u)), 0), val.shape[0] - 2)
+    j = min(max(int(np.floor(v)), 0), val.shape[1] - 2)
+    k = min(max(int(np.floor(w)), 0), val.shape[2] - 2)
+    a, b, c = u - i, v - j, w - k
+    c00 = val[i, j, k] * (1 - a) + val[i + 1, j, k] * a
+    c10 = val[i, j + 1, k] * (1 - a) + val[i + 1, j + 1, k] * a
+    c01 = val[i, j, k + 1] * (1 - a) + val[i + 1, j, k + 1] * a
+    c11 = val[i, j + 1, k + 1] * (1 - a) + val[i + 1, j + 1, k + 1] * a
+    return (c00 * (1 - b) + c10 * b) * (1 - c) + (c01 * (1 - b) + c11 * b) * c
+
+
+@njit(cache=True)
+def _samples_min(g, p0, p1, n):
+    """The smallest :func:`_trilinear` value over samples ``i / n`` of segment ``p0``-``p1``
+    and its parameter; NaN first where a sample's cell is not computed yet."""
+    best, at = np.inf, 0.0
+    for i in range(n + 1):
+        t = i / n
+        v = _trilinear(g, p0[0] + t * (p1[0] - p0[0]), p0[1] + t * (p1[1] - p0[1]), p0[2] + t * (p1[2] - p0[2]))
+        if v != v:
+            return v, t
+        if v < best:
+            best, at = v, t
+    return best, at
+
+
+@njit(cache=True)
 def grid_segment_min_sd(m, g, p0, p1, pair):
     """The smallest trilinear signed distance (:func:`grid_sd`) over samples at most half
     a spacing apart along segment ``p0``-``p1`` (both in the grid) [mm], and where:
     ``pair[0]`` the sample, ``pair[1]`` the surface point its value and gradient point at
     (``pair[0] - v n``, ``n`` the unit gradient; a gap of at least 1e-6 mm keeps the
-    direction when ``v`` is ~0); no pair (and ``inf``) where the gradient vanishes."""
+    direction when ``v`` is ~0); no pair (and ``inf``) where that gradient vanishes.  The
+    samples are read without their gradients, which only the smallest one's pair needs,
+    and without a call (:func:`_trilinear`); a cell not computed yet is filled and the
+    samples read again."""
     length = np.sqrt(dist_sq(p0, p1))
     n = max(int(np.ceil(2.0 * length / g.h)), 1)
-    p, grad = np.empty(3), np.empty(3)
-    best = np.inf
-    for i in range(n + 1):
-        lerp(p0, p1, i / n, p)
-        v = grid_sd(m, g, p, grad)
-        norm = np.sqrt(dot3(grad, grad))
-        if v < best and norm > 1e-9:
-            best = v
-            gap = v if abs(v) > 1e-6 else (1e-6 if v >= 0.0 else -1e-6)
-            for a in range(3):
-                pair[0, a] = p[a]
-                pair[1, a] = p[a] - gap * grad[a] / norm
+    p, grad = pair[0], pair[1]
+    best, at = _samples_min(g, p0, p1, n)
+    while best != best:  # fill the first cell not computed yet, read again
+        lerp(p0, p1, at, p)
+        grid_sd(m, g, p, grad)
+        best, at = _samples_min(g, p0, p1, n)
+    lerp(p0, p1, at, p)
+    best = grid_sd(m, g, p, grad)
+    norm = np.sqrt(dot3(grad, grad))
+    if norm <= 1e-9:
+        return np.inf
+    gap = best if abs(best) > 1e-6 else (1e-6 if best >= 0.0 else -1e-6)
+    for a in range(3):
+        grad[a] = p[a] - gap * grad[a] / norm
     return best

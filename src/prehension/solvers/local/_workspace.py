@@ -17,9 +17,10 @@ from ...kernels.jit import HAVE_NUMBA, njit
 from . import _regions as RG
 from ._linalg import copy
 from ._model import contact_rows, place_capsules, pose_hand
-from ._penetration import object_rows
+from ._penetration import object_rows, surely_in_object
 
-__all__ = ["Options", "Workspace", "Outputs", "new_workspace", "residual_at", "penetration_at", "MAX_INEQUALITY_ROWS"]
+__all__ = ["Options", "Workspace", "Outputs", "new_workspace", "residual_at", "penetration_at", "surely_in_object_at",
+           "MAX_INEQUALITY_ROWS"]
 
 MAX_INEQUALITY_ROWS = 32  # self-collision pairs first, then the object's capsules
 
@@ -172,3 +173,11 @@ def penetration_at(x, R, t, data, model, margin, g, M):
     copy(ws.g[:n], g[:n])
     copy(ws.M[:n], M[:n])
     return n, vmin
+
+
+@njit(cache=True)
+def surely_in_object_at(x, R, t, data, model):
+    """:func:`._penetration.surely_in_object` at a state, as :func:`residual_at`.  For tests."""
+    ws = _state_at(x, R, t, data, model)
+    place_capsules(ws)
+    return surely_in_object(ws)
