@@ -49,7 +49,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("quality", "sim", "pregrasp", "tessellation", "ascent"),
     ("solvers",),
     ("solve", "best", "hold", "batch_extras"),
-    ("parallel", "batch"),
+    ("parallel", "batch", "assignment"),
     ("verification.claims", "viewer", "interop", "cli"),
 )
 

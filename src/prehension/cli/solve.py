@@ -23,6 +23,7 @@ from ..atomic import check_output_path
 from ..errors import PrehensionError, not_a_file
 from ..results import Status, result_to_dict, write_result
 from . import args as types
+from .assign import add_assignment_arguments, cmd_solve_open, refuse_open_only
 from .best import (
     add_best_arguments, add_quality_arguments, add_require_argument, best_options, best_table, quality_lines, quality_options,
 )  # fmt: skip
@@ -43,7 +44,8 @@ TASK_HELP = "built-in task name, task file (.yaml) or CuikSuite file (.world)"
 
 def add_parser(sub) -> None:
     p = sub.add_parser("solve", help="find a grasp configuration (or prove there is none)")
-    p.add_argument("task", help=TASK_HELP)
+    p.add_argument("task", help=TASK_HELP + "; a task file whose contacts leave the hand open (hand: any) runs the "
+                   "assignment search")
     p.add_argument("--method", choices=("auto", "local", "complete"), default="auto",
                    help="auto (default): the local solver, then the complete one if it finds no strict solution")  # fmt: skip
     p.add_argument("-o", "--output", type=Path, help="result file (default: TASK.result.json; an older one is kept as a backup)")
@@ -76,6 +78,7 @@ def add_parser(sub) -> None:
                    help="physics in the loop: run the ranked candidates of --best N (--best 5 unless given) through "
                         "the physics test (prehension simulate) and answer with the first that holds; exit 7 when none "
                         'does (needs: pip install "prehension[sim]"; docs/quality.md)')  # fmt: skip
+    add_assignment_arguments(p)
     types.add_option_rule(p, _method_options)
 
 
@@ -157,7 +160,11 @@ def _local_options(args):
 def cmd_solve(args, console: Console) -> int:
     from ..parallel import check_where, executor_for
     from ..tasks.library import resolve_task
+    from ..tasks.yaml_io import is_open_task_file
 
+    if is_open_task_file(args.task):  # hand: any, or candidates: the assignment search
+        return cmd_solve_open(args, console)
+    refuse_open_only(args)
     task = resolve_task(args.task)
     print_hand_warnings(console, task.hand)
     path, options, best = _checked(args, task)

@@ -48,7 +48,10 @@ Schema (format ``task/1``)::
         mesh_file: teapot.off       # optional OFF mesh, relative to this file's folder
     contacts:                       # at least one
       - {hand: index_tip, object: knob}   # optional name: (default "index_tip->knob")
-    fingers: [index, thumb]         # required: the fingers that take part
+      - {hand: any, object: rim}    # an OPEN contact: any hand region, or a list of
+      - {hand: [thumb_tip, palm], object: bump}  # candidates (docs/assignment.md)
+    fingers: [index, thumb]         # optional: the fingers that take part (omitted: the
+                                    # fingers of the links the contacts use)
     idle_angles_deg: {ring_mcp_flex: 10}  # optional: angles of idle dofs
 
 Inline hand mapping (also the content of a ``{file: ...}`` hand file)::
@@ -88,6 +91,12 @@ always hold the hand inline with its ``source``.  Angles are written in degrees 
 leaves unchanged, so that reading a written task and writing it again gives the same
 dict.
 
+A task with an open contact is an *open task*: :func:`load_task` refuses it (naming the
+contact and pointing to the assignment search), :func:`load_open_task` reads any task file
+as an :class:`~prehension.tasks.open_task.OpenTask` (whose contacts may all be fixed), and
+:func:`dump_task` writes either.  ``any`` is reserved: a hand region named ``any`` cannot
+be named by a contact.
+
 Reading refuses duplicate keys in a mapping (plain ``yaml.safe_load`` silently keeps the
 last one).  See ``docs/task-format.md`` for a complete example.
 
@@ -102,20 +111,27 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..atomic import write_text_atomic
+from ..errors import PrehensionError
 from .format.hands import hand_from_dict, hand_to_dict
 from .format.regions import region_from_dict, region_to_dict
 from .format.schema import BUILTIN_HANDS, FORMAT_TAG
-from .format.tasks import task_from_dict, task_to_dict
+from .format.tasks import is_open_task_dict, open_task_from_dict, task_from_dict, task_to_dict
 from .format.yaml_text import dump_yaml, parse_yaml, read_text
 from .model import Task
+from .open_task import OpenTask
 
 __all__ = [
     "FORMAT_TAG",
     "BUILTIN_HANDS",
     "task_from_dict",
     "task_to_dict",
+    "open_task_from_dict",
+    "is_open_task_dict",
     "load_task",
     "loads_task",
+    "load_open_task",
+    "loads_open_task",
+    "is_open_task_file",
     "dump_task",
     "dumps_task",
     "hand_from_dict",
@@ -137,12 +153,36 @@ def load_task(path) -> Task:
     return loads_task(read_text(path, source), source, base_dir=path.parent)
 
 
-def dumps_task(task: Task, *, base_dir: Path | str | None = None) -> str:
+def loads_open_task(text: str, source: str = "<string>", *, base_dir: Path | None = None) -> OpenTask:
+    """An :class:`~prehension.tasks.open_task.OpenTask` from the YAML text of a task file (open or not)."""
+    return open_task_from_dict(parse_yaml(text, source), base_dir=base_dir, source=source)
+
+
+def load_open_task(path) -> OpenTask:
+    """Read a task file, open or not, as an :class:`~prehension.tasks.open_task.OpenTask`."""
+    path = Path(path)
+    source = str(path)
+    return loads_open_task(read_text(path, source), source, base_dir=path.parent)
+
+
+def is_open_task_file(path) -> bool:
+    """Whether the YAML task file ``path`` has an open contact (``hand: any`` or candidates).
+    Only the YAML is read; a file that cannot be read is not open (its loader says why)."""
+    path = Path(path)
+    if path.suffix.lower() not in (".yaml", ".yml") or not path.is_file():
+        return False
+    try:
+        return is_open_task_dict(parse_yaml(read_text(path, str(path)), str(path)))
+    except PrehensionError:  # the loader that runs next names the problem
+        return False
+
+
+def dumps_task(task: Task | OpenTask, *, base_dir: Path | str | None = None) -> str:
     """The YAML text of a task file (keys in schema order, short lists in flow style)."""
     return dump_yaml(task_to_dict(task, base_dir=base_dir))
 
 
-def dump_task(task: Task, path) -> None:
+def dump_task(task: Task | OpenTask, path) -> None:
     """Write ``task`` to ``path`` atomically (a reader sees the old file or the new one)."""
     path = Path(path)
     text = dumps_task(task, base_dir=path.resolve().parent)

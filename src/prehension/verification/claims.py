@@ -26,7 +26,9 @@ each of them from the task the file embeds, and reports one :class:`Finding` per
   is installed; without it the finding says the verdict was not re-run (and holds);
 * ``infeasible``: the proof is run again by the complete solver on the embedded task (so
   it cannot have been computed for another task); without ``reprove`` the claim is only
-  restated, never called verified.
+  restated, never called verified.  A *span proof* (``method: "span"``, an assignment the
+  hand's span rules out: :mod:`prehension.assignment.span`) is derived again from the
+  embedded task every time (it takes milliseconds).
 
 Stored values are compared with the recomputed ones to ``1e-9`` (mm, deg, and unitless for
 rotations and normals): JSON keeps a float exactly, and recomputing uses the same code.
@@ -50,8 +52,10 @@ from .residuals import ResidualReport, Tolerances, evaluate
 
 __all__ = ["Finding", "Verification", "verify_result", "verify_result_file", "STORED_TOLERANCE"]
 
+SPAN_REPROVED = "infeasibility re-proved by the hand's span"
 STORED_TOLERANCE = 1e-9  # largest gap between a stored value and the recomputed one (mm, deg, unitless)
-METHODS = ("local", "complete", "imported")  # "imported": prehension import-grasps (docs/interop.md)
+METHODS = ("local", "complete", "imported", "span")  # "imported": prehension import-grasps (docs/interop.md);
+# "span": an assignment the hand's span rules out (prehension.assignment.span, docs/assignment.md)
 
 
 @dataclass(frozen=True)
@@ -93,7 +97,10 @@ class Verification:
 
     @property
     def infeasibility_reproved(self) -> bool:
-        return self.reproof is not None and self.reproof.status == Status.INFEASIBLE
+        """Re-proved by the complete solver, or a span proof derived again."""
+        if self.reproof is not None and self.reproof.status == Status.INFEASIBLE:
+            return True
+        return any(f.ok and f.what == SPAN_REPROVED for f in self.findings)
 
 
 def verify_result_file(path, *, reprove: bool = True, time_limit_s: float | None = 300.0, physics: bool = True) -> Verification:
@@ -388,6 +395,8 @@ def _requirement(task: Task, data: dict, reports: list) -> list[Finding]:
 # -- infeasible -----------------------------------------------------------------------------
 def _reprove(task: Task, data: dict, reprove: bool, time_limit_s) -> tuple[SolveResult | None, list[Finding]]:
     stats = data.get("stats") if isinstance(data.get("stats"), dict) else {}
+    if data.get("method") == "span":
+        return None, [_span_proof(task, stats.get("proof"))]
     claimed = f"claimed proven by the complete solver: {stats.get('boxes', '?')} boxes, {stats.get('lps', '?')} linear programs"
     if data.get("method") != "complete":
         return None, [Finding("infeasibility", False, "only the complete solver proves infeasibility; method is "
@@ -413,6 +422,15 @@ def _reprove(task: Task, data: dict, reprove: bool, time_limit_s) -> tuple[Solve
     if again.status == Status.SOLVED:
         return again, [Finding("infeasibility", False, "FALSE: the complete solver finds a verified solution of the embedded task")]
     return again, [Finding("infeasibility (could not re-prove)", True, f"{claimed}; re-running it: {again.message}")]
+
+
+def _span_proof(task: Task, proof) -> Finding:
+    """A span proof (an assignment search's, :mod:`prehension.assignment.span`) derived
+    again from the embedded task: cheap, so always re-derived (``reprove`` or not)."""
+    from ..assignment.span import check_span_proof
+
+    holds, detail = check_span_proof(task, proof if isinstance(proof, dict) else {})
+    return Finding(SPAN_REPROVED if holds else "infeasibility (span proof)", holds, detail)
 
 
 def _from_checkpoint(stats: dict) -> str:

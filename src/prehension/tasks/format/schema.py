@@ -316,10 +316,31 @@ class ObjectSpec(_Spec):
         return self
 
 
+ANY_HAND = "any"  # ``hand: any``: an open contact, any hand region (docs/assignment.md)
+
+
+def _hand_side(value):
+    """A contact's ``hand:``: a hand region, ``any``, or a list of candidate hand regions."""
+    if isinstance(value, str) and value:
+        return value
+    if isinstance(value, list) and value and all(isinstance(v, str) and v and v != ANY_HAND for v in value):
+        if len(set(value)) != len(value):
+            raise ValueError(f"candidate hand regions repeat: {value}")
+        return value
+    raise ValueError(
+        f"expected a hand region name, '{ANY_HAND}' (any hand region), or a non-empty list of candidate hand "
+        f"region names, got {value!r}"
+    )
+
+
 class ContactSpec(_Spec):
     name: Text = ""
-    hand: Name
+    hand: Annotated[Any, AfterValidator(_hand_side)]
     object: Name
+
+    @property
+    def is_open(self) -> bool:
+        return self.hand == ANY_HAND or isinstance(self.hand, list)
 
 
 class TaskSpec(_Spec):
@@ -332,5 +353,5 @@ class TaskSpec(_Spec):
     hand_regions: dict[Name, HandRegionSpec] = {}
     object: ObjectSpec
     contacts: Annotated[list[ContactSpec], Field(min_length=1)]
-    fingers: list[Name]
+    fingers: list[Name] | None = None  # omitted: the fingers of the links the contacts use
     idle_angles_deg: dict[Name, Num] = {}

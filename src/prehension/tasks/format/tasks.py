@@ -18,26 +18,31 @@ from ...hands.files import HAND_SUFFIXES, load_hand_file
 from ...hands.model import Hand
 from ...objects.model import GraspObject
 from ..model import Contact, Task
+from ..open_task import OpenContact, OpenTask, fingers_of_regions
 from .errors import check_mapping, fail, join_path, located, validate
 from .hand_files import hand_file
 from .objects import object_from_spec, object_to_dict
-from .schema import BUILTIN_HANDS, FORMAT_TAG, HAND_ALIASES, TaskSpec
+from .schema import ANY_HAND, BUILTIN_HANDS, FORMAT_TAG, HAND_ALIASES, TaskSpec
 from .task_hands import hand_entries, task_hand
 from .values import written_deg
 from .yaml_text import parse_yaml, read_text
 
-__all__ = ["task_from_dict", "task_to_dict", "resolve_hand", "HAND_ALIASES"]
+__all__ = ["task_from_dict", "open_task_from_dict", "is_open_task_dict", "task_to_dict", "resolve_hand", "HAND_ALIASES"]
 
 
 # -- reading ----------------------------------------------------------------------------
 def _check_names(spec: TaskSpec, hand: Hand, obj: GraspObject, source: str) -> None:
     """Name the field of an unknown finger, region or angle before Task checks the rest."""
-    for i, f in enumerate(spec.fingers):
+    for i, f in enumerate(spec.fingers or ()):
         with located(source, join_path("fingers", i)):
             hand.finger(f)
     for i, c in enumerate(spec.contacts):
-        with located(source, join_path("contacts", i, "hand")):
-            hand.region(c.hand)
+        names = [(join_path("contacts", i, "hand"), c.hand)] if isinstance(c.hand, str) else [
+            (join_path("contacts", i, "hand", k), name) for k, name in enumerate(c.hand)]  # fmt: skip
+        for loc, name in names:
+            if name != ANY_HAND:
+                with located(source, loc):
+                    hand.region(name)
         with located(source, join_path("contacts", i, "object")):
             obj.region(c.object)
     for dof, value in spec.idle_angles_deg.items():
@@ -58,6 +63,27 @@ def _check_tag(data: dict, source: str) -> None:
         )
 
 
+def _read(data: dict, base_dir: Path | None, source: str) -> tuple[TaskSpec, Hand, GraspObject]:
+    """The checked spec of a task mapping, its hand and its object (names checked)."""
+    base = Path(base_dir) if base_dir is not None else Path.cwd()
+    check_mapping(data, source, f"a task file is a mapping that starts with 'prehension: {FORMAT_TAG}'")
+    _check_tag(data, source)
+    spec = validate(TaskSpec, data, source)
+    hand = task_hand(spec, base, source)
+    obj = object_from_spec(spec.object, base, source)
+    _check_names(spec, hand, obj, source)
+    return spec, hand, obj
+
+
+def is_open_task_dict(data) -> bool:
+    """Whether the mapping of a task file leaves the hand side of a contact open
+    (``hand: any`` or a list of candidates): an *open task* (:func:`open_task_from_dict`)."""
+    contacts = data.get("contacts") if isinstance(data, dict) else None
+    return isinstance(contacts, list) and any(
+        isinstance(c, dict) and (c.get("hand") == ANY_HAND or isinstance(c.get("hand"), list)) for c in contacts
+    )
+
+
 def task_from_dict(data: dict, *, base_dir: Path | None = None, source: str = "<dict>") -> Task:
     """A :class:`Task` from the mapping of a task file.
 
@@ -68,29 +94,54 @@ def task_from_dict(data: dict, *, base_dir: Path | None = None, source: str = "<
         source: name that starts every error message (normally the file path).
 
     Raises:
-        InvalidTask: naming ``source``, the field path and what would be valid.
+        InvalidTask: naming ``source``, the field path and what would be valid; an open
+            task (a contact with ``hand: any`` or candidates) is refused with a pointer
+            to :func:`open_task_from_dict` and the assignment search.
     """
-    base = Path(base_dir) if base_dir is not None else Path.cwd()
-    check_mapping(data, source, f"a task file is a mapping that starts with 'prehension: {FORMAT_TAG}'")
-    _check_tag(data, source)
-    spec = validate(TaskSpec, data, source)
-    hand = task_hand(spec, base, source)
-    obj = object_from_spec(spec.object, base, source)
-    _check_names(spec, hand, obj, source)
+    spec, hand, obj = _read(data, base_dir, source)
+    for i, c in enumerate(spec.contacts):
+        if c.is_open:
+            raise fail(source, join_path("contacts", i, "hand"), (
+                f"{'any' if c.hand == ANY_HAND else 'a list of candidates'} leaves the hand region open: this is an "
+                "open task, whose assignment is searched; solve it with 'prehension solve FILE', or read it with "
+                "prehension.tasks.yaml_io.load_open_task (docs/assignment.md)"))  # fmt: skip
     contacts = [Contact(c.hand, c.object, c.name) for c in spec.contacts]
+    fingers = spec.fingers if spec.fingers is not None else fingers_of_regions(hand, [c.hand for c in spec.contacts])
     idle = {k: math.radians(v) for k, v in spec.idle_angles_deg.items()}
     with located(source, ""):
-        return Task(spec.name, hand, obj, tuple(contacts), tuple(spec.fingers), spec.description, idle)
+        return Task(spec.name, hand, obj, tuple(contacts), tuple(fingers), spec.description, idle)
+
+
+def open_task_from_dict(data: dict, *, base_dir: Path | None = None, source: str = "<dict>") -> OpenTask:
+    """An :class:`~prehension.tasks.open_task.OpenTask` from the mapping of a task file,
+    open or not (a contact's ``hand:`` may be ``any`` or a list of candidate regions, and
+    ``fingers`` may be omitted).  Arguments and errors as :func:`task_from_dict`."""
+    spec, hand, obj = _read(data, base_dir, source)
+    contacts = []
+    for c in spec.contacts:
+        if not c.is_open:
+            contacts.append(Contact(c.hand, c.object, c.name))
+        else:
+            contacts.append(OpenContact(c.object, None if c.hand == ANY_HAND else tuple(c.hand), c.name))
+    fingers = tuple(spec.fingers) if spec.fingers is not None else None
+    idle = {k: math.radians(v) for k, v in spec.idle_angles_deg.items()}
+    with located(source, ""):
+        return OpenTask(spec.name, hand, obj, tuple(contacts), fingers, spec.description, idle)
 
 
 # -- writing ----------------------------------------------------------------------------
-def _contact_to_dict(c: Contact) -> dict:
+def _contact_to_dict(c: Contact | OpenContact) -> dict:
+    if isinstance(c, OpenContact):
+        out = {"name": c.name} if c.name else {}
+        return {**out, "hand": ANY_HAND if c.hand_candidates is None else list(c.hand_candidates), "object": c.object_region}
     out = {"name": c.name} if c.name != f"{c.hand_region}->{c.object_region}" else {}
     return {**out, "hand": c.hand_region, "object": c.object_region}
 
 
-def task_to_dict(task: Task, *, base_dir: Path | str | None = None, hand_inline: bool = False) -> dict:
-    """The task-file mapping of ``task``: plain lists, floats, ints, bools and strings.
+def task_to_dict(task: Task | OpenTask, *, base_dir: Path | str | None = None, hand_inline: bool = False) -> dict:
+    """The task-file mapping of ``task`` (a :class:`Task`, or an open task: its open
+    contacts written as ``hand: any`` or their candidates, ``fingers`` left out when it
+    leaves them open): plain lists, floats, ints, bools and strings.
 
     ``base_dir``: write ``mesh_file`` and hand file references relative to this folder
     (default: as stored, absolute).  ``hand_inline``: write the whole hand even when it
@@ -102,7 +153,8 @@ def task_to_dict(task: Task, *, base_dir: Path | str | None = None, hand_inline:
     out.update(hand_entries(task.hand, base_dir, hand_inline))
     out["object"] = object_to_dict(task.object, base_dir)
     out["contacts"] = [_contact_to_dict(c) for c in task.contacts]
-    out["fingers"] = list(task.fingers)
+    if task.fingers is not None:
+        out["fingers"] = list(task.fingers)
     if task.idle_angles:
         out["idle_angles_deg"] = {dof: written_deg(v) for dof, v in task.idle_angles.items()}
     return out
@@ -112,8 +164,8 @@ def task_to_dict(task: Task, *, base_dir: Path | str | None = None, hand_inline:
 def _yaml_hand(path: Path) -> Hand:
     source = str(path)
     data = parse_yaml(read_text(path, source), source)
-    if isinstance(data, dict) and "prehension" in data:  # a task file: its hand
-        return task_from_dict(data, base_dir=path.parent, source=source).hand
+    if isinstance(data, dict) and "prehension" in data:  # a task file (open or not): its hand
+        return open_task_from_dict(data, base_dir=path.parent, source=source).hand
     return hand_file(path, source)
 
 
