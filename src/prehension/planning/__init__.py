@@ -5,6 +5,7 @@ how far apart), :func:`~.propose.propose_regions` (candidate object regions on t
 """
 
 from .hand_side import HandSide, hand_side
+from .plan import PlannedGrasp, PlanOptions, PlanProgress, PlanReport, SetVerdict, open_task_of, plan_grasps, region_names
 from .grow import MeshSurface
 from .propose import (
     CandidateSet, NoGraspError, PointSets, Proposal, ProposalOptions, grow_set, propose_points, propose_regions, sample_surface,
@@ -12,5 +13,6 @@ from .propose import (
 
 __all__ = [
     "HandSide", "hand_side", "MeshSurface", "PointSets", "grow_set", "propose_points", "CandidateSet", "NoGraspError", "Proposal", "ProposalOptions", "propose_regions",
-    "sample_surface",
+    "sample_surface", "PlannedGrasp", "PlanOptions", "PlanProgress", "PlanReport", "SetVerdict", "open_task_of", "plan_grasps",
+    "region_names",
 ]  # fmt: skip

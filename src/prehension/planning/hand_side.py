@@ -13,6 +13,13 @@ with ``palm=True`` the palm's regions too.  Two numbers of the hand bound the pr
 * the **gap**: two pads of radius ``r_a``, ``r_b`` touching a surface side by side are
   about ``r_a + r_b`` apart; contact points closer than the smallest such sum would ask
   two fingertips to overlap, so the proposal keeps its points that far apart.
+
+The **opposition rule** (on by default): a hand with an opposing finger (the thumb) grasps
+with the thumb against the other fingers, so in a proposed set (whose first point faces
+the others, :mod:`.propose`) the first contact may take only the thumb's tip and the
+others only the other fingertips (the palm's regions, with ``palm``, may take any).  It
+cuts the assignments of a 3-contact set on a four-fingered hand from 24 to 6; without it
+(``oppose=False``) every contact may take every candidate.
 """
 
 from __future__ import annotations
@@ -42,12 +49,28 @@ class HandSide:
         spans_mm: ``{(a, b): bound}`` for every pair ``a < b`` of :attr:`regions`: a proven
             upper bound on the distance between a point of region ``a`` and one of ``b`` [mm].
         gap_mm: the smallest distance kept between two contact points of one grasp [mm].
+        opposing: the candidate regions on the tip of the hand's opposing finger (its
+            thumb, :attr:`~prehension.hands.model.Hand.opposing_finger`), when the
+            opposition rule is on; empty otherwise.
+        palms: the palm's candidate regions (with ``palm``).
     """
 
     hand: Hand
     regions: tuple[str, ...]
     spans_mm: dict
     gap_mm: float
+    opposing: tuple[str, ...] = ()
+    palms: tuple[str, ...] = ()
+
+    def candidates(self, opposing: bool) -> tuple[str, ...]:
+        """The hand regions a contact may take: with the opposition rule, the opposing
+        contact (a set's first) takes the thumb's tip (or the palm), the others the other
+        fingertips (or the palm); without it, every candidate."""
+        if not self.opposing:
+            return self.regions
+        if opposing:
+            return self.opposing + self.palms
+        return tuple(r for r in self.regions if r not in self.opposing)
 
     @property
     def max_span_mm(self) -> float:
@@ -71,9 +94,10 @@ def _ball(hand: Hand, name: str) -> tuple[np.ndarray, float | None]:
     return centre, None if reach == 0.0 else reach * 1.05 + 1e-6
 
 
-def _candidates(hand: Hand, palm: bool) -> tuple[str, ...]:
+def _candidates(hand: Hand, palm: bool) -> tuple[tuple[str, ...], tuple[str, ...]]:
     tips = {f.tip_link for f in hand.fingers}
     names = [n for n, r in hand.regions.items() if r.link in tips]
+    palms: list[str] = []
     if palm:
         palms = [n for n, r in hand.regions.items() if r.link == hand.palm]
         if not palms:
@@ -81,18 +105,29 @@ def _candidates(hand: Hand, palm: bool) -> tuple[str, ...]:
                 f"hand {hand.name!r} has no region on its palm ({hand.palm!r}) to plan with: drop --palm, or give the "
                 "hand a palm region (a hand YAML file's regions)"
             )
-        names += palms
-    return tuple(names)
+    return tuple(names + palms), tuple(palms)
 
 
-def hand_side(hand: Hand, fingers: int, *, palm: bool = False) -> HandSide:
-    """The :class:`HandSide` of ``fingers`` contacts on ``hand``.
+def _opposing(hand: Hand, names: tuple[str, ...], fingers: int) -> tuple[str, ...]:
+    """The opposing finger's tip regions among ``names``, when the rule can apply: the hand
+    has an opposing finger and, besides it, at least ``fingers - 1`` fingertips."""
+    if hand.opposing_finger is None:
+        return ()
+    tip = hand.finger(hand.opposing_finger).tip_link
+    thumb = tuple(n for n in names if hand.regions[n].link == tip)
+    others = [n for n in names if hand.regions[n].link != tip and hand.regions[n].link != hand.palm]
+    return thumb if thumb and len(others) >= fingers - 1 else ()
+
+
+def hand_side(hand: Hand, fingers: int, *, palm: bool = False, oppose: bool = True) -> HandSide:
+    """The :class:`HandSide` of ``fingers`` contacts on ``hand``; ``oppose``: the opposition
+    rule (:meth:`HandSide.candidates`; it applies when the hand has an opposing finger).
 
     Raises:
         PrehensionError: ``fingers`` is not an integer >= 2, or more than the hand has
             candidate regions (naming them).
     """
-    names = _candidates(hand, palm)
+    names, palms = _candidates(hand, palm)
     if isinstance(fingers, bool) or not isinstance(fingers, (int, np.integer)) or fingers < 2:
         raise PrehensionError(f"the number of fingers must be an integer >= 2 (a grasp needs two contacts), got {fingers!r}")
     if fingers > len(names):
@@ -110,4 +145,5 @@ def hand_side(hand: Hand, fingers: int, *, palm: bool = False) -> HandSide:
         spans[(a, b)] = span_bound_mm(hand, link_a, ca, link_b, cb, tol_mm=_SPAN_TOL_MM) + (ra or 0.0) + (rb or 0.0)
     radii = sorted(r for _, r in balls.values() if r)
     gap = radii[0] + radii[1] if len(radii) >= 2 else _DEFAULT_GAP_MM
-    return HandSide(hand, names, spans, float(gap))
+    opposing = _opposing(hand, names, fingers) if oppose else ()
+    return HandSide(hand, names, spans, float(gap), opposing, palms)

@@ -12,10 +12,11 @@ ranked candidate sets of ``K`` object contact regions, in four steps:
    from ``i`` to ``j``), at least the hand's gap and at most its largest span apart.  The
    narrowest antipodal pair (gap ignored) is what :class:`NoGraspError` reports when no
    pair fits in the hand.
-3. **K-point sets**: for ``K >= 3``, each of ``attempts`` sets starts from a random pair
-   and adds ``K - 2`` random points near either end whose normals lie within 45 deg of that
-   end's (fingers side by side), every two points between the gap and the largest span
-   apart.  Each set is scored by the Ferrari-Canny ``epsilon`` of its contacts
+3. **K-point sets**: for ``K >= 3``, each of ``attempts`` sets starts from a random pair,
+   takes one end (at random) as the fingers' side and adds ``K - 2`` random points near it
+   (within three gaps) whose normals lie within 45 deg of its (fingers side by side), every
+   two points on one side between the gap and the largest span apart.  A set lists the
+   other end first: the *opposing* contact (a thumb's, see :mod:`.hand_side`).  Each set is scored by the Ferrari-Canny ``epsilon`` of its contacts
    (:func:`~prehension.quality.contact_quality`, friction ``mu``, torques about the
    solid's centroid scaled by its radius) and kept only in force closure.  For ``K = 2``
    (which needs torsional friction to be force closure) the score is how antipodal the
@@ -211,24 +212,25 @@ def _distinct(sets: list, scores: np.ndarray, points: np.ndarray, distinct_mm: f
 
 
 def _random_sets(points, normals, pairs, k: int, side: HandSide, attempts: int, rng) -> list[tuple[int, ...]]:
-    """Up to ``attempts`` distinct index sets of ``k`` points: a random antipodal pair and
-    ``k - 2`` points near either end, facing as it does (see the module docstring)."""
+    """Up to ``attempts`` distinct index sets of ``k`` points: a random antipodal pair, one
+    end of it (at random) the *fingers' side* with ``k - 2`` points added near it, facing as
+    it does; each set ordered ``(the other end, the fingers' end, the added points)``."""
     dist = np.linalg.norm(points[:, None] - points[None], axis=2)
     facing = normals @ normals.T >= _SIDE_COS
     fits = ((dist >= side.gap_mm) | (normals @ normals.T <= 0)) & (dist <= side.max_span_mm)
     near = dist <= min(3.0 * side.gap_mm, side.max_span_mm)
-    out: set[tuple[int, ...]] = set()
+    out: dict[frozenset, tuple[int, ...]] = {}
     for _ in range(attempts):
-        chosen = [int(x) for x in pairs[rng.integers(len(pairs))]]
+        a, b = (int(x) for x in pairs[rng.integers(len(pairs))])
+        chosen = [a, b] if rng.integers(2) else [b, a]
         while len(chosen) < k:
-            end = chosen[int(rng.integers(2))]
-            free = np.flatnonzero(facing[end] & near[end] & fits[chosen].all(axis=0))
+            free = np.flatnonzero(facing[chosen[1]] & near[chosen[1]] & fits[chosen].all(axis=0))
             if free.size == 0:
                 break
             chosen.append(int(rng.choice(free)))
         if len(chosen) == k:
-            out.add(tuple(sorted(chosen)))
-    return sorted(out)
+            out.setdefault(frozenset(chosen), tuple(chosen))
+    return [out[key] for key in sorted(out, key=sorted)]
 
 
 def _scores(sets, points, normals, centre, radius: float, friction: float) -> np.ndarray:
@@ -283,7 +285,9 @@ def propose_points(surface: MeshSurface, side: HandSide, fingers: int, options: 
         raise _no_pair(side.hand.name, len(points), narrowest, side, options.friction)
     pairs, info = pairs[fit], info[fit]
     if fingers == 2:
-        sets, scores = [tuple(int(x) for x in p) for p in pairs], info[:, 1].copy()
+        rng = np.random.default_rng(options.seed)
+        sets = [tuple(int(x) for x in (p if rng.integers(2) else p[::-1])) for p in pairs]  # the opposing end first
+        scores = info[:, 1].copy()
     else:
         sets = _random_sets(points, normals, pairs, fingers, side, options.attempts, np.random.default_rng(options.seed))
         scores = _scores(sets, points, normals, *_reference(mesh), options.friction)
