@@ -26,7 +26,7 @@ ranked candidate sets of ``K`` object contact regions, in four steps:
    of a kept set is grown into a degree-2 Bézier patch of radius ``patch_mm`` fitted to
    the mesh by :func:`~prehension.objects.pick.region_from_mesh` (the fit ``prehension
    region`` makes, which refuses a patch whose normal points into the object); a fit that
-   fails or strays from the surface more than half the object's surface tolerance is
+   fails or strays from the surface more than 0.4 mm (the object's surface tolerance is 0.5) is
    tried at half the radius, then as a point with its normal.
 
 Everything is seeded: the same mesh, hand and seed give the same sets.
@@ -305,7 +305,7 @@ def propose_points(surface: MeshSurface, side: HandSide, fingers: int, options: 
                      len(pairs), len(sets), narrowest, patch)  # fmt: skip
 
 
-def grow_set(surface: MeshSurface, points: PointSets, k: int, tolerance_mm: float = 0.25) -> CandidateSet | None:
+def grow_set(surface: MeshSurface, points: PointSets, k: int, tolerance_mm: float = 0.4) -> CandidateSet | None:
     """Set ``k`` of ``points`` grown into regions (``None`` when a point grows none)."""
     idx = list(points.sets[k])
     regions = [surface.grow(points.points[i], points.patch_mm, tolerance_mm) for i in idx]
@@ -315,7 +315,7 @@ def grow_set(surface: MeshSurface, points: PointSets, k: int, tolerance_mm: floa
 
 
 def propose_regions(mesh: Mesh, side: HandSide, fingers: int, options: ProposalOptions | None = None, *,
-                    distance=None, tolerance_mm: float = 0.25) -> Proposal:  # fmt: skip
+                    distance=None, tolerance_mm: float = 0.4) -> Proposal:  # fmt: skip
     """Candidate sets of ``fingers`` object contact regions on ``mesh`` (see the module docstring).
 
     Args:
