@@ -152,13 +152,7 @@ def _writer(journal, appender, source: str, seed: int, tasks_dir: Path | None):
         if verdict.verdict is None:  # its regions could not be grown: nothing to record
             return
         line, loaded = verdict_line(verdict.verdict, source, seed)
-        lines = []
-        if loaded.ref not in journal.task_refs:
-            lines += [v for k, v in sorted(loaded.file_lines.items()) if k not in journal.file_shas]
-            journal.file_shas |= set(loaded.file_lines)
-            lines.append(loaded.task_line)
-            journal.task_refs.add(loaded.ref)
-        appender.put(lines + [line.line])
+        appender.put(journal.lines_needed(loaded) + [line.line])
         if verdict.grasp is not None and tasks_dir is not None:
             _write_task(verdict.grasp.outcome.task, tasks_dir)
 
