@@ -8,7 +8,7 @@ within the radius of the point with :func:`~prehension.objects.pick.region_from_
 exactly as ``prehension region --at P --radius R`` does (it refuses a patch whose normal
 points into the object).  A fit that fails or strays from the mesh more than
 ``tolerance_mm`` is tried at half the radius, then replaced by a point region with the
-closest face's normal.
+sampled point's normal.
 """
 
 from __future__ import annotations
@@ -22,7 +22,9 @@ from ..geometry.regions import PointRegion, Region
 from ..objects.meshes import Mesh
 from ..objects.pick import OuterSurface, outer_surface, region_from_mesh
 
-__all__ = ["MeshSurface"]
+__all__ = ["MeshSurface", "CLEAR_MM"]
+
+CLEAR_MM = 1.0  # a point region's outward step: twice the objects' default surface tolerance, as their check takes it
 
 
 class MeshSurface:
@@ -34,18 +36,17 @@ class MeshSurface:
 
             distance = MeshDistance(mesh.vertices, mesh.faces)
         self.mesh, self.distance = mesh, distance
-        tri = mesh.vertices[mesh.faces]
-        cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-        self.normals = cross / np.maximum(np.linalg.norm(cross, axis=1), 1e-300)[:, None]
 
     @cached_property
     def outer(self) -> OuterSurface:
         """The mesh's outer faces and the distance to them (built once)."""
         return outer_surface(self.mesh, self.distance)
 
-    def grow(self, point, radius: float, tolerance_mm: float) -> Region | None:
-        """The region grown at surface ``point`` (see the module docstring); ``None`` when
-        even a point region cannot be placed there (its normal would point inwards)."""
+    def grow(self, point, normal, radius: float, tolerance_mm: float) -> Region | None:
+        """The region grown at surface ``point`` with outward ``normal`` (see the module
+        docstring); ``None`` when even a point region cannot be placed there (a step of
+        :data:`CLEAR_MM` along its normal stays inside the solid: the object's own check
+        of its regions would refuse it)."""
         for r in (radius, 0.5 * radius):
             try:
                 picked = region_from_mesh(self.mesh, at=point, radius=r, degree=2, distance=self.distance, outer=self.outer)
@@ -53,7 +54,7 @@ class MeshSurface:
                 continue
             if picked.max_deviation_mm <= tolerance_mm:
                 return picked.region
-        seed = int(self.distance.closest_faces(np.asarray(point, float)[None])[0])
-        if not self.outer.mask[seed]:
+        point, normal = np.asarray(point, float), np.asarray(normal, float)
+        if self.distance.signed_distance((point + CLEAR_MM * normal)[None])[0] <= 0:
             return None
-        return PointRegion(np.asarray(point, float), self.normals[seed])
+        return PointRegion(point, normal)

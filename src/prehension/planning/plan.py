@@ -18,13 +18,14 @@ chosen assignment): verified by the one residual function, re-checkable from its
 
 from __future__ import annotations
 
+import logging
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Mapping, NamedTuple
 
 from ..assignment import AssignmentOptions, AssignmentOutcome, OpenContact, OpenTask, search_assignments
-from ..errors import PrehensionError
+from ..errors import InvalidObject, PrehensionError
 from ..hands.model import Hand
 from ..objects.model import GraspObject
 from ..objects.solid import MeshFileSolid
@@ -32,6 +33,8 @@ from ..solvers.local import LocalOptions
 from .grow import MeshSurface
 from .hand_side import HandSide, hand_side
 from .propose import CandidateSet, PointSets, ProposalOptions, grow_set, propose_points
+
+_LOG = logging.getLogger("prehension.planning")
 
 __all__ = ["PlanOptions", "PlannedGrasp", "SetVerdict", "PlanProgress", "PlanReport", "plan_grasps", "region_names", "open_task_of"]
 
@@ -142,9 +145,14 @@ def _verdict(report):
 
 def _decide(name, solid, side, surface, points, k, options: PlanOptions) -> SetVerdict:
     candidate = grow_set(surface, points, k)
-    if candidate is None:
+    try:
+        task = None if candidate is None else open_task_of(name, solid, side, k, candidate)
+    except InvalidObject as exc:  # a region the object's own surface check refuses: the set is skipped, logged
+        _LOG.info("set %d skipped: %s", k, exc)
+        task = None
+    if task is None:
         return SetVerdict(k, None, None, 0)
-    report = search_assignments(open_task_of(name, solid, side, k, candidate), options.search)
+    report = search_assignments(task, options.search)
     decided = len(report.feasible) + len(report.infeasible) + len(report.undecided)
     if report.feasible:
         return SetVerdict(k, PlannedGrasp(k, candidate, report.feasible[0]), report.feasible[0], decided)

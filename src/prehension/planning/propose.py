@@ -308,7 +308,7 @@ def propose_points(surface: MeshSurface, side: HandSide, fingers: int, options: 
 def grow_set(surface: MeshSurface, points: PointSets, k: int, tolerance_mm: float = 0.4) -> CandidateSet | None:
     """Set ``k`` of ``points`` grown into regions (``None`` when a point grows none)."""
     idx = list(points.sets[k])
-    regions = [surface.grow(points.points[i], points.patch_mm, tolerance_mm) for i in idx]
+    regions = [surface.grow(points.points[i], points.normals[i], points.patch_mm, tolerance_mm) for i in idx]
     if any(r is None for r in regions):
         return None
     return CandidateSet(tuple(regions), points.points[idx].copy(), points.normals[idx].copy(), points.scores[k])
