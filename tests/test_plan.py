@@ -141,3 +141,19 @@ def test_plan_grasps_are_verified_and_distinct(sa, tmp_path):
         for s in result.solutions:
             assert evaluate(result.task, s.configuration()).ok
         assert g.outcome.assignment.hand_regions[0] == "thumb_tip"  # the opposition rule
+
+
+def test_hand_side_of_a_urdf_hand():
+    from conftest import SHARED
+
+    urdf = SHARED / "hands" / "allegro_hand" / "allegro_hand_right.urdf"
+    if not urdf.is_file():
+        pytest.skip("shared/hands not present beside the checkout")
+    allegro = resolve_hand(str(urdf))
+    side = hand_side(allegro, 3)
+    assert set(side.regions) == {"index_tip", "middle_tip", "ring_tip", "thumb_tip"} and side.opposing == ("thumb_tip",)
+    assert all(span > 100.0 for span in side.spans_mm.values())
+    with pytest.raises(PrehensionError, match=r"has 4 fingertip regions .*give --fingers 2\.\.4$"):
+        hand_side(allegro, 5)  # no palm region: no hint to add --palm
+    with pytest.raises(PrehensionError, match="has no region on its palm"):
+        hand_side(allegro, 3, palm=True)

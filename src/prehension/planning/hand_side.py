@@ -94,12 +94,16 @@ def _ball(hand: Hand, name: str) -> tuple[np.ndarray, float | None]:
     return centre, None if reach == 0.0 else reach * 1.05 + 1e-6
 
 
+def _palm_regions(hand: Hand) -> list[str]:
+    return [n for n, r in hand.regions.items() if r.link == hand.palm]
+
+
 def _candidates(hand: Hand, palm: bool) -> tuple[tuple[str, ...], tuple[str, ...]]:
     tips = {f.tip_link for f in hand.fingers}
     names = [n for n, r in hand.regions.items() if r.link in tips]
     palms: list[str] = []
     if palm:
-        palms = [n for n, r in hand.regions.items() if r.link == hand.palm]
+        palms = _palm_regions(hand)
         if not palms:
             raise PrehensionError(
                 f"hand {hand.name!r} has no region on its palm ({hand.palm!r}) to plan with: drop --palm, or give the "
@@ -135,7 +139,7 @@ def hand_side(hand: Hand, fingers: int, *, palm: bool = False, oppose: bool = Tr
         listed = ", ".join(names) or "none"
         raise PrehensionError(
             f"{fingers} contacts asked for, but hand {hand.name!r} has {len(names)} {what} ({listed}); "
-            f"give --fingers 2..{len(names)}" + ("" if palm or not hand.regions else " (or add --palm)")
+            f"give --fingers 2..{len(names)}" + ("" if palm or not _palm_regions(hand) else " (or add --palm)")
         )
     balls = {n: _ball(hand, n) for n in names}
     spans = {}
