@@ -153,3 +153,46 @@ def test_search_agrees_with_solving_alone(d):
         if span is not None:
             assert alone.status != "solved"  # the span proof never contradicts a solver
     assert ("pad->A, tip->B" in verdicts and verdicts["pad->A, tip->B"] == "solved") == (d < 47.0)
+
+
+def test_every_assignment_is_accounted_for_under_a_time_limit():
+    """A search stopped by its time limit still names every assignment: what no solver
+    finished is undecided, saying why."""
+    case = build_fk_case(schunk_sa_hand(), np.random.default_rng(7), fingers=("thumb", "index", "middle"), palm=False)
+    task = open_like(case.task, SA_TIPS)
+    report = search_assignments(task, AssignmentOptions(complete_time_s=5.0, time_limit_s=0.05, chunk_size=4))
+    assert report.total == 24
+    labels = [o.assignment.label for o in report.feasible] + [a.label for a, _ in report.infeasible]
+    labels += [a.label for a, _ in report.undecided]
+    assert sorted(labels) == sorted(a.label for a in enumerate_assignments(task))
+    assert any("time limit" in reason for _, reason in report.undecided)
+    assert all(u.result is not None and u.result.status == "gave_up" for u in report.undecided)
+
+
+@pytest.mark.parametrize("seed", [11, 12])
+def test_search_agrees_with_solving_each_of_24_alone(seed):
+    """Every assignment of a forward-built three-contact task over four fingertips, solved
+    one by one (local solver, same seeds): the same verdicts and the same grasps as the
+    search in chunks, here and on an executor; the built assignment is feasible."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    case = build_fk_case(schunk_sa_hand(), np.random.default_rng(seed), fingers=("thumb", "index", "middle"), palm=False)
+    task = open_like(case.task, SA_TIPS)
+    options = AssignmentOptions(complete_time_s=0, chunk_size=5, seed=seed)
+    alone = {}
+    for a in enumerate_assignments(task):
+        r = solve_alone(concrete_task(task, a), assignment_seed(seed, a), options)
+        alone[a.label] = r.solutions[0].q if r.success else None
+    with ThreadPoolExecutor(2) as pool:
+        for report in (search_assignments(task, options), search_assignments(task, AssignmentOptions(
+                complete_time_s=0, chunk_size=7, seed=seed, executor=pool))):  # fmt: skip
+            found = {o.assignment.label: o.result.solutions[0].q for o in report.feasible}
+            assert set(found) == {k for k, q in alone.items() if q is not None}
+            for label, q in found.items():
+                np.testing.assert_array_equal(q, alone[label])
+            assert len(report.feasible) + len(report.infeasible) + len(report.undecided) == 24
+            scores = [o.score for o in report.feasible]  # ranked: force closure, then epsilon
+            assert scores == sorted(scores, reverse=True)
+            assert all(o.quality == o.qualities[o.best] and "epsilon" in o.quality for o in report.feasible)
+    built = ", ".join(f"{c.hand_region}->{c.object_region}" for c in case.task.contacts)
+    assert alone[built] is not None

@@ -27,7 +27,7 @@ import math
 import time
 from collections import Counter
 from dataclasses import dataclass, field
-from typing import Any, Callable, Iterable, Mapping, NamedTuple
+from typing import Any, Callable, Iterable, Mapping
 
 from ..batch.solving import task_seed
 from ..errors import PrehensionError
@@ -35,7 +35,7 @@ from ..results import SolveResult, Status
 from ..tasks.model import Task
 from .model import Assignment, OpenTask, concrete_task, enumerate_assignments
 from .span import SpanProof, prove_by_span
-from .solving import solve_tasks
+from .solving import complete_one, solve_local_chunk
 
 __all__ = ["AssignmentOptions", "AssignmentOutcome", "Impossible", "Undecided", "AssignmentProgress", "AssignmentReport",
            "search_assignments", "assignment_seed"]  # fmt: skip
@@ -101,23 +101,31 @@ def assignment_seed(seed: int, assignment: Assignment) -> int:
     return task_seed(seed, assignment.label)
 
 
-class Impossible(NamedTuple):
+@dataclass(frozen=True, eq=False)
+class Impossible:
     """An assignment proven impossible: ``proof`` is a :class:`~.span.SpanProof` or the
     complete solver's ``infeasible`` :class:`~prehension.results.SolveResult`; ``task``
-    the assignment's concrete task."""
+    the assignment's concrete task.  Unpacks as the pair ``(assignment, proof)``."""
 
     assignment: Assignment
     proof: SpanProof | SolveResult
     task: Task | None = None
 
+    def __iter__(self):
+        return iter((self.assignment, self.proof))
 
-class Undecided(NamedTuple):
-    """An assignment neither solved nor disproved, why, and the solver's answer (``None``
-    when no solver ran on it: the search's time limit came first)."""
+
+@dataclass(frozen=True, eq=False)
+class Undecided:
+    """An assignment neither solved nor disproved, why, and the last solver's answer
+    (``gave_up``).  Unpacks as the pair ``(assignment, reason)``."""
 
     assignment: Assignment
     reason: str
     result: SolveResult | None = None
+
+    def __iter__(self):
+        return iter((self.assignment, self.reason))
 
 
 @dataclass(frozen=True, eq=False)
@@ -293,46 +301,72 @@ def _span_step(open_task: OpenTask, todo: list[Assignment], options: AssignmentO
 
 
 def _solve_step(items: list[tuple[Assignment, Task]], options: AssignmentOptions, collect: _Collect, started: float) -> None:
-    """Solve ``items`` a chunk at a time, here or on ``options.executor`` (results taken
-    as chunks finish); what the time limit leaves unsolved is undecided, saying so."""
+    """Phase 1: the local solver on every assignment, a chunk at a time; phase 2: the
+    complete solver on each one it did not solve (one assignment a call), while the
+    search's time limit allows.  Here, or on ``options.executor``."""
+    deadline = None if options.time_limit_s is None else time.time() + options.time_limit_s - (time.perf_counter() - started)
     workers = getattr(options.executor, "max_workers", 1) if options.executor is not None else 1
     size = options.chunk_size or max(1, min(MAX_CHUNK, math.ceil(len(items) / (4 * max(workers, 1)))))
-    chunks = [items[k : k + size] for k in range(0, len(items), size)]
     plain = options.without_executor()
-    seeds = [[assignment_seed(options.seed, a) for a, _ in chunk] for chunk in chunks]
-    deadline = None if options.time_limit_s is None else started + options.time_limit_s
-    if options.executor is None:
-        for k, chunk in enumerate(chunks):
-            if deadline is not None and time.perf_counter() >= deadline:
-                _out_of_time([i for c in chunks[k:] for i in c], options, collect)
-                return
-            _accept(chunk, solve_tasks([t for _, t in chunk], seeds[k], plain), collect)
+    calls = []
+    for k in range(0, len(items), size):
+        chunk = items[k : k + size]
+        seeds = [assignment_seed(options.seed, a) for a, _ in chunk]
+        calls.append((chunk, solve_local_chunk, ([t for _, t in chunk], seeds, plain, deadline)))
+    left = []  # (assignment, task, local answer) the local solver did not solve
+
+    def local_done(chunk, results):
+        for (assignment, task), result in zip(chunk, results):
+            if result.success or options.complete_time_s <= 0:
+                collect.result(assignment, task, result)
+            else:
+                left.append((assignment, task, result))
+
+    if not _run_calls(calls, options.executor, deadline, local_done, collect):
+        _out_of_time(left, collect)  # solved by no one: the local solver could not, the complete one had no time
         return
+    calls = [([(a, t, r)], complete_one, (t, r, assignment_seed(options.seed, a), plain, deadline)) for a, t, r in left]
+    _run_calls(calls, options.executor, deadline, lambda chunk, result: collect.result(chunk[0][0], chunk[0][1], result), collect)
+
+
+def _run_calls(calls, executor, deadline, done, collect: _Collect) -> bool:
+    """Run ``calls`` (``(chunk, function, args)``), here or on ``executor``, handing each
+    answer to ``done(chunk, answer)`` as it comes; past ``deadline`` the chunks not run are
+    undecided.  Whether every call ran."""
+    if executor is None:
+        for k, (chunk, function, args) in enumerate(calls):
+            if deadline is not None and time.time() >= deadline:
+                _out_of_time([i for c, _, _ in calls[k:] for i in c], collect)
+                return False
+            done(chunk, function(*args))
+            collect.report()
+        return True
     from concurrent.futures import FIRST_COMPLETED, wait
 
-    pending = {options.executor.submit(solve_tasks, [t for _, t in c], s, plain): c for c, s in zip(chunks, seeds)}
+    pending = {executor.submit(function, *args): chunk for chunk, function, args in calls}
     try:
         while pending:
-            left = None if deadline is None else max(0.0, deadline - time.perf_counter())
-            done, _ = wait(list(pending), timeout=left, return_when=FIRST_COMPLETED)
-            if not done:  # the time limit
-                _out_of_time([i for c in pending.values() for i in c], options, collect)
-                return
-            for future in done:
-                _accept(pending.pop(future), future.result(), collect)
+            timeout = None if deadline is None else max(0.0, deadline - time.time())
+            finished, _ = wait(list(pending), timeout=timeout, return_when=FIRST_COMPLETED)
+            if not finished:
+                _out_of_time([i for c in pending.values() for i in c], collect)
+                return False
+            for future in finished:
+                done(pending.pop(future), future.result())
+            collect.report()
     finally:
         for future in pending:
             future.cancel()
+    return True
 
 
-def _out_of_time(items, options: AssignmentOptions, collect: _Collect) -> None:
-    reason = f"the search's time limit ({options.time_limit_s:g} s) was reached before this assignment was solved"
-    for assignment, task in items:
-        collect.add(Undecided(assignment, reason, SolveResult(task, "local", Status.GAVE_UP, reason)))
+def _out_of_time(items, collect: _Collect) -> None:
+    """The assignments no solver finished before the search's time limit: undecided."""
+    reason = f"the search's time limit ({collect.options.time_limit_s:g} s) was reached before it was decided"
+    for item in items:
+        assignment, task, local = (*item, None) if len(item) == 2 else item
+        result = local if local is not None else SolveResult(task, "local", Status.GAVE_UP, reason)
+        collect.add(Undecided(assignment, reason, result))
     collect.report()
 
 
-def _accept(chunk, results, collect: _Collect) -> None:
-    for (assignment, task), result in zip(chunk, results):
-        collect.result(assignment, task, result)
-    collect.report()
