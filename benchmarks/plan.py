@@ -49,11 +49,24 @@ def verified(grasp) -> bool:
     return bool(result.solutions) and all(evaluate(result.task, s.configuration()).ok for s in result.solutions)
 
 
-def held(grasp) -> bool:
+def held(grasp) -> bool | None:
+    """Whether the grasp's first solution holds in the physics test; ``None`` when MuJoCo
+    refuses the scene (e.g. a convex piece of the object with too small a volume)."""
     from prehension.sim import simulate_grasp
 
     result = grasp.outcome.result
-    return bool(simulate_grasp(result.task, result.solutions[0]).success)
+    try:
+        return bool(simulate_grasp(result.task, result.solutions[0]).success)
+    except ValueError:
+        return None
+
+
+def holds(grasps) -> str:
+    """``held / simulated`` (and how many scenes MuJoCo refused)."""
+    verdicts = [held(g) for g in grasps]
+    refused = sum(v is None for v in verdicts)
+    text = f"{sum(v is True for v in verdicts)} / {len(verdicts) - refused}"
+    return text + (f" ({refused} scenes refused)" if refused else "")
 
 
 def row(hand, name: str, path: Path, scale: float, simulate: bool, grasps: int) -> list[str]:
@@ -68,7 +81,7 @@ def row(hand, name: str, path: Path, scale: float, simulate: bool, grasps: int) 
                 str(exc)[:60]]  # fmt: skip
     wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
     ok = sum(verified(g) for g in report.grasps)
-    hold = str(sum(held(g) for g in report.grasps)) if simulate else "-"
+    hold = holds(report.grasps) if simulate else "-"
     return [name, str(report.sets), str(report.tried), str(report.assignments), str(len(report.grasps)), str(ok),
             f"{wall:.1f}", f"{cpu:.1f}", hold, ""]  # fmt: skip
 

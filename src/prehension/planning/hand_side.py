@@ -11,8 +11,11 @@ with ``palm=True`` the palm's regions too.  Two numbers of the hand bound the pr
   both ball radii); contact points farther apart than the largest span cannot be touched
   by any two of the regions at once;
 * the **gap**: two pads of radius ``r_a``, ``r_b`` touching a surface side by side are
-  about ``r_a + r_b`` apart; contact points closer than the smallest such sum would ask
-  two fingertips to overlap, so the proposal keeps its points that far apart.
+  about ``r_a + r_b`` apart, and two fingers side by side about the sum of their
+  half-widths (how far the tip link's collision capsules reach to either side along its
+  joint's axis: the Allegro's distal links are 44 mm wide around 12 mm pads); contact
+  points on one side closer than the larger of the two smallest sums would ask two
+  fingers to overlap, so the proposal keeps its points that far apart.
 
 The **opposition rule** (on by default): a hand with an opposing finger (the thumb) grasps
 with the thumb against the other fingers, so in a proposed set (whose first point faces
@@ -94,6 +97,19 @@ def _ball(hand: Hand, name: str) -> tuple[np.ndarray, float | None]:
     return centre, None if reach == 0.0 else reach * 1.05 + 1e-6
 
 
+def _half_width(hand: Hand, link: str) -> float:
+    """How far the link's collision capsules reach to either side of its joint's centre,
+    along the joint's axis (a finger's half-width, in the link frame) [mm]; 0 without
+    capsules or a joint."""
+    joint = hand.joint_of_link(link)
+    capsules = hand.links[hand.link_index(link)].collision
+    if joint is None or not capsules:
+        return 0.0
+    axis = joint.R_parent_child_zero.T @ joint.axis_in_parent  # the hinge, in the child frame
+    ends = [(c.a - joint.origin_in_child, c.b - joint.origin_in_child, c.radius) for c in capsules]
+    return float(max(max(abs(a @ axis), abs(b @ axis)) + r for a, b, r in ends))
+
+
 def _palm_regions(hand: Hand) -> list[str]:
     return [n for n, r in hand.regions.items() if r.link == hand.palm]
 
@@ -148,6 +164,7 @@ def hand_side(hand: Hand, fingers: int, *, palm: bool = False, oppose: bool = Tr
         link_a, link_b = hand.regions[a].link, hand.regions[b].link
         spans[(a, b)] = span_bound_mm(hand, link_a, ca, link_b, cb, tol_mm=_SPAN_TOL_MM) + (ra or 0.0) + (rb or 0.0)
     radii = sorted(r for _, r in balls.values() if r)
-    gap = radii[0] + radii[1] if len(radii) >= 2 else _DEFAULT_GAP_MM
+    widths = sorted(_half_width(hand, hand.regions[n].link) for n in names)
+    gap = max(radii[0] + radii[1] if len(radii) >= 2 else _DEFAULT_GAP_MM, widths[0] + widths[1])
     opposing = _opposing(hand, names, fingers) if oppose else ()
     return HandSide(hand, names, spans, float(gap), opposing, palms)
