@@ -50,6 +50,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("solvers",),
     ("solve", "best", "hold", "batch_extras"),
     ("parallel", "batch", "assignment"),
+    ("planning",),
     ("verification.claims", "viewer", "interop", "cli"),
 )
 

@@ -272,6 +272,17 @@ class Journal:
         """Append ``records`` (dicts, one line each), then flush and fsync once."""
         self.append_lines([(json.dumps(r, separators=(",", ":")) + "\n").encode("utf-8") for r in records])
 
+    def lines_needed(self, loaded) -> list[bytes]:
+        """The file and task lines a record of ``loaded`` (a :class:`~.loading.LoadedTask`)
+        needs before it, those the journal does not hold yet (each file before its task
+        line); they count as given from now on."""
+        if loaded.ref in self.task_refs:
+            return []
+        lines = [v for k, v in sorted(loaded.file_lines.items()) if k not in self.file_shas]
+        self.file_shas |= set(loaded.file_lines)
+        self.task_refs.add(loaded.ref)
+        return lines + [loaded.task_line]
+
 
 class Appender:
     """Appends to a :class:`Journal` from a thread, so that the client never waits for the disk.

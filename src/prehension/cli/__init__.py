@@ -15,7 +15,7 @@ from rich.markup import escape
 
 from ..deadline import TimeLimitReached
 from ..errors import PrehensionError
-from . import batch, check, export, hands, import_grasps, offline, region, simulate, solve, view
+from . import batch, check, export, hands, import_grasps, offline, plan, region, simulate, solve, view
 from .terminate import Terminated, termination_as_interrupt
 from .codes import EXIT_APPROXIMATE, EXIT_BAD_INPUT, EXIT_CHECK_FAILED, EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK
 
@@ -45,6 +45,7 @@ def build_parser() -> argparse.ArgumentParser:
     view.add_parsers(sub)
     hands.add_parsers(sub)
     region.add_parser(sub)
+    plan.add_parser(sub)
     simulate.add_parser(sub)
     export.add_parser(sub)
     import_grasps.add_parser(sub)
@@ -104,6 +105,7 @@ def main(argv: list[str] | None = None) -> int:
         "check": cmd_check, "offline": _cmd_offline, "batch": cmd_batch,
         "view": cmd_view, "render": cmd_render, "export-hand": cmd_export_hand, "region": cmd_region,
         "simulate": simulate.cmd_simulate, "export": export.cmd_export, "import-grasps": import_grasps.cmd_import_grasps,
+        "plan": plan.cmd_plan,
     }  # fmt: skip
     if args.command is None:
         parser.print_help()

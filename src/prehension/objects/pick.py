@@ -49,7 +49,7 @@ from .meshes import Mesh
 if TYPE_CHECKING:  # numba is imported only when a distance is needed
     from .distance import MeshDistance
 
-__all__ = ["PickedRegion", "region_from_mesh", "MAX_DEGREE"]
+__all__ = ["PickedRegion", "OuterSurface", "outer_surface", "region_from_mesh", "MAX_DEGREE"]
 
 MAX_DEGREE = 6
 _SAMPLES_PER_EDGE = 5  # barycentric samples per triangle edge
@@ -182,15 +182,29 @@ def _outer_faces(distance, tri, normals) -> np.ndarray:
     return (distance.signed_distance(points.reshape(-1, 3)).reshape(-1, 4) > 0).any(axis=1)
 
 
-def _piece_by_radius(mesh, distance, at, radius):
-    at = np.asarray(at, dtype=float).reshape(3)
-    tri, normals, areas = _face_data(mesh)
+class OuterSurface(NamedTuple):
+    """The outer faces of a mesh (``mask (F,)``) and the distance to them alone
+    (``distance``): what every pick by radius on the mesh starts from (:func:`outer_surface`)."""
+
+    mask: np.ndarray
+    distance: MeshDistance
+
+
+def outer_surface(mesh: Mesh, distance: MeshDistance) -> OuterSurface:
+    """The :class:`OuterSurface` of ``mesh`` (built once for many picks: ``region_from_mesh(outer=...)``)."""
+    tri, normals, _ = _face_data(mesh)
     outer = _outer_faces(distance, tri, normals)
     if not outer.any():
         raise InvalidObject("the mesh has no outer surface to pick from (every face has the solid on both sides)")
     from .distance import MeshDistance
 
-    outside = MeshDistance(mesh.vertices, mesh.faces[outer])  # closest points on the outer surface only
+    return OuterSurface(outer, MeshDistance(mesh.vertices, mesh.faces[outer]))  # closest points on the outer surface only
+
+
+def _piece_by_radius(mesh, distance, at, radius, prepared: OuterSurface | None = None):
+    at = np.asarray(at, dtype=float).reshape(3)
+    tri, normals, areas = _face_data(mesh)
+    outer, outside = prepared if prepared is not None else outer_surface(mesh, distance)
     _, closest = outside.signed_distance(at[None], closest=True)
     p0 = closest[0]
     gap = float(np.linalg.norm(at - p0))
@@ -243,11 +257,11 @@ def _mean_normal(normals, areas, chosen) -> np.ndarray:
     return n
 
 
-def _piece_at(mesh: Mesh, distance: MeshDistance, at, radius) -> _Piece:
+def _piece_at(mesh: Mesh, distance: MeshDistance, at, radius, outer: OuterSurface | None = None) -> _Piece:
     """The piece within ``radius`` of the surface point nearest ``at``."""
     if at is None or radius is None or not (np.isfinite(radius) and radius > 0):
         raise InvalidObject("give a surface point 'at' and a positive 'radius' [mm], or a set of faces")
-    p0, chosen, tri, normals, areas, turns_mm = _piece_by_radius(mesh, distance, at, float(radius))
+    p0, chosen, tri, normals, areas, turns_mm = _piece_by_radius(mesh, distance, at, float(radius), outer)
     n = _mean_normal(normals, areas, chosen)
     chosen &= normals @ n > _MIN_COS  # other side of a thin part: dropped
     return _Piece(tri, normals, areas, chosen, p0, n, float(radius) / np.sqrt(2.0), turns_mm)
@@ -291,7 +305,7 @@ def _patch(piece: _Piece, distance: MeshDistance, degree: int, radius: float | N
 
 def region_from_mesh(
     mesh: Mesh, *, at=None, radius: float | None = None, faces=None, degree: int = 2, point: bool = False,
-    distance: MeshDistance | None = None,
+    distance: MeshDistance | None = None, outer: OuterSurface | None = None,
 ) -> PickedRegion:  # fmt: skip
     """Fit a contact region to a piece of ``mesh`` (see the module docstring).
 
@@ -302,6 +316,7 @@ def region_from_mesh(
         degree: the patch's degree in u and v (1..6).
         point: a point-with-normal region at the surface point instead of a patch.
         distance: the mesh's :class:`MeshDistance` when already built.
+        outer: the mesh's :func:`outer_surface` when already built (many picks on one mesh).
 
     Raises:
         InvalidObject: a bad request (no faces, a point far from the surface, a piece
@@ -313,7 +328,7 @@ def region_from_mesh(
         from .distance import MeshDistance
 
         distance = MeshDistance(mesh.vertices, mesh.faces)
-    piece = _piece_at(mesh, distance, at, radius) if faces is None else _piece_of(mesh, distance, faces)
+    piece = _piece_at(mesh, distance, at, radius, outer) if faces is None else _piece_of(mesh, distance, faces)
     size = int(piece.chosen.sum())
     if point:
         region = PointRegion(piece.p0, piece.n)
