@@ -39,7 +39,7 @@ def test_show_a_hand(capsys, wide):
 def test_show_a_urdf_hand_lists_fingers_fits_and_notes(capsys, wide):
     assert main(["show", str(SHARED["allegro"])]) == EXIT_OK
     out = capsys.readouterr().out
-    for text in ("allegro_right from", "palm 'base_link'", "thumb (opposes)", "index_tip on link_3.0", "rms 0.00",
+    for text in ("allegro_right from", "palm 'base_link'", "thumb (opposes)", "index_tip on link_3.0", "rms 0.75",
                  "fingers named from the geometry", "link_3.0_tip (on link_3.0)"):
         assert text in out, text
 

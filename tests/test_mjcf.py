@@ -68,7 +68,9 @@ def test_shared_hand_as_mjcf_is_the_urdf_hand(urdf, tmp_path, rng):
         cap, cap_ref = hand.regions[name].region, region.region
         assert hand.regions[name].link == region.link
         np.testing.assert_allclose(cap.center, cap_ref.center, atol=0.05)
-        assert cap.radius == pytest.approx(cap_ref.radius, abs=0.05)
+        # the pad takes in its tip capsule's end ball (docs/hands.md, fingertip step 5), and
+        # the capsule fits of the two files' meshes (6 digits) differ by up to 0.2 mm in reach
+        assert cap.radius == pytest.approx(cap_ref.radius, abs=0.25)
 
 
 @requires_hands

@@ -192,7 +192,7 @@ def check_approach(task: Task, q_grasp, T_palm_object, contacts, stored: dict) -
     pre-grasp claimed collision-free must pass the residual function's rows.  The squeeze
     targets are recomputed from the contacts with the stated kind, depth and friction.
     """
-    from .sim.squeeze import squeeze_depths, squeeze_targets
+    from .sim.squeeze import as_good_a_squeeze, squeeze_depths, squeeze_targets
 
     out = []
     if "pregrasp" in stored:
@@ -215,7 +215,9 @@ def check_approach(task: Task, q_grasp, T_palm_object, contacts, stored: dict) -
             depths = squeeze_depths(contacts, float(sq["squeeze_mm"]), sq["kind"], float(sq["friction"]))
             q_sq = squeeze_targets(task, q_grasp, contacts, float(sq["squeeze_mm"]), depths)
             given = np.array([float(sq["joint_angles_rad"][d]) for d in task.hand.dof_names])
-            same = np.allclose(depths, sq["depths_mm"], atol=1e-6, rtol=0) and np.allclose(q_sq, given, atol=1e-6, rtol=0)
+            same = np.allclose(depths, sq["depths_mm"], atol=1e-6, rtol=0) and (
+                np.allclose(q_sq, given, atol=1e-6, rtol=0)  # else an equally good step (not unique: squeeze_targets)
+                or as_good_a_squeeze(task, q_grasp, contacts, float(sq["squeeze_mm"]), depths, given))
             out.append((what, bool(same), f"{sq['kind']}, depths {', '.join(f'{d:.1f}' for d in depths)} mm"
                                           + ("" if same else ": differ from the recomputed ones")))  # fmt: skip
         except (KeyError, TypeError, ValueError) as exc:

@@ -227,7 +227,7 @@ def _pads_in_palm(hand: Hand, frames: list[PadFrame | None]) -> np.ndarray | Non
     return np.stack(cols, axis=1)
 
 
-def _fit(finger, frame, pts, label, fit: bool):
+def _fit(finger, frame, pts, label, fit: bool, capsules=()):
     """(cap, report, why there is none) of one finger's fitted fingertip."""
     if not fit:
         return None, None, "fingertips not fitted (fit_fingertips=False)"
@@ -236,17 +236,18 @@ def _fit(finger, frame, pts, label, fit: bool):
     if frame is None:
         return None, None, f"the joint of link {finger.tip_link!r} gives no finger axis"
     try:
-        return (*fit_fingertip(finger.name, frame, pts, label), "")
+        return (*fit_fingertip(finger.name, frame, pts, label, capsules), "")
     except InvalidHand as exc:
         return None, None, str(exc)
 
 
-def _fingertips(fingers, frames, points, overrides: Mapping[str, TipOverride], fit: bool):
+def _fingertips(hand: Hand, fingers, frames, points, overrides: Mapping[str, TipOverride], fit: bool):
     """(regions, fit reports, notes for the fingers left without a fingertip)."""
     regions, fits, notes = {}, {}, []
     for finger, frame in zip(fingers, frames):
         link = finger.tip_link
-        cap, report, why = _fit(finger, frame, *points[link], fit)
+        capsules = hand.links[hand.link_index(link)].collision
+        cap, report, why = _fit(finger, frame, *points[link], fit, capsules)
         override = overrides.get(finger.name)
         if override is not None:
             link = override.link or link
@@ -304,7 +305,7 @@ def assemble(raw: RawHand, options: ImportOptions = ImportOptions()) -> Hand:
     names, thumb, naming = finger_names(kin, chains, _pads_in_palm(kin, pads))
     fingers = make_fingers(chains, names)
     _check_overrides(options.fingertips, fingers)
-    regions, fits, missing = _fingertips(fingers, pads, points, options.fingertips, options.fit_fingertips)
+    regions, fits, missing = _fingertips(kin, fingers, pads, points, options.fingertips, options.fit_fingertips)
     notes += _tree_notes(raw, order, frames) + [naming] + warnings + missing
     return replace(
         kin, fingers=tuple(fingers), regions=regions, opposing_finger=None if thumb is None else names[thumb],

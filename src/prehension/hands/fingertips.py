@@ -28,6 +28,20 @@ its visual ones; a mesh gives its vertices), in ``D``'s frame [mm]:
    gives, over every surface point inside the cap's cone (seen from its centre), their
    number and their rms and largest distance from the sphere: how far the real surface
    strays from the cap the solvers use.
+5. **Consistent with the link's capsules** (:func:`fit_to_capsules`; the capsules are
+   what every collision check judges, and a capsule ball is excused only where it lies
+   inside the pad's ball, ``|s - c| <= rho - r``).  A capsule end ball that nearly is the
+   pad (``|e - c| + r <= 1.15 rho``: a fingertip mesh enclosed by a capsule a little
+   thicker than the sphere fitted to it) is taken into the pad: ``rho`` grows to
+   ``|e - c| + r``, so that ball is excused instead of sticking out of the pad at every
+   contact.  Then the cap keeps only directions ``u`` where the pad is the outermost
+   surface of the link: ``max over capsules of (max(a.u, b.u) - c.u + r) <= rho +`` 0.05 mm
+   (a contact there, on a flat surface, sinks no capsule into the object).  The cap axis
+   is re-chosen among the pad direction tilted ``0..90`` deg towards the tip, to hold the
+   widest cone of such directions (the half-angle still at most step 4's), ties going to
+   the tilt nearest :data:`TILT_DEG`; the half-angle is then checked on rings 0.25 deg
+   apart and lowered until every direction passes.  Without capsules (no collision
+   shapes) step 4 stands.
 
 Any value can be overridden (:class:`TipOverride`, degrees for the angle); a finger with
 every value given needs no geometry.
@@ -45,13 +59,16 @@ from ..geometry.regions import SphereCap
 from .model import Hand, HandRegion
 from .provenance import TipFit
 
-__all__ = ["PadFrame", "TipOverride", "pad_frame", "cap_axis", "fit_fingertip", "apply_override", "TILT_DEG"]
+__all__ = ["PadFrame", "TipOverride", "pad_frame", "cap_axis", "fit_fingertip", "apply_override", "TILT_DEG", "fit_to_capsules"]
 
 TILT_DEG = 20.0  # cap axis: the pad direction tilted this much towards the tip
 SELECT_DEG = 70.0  # pad points: within this angle of the cap axis
 BACK_RADII = 2.0  # ... and not farther back from the tip than this many half-thicknesses
 MIN_HALF_ANGLE_DEG, MAX_HALF_ANGLE_DEG = 20.0, 60.0
 _MIN_POINTS = 8
+ABSORB_FRACTION = 0.15  # a capsule end ball within rho + this * rho of the pad's centre is taken into the pad
+OUTERMOST_MM = 0.05  # a cap direction is kept where no capsule reaches farther than rho + this [mm]
+_DIRECTIONS = 4000  # directions sampled on the sphere for step 5
 
 
 @dataclass(frozen=True)
@@ -214,14 +231,78 @@ def _fit_sphere(p: np.ndarray, frame: PadFrame, m: np.ndarray):
     return c, r, sel
 
 
-def fit_fingertip(finger: str, frame: PadFrame, points: np.ndarray, geometry: str) -> tuple[SphereCap, TipFit]:
-    """The sphere cap of a finger's pad and the fit's report (module docstring, steps 2-4).
+def _fibonacci(n: int) -> np.ndarray:
+    """(n, 3) near-uniform unit directions."""
+    k = np.arange(n) + 0.5
+    z = 1.0 - 2.0 * k / n
+    phi = k * math.pi * (3.0 - math.sqrt(5.0))
+    s = np.sqrt(1.0 - z * z)
+    return np.column_stack([s * np.cos(phi), s * np.sin(phi), z])
+
+
+def _absorbed_radius(c: np.ndarray, rho: float, capsules) -> float:
+    """The pad radius grown to enclose every capsule end ball that nearly is the pad (step 5)."""
+    out = rho
+    for cap in capsules:
+        for e in (cap.a, cap.b):
+            reach = float(np.linalg.norm(np.asarray(e) - c)) + cap.radius
+            if rho < reach <= rho * (1.0 + ABSORB_FRACTION):
+                out = max(out, reach)
+    return out
+
+
+def _outermost(c: np.ndarray, rho: float, capsules, u: np.ndarray) -> np.ndarray:
+    """(n,) whether the pad ball is the outermost surface of the capsules in each direction ``u (n, 3)``."""
+    reach = np.full(len(u), -np.inf)
+    for cap in capsules:
+        ends = np.maximum(u @ (np.asarray(cap.a) - c), u @ (np.asarray(cap.b) - c))  # (n,)
+        reach = np.maximum(reach, ends + cap.radius)
+    return reach <= rho + OUTERMOST_MM
+
+
+def fit_to_capsules(frame: PadFrame, c: np.ndarray, rho: float, half_deg: float, capsules):
+    """(rho, cap axis, half-angle [deg]) of step 5: the pad made consistent with the
+    distal link's ``capsules`` (link frame), the half-angle at most ``half_deg``."""
+    rho = _absorbed_radius(c, rho, capsules)
+    u = _fibonacci(_DIRECTIONS)
+    blocked = u[~_outermost(c, rho, capsules, u)]
+    best = (-1.0, 0.0, cap_axis(frame))
+    for tilt in np.arange(0.0, 90.5, 1.0):
+        t = math.radians(tilt)
+        m = _unit(math.cos(t) * frame.pad + math.sin(t) * frame.along)
+        free = float(np.degrees(np.arccos(np.clip(np.max(blocked @ m), -1, 1)))) if len(blocked) else 180.0
+        half = min(free, half_deg)
+        key = (round(half, 1), -abs(tilt - TILT_DEG))
+        if key > best[:2]:
+            best = (*key, m)
+    return rho, best[2], _shrunk(c, rho, capsules, best[2], max(best[0], 0.0))
+
+
+def _shrunk(c: np.ndarray, rho: float, capsules, m: np.ndarray, half_deg: float) -> float:
+    """``half_deg`` lowered in 0.25 deg steps until the cone about ``m`` holds only
+    directions where the pad is outermost, checked on rings 0.25 deg apart, 1 deg around
+    (the sampled directions of :func:`fit_to_capsules` are about 3 deg apart)."""
+    e1 = _unit(np.cross(m, [1.0, 0, 0] if abs(m[0]) < 0.9 else [0, 1.0, 0]))
+    e2 = np.cross(m, e1)
+    phi = np.radians(np.arange(0.0, 360.0, 1.0))
+    ring = np.outer(np.cos(phi), e1) + np.outer(np.sin(phi), e2)  # (360, 3)
+    angles = np.arange(0.0, half_deg + 1e-9, 0.25)
+    for k, a in enumerate(angles):
+        t = math.radians(a)
+        if not _outermost(c, rho, capsules, math.cos(t) * m + math.sin(t) * ring).all():
+            return float(angles[k - 1]) if k else 0.0
+    return half_deg
+
+
+def fit_fingertip(finger: str, frame: PadFrame, points: np.ndarray, geometry: str, capsules=()) -> tuple[SphereCap, TipFit]:
+    """The sphere cap of a finger's pad and the fit's report (module docstring, steps 2-5).
 
     Args:
         finger: finger name (for the report).
         frame: the pad frame of its distal link.
         points: (n, 3) surface points of the distal link, link frame [mm].
         geometry: what the points are (``"collision mesh"``...), for the report.
+        capsules: the distal link's collision capsules (link frame) for step 5; empty: no step 5.
     """
     m = cap_axis(frame)
     p = np.asarray(points, dtype=float)
@@ -229,6 +310,8 @@ def fit_fingertip(finger: str, frame: PadFrame, points: np.ndarray, geometry: st
     if sel.sum() == 0:
         raise InvalidHand(f"finger {finger!r}: no surface point of link {frame.link!r} lies on its pad side")
     half = float(np.clip(np.percentile(_angles_deg(p[sel], c, m), 95), MIN_HALF_ANGLE_DEG, MAX_HALF_ANGLE_DEG))
+    if len(capsules):
+        r, m, half = fit_to_capsules(frame, c, r, half, capsules)
     cap = SphereCap(c, r, m, math.radians(half))
     in_cap = _angles_deg(p, c, m) <= half  # the report: every surface point the cap stands for
     in_cap = in_cap if in_cap.any() else sel

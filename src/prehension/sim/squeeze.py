@@ -24,7 +24,7 @@ from ..hands.kinematics import forward_kinematics, point_jacobian
 from ..quality.wrenches import cone_edges
 from ..tasks.model import Task
 
-__all__ = ["squeeze_targets", "squeeze_depths", "balanced_normal_forces", "BalancedForces", "SQUEEZE_KINDS"]
+__all__ = ["squeeze_targets", "as_good_a_squeeze", "squeeze_depths", "balanced_normal_forces", "BalancedForces", "SQUEEZE_KINDS"]
 
 SQUEEZE_KINDS = ("balanced", "uniform")
 
@@ -96,25 +96,10 @@ def squeeze_depths(contacts, squeeze_mm: float, kind: str = "balanced", friction
     return squeeze_mm * normal / normal.max()
 
 
-def squeeze_targets(task: Task, q: np.ndarray, contacts, squeeze_mm: float, depths_mm=None) -> np.ndarray:
-    """Joint angles ``(n_dof,)`` [rad] that move every contact's hand point ``squeeze_mm``
-    (or, per contact, ``depths_mm``) along the object's inward normal, to first order.
-
-    With ``J`` the stacked Jacobians of the contacts' hand points with respect to the
-    independent moving dofs (a coupled dof follows its source), the step is the
-    least-squares one, ``min |J dq - d * n_in|`` within the joint limits
-    (``scipy.optimize.lsq_linear``); coupled dofs follow.  ``contacts`` carry palm-frame ``hand_point`` and
-    outward ``object_normal`` (as a :class:`~prehension.results.Solution`'s do).
-
-    Args:
-        task: the task.
-        q: (n_dof,) the solved angles [rad].
-        contacts: the solution's contacts.
-        squeeze_mm: how far into the object [mm] (every contact, unless ``depths_mm``).
-        depths_mm: (C,) per contact depths [mm] (:func:`squeeze_depths`), or ``None``.
-    """
+def _problem(task: Task, q: np.ndarray, contacts, squeeze_mm: float, depths_mm):
+    """``(J (3C, n_dof) [mm/rad], target (3C,) [mm], free (n_dof,) bool, (lo, hi) of dq[free])``
+    of :func:`squeeze_targets`: coupled dofs folded into their sources."""
     hand = task.hand
-    q = np.asarray(q, dtype=float)
     pose = forward_kinematics(hand, q)
     depths = np.full(len(task.contacts), float(squeeze_mm)) if depths_mm is None else np.asarray(depths_mm, float)
     rows, target = [], []
@@ -128,10 +113,56 @@ def squeeze_targets(task: Task, q: np.ndarray, contacts, squeeze_mm: float, dept
         i, s = hand.dof_index(c.dof), hand.dof_index(c.source)
         J[:, s] += c.ratio * J[:, i]
         free[i] = False
+    bounds = np.minimum((hand.lower - q)[free], 0), np.maximum((hand.upper - q)[free], 0)
+    return J, np.concatenate(target), free, bounds
+
+
+def _targets(hand, q: np.ndarray, free: np.ndarray, dq_free: np.ndarray) -> np.ndarray:
+    """The angles of a step given on the free dofs: coupled dofs follow, clipped into the limits."""
     dq = np.zeros(hand.n_dof)
-    if free.any():
-        room = (hand.lower - q)[free], (hand.upper - q)[free]
-        dq[free] = lsq_linear(J[:, free], np.concatenate(target), bounds=(np.minimum(room[0], 0), np.maximum(room[1], 0))).x
+    dq[free] = dq_free
     for c in hand.couplings:
         dq[hand.dof_index(c.dof)] = c.ratio * dq[hand.dof_index(c.source)]
     return np.clip(q + dq, hand.lower, hand.upper)
+
+
+def squeeze_targets(task: Task, q: np.ndarray, contacts, squeeze_mm: float, depths_mm=None) -> np.ndarray:
+    """Joint angles ``(n_dof,)`` [rad] that move every contact's hand point ``squeeze_mm``
+    (or, per contact, ``depths_mm``) along the object's inward normal, to first order.
+
+    With ``J`` the stacked Jacobians of the contacts' hand points with respect to the
+    independent moving dofs (a coupled dof follows its source), the step is the
+    least-squares one, ``min |J dq - d * n_in|`` within the joint limits
+    (``scipy.optimize.lsq_linear``); coupled dofs follow.  ``contacts`` carry palm-frame ``hand_point`` and
+    outward ``object_normal`` (as a :class:`~prehension.results.Solution`'s do).  ``J``
+    has more columns than rows, so the least-squares step need not be unique: with a
+    bound active, ``lsq_linear`` may stop at different equally good steps for contacts
+    1e-11 mm apart; :func:`as_good_a_squeeze` is how a stored step is re-derived.
+
+    Args:
+        task: the task.
+        q: (n_dof,) the solved angles [rad].
+        contacts: the solution's contacts.
+        squeeze_mm: how far into the object [mm] (every contact, unless ``depths_mm``).
+        depths_mm: (C,) per contact depths [mm] (:func:`squeeze_depths`), or ``None``.
+    """
+    q = np.asarray(q, dtype=float)
+    J, target, free, bounds = _problem(task, q, contacts, squeeze_mm, depths_mm)
+    dq_free = lsq_linear(J[:, free], target, bounds=bounds).x if free.any() else np.zeros(0)
+    return _targets(task.hand, q, free, dq_free)
+
+
+def as_good_a_squeeze(task: Task, q: np.ndarray, contacts, squeeze_mm: float, depths_mm, given, tol_mm: float = 1e-6) -> bool:
+    """Whether the angles ``given`` (n_dof,) [rad] are a squeeze step of :func:`squeeze_targets`'s
+    problem as good as the one it finds now: a step within its bounds on the free dofs (the
+    others following or fixed, as there) whose residual ``|J dq - d * n_in|`` is at most
+    ``tol_mm`` larger.  How ``prehension check`` re-derives stored squeeze targets when
+    the least-squares step is not unique."""
+    q, given = np.asarray(q, dtype=float), np.asarray(given, dtype=float)
+    J, target, free, (lo, hi) = _problem(task, q, contacts, squeeze_mm, depths_mm)
+    dq_free = np.clip((given - q)[free], lo, hi)
+    if not np.allclose(_targets(task.hand, q, free, dq_free), given, atol=1e-9, rtol=0):
+        return False
+    best = squeeze_targets(task, q, contacts, squeeze_mm, depths_mm)
+    cost = float(np.linalg.norm(J[:, free] @ dq_free - target))
+    return cost <= float(np.linalg.norm(J[:, free] @ (best - q)[free] - target)) + tol_mm
