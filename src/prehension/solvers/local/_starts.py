@@ -37,7 +37,11 @@ def wave_starts(group: Group, sequence: InitialPoseSequence, wave: int, todo: np
     sequence's poses all lie in one plane); with ``initial="random"`` random lambdas."""
     S = len(todo)
     if options.initial == "sequence" and wave >= len(sequence):
-        return place_poses(group, extra.names, np.array([extra.pose(group, p, wave - len(sequence)) for p in todo]))
+        poses = np.array([extra.pose(group, p, wave - len(sequence)) for p in todo])
+        # the first wave beyond the sequence has always started from the group's default
+        # unknowns (the pose names were read before the first draw set them); kept so, by
+        # wave, so that a call starting at a later wave gives what a call from the first does
+        return place_poses(group, extra.names if wave > len(sequence) else (), poses)
     if options.initial == "sequence":  # the same row for every problem: placed once per group shape and wave
         return np.repeat(_sequence_start(group, sequence, wave), S, axis=0)
     if isinstance(rng, list):  # one generator per problem: its draws do not depend on the batch
