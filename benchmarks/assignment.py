@@ -105,12 +105,18 @@ def random_tasks(n: int, seed: int, hand, candidates) -> list[tuple[str, OpenTas
 
 def run(task: OpenTask, options: AssignmentOptions) -> tuple[dict, object]:
     started, cpu = time.perf_counter(), time.process_time()
-    report = search_assignments(task, options)
+    found = []  # when each feasible assignment was found [s]
+
+    def note(verdict):
+        if type(verdict).__name__ == "AssignmentOutcome":
+            found.append(time.perf_counter() - started)
+
+    report = search_assignments(task, options, on_decided=note)
     seconds, cpu = time.perf_counter() - started, time.process_time() - cpu
     span = sum(1 for _, p in report.infeasible if getattr(p, "kind", None) == "span")
     row = {"assignments": report.total, "feasible": len(report.feasible), "span": span,
            "complete": len(report.infeasible) - span, "undecided": len(report.undecided), "seconds": seconds,
-           "cpu": cpu if options.executor is None else None}  # fmt: skip
+           "cpu": cpu if options.executor is None else None, "last_feasible": max(found, default=None)}  # fmt: skip
     return row, report
 
 
@@ -156,8 +162,8 @@ def main(argv=None) -> int:
     warm = search_assignments(small, AssignmentOptions(complete_time_s=0))
     print(f"warm-up (numba, spans): {warm.total} assignments in {warm.seconds:.1f} s; load {os.getloadavg()[0]:.1f}\n")
     print("| object | hand | workers | assignments | feasible | impossible (span) | impossible (complete) | undecided | wall [s] "
-          "| CPU [s] | agree |")
-    print("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+          "| last feasible at [s] | CPU [s] | agree |")
+    print("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
     tasks = [(name, open_task(name, hand, candidates)) for name in args.objects]
     tasks += random_tasks(args.random, args.draw_seed, hand, candidates) if args.random else []
     totals: dict = {}
@@ -165,17 +171,21 @@ def main(argv=None) -> int:
         for workers in args.workers:
             row, report, agree = _measure(task, args, workers, small)
             print(f"| {name} | {args.hand} | {workers} | {row['assignments']} | {row['feasible']} | {row['span']} | "
-                  f"{row['complete']} | {row['undecided']} | {row['seconds']:.1f} | "
-                  f"{'-' if row['cpu'] is None else format(row['cpu'], '.1f')} | {agree} |", flush=True)  # fmt: skip
+                  f"{row['complete']} | {row['undecided']} | {row['seconds']:.1f} | {_s(row['last_feasible'])} | "
+                  f"{_s(row['cpu'])} | {agree} |", flush=True)  # fmt: skip
             total = totals.setdefault((name in OBJECTS, workers), {})
             for key in ("assignments", "feasible", "span", "complete", "undecided", "seconds"):
                 total[key] = total.get(key, 0) + row[key]
     for (builtin, workers), t in totals.items():
         print(f"| all {'built-in' if builtin else 'drawn'} | {args.hand} | {workers} | {t['assignments']} | {t['feasible']} | "
-              f"{t['span']} | {t['complete']} | {t['undecided']} | {t['seconds']:.1f} | | |")  # fmt: skip
+              f"{t['span']} | {t['complete']} | {t['undecided']} | {t['seconds']:.1f} | | | |")  # fmt: skip
     print(f"\nload average after: {os.getloadavg()[0]:.1f}; initial poses {args.initial_poses or 64}, "
           f"--round-poses {args.round_poses}, --assignment-time {args.assignment_time:g} s, --time-limit {args.time_limit:g} s")
     return 0
+
+
+def _s(seconds: float | None) -> str:
+    return "-" if seconds is None else f"{seconds:.1f}"
 
 
 def _measure(task: OpenTask, args, workers: int, small: OpenTask):
