@@ -24,8 +24,9 @@ def _open_case(seed: int) -> OpenTask:
 
 
 def test_round_ranges():
-    assert round_ranges(64, 8) == [(k, k + 8) for k in range(0, 64, 8)]
+    assert round_ranges(64, 8) == [(0, 8), (8, 16), (16, 32), (32, 64)]
     assert round_ranges(20, 8) == [(0, 8), (8, 16), (16, 20)]
+    assert round_ranges(20, 3) == [(0, 3), (3, 6), (6, 12), (12, 20)]
     assert round_ranges(12, 12) == [None] and round_ranges(12, None) == [None]
 
 

@@ -1,9 +1,9 @@
 """The search's solving step in rounds: every undecided assignment gets its next block of
 initial poses in turn, then the complete solver gets what no pose solved.
 
-Round ``r`` tries the initial poses ``r * B`` to ``(r + 1) * B - 1`` (``B``:
-:attr:`~.search.AssignmentOptions.round_poses`) of every assignment no earlier pose
-solved, a chunk at a time through the local solver's batch path
+Round 1 tries the first ``B`` initial poses (:attr:`~.search.AssignmentOptions.round_poses`)
+of every assignment, round 2 the next ``B``, each later round as many as all the rounds
+before it (:func:`round_ranges`), of every assignment no earlier pose solved, a chunk at a time through the local solver's batch path
 (:func:`.solving.local_round`); an assignment's answer is, bit for bit, the one it gets
 alone from the first pose with its seed (the poses and draws of a wave do not depend on
 the earlier waves: ``solve_local_batch(poses=...)``), so the feasible set does not depend
@@ -28,11 +28,19 @@ __all__ = ["round_ranges", "Driver"]
 
 
 def round_ranges(i_max: int, round_poses: int | None) -> list[tuple[int, int] | None]:
-    """The pose ranges of the rounds: ``[(0, B), (B, 2B), ...]`` up to ``i_max``;
-    ``[None]`` (one round, every pose) without ``round_poses`` or when it covers them all."""
+    """The pose ranges of the rounds: ``B`` poses, ``B`` more, then twice as many as all
+    the rounds before (``(0, 8), (8, 16), (16, 32), (32, 64)`` for ``B = 8`` and 64 poses:
+    the first poses of every assignment early, and few rounds -- each costs a call per
+    chunk --), up to ``i_max``; ``[None]`` (one round, every pose) without
+    ``round_poses`` or when it covers them all."""
     if not round_poses or round_poses >= i_max:
         return [None]
-    return [(start, min(start + round_poses, i_max)) for start in range(0, i_max, round_poses)]
+    out, start = [], 0
+    while start < i_max:
+        stop = min(start + max(round_poses, start), i_max)
+        out.append((start, stop))
+        start = stop
+    return out
 
 
 class Driver:

@@ -54,8 +54,9 @@ class AssignmentOptions:
         seed: base seed; assignment ``a`` is solved with ``assignment_seed(seed, a)``.
         local_options: the local solver's :class:`~prehension.solvers.local.LocalOptions`
             (its budget: initial poses, iterations; ``None``: the defaults).
-        round_poses: initial poses per round (:mod:`.rounds`): every assignment no
-            earlier pose solved gets its next ``round_poses`` in turn, so the feasible
+        round_poses: initial poses of the first rounds (:mod:`.rounds`: ``B``, ``B``,
+            then doubling): every assignment no earlier pose solved gets its next
+            poses in turn, so the feasible
             ones are found first; an assignment's answer is the same for any value.
             ``None``: one round of every pose (also with ``initial="random"`` or
             ``approximate``, whose draws and retries carry from pose to pose).
