@@ -157,4 +157,5 @@ def test_an_open_task_has_a_default_time_limit(open_file):
     parse = build_parser().parse_args
     assert _search_options(parse(["solve", path]), None).time_limit_s == DEFAULT_OPEN_TIME_LIMIT_S == 60.0
     assert _search_options(parse(["solve", path, "--time-limit", "7"]), None).time_limit_s == 7.0
+    assert _search_options(parse(["solve", path, "--time-limit", "300"]), None).time_limit_s == 300.0
     assert _search_options(parse(["solve", path, "--time-limit", "0"]), None).time_limit_s is None

@@ -28,6 +28,11 @@ __all__ = ["cmd_solve_open", "add_assignment_arguments", "refuse_open_only"]
 
 DEFAULT_ASSIGNMENT_TIME_S = 2.0
 DEFAULT_OPEN_TIME_LIMIT_S = 60.0  # an open task's whole search, unless --time-limit says otherwise (0: none)
+
+
+class SolveDefaultLimit(float):
+    """``solve --time-limit`` when not given (300 s for one task): an open task's search
+    takes :data:`DEFAULT_OPEN_TIME_LIMIT_S` instead; a given value, 300 too, is kept."""
 SHOWN = 20  # rows of the feasible table (the journal has them all)
 # solve's options that a closed task's single solve uses and the assignment search does not
 _NOT_FOR_OPEN = {"all": "--all", "sigma": "--sigma", "max_boxes": "--max-boxes", "checkpoint": "--checkpoint",
@@ -100,7 +105,7 @@ def _search_options(args, executor):
 
 def _time_limit(args) -> float:
     """``--time-limit``, else the open task's default (:data:`DEFAULT_OPEN_TIME_LIMIT_S`)."""
-    return DEFAULT_OPEN_TIME_LIMIT_S if args.time_limit is None else args.time_limit
+    return DEFAULT_OPEN_TIME_LIMIT_S if isinstance(args.time_limit, SolveDefaultLimit) else args.time_limit
 
 
 def cmd_solve_open(args, console: Console) -> int:
