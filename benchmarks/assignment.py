@@ -12,10 +12,15 @@ whole-search ``--time-limit``.  Per object and executor (``--workers 1``: in thi
 feasible, proven impossible (by span, by the complete solver), undecided, wall time.
 ``--agree N`` also solves N of the assignments one by one
 (:func:`prehension.assignment.solving.solve_alone`, same seeds and budget) and counts
-disagreements with the search.
+disagreements with the search.  ``--round-poses B`` sets the rounds of initial poses
+(default 8; 0: one round of every pose, the search before rounds).  ``--random N`` adds a
+seeded random draw of N open tasks: a mesh of ``../shared/objects`` (bunny, random/*),
+four regions grown on it at a force-closure point set drawn among the planner's proposals
+(:mod:`prehension.planning`, ``--draw-seed``), the same six candidate hand regions.
 
-    python benchmarks/assignment.py                        # both objects, in-process and 2 workers
+    python benchmarks/assignment.py                        # the three objects, in-process and 2 workers
     python benchmarks/assignment.py --objects teapot --workers 2 --agree 40
+    python benchmarks/assignment.py --workers 2 --assignment-time 0 --time-limit 30 --random 6
 """
 
 from __future__ import annotations
@@ -34,6 +39,7 @@ from prehension.assignment import assignment_seed, enumerate_assignments
 from prehension.assignment.solving import solve_alone
 from prehension.geometry.regions import SphereCap
 from prehension.hands.model import HandRegion
+from prehension.objects.model import GraspObject
 from prehension.solvers.local import LocalOptions
 from prehension.tasks.library import load_builtin_task
 
@@ -67,14 +73,50 @@ def open_task(object_name: str, hand, candidates) -> OpenTask:
     return OpenTask(f"{object_name}-open", hand, base.object, contacts)
 
 
+def random_tasks(n: int, seed: int, hand, candidates) -> list[tuple[str, OpenTask]]:
+    """``n`` open tasks drawn with ``seed``: a mesh of ``../shared/objects`` each (in turn
+    from a shuffled list), four regions grown at one of the planner's first 20 proposed
+    four-point sets (drawn), every contact open to ``candidates``."""
+    from prehension.objects.solid import MeshFileSolid
+    from prehension.planning.grow import MeshSurface
+    from prehension.planning.hand_side import hand_side
+    from prehension.planning.propose import ProposalOptions, grow_set, propose_points
+
+    meshes = [("bunny", SHARED / "objects" / "bunny.obj", 100.0)]
+    meshes += [(p.stem, p, 10.0) for p in sorted((SHARED / "objects" / "random").glob("*.obj"))]
+    rng = np.random.default_rng(seed)
+    order = [meshes[i] for i in rng.permutation(len(meshes))]
+    side = hand_side(hand, 4, palm=True, oppose=False)
+    out = []
+    for k in range(n):
+        name, path, scale = order[k % len(order)]
+        solid = MeshFileSolid(str(path), scale)
+        surface = MeshSurface(solid.mesh())
+        points = propose_points(surface, side, 4, ProposalOptions(seed=int(rng.integers(2**31))))
+        for j in rng.permutation(min(20, len(points.sets))):
+            grown = grow_set(surface, points, int(j))
+            if grown is not None:
+                break
+        regions = {f"r{i}": r for i, r in enumerate(grown.regions)}
+        obj = GraspObject(f"{name}-{k}", regions, solid=solid)
+        out.append((f"{name}#{j}", OpenTask(f"{name}-{k}-open", hand, obj, tuple(OpenContact(r, candidates) for r in regions))))
+    return out
+
+
 def run(task: OpenTask, options: AssignmentOptions) -> tuple[dict, object]:
     started, cpu = time.perf_counter(), time.process_time()
-    report = search_assignments(task, options)
+    found = []  # when each feasible assignment was found [s]
+
+    def note(verdict):
+        if type(verdict).__name__ == "AssignmentOutcome":
+            found.append(time.perf_counter() - started)
+
+    report = search_assignments(task, options, on_decided=note)
     seconds, cpu = time.perf_counter() - started, time.process_time() - cpu
     span = sum(1 for _, p in report.infeasible if getattr(p, "kind", None) == "span")
     row = {"assignments": report.total, "feasible": len(report.feasible), "span": span,
            "complete": len(report.infeasible) - span, "undecided": len(report.undecided), "seconds": seconds,
-           "cpu": cpu if options.executor is None else None}  # fmt: skip
+           "cpu": cpu if options.executor is None else None, "last_feasible": max(found, default=None)}  # fmt: skip
     return row, report
 
 
@@ -108,6 +150,9 @@ def main(argv=None) -> int:
     p.add_argument("--initial-poses", type=int, default=None,
                    help="local solver's initial poses per assignment (default: LocalOptions' 64)")
     p.add_argument("--agree", type=int, default=0, help="assignments solved one by one against the search (per object)")
+    p.add_argument("--round-poses", type=int, default=8, help="initial poses per round (0: one round of every pose)")
+    p.add_argument("--random", type=int, default=0, metavar="N", help="also N open tasks drawn on ../shared/objects meshes")
+    p.add_argument("--draw-seed", type=int, default=0, help="the seed of the --random draw")
     args = p.parse_args(argv)
     if args.hand == "svh" and not SVH.is_file():
         print(f"{SVH} not found: run with --hand sa", file=sys.stderr)
@@ -117,18 +162,30 @@ def main(argv=None) -> int:
     warm = search_assignments(small, AssignmentOptions(complete_time_s=0))
     print(f"warm-up (numba, spans): {warm.total} assignments in {warm.seconds:.1f} s; load {os.getloadavg()[0]:.1f}\n")
     print("| object | hand | workers | assignments | feasible | impossible (span) | impossible (complete) | undecided | wall [s] "
-          "| CPU [s] | agree |")
-    print("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
-    for name in args.objects:
-        task = open_task(name, hand, candidates)
+          "| last feasible at [s] | CPU [s] | agree |")
+    print("| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+    tasks = [(name, open_task(name, hand, candidates)) for name in args.objects]
+    tasks += random_tasks(args.random, args.draw_seed, hand, candidates) if args.random else []
+    totals: dict = {}
+    for name, task in tasks:
         for workers in args.workers:
             row, report, agree = _measure(task, args, workers, small)
             print(f"| {name} | {args.hand} | {workers} | {row['assignments']} | {row['feasible']} | {row['span']} | "
-                  f"{row['complete']} | {row['undecided']} | {row['seconds']:.1f} | "
-                  f"{'-' if row['cpu'] is None else format(row['cpu'], '.1f')} | {agree} |", flush=True)  # fmt: skip
+                  f"{row['complete']} | {row['undecided']} | {row['seconds']:.1f} | {_s(row['last_feasible'])} | "
+                  f"{_s(row['cpu'])} | {agree} |", flush=True)  # fmt: skip
+            total = totals.setdefault((name in OBJECTS, workers), {})
+            for key in ("assignments", "feasible", "span", "complete", "undecided", "seconds"):
+                total[key] = total.get(key, 0) + row[key]
+    for (builtin, workers), t in totals.items():
+        print(f"| all {'built-in' if builtin else 'drawn'} | {args.hand} | {workers} | {t['assignments']} | {t['feasible']} | "
+              f"{t['span']} | {t['complete']} | {t['undecided']} | {t['seconds']:.1f} | | | |")  # fmt: skip
     print(f"\nload average after: {os.getloadavg()[0]:.1f}; initial poses {args.initial_poses or 64}, "
-          f"--assignment-time {args.assignment_time:g} s, --time-limit {args.time_limit:g} s")
+          f"--round-poses {args.round_poses}, --assignment-time {args.assignment_time:g} s, --time-limit {args.time_limit:g} s")
     return 0
+
+
+def _s(seconds: float | None) -> str:
+    return "-" if seconds is None else f"{seconds:.1f}"
 
 
 def _measure(task: OpenTask, args, workers: int, small: OpenTask):
@@ -140,7 +197,7 @@ def _measure(task: OpenTask, args, workers: int, small: OpenTask):
             [f.result() for f in warm]
         local = None if args.initial_poses is None else LocalOptions(i_max=args.initial_poses)
         options = AssignmentOptions(complete_time_s=args.assignment_time, time_limit_s=args.time_limit or None, executor=executor,
-                                    local_options=local)  # fmt: skip
+                                    local_options=local, round_poses=args.round_poses or None)  # fmt: skip
         row, report = run(task, options)
     agree = "-"
     if args.agree:

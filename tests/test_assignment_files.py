@@ -145,3 +145,17 @@ def test_local_only_leaves_the_rest_undecided(open_file, tmp_path, capsys):
     assert code == EXIT_GAVE_UP and "undecided" in shown
     assert {r["status"] for r in _records(out).values()} == {"gave_up"}
     assert main(["check", str(out)]) == EXIT_OK
+
+
+def test_an_open_task_has_a_default_time_limit(open_file):
+    """`solve OPEN.yaml` is bounded by default (60 s for the search; --time-limit 0: none),
+    a closed task keeps solve's 300 s."""
+    from prehension.cli import build_parser
+    from prehension.cli.assign import DEFAULT_OPEN_TIME_LIMIT_S, _search_options
+
+    path = str(open_file(40.0))
+    parse = build_parser().parse_args
+    assert _search_options(parse(["solve", path]), None).time_limit_s == DEFAULT_OPEN_TIME_LIMIT_S == 60.0
+    assert _search_options(parse(["solve", path, "--time-limit", "7"]), None).time_limit_s == 7.0
+    assert _search_options(parse(["solve", path, "--time-limit", "300"]), None).time_limit_s == 300.0
+    assert _search_options(parse(["solve", path, "--time-limit", "0"]), None).time_limit_s is None

@@ -35,6 +35,7 @@ from ..results import SolveResult, Status
 from ..tasks.model import Task
 from .model import Assignment, OpenTask, concrete_task, enumerate_assignments
 from .span import SpanProof, prove_by_span
+from .rounds import Driver, round_ranges
 from .solving import complete_job, local_job, ship
 
 __all__ = ["AssignmentOptions", "AssignmentOutcome", "Impossible", "Undecided", "AssignmentProgress", "AssignmentReport",
@@ -42,6 +43,7 @@ __all__ = ["AssignmentOptions", "AssignmentOutcome", "Impossible", "Undecided", 
 
 _LOG = logging.getLogger("prehension.assignment")
 MAX_CHUNK = 32  # assignments per call of the local solver's batch path, at most (default)
+DEFAULT_ROUND_POSES = 8  # initial poses per round (AssignmentOptions.round_poses)
 
 
 @dataclass(frozen=True)
@@ -52,6 +54,12 @@ class AssignmentOptions:
         seed: base seed; assignment ``a`` is solved with ``assignment_seed(seed, a)``.
         local_options: the local solver's :class:`~prehension.solvers.local.LocalOptions`
             (its budget: initial poses, iterations; ``None``: the defaults).
+        round_poses: initial poses of the first rounds (:mod:`.rounds`: ``B``, ``B``,
+            then doubling): every assignment no earlier pose solved gets its next
+            poses in turn, so the feasible
+            ones are found first; an assignment's answer is the same for any value.
+            ``None``: one round of every pose (also with ``initial="random"`` or
+            ``approximate``, whose draws and retries carry from pose to pose).
         complete_time_s: the complete solver's time [s] on each assignment the local
             solver did not solve; 0: no complete solver (those stay undecided).
         span: prune by the hand's span (:mod:`.span`) before solving.
@@ -71,6 +79,7 @@ class AssignmentOptions:
 
     seed: int = 0
     local_options: Any = None
+    round_poses: int | None = DEFAULT_ROUND_POSES
     complete_time_s: float = 2.0
     span: bool = True
     rank: bool = True
@@ -85,6 +94,8 @@ class AssignmentOptions:
             raise PrehensionError(f"assignment search: seed must be an integer >= 0, got {self.seed!r}")
         if not (isinstance(self.complete_time_s, (int, float)) and self.complete_time_s >= 0):
             raise PrehensionError(f"assignment search: complete_time_s must be >= 0 s, got {self.complete_time_s!r}")
+        if self.round_poses is not None and not (isinstance(self.round_poses, int) and self.round_poses >= 1):
+            raise PrehensionError(f"assignment search: round_poses must be an integer >= 1 or None, got {self.round_poses!r}")
         if self.chunk_size is not None and not (isinstance(self.chunk_size, int) and self.chunk_size >= 1):
             raise PrehensionError(f"assignment search: chunk_size must be an integer >= 1, got {self.chunk_size!r}")
         if self.time_limit_s is not None and not (isinstance(self.time_limit_s, (int, float)) and self.time_limit_s > 0):
@@ -300,80 +311,84 @@ def _span_step(open_task: OpenTask, todo: list[Assignment], options: AssignmentO
 
 def _solve_step(open_task: OpenTask, items: list[tuple[Assignment, Task]], options: AssignmentOptions, collect: _Collect,
                 started: float) -> None:  # fmt: skip
-    """Phase 1: the local solver on every assignment, a chunk at a time; phase 2: the
-    complete solver on each one it did not solve (one assignment a call), while the
-    search's time limit allows.  Here, or on ``options.executor`` (the open task shipped
-    pickled, unpickled once per worker: :func:`.solving.ship`)."""
+    """The local solver in rounds of initial poses on every assignment no earlier pose
+    solved, a chunk at a time (:mod:`.rounds`); then the complete solver on each one no
+    pose solved (one assignment a call), while the search's time limit allows.  Here, or
+    on ``options.executor`` (the open task shipped pickled, unpickled once per worker:
+    :func:`.solving.ship`)."""
     deadline = None if options.time_limit_s is None else time.time() + options.time_limit_s - (time.perf_counter() - started)
     workers = getattr(options.executor, "max_workers", 1) if options.executor is not None else 1
     size = options.chunk_size or max(1, min(MAX_CHUNK, math.ceil(len(items) / (4 * max(workers, 1)))))
     plain = options.without_executor()
     source = open_task if options.executor is None else ship(open_task)
-    calls = []
-    for k in range(0, len(items), size):
-        chunk = items[k : k + size]
-        seeds = [assignment_seed(options.seed, a) for a, _ in chunk]
-        calls.append((chunk, local_job, (source, [a for a, _ in chunk], seeds, plain, deadline)))
-    left = []  # (assignment, task, local answer) the local solver did not solve
+    local = options.local_options
+    rounds = options.round_poses if local is None or (local.initial == "sequence" and not local.approximate) else None
+    ranges = round_ranges(_i_max(options), rounds)
+    driver = Driver(options.executor, deadline, 2 * workers if options.executor is not None else 1,
+                    lambda left: _out_of_time(left, collect))  # fmt: skip
 
-    def local_done(chunk, results):
-        for (assignment, task), result in zip(chunk, results):
-            result = replace(result, task=task)
-            if result.success or options.complete_time_s <= 0:
+    def chunk(round_, items):  # items: (assignment, task, record, result) of round round_
+        part = _Part(items, round_)
+        seeds = [assignment_seed(options.seed, a) for a, *_ in part]
+        args = (source, [a for a, *_ in part], seeds, plain, deadline, ranges[round_], [r for _, _, r, _ in part])
+        return part, local_job, args
+
+    def local_done(part, answers):
+        round_ = part.round_
+        go_on = []
+        for (assignment, task, _, before), (result, record) in zip(part, answers):
+            result = replace(result, task=task, seconds=result.seconds + (before.seconds if before is not None else 0.0))
+            if not result.success and record.time_limit_s is not None and _past(deadline):
+                _out_of_time([(assignment, task, record, result)], collect)  # the search's limit stopped it
+            elif result.success or (round_ + 1 >= len(ranges) and options.complete_time_s <= 0):
+                collect.result(assignment, task, result)
+            elif round_ + 1 < len(ranges) and record.time_limit_s is None:
+                go_on.append((assignment, task, record, result))
+            elif options.complete_time_s <= 0:
                 collect.result(assignment, task, result)
             else:
-                left.append((assignment, task, result))
+                args = (source, assignment, replace(result, task=None), assignment_seed(options.seed, assignment), plain, deadline)
+                driver.later(([(assignment, task, None, result)], complete_job, args), complete_done)
+        collect.report()
+        driver.gather(round_ + 1, go_on)
 
-    def complete_done(chunk, result):
-        assignment, task, _ = chunk[0]
+    def complete_done(part, result):
+        assignment, task, _, _ = part[0]
         collect.result(assignment, task, replace(result, task=task))
+        collect.report()
 
-    if not _run_calls(calls, options.executor, deadline, local_done, collect):
-        _out_of_time(left, collect)  # solved by no one: the local solver could not, the complete one had no time
-        return
-    calls = [([(a, t, r)], complete_job, (source, a, replace(r, task=None), assignment_seed(options.seed, a), plain, deadline))
-             for a, t, r in left]  # fmt: skip
-    _run_calls(calls, options.executor, deadline, complete_done, collect)
+    driver.chunking(size, chunk, local_done)
+    driver.gather(0, [(a, t, None, None) for a, t in items])
+    driver.run()
 
 
-def _run_calls(calls, executor, deadline, done, collect: _Collect) -> bool:
-    """Run ``calls`` (``(chunk, function, args)``), here or on ``executor``, handing each
-    answer to ``done(chunk, answer)`` as it comes; past ``deadline`` the chunks not run are
-    undecided.  Whether every call ran."""
-    if executor is None:
-        for k, (chunk, function, args) in enumerate(calls):
-            if deadline is not None and time.time() >= deadline:
-                _out_of_time([i for c, _, _ in calls[k:] for i in c], collect)
-                return False
-            done(chunk, function(*args))
-            collect.report()
-        return True
-    from concurrent.futures import FIRST_COMPLETED, wait
+class _Part(list):
+    """The items of one local call, and their round."""
 
-    pending = {executor.submit(function, *args): chunk for chunk, function, args in calls}
-    try:
-        while pending:
-            timeout = None if deadline is None else max(0.0, deadline - time.time())
-            finished, _ = wait(list(pending), timeout=timeout, return_when=FIRST_COMPLETED)
-            if not finished:
-                _out_of_time([i for c in pending.values() for i in c], collect)
-                return False
-            for future in finished:
-                done(pending.pop(future), future.result())
-            collect.report()
-    finally:
-        for future in pending:
-            future.cancel()
-    return True
+    def __init__(self, items, round_: int):
+        super().__init__(items)
+        self.round_ = round_
+
+
+def _past(deadline: float | None) -> bool:
+    """``deadline`` has passed (within 50 ms: a worker's local solver stops at it by its own clock)."""
+    return deadline is not None and time.time() >= deadline - 0.05
+
+
+def _i_max(options: AssignmentOptions) -> int:
+    from ..solvers.local import LocalOptions
+
+    return (options.local_options or LocalOptions()).i_max
 
 
 def _out_of_time(items, collect: _Collect) -> None:
-    """The assignments no solver finished before the search's time limit: undecided."""
-    reason = f"the search's time limit ({collect.options.time_limit_s:g} s) was reached before it was decided"
-    for item in items:
-        assignment, task, local = (*item, None) if len(item) == 2 else item
+    """The assignments no solver finished before the search's time limit: undecided,
+    with the initial poses they had tried."""
+    i_max = _i_max(collect.options)
+    for assignment, task, _, local in items:
+        tried = 0 if local is None else int(local.stats.get("initial_poses_tried", 0))
+        reason = (f"the search's time limit ({collect.options.time_limit_s:g} s) was reached before it was decided "
+                  f"({tried} of {i_max} initial poses tried)")  # fmt: skip
         result = local if local is not None else SolveResult(task, "local", Status.GAVE_UP, reason)
         collect.add(Undecided(assignment, reason, result))
     collect.report()
-
-

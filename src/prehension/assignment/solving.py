@@ -32,7 +32,7 @@ from ..solve import SolveOptions, complete_after_local, solve
 from ..tasks.model import Task
 from ..tasks.open_task import Assignment, OpenTask, concrete_task
 
-__all__ = ["solve_local_chunk", "complete_one", "solve_alone", "DEADLINE_NOTE", "Shipped", "ship", "local_job", "complete_job"]
+__all__ = ["solve_local_chunk", "local_round", "complete_one", "solve_alone", "DEADLINE_NOTE", "Shipped", "ship", "local_job", "complete_job"]
 
 DEADLINE_NOTE = "the search's time limit was reached before the complete solver could run on it"
 
@@ -56,6 +56,18 @@ def solve_local_chunk(tasks: Sequence[Task], seeds: Sequence[int], options, dead
     with its seed, in one call of the batch path; ``seconds`` is each task's share.  The
     call stops at ``deadline`` (a :func:`time.time` instant; ``None``: none): the tasks it
     did not finish give up, saying so."""
+    return [result for result, _ in local_round(tasks, seeds, options, deadline)]
+
+
+def local_round(tasks: Sequence[Task], seeds: Sequence[int], options, deadline: float | None = None,
+                poses: tuple[int, int] | None = None, earlier: Sequence | None = None) -> list[tuple]:  # fmt: skip
+    """:func:`solve_local_chunk` over the initial poses ``poses = (start, stop)`` only
+    (``None``: all), each task's ``(result, record)``.  ``earlier`` holds each task's
+    :class:`~prehension.solvers.local.LocalRecord` of the poses before ``start`` (``None``:
+    none): the answer is, bit for bit, the one a call over every pose from the first
+    gives, and the record the two merged
+    (:meth:`~prehension.solvers.local.LocalRecord.followed_by`; without its verified
+    solution: pass it on as ``earlier`` to the next round)."""
     from ..solvers.local import LocalOptions, solve_local_batch
 
     if not tasks:
@@ -66,9 +78,13 @@ def solve_local_chunk(tasks: Sequence[Task], seeds: Sequence[int], options, dead
         if local_options.time_limit_s is None or local_options.time_limit_s > left:
             local_options = replace(local_options, time_limit_s=left)
     started = time.perf_counter()
-    batch = solve_local_batch(list(tasks), local_options, None, list(seeds))
+    batch = solve_local_batch(list(tasks), local_options, None, list(seeds), poses=poses)
     share = (time.perf_counter() - started) / len(tasks)
-    return [record.to_result(task, local_options, share) for task, record in zip(tasks, batch)]
+    out = []
+    for task, record, before in zip(tasks, batch, earlier or [None] * len(tasks)):
+        record = record if before is None else before.followed_by(record)
+        out.append((record.to_result(task, local_options, share), replace(record, verified=None)))
+    return out
 
 
 def complete_one(task: Task, local: SolveResult, seed: int, options, deadline: float | None = None) -> SolveResult:
@@ -115,12 +131,13 @@ def _open(source: OpenTask | Shipped) -> OpenTask:
     return task
 
 
-def local_job(source, assignments: Sequence[Assignment], seeds: Sequence[int], options, deadline=None) -> list[SolveResult]:
-    """:func:`solve_local_chunk` on the concrete tasks of ``assignments``; the answers
-    without their task (the caller holds it: nothing large travels back)."""
+def local_job(source, assignments: Sequence[Assignment], seeds: Sequence[int], options, deadline=None,
+              poses: tuple[int, int] | None = None, earlier: Sequence | None = None) -> list[SolveResult]:  # fmt: skip
+    """:func:`local_round` on the concrete tasks of ``assignments``: ``(result, record)``
+    each, the result without its task (the caller holds it: nothing large travels back)."""
     task = _open(source)
     tasks = [concrete_task(task, a) for a in assignments]
-    return [replace(r, task=None) for r in solve_local_chunk(tasks, seeds, options, deadline)]
+    return [(replace(r, task=None), record) for r, record in local_round(tasks, seeds, options, deadline, poses, earlier)]
 
 
 def complete_job(source, assignment: Assignment, local: SolveResult, seed: int, options, deadline=None) -> SolveResult:

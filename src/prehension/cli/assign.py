@@ -27,6 +27,12 @@ from .codes import EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK
 __all__ = ["cmd_solve_open", "add_assignment_arguments", "refuse_open_only"]
 
 DEFAULT_ASSIGNMENT_TIME_S = 2.0
+DEFAULT_OPEN_TIME_LIMIT_S = 60.0  # an open task's whole search, unless --time-limit says otherwise (0: none)
+
+
+class SolveDefaultLimit(float):
+    """``solve --time-limit`` when not given (300 s for one task): an open task's search
+    takes :data:`DEFAULT_OPEN_TIME_LIMIT_S` instead; a given value, 300 too, is kept."""
 SHOWN = 20  # rows of the feasible table (the journal has them all)
 # solve's options that a closed task's single solve uses and the assignment search does not
 _NOT_FOR_OPEN = {"all": "--all", "sigma": "--sigma", "max_boxes": "--max-boxes", "checkpoint": "--checkpoint",
@@ -94,7 +100,12 @@ def _search_options(args, executor):
     complete = 0.0 if args.method == "local" else (types.time_limit(given, "--assignment-time") or 0.0)
     local = LocalOptions() if args.initial_poses is None else LocalOptions(i_max=args.initial_poses)
     return AssignmentOptions(seed=args.seed, local_options=local, complete_time_s=complete, quality=quality_options(args),
-                             hold=hold, executor=executor, time_limit_s=types.time_limit(args.time_limit))  # fmt: skip
+                             hold=hold, executor=executor, time_limit_s=types.time_limit(_time_limit(args)))  # fmt: skip
+
+
+def _time_limit(args) -> float:
+    """``--time-limit``, else the open task's default (:data:`DEFAULT_OPEN_TIME_LIMIT_S`)."""
+    return DEFAULT_OPEN_TIME_LIMIT_S if isinstance(args.time_limit, SolveDefaultLimit) else args.time_limit
 
 
 def cmd_solve_open(args, console: Console) -> int:

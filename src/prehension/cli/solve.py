@@ -23,7 +23,7 @@ from ..atomic import check_output_path
 from ..errors import PrehensionError, not_a_file
 from ..results import Status, result_to_dict, write_result
 from . import args as types
-from .assign import add_assignment_arguments, cmd_solve_open, refuse_open_only
+from .assign import DEFAULT_OPEN_TIME_LIMIT_S, SolveDefaultLimit, add_assignment_arguments, cmd_solve_open, refuse_open_only
 from .best import (
     HOLD_CANDIDATES, add_best_arguments, add_quality_arguments, add_require_argument, best_options, best_table, quality_lines,
     quality_options,
@@ -58,8 +58,9 @@ def add_parser(sub) -> None:
     p.add_argument("--workers", type=types.positive_int, default=1,
                    help="complete solver: boxes processed in parallel on a local Dask cluster of N processes")  # fmt: skip
     p.add_argument("--scheduler", metavar="ADDR", help="complete solver: process boxes on a running Dask cluster (tcp://host:8786)")
-    p.add_argument("--time-limit", type=types.seconds, default=types.DEFAULT_TIME_LIMIT_S, metavar="SECONDS",
-                   help=f"give up after this long (default {types.DEFAULT_TIME_LIMIT_S:g} s; 0: no limit)")  # fmt: skip
+    p.add_argument("--time-limit", type=types.seconds, default=SolveDefaultLimit(types.DEFAULT_TIME_LIMIT_S), metavar="SECONDS",
+                   help=f"give up after this long (default {types.DEFAULT_TIME_LIMIT_S:g} s; an open task's assignment "
+                        f"search {DEFAULT_OPEN_TIME_LIMIT_S:g} s; 0: no limit)")  # fmt: skip
     p.add_argument("--max-boxes", type=types.positive_int, default=None, help="complete solver: give up after this many boxes")
     p.add_argument("--checkpoint", type=Path, help="complete solver: save the open boxes here when stopped (Ctrl-C too)")
     p.add_argument("--resume", action="store_true", help="complete solver: continue from --checkpoint (same task and options only)")
@@ -165,6 +166,7 @@ def cmd_solve(args, console: Console) -> int:
     if is_open_task_file(args.task):  # hand: any, or candidates: the assignment search
         return cmd_solve_open(args, console)
     refuse_open_only(args)
+    args.time_limit = float(args.time_limit)  # a plain number (not the open task's default marker)
     task = resolve_task(args.task)
     print_hand_warnings(console, task.hand)
     path, options, best = _checked(args, task)

@@ -11,6 +11,7 @@ generators of a batch (:func:`as_rng`: one for the batch or one per problem;
 from __future__ import annotations
 
 import zlib
+from collections import OrderedDict
 from functools import lru_cache
 
 import numpy as np
@@ -18,7 +19,7 @@ import numpy as np
 from ...deadline import TimeLimitReached
 from ...errors import InvalidTask
 from ...frozen import IdentityCache, cached_per_value
-from ._layout import Group
+from ._layout import Group, hand_arrays
 from .options import LocalOptions
 from .sequence import InitialPoseSequence, default_sequence, sample_poses
 
@@ -37,7 +38,11 @@ def wave_starts(group: Group, sequence: InitialPoseSequence, wave: int, todo: np
     sequence's poses all lie in one plane); with ``initial="random"`` random lambdas."""
     S = len(todo)
     if options.initial == "sequence" and wave >= len(sequence):
-        return place_poses(group, extra.names, np.array([extra.pose(group, p, wave - len(sequence)) for p in todo]))
+        poses = np.array([extra.pose(group, p, wave - len(sequence)) for p in todo])
+        # the first wave beyond the sequence has always started from the group's default
+        # unknowns (the pose names were read before the first draw set them); kept so, by
+        # wave, so that a call starting at a later wave gives what a call from the first does
+        return place_poses(group, extra.names if wave > len(sequence) else (), poses)
     if options.initial == "sequence":  # the same row for every problem: placed once per group shape and wave
         return np.repeat(_sequence_start(group, sequence, wave), S, axis=0)
     if isinstance(rng, list):  # one generator per problem: its draws do not depend on the batch
@@ -63,9 +68,29 @@ class RandomPoses:
             key = zlib.crc32(np.ascontiguousarray(group.pdata[p]).tobytes())
             seed = self.seed[p] if isinstance(self.seed, list) else self.seed
             seed = seed.pose_seed if isinstance(seed, OwnGenerator) else seed
-            self.names, self._poses[p] = sample_poses(self.hand, self.count, np.random.default_rng([seed, key]),
-                                                      deadline=self.deadline)  # fmt: skip
+            self.names, self._poses[p] = _sampled(self.hand, self.count, seed, key, self.deadline)
         return self._poses[p][k]
+
+
+_SAMPLED: OrderedDict = OrderedDict()  # (hand digest, count, seed, key) -> (names, poses): the last few thousand
+_SAMPLED_SIZE = 2048
+
+
+def _sampled(hand, count: int, seed, key: int, deadline: float | None):
+    """``sample_poses(hand, count, default_rng([seed, key]))``, remembered: a problem run in
+    several calls over ranges of its poses (``solve_local_batch(poses=...)``) draws its
+    random poses once per process, not once per call (the same poses: the draw is
+    deterministic; one stopped by the deadline raises and is not remembered)."""
+    index = (hand_arrays(hand)[1], count, int(seed), key)
+    if index in _SAMPLED:
+        _SAMPLED.move_to_end(index)
+        return _SAMPLED[index]
+    names, poses = sample_poses(hand, count, np.random.default_rng([seed, key]), deadline=deadline)
+    poses.setflags(write=False)
+    _SAMPLED[index] = (names, poses)
+    while len(_SAMPLED) > _SAMPLED_SIZE:
+        _SAMPLED.popitem(last=False)
+    return names, poses
 
 
 def _sequence_start(group: Group, sequence: InitialPoseSequence, wave: int) -> np.ndarray:

@@ -72,7 +72,7 @@ class _Tally:
         for p, solution in zip(pi, verdicts.solutions):
             self.verified[p] = solution
 
-    def record(self, group: Group, p: int, task=None, time_limit_s: float | None = None) -> "LocalRecord":
+    def record(self, group: Group, p: int, task=None, time_limit_s: float | None = None, first: int = 0) -> "LocalRecord":
         held = self.solved_with[p] > 0
         n = int(self.tried[p])
         params = tuple((h[0], o[0]) for h, o in group.params_of(self.x[p])) if held else None
@@ -80,7 +80,8 @@ class _Tally:
         return LocalRecord(
             p, lev == 2, ("strict" if lev == 2 else "d_min") if held else None,
             self.q[p].copy() if held else None, self.T[p].copy() if held else None, params,
-            int(self.solved_with[p]), n, int(self.iters[p, :n].sum()), tuple(int(v) for v in self.iters[p, :n]),
+            int(self.solved_with[p]), n, int(self.iters[p, first : first + n].sum()),
+            tuple(int(v) for v in self.iters[p, first : first + n]),
             int(self.polish[p]), int(self.rejected[p]),
             float(self.d[p] if held else self.miss_d[p]), float(self.a[p] if held else self.miss_a[p]), self.imax,
             (task, self.verified[p]) if (task is not None and self.verified[p] is not None) else None,
@@ -127,11 +128,16 @@ def _wave(group, checker, options, tally: _Tally, todo, wave, x0) -> tuple[np.nd
     return done, time.perf_counter() - t1
 
 
-def solve_group(group: Group, checker, options: LocalOptions, sequence: InitialPoseSequence | None, rng, t_start,
-                 tasks=None, deadline: float | None = None):  # fmt: skip
-    """The waves of one group until every problem is done, ``i_max`` poses are tried, or
-    ``deadline`` passes (no sequence: the deadline passed while it was drawn)."""
+def solve_group(group: Group, checker, options: LocalOptions, sequence: InitialPoseSequence | None, rng, clock,
+                tasks=None, waves: range | None = None):  # fmt: skip
+    """The waves of one group until every problem is done, the last wave is tried, or
+    the deadline passes (no sequence: the deadline passed while it was drawn).
+    ``clock = (t_start, deadline)``; ``waves``: the initial poses to try, 0-based
+    (``None``: all ``i_max``; a later range gives what those waves give in a call from
+    the first pose to a problem none of the earlier ones solved)."""
+    t_start, deadline = clock
     P, imax = group.n_problems, options.i_max
+    waves = range(imax) if waves is None else waves
     tally = _Tally(P, imax, group.nx, group.hand.n_dof)
     if isinstance(rng, list):
         seeds = [int(r.integers(2**62)) for r in rng]
@@ -142,9 +148,9 @@ def solve_group(group: Group, checker, options: LocalOptions, sequence: InitialP
     todo = np.arange(P)
     kernel_s = check_s = 0.0
     stopped = sequence is None
-    for i in range(0 if stopped else imax):
+    for i in () if stopped else waves:
         if not todo.size:  # every problem done: the later waves take no time
-            wave_seconds[i:] = wave_seconds[i - 1] if i else time.perf_counter() - t_start
+            wave_seconds[i:] = wave_seconds[i - 1] if i > waves.start else time.perf_counter() - t_start
             break
         try:
             if deadline is not None and seconds_left(deadline) <= 0:
@@ -160,7 +166,7 @@ def solve_group(group: Group, checker, options: LocalOptions, sequence: InitialP
         todo = todo[~done]
         wave_seconds[i] = time.perf_counter() - t_start
     limit = options.time_limit_s if stopped else None
-    records = [tally.record(group, p, tasks[p] if tasks is not None else None, limit) for p in range(P)]
+    records = [tally.record(group, p, tasks[p] if tasks is not None else None, limit, waves.start) for p in range(P)]
     strict = tally.level == 2
     solved_after = np.cumsum(np.bincount(tally.solved_with[strict], minlength=imax + 1))[1 : imax + 1]
     return records, wave_seconds, solved_after, {"kernel": kernel_s, "checks": check_s}

@@ -8,7 +8,7 @@ unverified configuration.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any, Mapping, Sequence
 
 import numpy as np
@@ -100,6 +100,21 @@ class LocalRecord:
             "max_normal_angle_deg": _finite_or_none(self.max_normal_deg),
         }
 
+    def followed_by(self, later: "LocalRecord") -> "LocalRecord":
+        """This record (a problem not solved by its poses) followed by ``later``, the
+        record of the next poses (``solve_local_batch(poses=...)``): what one call over
+        both ranges records -- poses, iterations and rejections summed, the answer or
+        else the closest miss of the two (the earlier on a tie)."""
+        if self.joint_angles is not None:
+            raise ValueError("followed_by: this record holds an answer; its problem has no later poses")
+        out = replace(later, index=self.index, initial_poses_tried=self.initial_poses_tried + later.initial_poses_tried,
+                      iterations=self.iterations + later.iterations,
+                      per_pose_iterations=self.per_pose_iterations + later.per_pose_iterations,
+                      collision_rejections=self.collision_rejections + later.collision_rejections)  # fmt: skip
+        if later.joint_angles is None and not _closer(later, self):
+            out = replace(out, max_distance_mm=self.max_distance_mm, max_normal_deg=self.max_normal_deg)
+        return out
+
     def configuration(self) -> Configuration | None:
         if self.joint_angles is None:
             return None
@@ -186,6 +201,12 @@ class LocalBatch:
         """Every record as a verified :class:`SolveResult` (``tasks`` in batch order)."""
         per = self.seconds / max(len(self.records), 1)
         return [r.to_result(t, self.options, per) for r, t in zip(self.records, tasks)]
+
+
+def _closer(a: LocalRecord, b: LocalRecord) -> bool:
+    """``a``'s closest miss is strictly closer than ``b``'s (none: infinitely far)."""
+    worst = lambda r: max(r.max_distance_mm, r.max_normal_deg) if np.isfinite(r.max_distance_mm) else np.inf  # noqa: E731
+    return worst(a) < worst(b)
 
 
 def _finite_or_none(value: float) -> float | None:

@@ -56,6 +56,8 @@ def solve_local_batch(
     options: LocalOptions = LocalOptions(),
     sequence: InitialPoseSequence | None = None,
     rng=None,
+    *,
+    poses: tuple[int, int] | None = None,
 ) -> LocalBatch:
     """Solve many problems of one hand in one call.
 
@@ -71,6 +73,13 @@ def solve_local_batch(
             sequence of them, one per problem: each problem then draws from its own,
             and its answer is the one it gets alone with that seed (a batch changes
             nothing but speed).
+        poses: ``(start, stop)``: try only the initial poses ``start`` to ``stop - 1``
+            (0-based, ``stop <= i_max``; ``None``: all ``i_max``).  A problem that none of
+            the poses before ``start`` solved gets from them exactly what a call from the
+            first pose gives it: the poses and draws of a wave do not depend on the
+            earlier ones (the assignment search's rounds; records count the poses of the
+            range only).  ``start > 0`` needs ``initial="sequence"`` and no
+            ``approximate`` (whose retries carry from wave to wave).
 
     Returns:
         A :class:`LocalBatch` with one :class:`LocalRecord` per problem, in input order.
@@ -79,16 +88,31 @@ def solve_local_batch(
     """
     t_start = time.perf_counter()
     deadline = deadline_after(options.time_limit_s, t_start)
+    waves = _waves_of(poses, options)
     if isinstance(problems, PointProblems):
-        return _solve_points(problems, options, sequence, rng, (t_start, deadline))
-    return _solve_tasks(list(problems), options, sequence, rng, (t_start, deadline))
+        return _solve_points(problems, options, sequence, rng, (t_start, deadline), waves)
+    return _solve_tasks(list(problems), options, sequence, rng, (t_start, deadline), waves)
+
+
+def _waves_of(poses, options: LocalOptions) -> range:
+    """The waves of ``poses = (start, stop)`` (``None``: all), checked."""
+    if poses is None:
+        return range(options.i_max)
+    ok = isinstance(poses, (tuple, list)) and len(poses) == 2 and all(isinstance(v, (int, np.integer)) for v in poses)
+    if not ok or not 0 <= poses[0] < poses[1] <= options.i_max:
+        raise InvalidTask(f"solve_local_batch: poses must be (start, stop) with 0 <= start < stop <= i_max = "
+                          f"{options.i_max}, got {poses!r}")  # fmt: skip
+    if poses[0] > 0 and (options.initial != "sequence" or options.approximate):
+        raise InvalidTask("solve_local_batch: poses starting after the first need initial='sequence' and "
+                          "approximate=False (random lambdas and d_min retries depend on the earlier poses)")  # fmt: skip
+    return range(int(poses[0]), int(poses[1]))
 
 
 def _empty(options: LocalOptions, sequence: InitialPoseSequence | None) -> LocalBatch:
     return LocalBatch([], 0.0, np.zeros(options.i_max), np.zeros(options.i_max, dtype=int), options, sequence)
 
 
-def _solve_points(problems: PointProblems, options: LocalOptions, sequence, rng, clock) -> LocalBatch:
+def _solve_points(problems: PointProblems, options: LocalOptions, sequence, rng, clock, waves: range) -> LocalBatch:
     """:func:`solve_local_batch` of point problems: one group, judged by :func:`._checks.check`;
     ``clock = (start, deadline)``."""
     t_start, deadline = clock
@@ -99,11 +123,11 @@ def _solve_points(problems: PointProblems, options: LocalOptions, sequence, rng,
     group = problems.group(options.joint_scale_mm)
     points = lambda idx, pose, T, prm: contact_checks_points(problems, idx, pose, T, prm)  # noqa: E731
     checker = lambda idx, x, R, t: check(group, points, idx, x, R, t, options)  # noqa: E731
-    records, waves, after, timings = solve_group(group, checker, options, sequence, rng, t_start, None, deadline)
-    return LocalBatch(records, time.perf_counter() - t_start, waves, after, options, sequence, timings)
+    records, seconds, after, timings = solve_group(group, checker, options, sequence, rng, clock, None, waves)
+    return LocalBatch(records, time.perf_counter() - t_start, seconds, after, options, sequence, timings)
 
 
-def _solve_tasks(tasks: list, options: LocalOptions, sequence, rng, clock) -> LocalBatch:
+def _solve_tasks(tasks: list, options: LocalOptions, sequence, rng, clock, poses: range) -> LocalBatch:
     """:func:`solve_local_batch` of tasks: one group per structure, judged by
     :func:`._checks.check_tasks`; ``clock = (start, deadline)``."""
     t_start, deadline = clock
@@ -127,8 +151,8 @@ def _solve_tasks(tasks: list, options: LocalOptions, sequence, rng, clock) -> Lo
         seq_used = seq
         group = group_from_tasks(sub, options.joint_scale_mm)
         checker = lambda idx, x, R, t, g=group, sub=sub: check_tasks(g, sub, idx, x, R, t, options)  # noqa: E731
-        recs, w, a, tm = solve_group(group, checker, options, seq, subset_rng(rng, members), time.perf_counter(), sub,
-                                     deadline)  # fmt: skip
+        recs, w, a, tm = solve_group(group, checker, options, seq, subset_rng(rng, members), (time.perf_counter(), deadline),
+                                     sub, poses)  # fmt: skip
         for k, r in zip(members, recs):
             r.index = k
             records[k] = r
