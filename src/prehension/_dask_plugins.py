@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import logging
 import signal
 import threading
 
 from distributed.diagnostics.plugin import WorkerPlugin
 
-__all__ = ["IgnoreCtrlC"]
+__all__ = ["IgnoreCtrlC", "QuietLocalShutdown"]
 
 
 class IgnoreCtrlC(WorkerPlugin):
@@ -27,3 +28,29 @@ class IgnoreCtrlC(WorkerPlugin):
             signal.signal(signal.SIGINT, signal.SIG_IGN)
             if hasattr(signal, "SIGHUP"):
                 signal.signal(signal.SIGHUP, signal.SIG_IGN)
+
+
+class _SchedulerGone(logging.Filter):
+    """Drops the worker's "Failed to communicate with scheduler during heartbeat" record."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return not str(record.msg).startswith("Failed to communicate with scheduler during heartbeat")
+
+
+class QuietLocalShutdown(WorkerPlugin):
+    """A worker of a *local* cluster says nothing when its scheduler is gone.
+
+    The scheduler of a local cluster lives in the command's own process: when the command
+    stops (SIGTERM, Ctrl-C, the end of a run), a worker whose heartbeat falls between the
+    scheduler's closing and its own logs "Failed to communicate with scheduler during
+    heartbeat" with a traceback -- nothing a user can act on, printed to their terminal.
+    Registered only on the local clusters :func:`prehension.parallel.cluster` starts (a
+    worker of a running scheduler keeps every message: there it can mean a lost network).
+    """
+
+    name = "prehension-quiet-local-shutdown"
+
+    def setup(self, worker) -> None:
+        logger = logging.getLogger("distributed.worker")
+        if not any(isinstance(f, _SchedulerGone) for f in logger.filters):
+            logger.addFilter(_SchedulerGone())

@@ -87,7 +87,7 @@ def cluster(scheduler: str | None = None, workers: int | None = None, *, dashboa
             with _connect(distributed, str(scheduler).strip()) as client:
                 yield client
             return
-        from ._dask_plugins import IgnoreCtrlC
+        from ._dask_plugins import IgnoreCtrlC, QuietLocalShutdown
 
         with _ctrl_c_ignored():  # the worker processes spawned now inherit it (see IgnoreCtrlC)
             local = distributed.LocalCluster(
@@ -96,6 +96,7 @@ def cluster(scheduler: str | None = None, workers: int | None = None, *, dashboa
             )  # fmt: skip
         with local, distributed.Client(local) as client:
             client.register_plugin(IgnoreCtrlC())  # and the workers started later, to replace a lost one
+            client.register_plugin(QuietLocalShutdown())
             yield client
 
 
