@@ -141,13 +141,7 @@ def _run(args, task, path: Path, options, console: Console):
 
         def write(item) -> None:
             line, loaded = verdict_line(item, str(args.task), options.seed)
-            lines = []
-            if loaded.ref not in journal.task_refs:
-                lines += [v for k, v in sorted(loaded.file_lines.items()) if k not in journal.file_shas]
-                journal.file_shas |= set(loaded.file_lines)
-                lines.append(loaded.task_line)
-                journal.task_refs.add(loaded.ref)
-            appender.put(lines + [line.line])
+            appender.put(journal.lines_needed(loaded) + [line.line])
 
         report, interrupted = None, False
         with LiveProgress(console, enabled=not args.quiet, time_limit_s=options.time_limit_s) as update:
