@@ -18,7 +18,7 @@ from ..errors import InvalidTask, PrehensionError, not_a_file
 from ..results import Status
 from .codes import EXIT_APPROXIMATE, EXIT_CHECK_FAILED, EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK
 
-__all__ = ["add_parser", "cmd_check"]
+__all__ = ["add_parser", "cmd_check", "jsonl_records"]
 
 
 def add_parser(sub) -> None:
@@ -111,7 +111,7 @@ def _check_batch(path, console: Console, reprove: bool, limit) -> int:
         table.add_column(col)
     ok = True
     lines = TaskLines()
-    for line, record in _records(path, lines):
+    for line, record in jsonl_records(path, lines):
         if not record.get("result"):
             table.add_row(escape(str(record.get("id"))), str(record.get("status")), "-", "", "", "no result stored")
             continue
@@ -143,7 +143,7 @@ def _with_finding(checked, what: str, detail: str):
     return replace(checked, findings=checked.findings + (Finding(what, False, detail),))
 
 
-def _records(path, lines):
+def jsonl_records(path, lines):
     """``(line number, record)`` of a JSON-lines file; a bad line is an error naming it.
     The task and file lines of a batch output go into ``lines``
     (:class:`~prehension.batch.journal.TaskLines`), not out."""

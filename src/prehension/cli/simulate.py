@@ -106,10 +106,10 @@ def result_of(path: Path, record: int | None, task: str | None) -> tuple[dict, s
             raise PrehensionError("--record and --task pick a record of a JSON-lines file (.jsonl); a result file (.json) holds one result")
         return read_json(path, "result file"), str(path)
     from ..batch.journal import TaskLines, with_task
-    from .check import _records
+    from .check import jsonl_records
 
     lines = TaskLines()
-    records = list(_records(path, lines))
+    records = list(jsonl_records(path, lines))
     n, picked = _pick(path, records, record, task, lines.tasks)
     where = f"{path}:{n} (record {picked.get('id')!r})"
     if not isinstance(picked.get("result"), dict):
