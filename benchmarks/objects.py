@@ -34,8 +34,9 @@ solves with collisions checked still pay the filling of its signed-distance grid
     python benchmarks/objects.py --baseline ../old/src # and the local solver's time against older code
 
 ``--simulate`` (behind a flag: the physics test costs seconds per task) prints, per task the
-local solver solves, the penetration MuJoCo sees at the start of ``prehension simulate``
-split into the hand's own (its geoms into the solver's mesh) and the object's
+local solver solves, the solver-side depth re-measured by ``remeasure.py`` (the deepest
+capsule ball or pad, and which) beside the penetration MuJoCo sees at the start of
+``prehension simulate``, split into the hand's own (its geoms into the solver's mesh) and the object's
 approximation error (its convex pieces off the mesh next to the hand), with the counts
 at most 1 mm.
 """
@@ -280,27 +281,33 @@ def _verify_cost(console: Console, rows, repeats: int = 5) -> None:
 
 
 def _simulate_start(console: Console, rows) -> None:
-    """Per solved task: the penetration at the start of the physics test, split."""
+    """Per solved task: the solver-side depth (re-measured, ``remeasure.py``) beside the
+    penetration MuJoCo sees at the start of the physics test, split into the hand's own and
+    the object's convex approximation error."""
     from prehension.sim import simulate_grasp
 
     table = Table(title="simulate's start on the local solver's first answer (MuJoCo = hand's own + approximation, roughly)")
-    for col in ("task", "MuJoCo start [mm]", "hand's own [mm]", "approximation [mm]", "pieces", "held", "time [s]"):
+    for col in ("task", "re-measured [mm]", "MuJoCo start [mm]", "hand's own [mm]", "approximation [mm]", "pieces", "held", "time [s]"):
         table.add_column(col, justify="left" if col == "task" else "right")
-    starts, hands, approx = [], [], []
+    depths, starts, hands, approx = [], [], [], []
     for name, task in rows:
         result = solve(task, "local")
         if not result.solutions:
             continue
         t0 = time.perf_counter()
         report = simulate_grasp(task, result.solutions[0])
+        seconds = time.perf_counter() - t0
+        depth, where = deepest(task, result.solutions[0])
         hand = report.hand_penetration_mm or 0.0
+        depths.append(depth)
         starts.append(report.initial_penetration_mm)
         hands.append(hand)
         approx.append(report.approximation_mm)
-        table.add_row(name, f"{report.initial_penetration_mm:.2f}", f"{hand:.2f}", f"{report.approximation_mm:.2f}",
-                      str(report.object_pieces), f"{report.held}/6", f"{time.perf_counter() - t0:.1f}")  # fmt: skip
+        table.add_row(name, f"{depth:.2f} ({where})" if where else f"{depth:.2f}", f"{report.initial_penetration_mm:.2f}",
+                      f"{hand:.2f}", f"{report.approximation_mm:.2f}", str(report.object_pieces), f"{report.held}/6",
+                      f"{seconds:.1f}")  # fmt: skip
     n = len(starts)
-    at_most = [sum(np.asarray(x) <= 1.0) for x in (starts, hands, approx)]
+    at_most = [sum(np.asarray(x) <= 1.0) for x in (depths, starts, hands, approx)]
     table.add_row(f"<= 1 mm of {n} solved", *[f"{k}/{n}" for k in at_most], "", "", "", style="bold")
     console.print(table)
 

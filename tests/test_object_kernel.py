@@ -382,28 +382,30 @@ def test_segment_min_sd_is_within_its_tolerance_of_the_least_signed_distance(nam
 def test_a_start_through_the_object_is_solved_again_seeing_it():
     """guitar-holding's first sequence poses end with links through the guitar's neck; such
     a state starts again with the object's rows in its iterations (``iterate`` with ``seeing``), and
-    an early pose gives the strict answer (repairing those solutions in place took 13
-    poses: the repairs of the first twelve failed after 30 steps each).  Without the object's
-    rows (``check_collisions=False``) the first pose's local solution is through the neck."""
+    a pose of the first quarter of the sequence gives the strict answer (pose 14 since the
+    palm and thumb base capsules were drawn inside the published shapes; pose 1 with the
+    paper's, whose in-place repairs took 13 poses).  Without the object's rows
+    (``check_collisions=False``) the first pose's local solution is through the neck."""
     task = load_builtin_task("guitar-holding")
     record = solve_local_batch([task], LocalOptions(), None, [0])[0]
-    assert record.success and record.solved_with_pose <= 4
+    assert record.success and record.solved_with_pose <= 16
     assert record.to_result(task, LocalOptions()).status == "solved"
     blind = solve_local_batch([task], dataclasses.replace(LocalOptions(), check_collisions=False, i_max=1), None, [0])[0]
     assert blind.tolerance is None and blind.collision_rejections == 1  # its answer fails the object check
 
 
-def test_scalpel_incision_has_no_answer_that_clears_the_palm():
-    """Under the honest rule (only a capsule ball inside its own pad excused) the local
-    solver finds no answer of scalpel-incision: every local solution it reaches puts the
-    palm into the handle.  Its collision-blind answers show why: the palm pad touches
-    the handle's back while the palm capsule's end ball (r = 20 mm, larger than the 13 mm
-    pad, so nothing of it is excused) reaches past the pad's sphere into the handle."""
+def test_scalpel_incision_clears_the_palm_drawn_inside_the_published_palm():
+    """scalpel-incision puts the palm pad on the handle's back.  The paper's top palm
+    capsule (y = +/-45 mm, r = 20) reached 3.5-6.6 mm outside the published palm there,
+    and into the handle: under the pad rule the local solver found no answer.  Drawn
+    inside the published palm (docs/hands.md), the palm clears the handle already in
+    the collision-blind answer, and the task solves with only the pads touching."""
     task = load_builtin_task("scalpel-incision")
     result = solve_local(task)
-    assert not result.success and "rejected by the checks" in result.message
+    assert result.success, result.message
     blind = solve_local(_blind(task)).solutions[0]
-    checks = evaluate(task, blind.configuration()).checks
-    assert max(c.value for c in checks if c.kind == "pad_collision") <= 0.5  # the pads are fine ...
-    depth = {c.name: c.value for c in checks if c.kind == "object_collision"}
-    assert max(depth, key=depth.get) == "palm" and depth["palm"] > 1.0  # ... the palm is not
+    for config in (result.solutions[0].configuration(), blind.configuration()):
+        checks = evaluate(task, config).checks
+        assert max(c.value for c in checks if c.kind == "pad_collision") <= 0.5
+        depth = {c.name: c.value for c in checks if c.kind == "object_collision"}
+        assert depth["palm"] <= 0.5 and max(depth.values()) <= 0.5

@@ -192,7 +192,7 @@ def _geometry_digest(data):
 
 
 def _geometry_stick_out(data):
-    data["collision_geometry"]["links"]["palm"]["stick_out_mm"] = 0.0
+    data["collision_geometry"]["links"]["palm"]["stick_out_mm"] += 1.0
 
 
 def _capsule_grown_in_task(data):

@@ -38,7 +38,10 @@ phalanges, 20 mm for the palm slabs).  Measured against those meshes (each link'
 :attr:`~prehension.hands.model.Link.fit`, re-measured by ``tests/test_sa_geometry.py``
 from ``../shared/cuik-ijrr/bodies``), they miss up to 10.5 mm of a distal phalanx, 10 mm of
 a middle one, 16 mm of a proximal one, 24 mm of the thumb base and 48 mm of the palm:
-a clear capsule does not prove a clear link (issue 26 item 2, open: see docs/hands.md).
+a clear capsule does not prove a clear link (``schunk-sa-enclosing`` is the hand whose
+capsules do, :mod:`prehension.hands.sa_enclosing`).  None sticks out of its link's
+published shape: the palm's slabs and the thumb base's capsule, which did by 16.5 and
+22.8 mm, end where the published shapes end (:data:`PALM_SLABS`, docs/hands.md).
 """
 
 from __future__ import annotations
@@ -127,8 +130,8 @@ def _revolute(name, parent, child, length) -> Joint:
 # tests/test_sa_geometry.py (hands/enclosure.py, mesh distances to the nearest vertex).
 _PUBLISHED = "published mesh (CuikSuite bodies)"
 SA_LINK_FITS = {
-    "palm": ShapeFit(_PUBLISHED, 48.31, 16.5),
-    "thumb_base": ShapeFit(_PUBLISHED, 24.39, 22.83),
+    "palm": ShapeFit(_PUBLISHED, 48.31, 0.0),
+    "thumb_base": ShapeFit(_PUBLISHED, 24.4, 0.0),
     "proximal": ShapeFit(_PUBLISHED, 16.17, 0.0),
     "middle": ShapeFit(_PUBLISHED, 9.95, 0.0),
     "distal": ShapeFit(_PUBLISHED, 10.54, 0.0),
@@ -159,8 +162,20 @@ def _thumb_base_joint() -> Joint:
     )  # fmt: skip
 
 
+# The palm's three slabs (x = -2, r = 20, at z = 15, 55, 95 as in the paper) end where the
+# published palm ends: the paper's y = +/-45 put their round ends 3.5-16 mm outside it
+# (the palm narrows towards the wrist, and is wider on the thumb's side, +y).  Each end is
+# the farthest (rounded in to 0.5 mm) at which the capsule stays inside the hulls of the
+# four palm bodies (measured as SA_LINK_FITS is; docs/hands.md).
+PALM_SLABS = ((15.0, -27.5, 40.0), (55.0, -39.0, 43.0), (95.0, -39.5, 41.0))  # (z, y from, y to) [mm]
+# The thumb base: the paper's capsule (10, 0, -25)-(90, 4, -78), r = 14, shortened along
+# its axis by 19.5 mm at the palm end and 5.5 mm at the far end, where it stuck out of the
+# published thumb base by up to 22.8 mm.
+THUMB_BASE_CAPSULE = ((26.24, 0.81, -35.76), (85.42, 3.77, -74.97), 14.0)
+
+
 def _palm_link() -> Link:
-    slabs = tuple(Capsule((-2, -45, z), (-2, 45, z), 20.0) for z in (15.0, 55.0, 95.0))
+    slabs = tuple(Capsule((-2, y0, z), (-2, y1, z), 20.0) for z, y0, y1 in PALM_SLABS)
     return Link("palm", slabs, SA_LINK_FITS["palm"])
 
 
@@ -178,7 +193,7 @@ def schunk_sa_hand() -> Hand:
         links += _phalanx_links(finger)
         joints += _finger_joints(finger, "palm", centre, (1.0, 0.0, 0.0), ref)
         fingers.append(Finger(finger, tuple(l.name for l in links[-3:])))
-    links.append(Link("thumb_base", (Capsule((10, 0, -25), (90, 4, -78), 14.0),), SA_LINK_FITS["thumb_base"]))
+    links.append(Link("thumb_base", (Capsule(*THUMB_BASE_CAPSULE),), SA_LINK_FITS["thumb_base"]))
     links += _phalanx_links("thumb")
     joints.append(_thumb_base_joint())
     joints += _finger_joints("thumb", "thumb_base", THUMB_U_CENTER_MM, THUMB_U_AXIS, THUMB_U_REF)
