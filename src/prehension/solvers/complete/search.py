@@ -49,6 +49,7 @@ from .checkpoint import SearchState, load_state, options_record, save_state, sea
 from .closure import closure_prune
 from .collision import collision_prune
 from .self_collision import self_collision_prune
+from .witnesses import makeable_pairs
 from .pair import congruence_test
 from .contract import contract
 from .shrink import ShrinkOptions, shrink_box
@@ -181,6 +182,14 @@ def _verification_points(lower: np.ndarray, upper: np.ndarray, n: int) -> np.nda
     return np.vstack([0.5 * (lower + upper), lower + u * (upper - lower)])
 
 
+def _verification_starts(form: Formulation, options: BranchAndPruneOptions, lower=None, upper=None) -> list:
+    """The configurations a box (by default the initial box) is verified from."""
+    lower = form.system.lower if lower is None else lower
+    upper = form.system.upper if upper is None else upper
+    points = _verification_points(lower, upper, options.verify_starts)
+    return [configuration_from_point(form, x) for x in points]
+
+
 def _verify(
     form: Formulation, lower, upper, options: BranchAndPruneOptions, *, in_box: bool = False
 ) -> tuple[Solution | None, tuple]:
@@ -195,8 +204,7 @@ def _verify(
     """
     if options.verifier is None:
         return None, (float("inf"), float("inf"))
-    points = _verification_points(lower, upper, options.verify_starts)
-    reached = options.verifier(form.task, [configuration_from_point(form, x) for x in points])
+    reached = options.verifier(form.task, _verification_starts(form, options, lower, upper))
     for config in reached.configurations:
         if config is not None:
             solution = make_solution(form.task, config, options.tolerances)
@@ -444,10 +452,11 @@ def _pair_test(form: Formulation, state: SearchState, options: BranchAndPruneOpt
     says on ``progress`` that it runs (it can take a minute)."""
     if state.boxes == 1:
         budget = options.pair_test_boxes // 10
+        makeable = makeable_pairs(form.task, options.verifier, _verification_starts(form, options))
     elif state.boxes == PAIR_TEST_LATE and state.pair_test is not None:
         if not any(outcome.stopped == "budget" for _, outcome in state.pair_test.outcomes):
-            return  # every pair met a witness (or had no test): more boxes would not prove it
-        budget = options.pair_test_boxes
+            return  # every pair met a witness, was makeable or had no test: more boxes would not prove it
+        budget, makeable = options.pair_test_boxes, state.pair_test.skipped
     else:
         return
     seconds = None
@@ -457,7 +466,7 @@ def _pair_test(form: Formulation, state: SearchState, options: BranchAndPruneOpt
             return
     if progress is not None:
         progress({"boxes": state.boxes, "open": len(state.open), "pair test": f"running (up to {budget} boxes)"})
-    proof = congruence_test(form.task, max_boxes=budget, time_limit_s=seconds)
+    proof = congruence_test(form.task, max_boxes=budget, time_limit_s=seconds, makeable=makeable)
     state.pair_test = proof
     if proof.proved:
         state.open.clear()
@@ -530,7 +539,8 @@ def _result(task, form, state: SearchState, options, started: float, stop: str, 
             msg += _resumed_note(state.resumed)
     if state.pair_test is not None:
         stats["pair_test"] = {"proved": state.pair_test.proved, "boxes": state.pair_test.boxes,
-                              "pair": list(state.pair_test.pair) if state.pair_test.pair else None}  # fmt: skip
+                              "pair": list(state.pair_test.pair) if state.pair_test.pair else None,
+                              "makeable": sorted(map(list, state.pair_test.skipped))}  # fmt: skip
     return SolveResult(task, "complete", status, msg, tuple(state.solutions) + in_open, seconds, stats, small)
 
 

@@ -38,21 +38,27 @@ class CongruenceResult:
     proved: bool
     pair: tuple[int, int] | None
     outcomes: tuple[tuple[tuple[int, int], PairOutcome], ...]
+    skipped: frozenset[tuple[int, int]] = frozenset()  # pairs given as makeable: not tested
 
     @property
     def boxes(self) -> int:
         return sum(o.boxes for _, o in self.outcomes)
 
 
-def congruence_test(task: Task, *, max_boxes: int = 200_000, time_limit_s: float | None = None) -> CongruenceResult:
+def congruence_test(task: Task, *, max_boxes: int = 200_000, time_limit_s: float | None = None,
+                    makeable: frozenset[tuple[int, int]] = frozenset()) -> CongruenceResult:  # fmt: skip
     """The pair test on every pair of contacts (until one is proved infeasible): first the
     object side against the hand's span (:func:`.span.prove_out_of_span`, at most
     :data:`.span.OUT_OF_SPAN_BOXES` boxes, not counted in ``max_boxes``), then, without a proof,
     the test by matching ranges (:mod:`.matching`, a quarter of the pair's budget, all of it
     near the reach frontier: :data:`NEAR_FRONTIER_MM`) and the
     product test (:func:`.product.prove_pair_infeasible`, the rest); the box budget ``max_boxes`` and the time limit are
-    shared evenly by the pairs."""
+    shared evenly by the pairs.  Pairs in ``makeable`` (``(a, b)``, ``a < b``: known to be
+    makeable, e.g. by a solution of their two-contact sub-task, :mod:`..witnesses`) are not
+    tested -- a sound test cannot prove them -- and their shares go to the others."""
     pairs = [(a, b) for a in range(len(task.contacts)) for b in range(a + 1, len(task.contacts))]
+    skipped = frozenset(p for p in pairs if p in makeable)
+    pairs = [p for p in pairs if p not in skipped]
     share = max(1, max_boxes // max(1, len(pairs)))
     seconds = None if time_limit_s is None else time_limit_s / max(1, len(pairs))
     outcomes = []
@@ -68,8 +74,8 @@ def congruence_test(task: Task, *, max_boxes: int = 200_000, time_limit_s: float
             outcome = _matching_then_product(pp, share, seconds, floor, pair_span_mm(pp, task.hand))
         outcomes.append(((a, b), outcome))
         if outcome.proved:
-            return CongruenceResult(True, (a, b), tuple(outcomes))
-    return CongruenceResult(False, None, tuple(outcomes))
+            return CongruenceResult(True, (a, b), tuple(outcomes), skipped)
+    return CongruenceResult(False, None, tuple(outcomes), skipped)
 
 
 def _matching_then_product(pp: PairProblem, max_boxes: int, time_limit_s: float | None, floor_mm: float,
