@@ -75,3 +75,43 @@ def test_no_pair_is_skipped_with_two_contacts_or_without_a_verifier():
     assert _makeable(task) == frozenset()
     three = load_builtin_task("teapot-service")
     assert makeable_pairs(three, None, _verification_starts(build_system(three), BranchAndPruneOptions())) == frozenset()
+
+
+# -- the pair test's moments near the reach frontier ----------------------------------------------
+def _outcome(stopped: str) -> cg.PairOutcome:
+    return cg.PairOutcome(False, 10, 0.1, stopped)
+
+
+def test_a_pair_near_the_frontier_that_stops_at_its_budget_gets_earlier_and_larger_runs():
+    from types import SimpleNamespace
+
+    from prehension.solvers.complete import search
+
+    options = BranchAndPruneOptions(verifier=LocalVerifier(), pair_test_boxes=1000)
+    near = cg.CongruenceResult(False, None, (((0, 1), _outcome("budget")),), frozenset({(2, 3)}), frozenset({(0, 1)}))
+    far = cg.CongruenceResult(False, None, (((0, 1), _outcome("budget")),), frozenset(), frozenset())
+    met = cg.CongruenceResult(False, None, (((0, 1), _outcome("witness")),), frozenset(), frozenset({(0, 1)}))
+    plan = lambda boxes, last: search._pair_test_plan(None, SimpleNamespace(boxes=boxes, pair_test=last), options)  # noqa: E731
+    assert near.undecided_near() and not far.undecided_near() and not met.undecided_near()
+    assert plan(search.PAIR_TEST_NEAR, near) == (search.NEAR_BUDGETS[0] * 1000, frozenset({(2, 3)}))
+    assert plan(search.PAIR_TEST_NEAR, far) is None
+    assert plan(search.PAIR_TEST_LATE, near) == (search.NEAR_BUDGETS[1] * 1000, frozenset({(2, 3)}))
+    assert plan(search.PAIR_TEST_LATE, far) == (1000, frozenset())
+    assert plan(search.PAIR_TEST_LATE, met) is None  # a witness: more boxes would not prove it
+    assert plan(7, near) is None
+
+
+def test_the_pair_test_marks_the_pairs_whose_floor_comes_within_ten_mm_of_the_span():
+    """Two points with normals facing away, 60 mm apart (the fingertip centres 86 mm apart, far
+    from the thumb and index's 212.5 mm) and 180 mm (206 mm: within 10 mm of it): only the
+    second is near."""
+    from prehension.solvers.complete.pair.span import pair_span_mm, span_test
+
+    for width, expected in ((60.0, False), (180.0, True)):
+        obj = GraspObject("two", {"a": PointRegion((0, 0, 0), (-1, 0, 0)), "b": PointRegion((width, 0, 0), (1, 0, 0))})
+        task = Task("pinch", schunk_sa_hand(), obj, (Contact("thumb_tip", "a"), Contact("index_tip", "b")), ("thumb", "index"))
+        pp = cg.pair_problem(task, 0, 1)
+        _, floor, _, _ = span_test(pp, task.hand, 1000)
+        assert (pair_span_mm(pp, task.hand) - floor <= cg.NEAR_FRONTIER_MM) == expected
+        result = cg.congruence_test(task, max_boxes=2000)
+        assert ((0, 1) in result.near) == expected

@@ -69,6 +69,13 @@ ALL_SOLUTIONS_MAX_BOXES = 100
 #: Boxes without a verified solution after which the pair test runs with its full budget.
 PAIR_TEST_LATE = 16
 
+#: While a pair near the reach frontier (``pair.NEAR_FRONTIER_MM``, measured by the first run)
+#: stops at its budget, the pair test runs again after ``PAIR_TEST_NEAR`` boxes with
+#: ``NEAR_BUDGETS[0]`` times ``pair_test_boxes``, and at :data:`PAIR_TEST_LATE` with
+#: ``NEAR_BUDGETS[1]`` times (docs/complete-solver.md, "Pair test").
+PAIR_TEST_NEAR = 4
+NEAR_BUDGETS = (2, 8)
+
 
 @dataclass(frozen=True)
 class BranchAndPruneOptions:
@@ -99,8 +106,9 @@ class BranchAndPruneOptions:
             runs with a tenth of this budget when the first box holds no verified
             solution, and again with all of it after :data:`PAIR_TEST_LATE` boxes
             without one (unless the first run met a witness: a box of the pair's
-            variables narrower than 1e-7 that satisfies its conditions).  0 turns it
-            off.  A budget in boxes, not seconds, so that the search is the same on
+            variables narrower than 1e-7 that satisfies its conditions); near the reach
+            frontier earlier, with more (:data:`PAIR_TEST_NEAR`); pairs whose two-contact
+            sub-task the verifier solves are skipped (:mod:`.witnesses`).  0 turns it off.  A budget in boxes, not seconds, so that the search is the same on
             every machine.
         collision_prune: discard a box when an enclosure proves that every
             configuration in it puts a link deeper into the object than
@@ -450,15 +458,10 @@ def _pair_test(form: Formulation, state: SearchState, options: BranchAndPruneOpt
     two contacts incompatible no box can hold a solution: the open (and small) boxes are
     discarded and the proof kept in the state.  It stops with the search's time limit and
     says on ``progress`` that it runs (it can take a minute)."""
-    if state.boxes == 1:
-        budget = options.pair_test_boxes // 10
-        makeable = makeable_pairs(form.task, options.verifier, _verification_starts(form, options))
-    elif state.boxes == PAIR_TEST_LATE and state.pair_test is not None:
-        if not any(outcome.stopped == "budget" for _, outcome in state.pair_test.outcomes):
-            return  # every pair met a witness, was makeable or had no test: more boxes would not prove it
-        budget, makeable = options.pair_test_boxes, state.pair_test.skipped
-    else:
+    planned = _pair_test_plan(form, state, options)
+    if planned is None:
         return
+    budget, makeable = planned
     seconds = None
     if options.time_limit_s is not None:
         seconds = options.time_limit_s - (time.perf_counter() - started)
@@ -471,6 +474,21 @@ def _pair_test(form: Formulation, state: SearchState, options: BranchAndPruneOpt
     if proof.proved:
         state.open.clear()
         state.small.clear()
+
+
+def _pair_test_plan(form: Formulation, state: SearchState, options: BranchAndPruneOptions):
+    """``(budget, makeable pairs)`` of the pair test due after this box, or None."""
+    if state.boxes == 1:
+        return options.pair_test_boxes // 10, makeable_pairs(form.task, options.verifier, _verification_starts(form, options))
+    last = state.pair_test
+    if last is None:
+        return None
+    if state.boxes == PAIR_TEST_NEAR and last.undecided_near():
+        return NEAR_BUDGETS[0] * options.pair_test_boxes, last.skipped
+    if state.boxes == PAIR_TEST_LATE and any(outcome.stopped == "budget" for _, outcome in last.outcomes):
+        # (not when every pair met a witness, was makeable or had no test: more boxes would not prove it)
+        return (NEAR_BUDGETS[1] if last.undecided_near() else 1) * options.pair_test_boxes, last.skipped
+    return None
 
 
 def _submit_ahead(form, state: SearchState, options, executor: Executor, workers: int, ahead: dict) -> None:

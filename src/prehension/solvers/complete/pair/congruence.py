@@ -39,6 +39,11 @@ class CongruenceResult:
     pair: tuple[int, int] | None
     outcomes: tuple[tuple[tuple[int, int], PairOutcome], ...]
     skipped: frozenset[tuple[int, int]] = frozenset()  # pairs given as makeable: not tested
+    near: frozenset[tuple[int, int]] = frozenset()  # pairs near the reach frontier (NEAR_FRONTIER_MM)
+
+    def undecided_near(self) -> bool:
+        """Whether a pair near the reach frontier stopped at its budget (more boxes may prove it)."""
+        return any(pair in self.near and outcome.stopped == "budget" for pair, outcome in self.outcomes)
 
     @property
     def boxes(self) -> int:
@@ -61,7 +66,7 @@ def congruence_test(task: Task, *, max_boxes: int = 200_000, time_limit_s: float
     pairs = [p for p in pairs if p not in skipped]
     share = max(1, max_boxes // max(1, len(pairs)))
     seconds = None if time_limit_s is None else time_limit_s / max(1, len(pairs))
-    outcomes = []
+    outcomes, near = [], set()
     for a, b in pairs:
         pp = pair_problem(task, a, b)
         if pp is None:
@@ -71,11 +76,14 @@ def congruence_test(task: Task, *, max_boxes: int = 200_000, time_limit_s: float
         if proved:  # the object side alone is out of the hand's span
             outcome = PairOutcome(True, boxes, time.perf_counter() - started)
         else:
-            outcome = _matching_then_product(pp, share, seconds, floor, pair_span_mm(pp, task.hand))
+            span = pair_span_mm(pp, task.hand)
+            if span - floor <= NEAR_FRONTIER_MM:
+                near.add((a, b))
+            outcome = _matching_then_product(pp, share, seconds, floor, span)
         outcomes.append(((a, b), outcome))
         if outcome.proved:
-            return CongruenceResult(True, (a, b), tuple(outcomes), skipped)
-    return CongruenceResult(False, None, tuple(outcomes), skipped)
+            return CongruenceResult(True, (a, b), tuple(outcomes), skipped, frozenset(near))
+    return CongruenceResult(False, None, tuple(outcomes), skipped, frozenset(near))
 
 
 def _matching_then_product(pp: PairProblem, max_boxes: int, time_limit_s: float | None, floor_mm: float,
