@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 
 from prehension.results import Status, make_solution
+from prehension.solvers.complete.pair import congruence_test
 from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
 from prehension.verification.residuals import Tolerances
 from prehension.solvers.local.verifier import LocalVerifier
@@ -172,6 +173,22 @@ def test_random_families_just_inside_their_frontier_are_never_called_infeasible(
     assert result.status in (Status.SOLVED, Status.GAVE_UP), result.message
     for solution in result.solutions:
         assert make_solution(result.task, solution.configuration()) is not None
+
+
+@pytest.mark.slow  # a draw and a 40,000-box pair test (~10-25 s each)
+@pytest.mark.parametrize("index", (6, 7, 8, 11))
+def test_two_fingertip_families_just_inside_their_frontier_are_near_and_never_proved(frontier_module, index):
+    """The two-fingertip families of seed 1: at ``t* - 0.01 mm`` (a strict solution checked)
+    their pair is near the hand's span, so the search would test it again after four boxes
+    with twice its budget (``search.PAIR_TEST_NEAR``); the pair test with such a budget (a
+    tenth of the default's, to stay cheap) does not prove it."""
+    found = frontier_module.draw_family(1, index, seeds=1)
+    family, t = found.family, found.frontier.t_mm - 0.01
+    task = family.task_at(t)
+    witness = frontier_module.solution_at(family, found.frontier.configuration, found.frontier.t_mm, t)
+    assert witness is not None and make_solution(task, witness) is not None
+    proof = congruence_test(task, max_boxes=40_000)
+    assert not proof.proved and proof.near == {(0, 1)}
 
 
 def test_random_families_are_drawn_alike_alone_and_in_a_run(frontier_module):
