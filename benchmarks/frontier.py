@@ -808,8 +808,10 @@ def targets(runs: list[dict]) -> list[str]:
                             (2.0, "certified within 60 s", lambda r: r["status"] == Status.INFEASIBLE and r["seconds"] <= 60),
                             (-0.5, "solved", lambda r: r["status"] == Status.SOLVED)):  # fmt: skip
         k, n = share(delta, ok)
+        past, _ = share(delta, lambda r: delta > 0 and r["status"] == Status.SOLVED)
         if n:
-            lines.append(f"t* {delta:+g} mm {what}: {k} of {n}")
+            note = f" ({past} solved: feasible past t*, whose maximisation stopped short)" if past else ""
+            lines.append(f"t* {delta:+g} mm {what}: {k} of {n}{note}")
     false = [f"{r['name']} {r['delta']:+g}" for r in last.values() if r["delta"] < 0 and r["status"] == Status.INFEASIBLE]
     lines.append(f"false 'infeasible' below t*: {len(false)}{' (' + ', '.join(false) + ')' if false else ''}")
     return lines
