@@ -69,7 +69,7 @@ ALL_SOLUTIONS_MAX_BOXES = 100
 #: Boxes without a verified solution after which the pair test runs with its full budget.
 PAIR_TEST_LATE = 16
 
-#: While a pair near the reach frontier (``pair.NEAR_FRONTIER_MM``, measured by the first run)
+#: While a pair near the reach frontier (``CongruenceResult.near``, measured by the first run)
 #: stops at its budget, the pair test runs again after ``PAIR_TEST_NEAR`` boxes with
 #: ``NEAR_BUDGETS[0]`` times ``pair_test_boxes``, and at :data:`PAIR_TEST_LATE` with
 #: ``NEAR_BUDGETS[1]`` times (docs/complete-solver.md, "Pair test").
@@ -108,8 +108,8 @@ class BranchAndPruneOptions:
             without one (unless the first run met a witness: a box of the pair's
             variables narrower than 1e-7 that satisfies its conditions); near the reach
             frontier earlier, with more (:data:`PAIR_TEST_NEAR`); pairs whose two-contact
-            sub-task the verifier solves are skipped (:mod:`.witnesses`).  0 turns it off.  A budget in boxes, not seconds, so that the search is the same on
-            every machine.
+            sub-task the verifier solves are skipped (:mod:`.witnesses`).  0 turns it off.
+            A budget in boxes, not seconds, so that the search is the same on every machine.
         collision_prune: discard a box when an enclosure proves that every
             configuration in it puts a link deeper into the object than
             ``tolerances.object_penetration_mm`` (:mod:`.collision`; only for an object

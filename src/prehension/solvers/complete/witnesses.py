@@ -8,7 +8,7 @@ configuration making the two contacts meets, hold there: the test, which is soun
 never prove that pair, and its budget is better spent on the others.
 
 Near a frontier that three or four contacts make together (a 4-contact task with its
-palm's region moved: every pair can still be made 9-50 mm farther out, ``frontier.py
+palm's region moved: every pair can still be made 9-57 mm farther out, ``frontier.py
 --anatomy``) every pair is makeable and the pair test, which cannot prove any, took about
 half of the search's time (57 of 131 s over 20 boxes); at a frontier made by one pair, the
 others are makeable and that pair gets the whole budget instead of its share.
@@ -41,9 +41,8 @@ def makeable_pairs(task: Task, verifier: BoxVerifier | None, starts: Sequence[Co
     """The pairs ``(a, b)``, ``a < b``, of ``task``'s contacts whose two-contact sub-task
     (:func:`pair_task`) has a strict solution reached by ``verifier`` from ``starts``
     (configurations of ``task``, read down to the pair's contact parameters), judged with
-    the strict tolerances.  None without
-    a verifier or with fewer than three contacts (a pair that is the whole task is the
-    task: a solution would have ended the search)."""
+    the strict tolerances.  None without a verifier or with fewer than three contacts (a
+    pair that is the whole task is the task: a solution would have ended the search)."""
     n = len(task.contacts)
     if verifier is None or n < 3 or not starts:
         return frozenset()
