@@ -38,11 +38,16 @@ as the whole run; a draw whose ``t*`` configuration collides with the hand itsel
 without a strict solution at ``t* - 0.05 mm``, is drawn again.  Offsets -0.5, +0.5, +1, +2,
 +4 mm; each frontier and run is appended to ``--out`` (JSONL) as it ends and not repeated
 when the file already holds it (same tag: the git commit by default), so a long run can be
-split and resumed; ``--report`` prints the distribution of the file alone.
+split and resumed; ``--report`` prints the distribution of the file alone.  ``--anatomy``
+also finds, once per family, the frontiers of its sub-tasks (the moved contact with each
+subset of the others, the same maximisation): the fewest contacts whose sub-task's frontier
+lies within 0.5 mm of ``t*`` *make* it.  Only a frontier made by two contacts can be proved
+by the pose-free pair test; the report counts the certified runs of both kinds.
 
     python benchmarks/frontier.py --random 20 --seed 1 --out s1.jsonl                 # 300 s per run
     python benchmarks/frontier.py --random 20 --seed 1 --out s1.jsonl --families 0,1 --offsets 1 2 --time-limit 60
     python benchmarks/frontier.py --random 20 --seed 1 --out s1.jsonl --report        # the distribution so far
+    python benchmarks/frontier.py --random 20 --seed 1 --out s1.jsonl --anatomy --frontier-only   # sub-task frontiers
 
 One process, BLAS and numba pinned to one thread (the targets of issue 15 are on one core).
 At the end a Markdown table of every run is printed (for benchmarks/README.md).
@@ -58,6 +63,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMB
 import argparse  # noqa: E402
 import json  # noqa: E402
 import time  # noqa: E402
+from itertools import combinations  # noqa: E402
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -580,6 +586,39 @@ def _polish(family: Family, unknowns: _Unknowns, z: np.ndarray) -> tuple[float, 
     return None
 
 
+# -- which contacts make the frontier --------------------------------------------------------
+#: A sub-task whose frontier lies within this of ``t*`` [mm] makes the family's frontier.
+MADE_BY_MM = 0.5
+
+
+def sub_frontiers(family: Family, seeds: int = 1) -> dict[str, float]:
+    """``t*`` of the family's sub-tasks: the moved contact with every subset of the others
+    (all but the full set), by the same offset maximisation, keyed ``"0,3"`` (contact
+    indices).  A sub-task drops constraints, so its frontier lies at or past ``t*``; a pair
+    test (pose-free, two contacts) can prove ``t* + delta`` only when some pair's frontier
+    lies before it.  Each is a local maximum (a lower estimate of the sub-task's frontier);
+    a sub-task the local solver does not solve is left out."""
+    n, out = len(family.base.contacts), {}
+    for size in range(2, n):
+        for subset in combinations(range(n), size):
+            if family.moved not in subset:
+                continue
+            base = replace(family.base, contacts=tuple(family.base.contacts[i] for i in subset))
+            sub = Family(f"{family.name}{list(subset)}", base, subset.index(family.moved), family.u)
+            try:
+                out[",".join(map(str, subset))] = find_frontier(sub, seeds=seeds).t_mm
+            except (RuntimeError, PrehensionError, np.linalg.LinAlgError, ValueError):
+                continue
+    return out
+
+
+def made_by(t_star: float, subsets: dict[str, float], contacts: int) -> int:
+    """The fewest contacts of a sub-task whose frontier lies within :data:`MADE_BY_MM` of
+    ``t_star`` (``contacts``, the whole task, when none does)."""
+    sizes = [len(k.split(",")) for k, t in subsets.items() if t <= t_star + MADE_BY_MM]
+    return min(sizes, default=contacts)
+
+
 # -- the runs --------------------------------------------------------------------------------
 def run_family(console: Console, family: Family, frontier: Frontier, limit: float | None, offsets,
                max_boxes: int | None = None) -> list[dict]:  # fmt: skip
@@ -676,6 +715,23 @@ def _random_frontier(console: Console, seed: int, index: int, records: list[dict
     return found.family, found.described, f.t_mm
 
 
+def _anatomy(console: Console, seed: int, index: int, family: Family, t_star: float, records: list[dict],
+             out: Path | None) -> None:  # fmt: skip
+    """The frontiers of the family's sub-tasks (:func:`sub_frontiers`), found once and
+    appended to ``out`` as an ``anatomy`` record."""
+    if any(r["kind"] == "anatomy" and r["seed"] == seed and r["index"] == index for r in records):
+        return
+    started = time.perf_counter()
+    subsets = sub_frontiers(family)
+    k = made_by(t_star, subsets, len(family.base.contacts))
+    record = {"kind": "anatomy", "seed": seed, "index": index, "t_star": t_star, "subsets": subsets, "made_by": k,
+              "contacts": len(family.base.contacts), "seconds": time.perf_counter() - started}  # fmt: skip
+    records.append(record)
+    _append(out, record)
+    gaps = ", ".join(f"[{key}] {t - t_star:+.1f}" for key, t in subsets.items())
+    console.print(f"{family.name}: frontier made by {k} of {len(family.base.contacts)} contacts (sub-task t - t* [mm]: {gaps or '-'})")
+
+
 def run_random(console: Console, args) -> list[dict]:
     """The random families of ``args.random`` / ``args.seed`` (only ``args.indices`` when
     given) at ``args.offsets``; each run appended to ``args.out`` as it ends, and skipped
@@ -688,6 +744,8 @@ def run_random(console: Console, args) -> list[dict]:
         except RuntimeError as exc:
             console.print(f"[red]{exc}[/red]")
             continue
+        if args.anatomy:
+            _anatomy(console, args.seed, index, family, t_star, records, args.out)
         if args.frontier_only:
             continue
         for delta in args.offsets:
@@ -750,8 +808,10 @@ def targets(runs: list[dict]) -> list[str]:
                             (2.0, "certified within 60 s", lambda r: r["status"] == Status.INFEASIBLE and r["seconds"] <= 60),
                             (-0.5, "solved", lambda r: r["status"] == Status.SOLVED)):  # fmt: skip
         k, n = share(delta, ok)
+        past, _ = share(delta, lambda r: delta > 0 and r["status"] == Status.SOLVED)
         if n:
-            lines.append(f"t* {delta:+g} mm {what}: {k} of {n}")
+            note = f" ({past} solved: feasible past t*, whose maximisation stopped short)" if past else ""
+            lines.append(f"t* {delta:+g} mm {what}: {k} of {n}{note}")
     false = [f"{r['name']} {r['delta']:+g}" for r in last.values() if r["delta"] < 0 and r["status"] == Status.INFEASIBLE]
     lines.append(f"false 'infeasible' below t*: {len(false)}{' (' + ', '.join(false) + ')' if false else ''}")
     return lines
@@ -759,9 +819,10 @@ def targets(runs: list[dict]) -> list[str]:
 
 def _family_table(records: list[dict], runs: list[dict]) -> Table:
     table = Table(title="The families (t* by offset maximisation; a strict solution at t* - 0.05 mm)")
-    for col in ("family", "t* [mm]", "what", *(f"{d:+g}" for d in sorted({r['delta'] for r in runs}))):
+    for col in ("family", "t* [mm]", "what", "made by", *(f"{d:+g}" for d in sorted({r['delta'] for r in runs}))):
         table.add_column(col)
     deltas = sorted({r["delta"] for r in runs})
+    anatomy = _made_by(records)
     for f in records:
         if f["kind"] != "frontier" or not any(r["index"] == f["index"] and r["seed"] == f["seed"] for r in runs):
             continue
@@ -770,8 +831,30 @@ def _family_table(records: list[dict], runs: list[dict]) -> Table:
             r = [r for r in runs if r["index"] == f["index"] and r["seed"] == f["seed"] and r["delta"] == d]
             short = {Status.SOLVED: "solved", Status.INFEASIBLE: "certified", Status.GAVE_UP: "undecided"}
             cells.append(f"{short.get(r[-1]['status'], r[-1]['status'])} {r[-1]['seconds']:.0f} s" if r else "")
-        table.add_row(f["name"], f"{f['t_star']:.3f}", f["described"], *cells)
+        k = anatomy.get((f["seed"], f["index"]))
+        table.add_row(f["name"], f"{f['t_star']:.3f}", f["described"], "?" if k is None else f"{k[0]} of {k[1]}", *cells)
     return table
+
+
+def _made_by(records: list[dict]) -> dict[tuple[int, int], tuple[int, int]]:
+    """``(seed, index) -> (contacts making t*, contacts)`` of the anatomy records."""
+    return {(r["seed"], r["index"]): (r["made_by"], r["contacts"]) for r in records if r["kind"] == "anatomy"}
+
+
+def by_anatomy(records: list[dict], runs: list[dict]) -> list[str]:
+    """Per offset, certified runs among families whose frontier a pair makes and among the
+    others (families with an anatomy record only)."""
+    anatomy, last = _made_by(records), {(r["seed"], r["index"], r["delta"]): r for r in runs}
+    lines = []
+    for delta in sorted({k[2] for k in last if k[2] > 0}):
+        parts = []
+        for label, ok in (("a pair's frontier", lambda k: k[0] == 2), ("3+ contacts' frontier", lambda k: k[0] > 2)):
+            rows = [r for key, r in last.items() if key[2] == delta and key[:2] in anatomy and ok(anatomy[key[:2]])]
+            if rows:
+                parts.append(f"{label}: {sum(r['status'] == Status.INFEASIBLE for r in rows)} of {len(rows)} certified")
+        if parts:
+            lines.append(f"t* {delta:+g} mm -- " + "; ".join(parts))
+    return lines
 
 
 def main() -> None:
@@ -795,6 +878,8 @@ def main() -> None:
     parser.add_argument("--tag", help="--random: a label kept with each run (default: the git commit); runs of "
                         "another tag are neither skipped nor summed")
     parser.add_argument("--report", action="store_true", help="--random: only print the distribution of --out")
+    parser.add_argument("--anatomy", action="store_true", help="--random: also find the frontiers of each family's "
+                        "sub-tasks (the moved contact with subsets of the others): how many contacts make t*")
     args = parser.parse_args()
     if args.random is not None:
         main_random(args)
@@ -857,7 +942,7 @@ def main_random(args) -> None:
         return
     console.print(_family_table(records, runs))
     console.print(distribution(runs))
-    for line in targets(runs):
+    for line in targets(runs) + by_anatomy(records, runs):
         console.print(line)
 
 

@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 
 from prehension.results import Status, make_solution
+from prehension.solvers.complete.pair import congruence_test
 from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
 from prehension.verification.residuals import Tolerances
 from prehension.solvers.local.verifier import LocalVerifier
@@ -174,6 +175,22 @@ def test_random_families_just_inside_their_frontier_are_never_called_infeasible(
         assert make_solution(result.task, solution.configuration()) is not None
 
 
+@pytest.mark.slow  # a draw and a 40,000-box pair test (~10-25 s each)
+@pytest.mark.parametrize("index", (6, 7, 8, 11))
+def test_two_fingertip_families_just_inside_their_frontier_are_near_and_never_proved(frontier_module, index):
+    """The two-fingertip families of seed 1: at ``t* - 0.01 mm`` (a strict solution checked)
+    their pair is near the hand's span, so the search would test it again after four boxes
+    with twice its budget (``search.PAIR_TEST_NEAR``); the pair test with such a budget (a
+    tenth of the default's, to stay cheap) does not prove it."""
+    found = frontier_module.draw_family(1, index, seeds=1)
+    family, t = found.family, found.frontier.t_mm - 0.01
+    task = family.task_at(t)
+    witness = frontier_module.solution_at(family, found.frontier.configuration, found.frontier.t_mm, t)
+    assert witness is not None and make_solution(task, witness) is not None
+    proof = congruence_test(task, max_boxes=40_000)
+    assert not proof.proved and proof.near == {(0, 1)}
+
+
 def test_random_families_are_drawn_alike_alone_and_in_a_run(frontier_module):
     """A family of a draw depends on its seed, index and attempt only (``--families i,j``
     draws the same tasks as the whole run), and the draws differ."""
@@ -182,3 +199,26 @@ def test_random_families_are_drawn_alike_alone_and_in_a_run(frontier_module):
     c, other = frontier_module._draw(1, 4, 0)
     assert described == again and described != other
     assert np.allclose(a.u, b.u) and abs(a.u @ c.u) < 1.0 - 1e-9
+
+
+def test_made_by_is_the_fewest_contacts_whose_sub_task_ends_at_the_frontier(frontier_module):
+    """A sub-task's frontier within 0.5 mm of ``t*`` makes it; none: the whole task does."""
+    made_by = frontier_module.made_by
+    assert made_by(10.0, {"0,1": 10.2, "0,1,2": 10.1}, 4) == 2
+    assert made_by(10.0, {"0,1": 14.0, "0,1,2": 10.4}, 4) == 3
+    assert made_by(10.0, {"0,1": 14.0, "0,1,2": 10.6}, 4) == 4
+    assert made_by(10.0, {}, 2) == 2
+
+
+@pytest.mark.slow  # six sub-task frontiers (~15 s)
+def test_a_palm_moved_four_contact_frontier_is_made_by_all_four_contacts(frontier_module):
+    """s1-0 of ``frontier.py --random`` (scalpel-incision, the palm's region moved): every
+    sub-task with fewer contacts reaches farther than the whole task (dropping contacts
+    only relaxes it: never a sub-frontier before ``t*``), so no pair test can prove the
+    family just past ``t*``, and the anatomy says all four contacts make it."""
+    found = frontier_module.draw_family(1, 0, seeds=1)
+    t_star = found.frontier.t_mm
+    subsets = frontier_module.sub_frontiers(found.family)
+    assert set(subsets) == {"0,3", "1,3", "2,3", "0,1,3", "0,2,3", "1,2,3"}
+    assert min(subsets.values()) > t_star + 1.0
+    assert frontier_module.made_by(t_star, subsets, 4) == 4

@@ -49,6 +49,7 @@ from .checkpoint import SearchState, load_state, options_record, save_state, sea
 from .closure import closure_prune
 from .collision import collision_prune
 from .self_collision import self_collision_prune
+from .witnesses import makeable_pairs
 from .pair import congruence_test
 from .contract import contract
 from .shrink import ShrinkOptions, shrink_box
@@ -67,6 +68,13 @@ ALL_SOLUTIONS_MAX_BOXES = 100
 
 #: Boxes without a verified solution after which the pair test runs with its full budget.
 PAIR_TEST_LATE = 16
+
+#: While a pair near the reach frontier (``CongruenceResult.near``, measured by the first run)
+#: stops at its budget, the pair test runs again after ``PAIR_TEST_NEAR`` boxes with
+#: ``NEAR_BUDGETS[0]`` times ``pair_test_boxes``, and at :data:`PAIR_TEST_LATE` with
+#: ``NEAR_BUDGETS[1]`` times (docs/complete-solver.md, "Pair test").
+PAIR_TEST_NEAR = 4
+NEAR_BUDGETS = (2, 8)
 
 
 @dataclass(frozen=True)
@@ -98,9 +106,10 @@ class BranchAndPruneOptions:
             runs with a tenth of this budget when the first box holds no verified
             solution, and again with all of it after :data:`PAIR_TEST_LATE` boxes
             without one (unless the first run met a witness: a box of the pair's
-            variables narrower than 1e-7 that satisfies its conditions).  0 turns it
-            off.  A budget in boxes, not seconds, so that the search is the same on
-            every machine.
+            variables narrower than 1e-7 that satisfies its conditions); near the reach
+            frontier earlier, with more (:data:`PAIR_TEST_NEAR`); pairs whose two-contact
+            sub-task the verifier solves are skipped (:mod:`.witnesses`).  0 turns it off.
+            A budget in boxes, not seconds, so that the search is the same on every machine.
         collision_prune: discard a box when an enclosure proves that every
             configuration in it puts a link deeper into the object than
             ``tolerances.object_penetration_mm`` (:mod:`.collision`; only for an object
@@ -181,6 +190,14 @@ def _verification_points(lower: np.ndarray, upper: np.ndarray, n: int) -> np.nda
     return np.vstack([0.5 * (lower + upper), lower + u * (upper - lower)])
 
 
+def _verification_starts(form: Formulation, options: BranchAndPruneOptions, lower=None, upper=None) -> list:
+    """The configurations a box (by default the initial box) is verified from."""
+    lower = form.system.lower if lower is None else lower
+    upper = form.system.upper if upper is None else upper
+    points = _verification_points(lower, upper, options.verify_starts)
+    return [configuration_from_point(form, x) for x in points]
+
+
 def _verify(
     form: Formulation, lower, upper, options: BranchAndPruneOptions, *, in_box: bool = False
 ) -> tuple[Solution | None, tuple]:
@@ -195,8 +212,7 @@ def _verify(
     """
     if options.verifier is None:
         return None, (float("inf"), float("inf"))
-    points = _verification_points(lower, upper, options.verify_starts)
-    reached = options.verifier(form.task, [configuration_from_point(form, x) for x in points])
+    reached = options.verifier(form.task, _verification_starts(form, options, lower, upper))
     for config in reached.configurations:
         if config is not None:
             solution = make_solution(form.task, config, options.tolerances)
@@ -442,14 +458,10 @@ def _pair_test(form: Formulation, state: SearchState, options: BranchAndPruneOpt
     two contacts incompatible no box can hold a solution: the open (and small) boxes are
     discarded and the proof kept in the state.  It stops with the search's time limit and
     says on ``progress`` that it runs (it can take a minute)."""
-    if state.boxes == 1:
-        budget = options.pair_test_boxes // 10
-    elif state.boxes == PAIR_TEST_LATE and state.pair_test is not None:
-        if not any(outcome.stopped == "budget" for _, outcome in state.pair_test.outcomes):
-            return  # every pair met a witness (or had no test): more boxes would not prove it
-        budget = options.pair_test_boxes
-    else:
+    planned = _pair_test_plan(form, state, options)
+    if planned is None:
         return
+    budget, makeable = planned
     seconds = None
     if options.time_limit_s is not None:
         seconds = options.time_limit_s - (time.perf_counter() - started)
@@ -457,11 +469,26 @@ def _pair_test(form: Formulation, state: SearchState, options: BranchAndPruneOpt
             return
     if progress is not None:
         progress({"boxes": state.boxes, "open": len(state.open), "pair test": f"running (up to {budget} boxes)"})
-    proof = congruence_test(form.task, max_boxes=budget, time_limit_s=seconds)
+    proof = congruence_test(form.task, max_boxes=budget, time_limit_s=seconds, makeable=makeable)
     state.pair_test = proof
     if proof.proved:
         state.open.clear()
         state.small.clear()
+
+
+def _pair_test_plan(form: Formulation, state: SearchState, options: BranchAndPruneOptions):
+    """``(budget, makeable pairs)`` of the pair test due after this box, or None."""
+    if state.boxes == 1:
+        return options.pair_test_boxes // 10, makeable_pairs(form.task, options.verifier, _verification_starts(form, options))
+    last = state.pair_test
+    if last is None:
+        return None
+    if state.boxes == PAIR_TEST_NEAR and last.undecided_near():
+        return NEAR_BUDGETS[0] * options.pair_test_boxes, last.skipped
+    if state.boxes == PAIR_TEST_LATE and any(outcome.stopped == "budget" for _, outcome in last.outcomes):
+        # (not when every pair met a witness, was makeable or had no test: more boxes would not prove it)
+        return (NEAR_BUDGETS[1] if last.undecided_near() else 1) * options.pair_test_boxes, last.skipped
+    return None
 
 
 def _submit_ahead(form, state: SearchState, options, executor: Executor, workers: int, ahead: dict) -> None:
@@ -530,7 +557,8 @@ def _result(task, form, state: SearchState, options, started: float, stop: str, 
             msg += _resumed_note(state.resumed)
     if state.pair_test is not None:
         stats["pair_test"] = {"proved": state.pair_test.proved, "boxes": state.pair_test.boxes,
-                              "pair": list(state.pair_test.pair) if state.pair_test.pair else None}  # fmt: skip
+                              "pair": list(state.pair_test.pair) if state.pair_test.pair else None,
+                              "makeable": sorted(map(list, state.pair_test.skipped))}  # fmt: skip
     return SolveResult(task, "complete", status, msg, tuple(state.solutions) + in_open, seconds, stats, small)
 
 

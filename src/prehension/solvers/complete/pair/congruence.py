@@ -23,6 +23,13 @@ __all__ = ["MATCHING_BOXES", "NEAR_FRONTIER_MM", "CongruenceResult", "congruence
 #: built-in tasks comes within 32 mm (their floors are 0-128 mm, their spans 150-241 mm).
 NEAR_FRONTIER_MM = 10.0
 
+#: A pair whose object side's floor comes within this fraction of the hand's span (or within
+#: :data:`NEAR_FRONTIER_MM`) is marked *near* in :attr:`CongruenceResult.near`, for the
+#: search's earlier and larger pair tests (``search.PAIR_TEST_NEAR``): the two-fingertip
+#: families of ``frontier.py --random 20 --seed 1`` come within 6-10.2 mm (2.5-3% of spans of
+#: 238-342 mm) a millimetre past their frontier; no pair of the built-in tasks within 13%.
+NEAR_SPAN_FRACTION = 0.05
+
 #: At most this many boxes (both sides) of the pair test by matching ranges (:mod:`.matching`)
 #: per pair: on a pair that can be made, its boxes survive on both sides and matching them
 #: costs more than linearly (guitar-holding, 100,000 boxes: 26 s more than the product test's);
@@ -38,24 +45,35 @@ class CongruenceResult:
     proved: bool
     pair: tuple[int, int] | None
     outcomes: tuple[tuple[tuple[int, int], PairOutcome], ...]
+    skipped: frozenset[tuple[int, int]] = frozenset()  # pairs given as makeable: not tested
+    near: frozenset[tuple[int, int]] = frozenset()  # pairs near the reach frontier (NEAR_SPAN_FRACTION)
+
+    def undecided_near(self) -> bool:
+        """Whether a pair near the reach frontier stopped at its budget (more boxes may prove it)."""
+        return any(pair in self.near and outcome.stopped == "budget" for pair, outcome in self.outcomes)
 
     @property
     def boxes(self) -> int:
         return sum(o.boxes for _, o in self.outcomes)
 
 
-def congruence_test(task: Task, *, max_boxes: int = 200_000, time_limit_s: float | None = None) -> CongruenceResult:
+def congruence_test(task: Task, *, max_boxes: int = 200_000, time_limit_s: float | None = None,
+                    makeable: frozenset[tuple[int, int]] = frozenset()) -> CongruenceResult:  # fmt: skip
     """The pair test on every pair of contacts (until one is proved infeasible): first the
     object side against the hand's span (:func:`.span.prove_out_of_span`, at most
     :data:`.span.OUT_OF_SPAN_BOXES` boxes, not counted in ``max_boxes``), then, without a proof,
     the test by matching ranges (:mod:`.matching`, a quarter of the pair's budget, all of it
     near the reach frontier: :data:`NEAR_FRONTIER_MM`) and the
     product test (:func:`.product.prove_pair_infeasible`, the rest); the box budget ``max_boxes`` and the time limit are
-    shared evenly by the pairs."""
+    shared evenly by the pairs.  Pairs in ``makeable`` (``(a, b)``, ``a < b``: known to be
+    makeable, e.g. by a solution of their two-contact sub-task, :mod:`..witnesses`) are not
+    tested -- a sound test cannot prove them -- and their shares go to the others."""
     pairs = [(a, b) for a in range(len(task.contacts)) for b in range(a + 1, len(task.contacts))]
+    skipped = frozenset(p for p in pairs if p in makeable)
+    pairs = [p for p in pairs if p not in skipped]
     share = max(1, max_boxes // max(1, len(pairs)))
     seconds = None if time_limit_s is None else time_limit_s / max(1, len(pairs))
-    outcomes = []
+    outcomes, near = [], set()
     for a, b in pairs:
         pp = pair_problem(task, a, b)
         if pp is None:
@@ -65,11 +83,14 @@ def congruence_test(task: Task, *, max_boxes: int = 200_000, time_limit_s: float
         if proved:  # the object side alone is out of the hand's span
             outcome = PairOutcome(True, boxes, time.perf_counter() - started)
         else:
-            outcome = _matching_then_product(pp, share, seconds, floor, pair_span_mm(pp, task.hand))
+            span = pair_span_mm(pp, task.hand)
+            if span - floor <= max(NEAR_FRONTIER_MM, NEAR_SPAN_FRACTION * span):
+                near.add((a, b))
+            outcome = _matching_then_product(pp, share, seconds, floor, span)
         outcomes.append(((a, b), outcome))
         if outcome.proved:
-            return CongruenceResult(True, (a, b), tuple(outcomes))
-    return CongruenceResult(False, None, tuple(outcomes))
+            return CongruenceResult(True, (a, b), tuple(outcomes), skipped, frozenset(near))
+    return CongruenceResult(False, None, tuple(outcomes), skipped, frozenset(near))
 
 
 def _matching_then_product(pp: PairProblem, max_boxes: int, time_limit_s: float | None, floor_mm: float,
