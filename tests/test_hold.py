@@ -128,7 +128,7 @@ def test_a_force_closure_grasp_of_the_complete_solver_is_the_next_candidate(four
     assert out.closure["status"] == "solved" and len(out.result.solutions) == 1
     assert out.result.stats["hold"]["tried"][0]["candidate"] == 0 and out.physics[0] is not None
     assert grasp_quality(task, out.result.solutions[0], closure_model(SimOptions())).force_closure
-    assert "the complete solver found one" in out.result.message
+    assert "the complete solver found a force-closure grasp" in out.result.message
     assert hold_first(SolveResult(task, "local", "gave_up", "none", ()), closure_time_s=0).closure is None
 
 

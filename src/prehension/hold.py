@@ -18,11 +18,11 @@ which ``prehension check`` re-runs when MuJoCo is installed.  Interrupted (Ctrl-
 SIGTERM, SIGHUP) the candidates tried so far are kept and ``stats["hold"]["interrupted"]``
 says so.
 
-**When no candidate is force closure** (with the physics test's own contact model:
-friction ``SimOptions.friction``, soft fingers of torsion ``SimOptions.torsion_mm``) and
-none holds, the complete solver is asked, for at most ``closure_time_s`` seconds
-(:data:`CLOSURE_TIME_S` by default; 0: not asked), for a force-closure grasp of the same
-task (``require="force-closure"``, :mod:`prehension.solvers.complete.closure`):
+**When no candidate holds**, the complete solver is asked, for at most ``closure_time_s``
+seconds (:data:`CLOSURE_TIME_S` by default; 0: not asked), for a force-closure grasp of
+the same task (``require="force-closure"``, :mod:`prehension.solvers.complete.closure`)
+with the physics test's own contact model (friction ``SimOptions.friction``, soft fingers
+of torsion ``SimOptions.torsion_mm``):
 
 * it finds one: that grasp (moved up by the quality ascent) is a further candidate,
   tried in the physics test like the others (its source says where it came from);
@@ -117,7 +117,7 @@ def _closure_search(result: SolveResult, options, seed: int, time_s: float, prog
     model) within ``time_s``: ``(record for stats["hold"]["closure"], the grasp improved
     by the ascent or None)``."""
     if progress is not None:
-        progress(f"no candidate is force closure: the complete solver looks for one (at most {time_s:g} s)")
+        progress(f"no candidate holds: the complete solver looks for a force-closure grasp (at most {time_s:g} s)")
     quality = closure_model(options)
     found = solve(result.task, SolveOptions(method="complete", require="force-closure", quality=quality,
                                             time_limit_s=time_s, seed=seed))  # fmt: skip
@@ -138,8 +138,7 @@ def hold_first(result: SolveResult, options=None, seed: int = 0, progress=None,
         options: :class:`~prehension.sim.SimOptions` (default: the protocol's).
         seed: seed of the physics test's jitter (and of the complete solver).
         progress: called with a one-line string before each candidate, or ``None``.
-        closure_time_s: the complete solver's budget [s] when no candidate is force
-            closure and none holds (0: not asked).
+        closure_time_s: the complete solver's budget [s] when no candidate holds (0: not asked).
     """
     from .sim import SimOptions
 
@@ -148,7 +147,7 @@ def hold_first(result: SolveResult, options=None, seed: int = 0, progress=None,
     ranked = len(solutions)  # solve --best's; one more when the complete solver finds a force-closure grasp
     reports, tried, interrupted = _trials(result.task, solutions, 0, options, seed, progress, len(solutions))
     closure = None
-    if not interrupted and not any(r.success for _, r in reports) and closure_time_s > 0 and not _any_closed(result, options):
+    if not interrupted and not any(r.success for _, r in reports) and closure_time_s > 0:
         try:
             closure, extra = _closure_search(result, options, seed, closure_time_s, progress)
         except KeyboardInterrupt:
@@ -173,12 +172,6 @@ def _with_extra(result: SolveResult, extra) -> dict:
             "force_closure": q.force_closure, "ascent": None}  # fmt: skip
     stats["best"] = {k: list(v) + [more[k]] if k in _PER_SOLUTION and v is not None else v for k, v in best.items()}
     return stats
-
-
-def _any_closed(result: SolveResult, options) -> bool:
-    """Some candidate is force closure with the physics test's contact model."""
-    quality = closure_model(options)
-    return any(grasp_quality(result.task, s, quality).force_closure for s in result.solutions)
 
 
 def _outcome(result: SolveResult, options, reports, tried, interrupted: bool, closure, ranked: int) -> HoldOutcome:
@@ -217,5 +210,5 @@ def _closure_note(closure: dict | None, held: bool, found: bool) -> str:
         return ("; no grasp in these regions is force closure (proven by the complete solver with the physics "
                 f"test's contact model: {closure['message']})")  # fmt: skip
     if found:
-        return "; no candidate was force closure: the complete solver found one" + (" and it holds" if held else ", it drops too")
-    return f"; no candidate is force closure and the complete solver found none within {closure['time_limit_s']:g} s (nothing proven)"
+        return "; the complete solver found a force-closure grasp" + (" and it holds" if held else ": it drops too")
+    return f"; the complete solver found no force-closure grasp within {closure['time_limit_s']:g} s (nothing proven)"

@@ -80,9 +80,9 @@ def add_parser(sub) -> None:
                         "the physics test (prehension simulate) and answer with the first that holds; exit 7 when none "
                         'does (needs: pip install "prehension[sim]"; docs/quality.md)')  # fmt: skip
     p.add_argument("--hold-closure-time", type=_closure_seconds, default=None, metavar="SECONDS",
-                   help="--hold, when no candidate is force closure (the physics test's friction and torsion) and none "
-                        "holds: the complete solver looks for a force-closure grasp, or proves that the regions admit "
-                        "none, for at most this long (default 30 s: prehension.hold.CLOSURE_TIME_S; 0: not asked)")  # fmt: skip
+                   help="--hold, when no candidate holds: the complete solver looks for a force-closure grasp (the "
+                        "physics test's friction and torsion), or proves that the regions admit none, for at most "
+                        "this long (default 30 s: prehension.hold.CLOSURE_TIME_S; 0: not asked)")  # fmt: skip
     add_assignment_arguments(p)
     types.add_option_rule(p, _method_options)
 
