@@ -172,6 +172,7 @@ def _measure(task, quality: QualityOptions, n: int, seed: int, physics: bool) ->
     return {"first": _epsilon(task, first, quality), "found": _epsilon(task, found, quality),
             "best": _epsilon(task, best, quality), "wall": wall, "cpu": cpu,
             "steps": f"{sum(a['accepted'] for a in steps)}/{sum(a['tried'] for a in steps)}", "contacts": len(task.contacts),
+            "name": task.name,
             "physics": _physics(task, first, best) if physics else None,
             "pregrasp": pregrasp(task, first.solutions[0]) if first.solutions else None}  # fmt: skip
 
@@ -290,6 +291,8 @@ def _summary(console: Console, rows: list) -> None:
             got = [m["physics"][key] for m in judged if m["physics"][key] is not None]
             parts.append(f"{what}: {sum(v[0] for v in got)}/{len(got)}")
         console.print(f"holds (all six pushes) over the {len(judged)} solved 3- and 4-contact tasks: " + "; ".join(parts))
+        for m in judged:
+            console.print(f"  --hold, {m['name']}: {_verdict(m['physics']['hold'])}")
         _hold_summary(console, judged)
     if solved:
         cpu = [m["cpu"] for m in solved]
