@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import io
 import json
 import sys
 from dataclasses import replace
 from pathlib import Path
 
 import pytest
+from rich.console import Console
 
 pytest.importorskip("mujoco")
 
@@ -15,7 +17,8 @@ from prehension.cli import EXIT_BAD_INPUT, EXIT_OK, main  # noqa: E402
 from prehension.cli.codes import EXIT_CHECK_FAILED, EXIT_DROPPED  # noqa: E402
 from prehension.hold import closure_model, hold_first  # noqa: E402
 from prehension.results import SolveResult, write_result  # noqa: E402
-from prehension.quality import grasp_quality, quality_entries  # noqa: E402
+from prehension.cli.best import best_table  # noqa: E402
+from prehension.quality import QualityOptions, grasp_quality, quality_entries  # noqa: E402
 from prehension.sim import SimOptions  # noqa: E402
 from prehension.pregrasp import approach_entries_of
 from prehension.verification import verify_result_file  # noqa: E402
@@ -124,8 +127,16 @@ def test_a_force_closure_grasp_of_the_complete_solver_is_the_next_candidate(four
     """No candidate (none force closure): the complete solver's force-closure grasp is tried
     in the physics test, and its quality is the physics test's contact model's."""
     task, _ = four
-    out = hold_first(SolveResult(task, "local", "gave_up", "no candidate", ()))
+    best = {"requested": 5, "rank": "q1", "candidates": 0, "distinct": 0, "quality_options": QualityOptions().to_dict(),
+            "sources": [], "epsilon": [], "force_closure": [], "ascent": []}  # fmt: skip
+    out = hold_first(SolveResult(task, "local", "gave_up", "no candidate", (), 0.0, {"best": best}))
     assert out.closure["status"] == "solved" and len(out.result.solutions) == 1
+    listed = out.result.stats["best"]  # solve --best's per-solution lists follow, the ranking's friction model
+    assert listed["sources"] == ["complete solver (force closure required, --hold)"] and listed["ascent"] == [None]
+    assert listed["epsilon"][0] == grasp_quality(task, out.result.solutions[0], QualityOptions()).epsilon
+    console = Console(width=200, record=True, file=io.StringIO())
+    console.print(best_table(out.result))
+    assert "complete solver (force closure required, --hold)" in console.export_text()
     assert out.result.stats["hold"]["tried"][0]["candidate"] == 0 and out.physics[0] is not None
     assert grasp_quality(task, out.result.solutions[0], closure_model(SimOptions())).force_closure
     assert "the complete solver found a force-closure grasp" in out.result.message
