@@ -150,3 +150,18 @@ def test_the_closure_budget_needs_hold(tmp_path, capsys):
     with pytest.raises(SystemExit) as exc:  # argparse: the usage and the reason
         main(["solve", task, "--hold", "--hold-closure-time", "-1", "-o", str(tmp_path / "r.json")])
     assert exc.value.code == EXIT_BAD_INPUT and "must be a number of seconds >= 0 (0: not asked)" in capsys.readouterr().err
+
+
+def test_a_task_the_complete_solver_does_not_take_keeps_the_candidates_verdicts(one_face, monkeypatch):
+    import prehension.hold as hold_module
+    from prehension.errors import PrehensionError
+
+    def refuse(task, options):
+        raise PrehensionError("the complete solver does not take this region")
+
+    task, drops = one_face
+    monkeypatch.setattr(hold_module, "solve", refuse)
+    out = hold_first(SolveResult(task, "local", "solved", "one candidate", (drops,)))
+    assert not out.held and out.result.solutions == (drops,) and out.physics[0]["success"] is False
+    assert out.closure["status"] == "unavailable" and not out.proven_none
+    assert "could not look for a force-closure grasp: the complete solver does not take this region" in out.result.message

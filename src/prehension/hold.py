@@ -32,7 +32,9 @@ of torsion ``SimOptions.torsion_mm``):
   re-proves.  Without force closure some wrench is resisted by no contact forces; the
   six pushes of the test are pure forces, so such a grasp can still pass them (the
   candidates were all tried first);
-* its time runs out: the answer says so (``"gave_up"``): nothing proven.
+* its time runs out: the answer says so (``"gave_up"``): nothing proven;
+* it cannot take the task (a :class:`~prehension.errors.PrehensionError`, e.g. a region
+  it does not handle): ``"unavailable"`` with the reason; the candidates' verdicts stand.
 """
 
 from __future__ import annotations
@@ -40,13 +42,14 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 from .ascent import improve_grasp
+from .errors import PrehensionError
 from .quality import QualityOptions, grasp_quality
 from .results import SolveResult, Status
 from .solve import SolveOptions, solve
 
 __all__ = ["HoldOutcome", "hold_first", "CLOSURE_TIME_S", "closure_model"]
 
-CLOSURE_TIME_S = 30.0  # the complete solver's budget [s] when no candidate is force closure (module docstring)
+CLOSURE_TIME_S = 30.0  # the complete solver's budget [s] when no candidate holds (module docstring)
 
 _PER_SOLUTION = ("sources", "epsilon", "force_closure", "ascent")  # solve_best's stats, one entry per solution
 
@@ -152,6 +155,8 @@ def hold_first(result: SolveResult, options=None, seed: int = 0, progress=None,
             closure, extra = _closure_search(result, options, seed, closure_time_s, progress)
         except KeyboardInterrupt:
             closure, extra, interrupted = None, None, True
+        except PrehensionError as exc:  # a task the complete solver does not take: the candidates' verdicts stand
+            closure, extra = {"status": "unavailable", "message": str(exc), "time_limit_s": closure_time_s}, None
         if extra is not None:
             solutions += (extra,)
             result = replace(result, stats=_with_extra(result, extra))
@@ -209,6 +214,8 @@ def _closure_note(closure: dict | None, held: bool, found: bool) -> str:
     if closure["status"] == Status.INFEASIBLE:
         return ("; no grasp in these regions is force closure (proven by the complete solver with the physics "
                 f"test's contact model: {closure['message']})")  # fmt: skip
+    if closure["status"] == "unavailable":
+        return f"; the complete solver could not look for a force-closure grasp: {closure['message']}"
     if found:
         return "; the complete solver found a force-closure grasp" + (" and it holds" if held else ": it drops too")
     return f"; the complete solver found no force-closure grasp within {closure['time_limit_s']:g} s (nothing proven)"
