@@ -165,3 +165,15 @@ def test_a_task_the_complete_solver_does_not_take_keeps_the_candidates_verdicts(
     assert not out.held and out.result.solutions == (drops,) and out.physics[0]["success"] is False
     assert out.closure["status"] == "unavailable" and not out.proven_none
     assert "could not look for a force-closure grasp: the complete solver does not take this region" in out.result.message
+
+
+def test_an_open_task_refuses_the_closure_budget_it_would_not_use(tmp_path, capsys):
+    from prehension.assignment import OpenContact, OpenTask
+    from prehension.tasks.yaml_io import dumps_task
+    from tiny_tasks import pincer_task
+
+    pincer = pincer_task(40.0)
+    path = tmp_path / "open.yaml"  # either finger on either region: an open task
+    path.write_text(dumps_task(OpenTask("open", pincer.hand, pincer.object, (OpenContact("A", None), OpenContact("B", None)))))
+    assert main(["solve", str(path), "--hold", "--hold-closure-time", "5", "-o", str(tmp_path / "r.jsonl")]) == EXIT_BAD_INPUT
+    assert "--hold-closure-time is not used by an open task's assignment search" in capsys.readouterr().err

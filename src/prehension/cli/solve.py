@@ -178,6 +178,9 @@ def cmd_solve(args, console: Console) -> int:
     from ..tasks.yaml_io import is_open_task_file
 
     if is_open_task_file(args.task):  # hand: any, or candidates: the assignment search
+        if args.hold_closure_time is not None:
+            raise PrehensionError("--hold-closure-time is not used by an open task's assignment search (its --hold "
+                                  "judges every solution of each feasible assignment): drop it")  # fmt: skip
         return cmd_solve_open(args, console)
     refuse_open_only(args)
     args.time_limit = float(args.time_limit)  # a plain number (not the open task's default marker)
