@@ -18,8 +18,12 @@ that collides: collision-free or not, the distance used, the least and largest s
 of its fingers).  With ``--physics`` (needs MuJoCo; 2-8 s per simulated grasp): the
 physics test of the first solution with the old uniform squeeze (every contact 10 mm in,
 DexGraspBench's) and with the balanced one (the default), and the answer of ``solve
---hold`` (the candidates of ``--best 5``, balanced squeeze): which candidate held, or
-"none".  Summary: the median ratio best/first over the tasks whose first solution is
+--hold`` (the candidates of ``--best 5``, balanced squeeze, then -- when none holds -- the
+complete solver's force-closure grasp within ``prehension.hold.CLOSURE_TIME_S``): which
+candidate held, or "none", and "PROVEN" where the complete solver proved that the task's
+regions admit no force-closure grasp (friction 0.6, torsion 20 mm: the physics test's).
+Those tasks are counted apart in the summary (never dropped): the hold rate is given over
+every judged task and over the tasks not so proven.  Summary: the median ratio best/first over the tasks whose first solution is
 force closure, how many tasks go from not force closure to force closure, the median and
 largest time, and the hold rates over the solved 3- and 4-contact tasks.
 
@@ -133,13 +137,18 @@ def _physics(task, first, best) -> dict:
     for kind in ("uniform", "balanced"):
         r = simulate_grasp(task, first.solutions[0], SimOptions(squeeze=kind)) if first.solutions else None
         out[kind] = None if r is None else (r.success, "rejected" if r.rejected else f"{r.held}/6")
+    out["hold"], out["proven"], out["hold_s"] = None, False, None
     if best.solutions:
+        started = time.perf_counter()
         hold = hold_first(best)
-        tried = hold.result.stats["hold"]["tried"]
-        out["hold"] = (hold.held, f"#{tried[-1]['candidate'] + 1} of {len(best.solutions)}" if hold.held
-                       else f"none of {len(best.solutions)}")  # fmt: skip
-    else:
-        out["hold"] = None
+        out["hold_s"] = time.perf_counter() - started
+        tried, closure = hold.result.stats["hold"]["tried"], hold.closure
+        n = hold.result.stats["hold"]["candidates"]
+        said = f"#{tried[-1]['candidate'] + 1} of {n}" if hold.held else f"none of {n}"
+        if closure is not None:
+            said += {"infeasible": "; PROVEN: no force-closure grasp", "gave_up": "; complete: none in time",
+                     "solved": " (complete solver's)" if hold.held and tried[-1]["candidate"] == n - 1 else ""}.get(closure["status"], "")  # fmt: skip
+        out["hold"], out["proven"] = (hold.held, said), hold.proven_none
     return out
 
 
@@ -163,6 +172,7 @@ def _measure(task, quality: QualityOptions, n: int, seed: int, physics: bool) ->
     return {"first": _epsilon(task, first, quality), "found": _epsilon(task, found, quality),
             "best": _epsilon(task, best, quality), "wall": wall, "cpu": cpu,
             "steps": f"{sum(a['accepted'] for a in steps)}/{sum(a['tried'] for a in steps)}", "contacts": len(task.contacts),
+            "name": task.name,
             "physics": _physics(task, first, best) if physics else None,
             "pregrasp": pregrasp(task, first.solutions[0]) if first.solutions else None}  # fmt: skip
 
@@ -241,6 +251,21 @@ def main() -> None:
     _summary(console, rows)
 
 
+def _hold_summary(console: Console, judged: list) -> None:
+    """``--hold`` counted two ways: over every judged task, and over the tasks whose regions
+    are not proven to admit no force-closure grasp (those are reported apart, never dropped)."""
+    proven = [m for m in judged if m["physics"]["proven"]]
+    rest = [m for m in judged if not m["physics"]["proven"] and m["physics"]["hold"] is not None]
+    held = sum(m["physics"]["hold"][0] for m in rest)
+    console.print(f"--hold: {len(proven)} of {len(judged)} tasks proven to admit no force-closure grasp (the physics "
+                  f"test's friction and torsion; none of them held); of the other {len(rest)}, the first answer holds "
+                  f"in {held} ({held / max(len(rest), 1):.0%})")  # fmt: skip
+    times = [m["physics"]["hold_s"] for m in judged if m["physics"]["hold_s"] is not None]
+    if times:
+        console.print(f"--hold wall time per task (physics tests and the complete solver's search): median "
+                      f"{statistics.median(times):.1f} s, max {max(times):.1f} s")  # fmt: skip
+
+
 def _summary(console: Console, rows: list) -> None:
     closed = [m for m in rows if m["first"] and m["best"] is not None]
     opened = sum(1 for m in rows if m["first"] == 0.0 and (m["best"] or 0.0) > 0.0)
@@ -266,6 +291,9 @@ def _summary(console: Console, rows: list) -> None:
             got = [m["physics"][key] for m in judged if m["physics"][key] is not None]
             parts.append(f"{what}: {sum(v[0] for v in got)}/{len(got)}")
         console.print(f"holds (all six pushes) over the {len(judged)} solved 3- and 4-contact tasks: " + "; ".join(parts))
+        for m in judged:
+            console.print(f"  --hold, {m['name']}: {_verdict(m['physics']['hold'])}")
+        _hold_summary(console, judged)
     if solved:
         cpu = [m["cpu"] for m in solved]
         wall = [m["wall"] for m in solved]

@@ -6,7 +6,11 @@ segments, closed, with twelve seeded bumps and dents, ~70 mm across; two fingert
 ends along x; ``--blob-segments`` sets its size: about 4 n^2 triangles).  Each
 row solves the task (local solver), writes the result, then runs ``prehension simulate``
 twice as a user would, each in a new process: *cold* with an empty geometry cache (the
-convex decomposition computed), *warm* with the cache the cold run left (read back).
+convex decomposition computed), *after solve* with the cache that this process's solves
+left (the solver's mesh and distance structure, as ``prehension solve`` leaves them for a
+user's first ``simulate``: only the decomposition computed), *warm* with the cache the
+cold run left (read back); wall seconds, and CPU seconds of the process (user + system,
+every thread: what the load of the machine does not change).
 Columns: the penetration MuJoCo sees at the start, the hand's own penetration into the
 solver's mesh, the object's approximation error next to the hand, the number of pieces.
 
@@ -23,6 +27,8 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -87,17 +93,25 @@ def blob_task(path: Path, closed: bool = True) -> Task:
     return Task("blob-2c" if closed else "open-blob-2c", hand, obj, contacts, ("thumb", "index"))
 
 
-def _simulate(result: Path, cache: Path) -> tuple[float, int, dict | None, str]:
-    """One ``prehension simulate`` process: ``(seconds, exit code, first grasp's outcome, stderr)``."""
+def _cpu_of_children() -> float:
+    """CPU seconds (user + system) of every finished child process so far."""
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def _simulate(result: Path, cache: Path) -> tuple[float, float, int, dict | None, str]:
+    """One ``prehension simulate`` process: ``(wall seconds, CPU seconds, exit code, first
+    grasp's outcome, stderr)``; the CPU time (every thread of the process) does not depend
+    on what else the machine runs, the wall time does."""
     out = result.with_suffix(".physics.json")
     out.unlink(missing_ok=True)
     env = dict(os.environ, PREHENSION_CACHE_DIR=str(cache))
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), _cpu_of_children()
     run = subprocess.run([sys.executable, "-m", "prehension.cli", "simulate", str(result), "--solution", "0", "-o", str(out)],
                          env=env, capture_output=True, text=True, timeout=1800)  # fmt: skip
-    seconds = time.perf_counter() - t0
+    seconds, cpu = time.perf_counter() - t0, _cpu_of_children() - c0
     grasp = json.loads(out.read_text())["grasps"][0] if out.is_file() else None
-    return seconds, run.returncode, grasp, run.stderr.strip().splitlines()[-1] if run.stderr.strip() else ""
+    return seconds, cpu, run.returncode, grasp, run.stderr.strip().splitlines()[-1] if run.stderr.strip() else ""
 
 
 def rows(quick: bool, folder: Path, segments: int, blob_only: bool = False) -> list[tuple[str, Task]]:
@@ -120,34 +134,41 @@ def main() -> None:
     args = parser.parse_args()
     console = Console(width=160)
     table = Table(title="prehension simulate: seconds per grasp (each run a new process) and the start")
-    for col in ("task", "triangles", "cold [s]", "warm [s]", "exit", "MuJoCo start [mm]", "hand's own [mm]",
-                "approximation [mm]", "pieces"):  # fmt: skip
+    for col in ("task", "triangles", "cold [s]", "CPU", "after solve [s]", "CPU", "warm [s]", "CPU", "exit", "MuJoCo start [mm]",
+                "hand's own [mm]", "approximation [mm]", "pieces"):  # fmt: skip
         table.add_column(col, justify="left" if col == "task" else "right")
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
+        solved = folder / "cache-of-solve"  # what this process's solves store (the solver's geometry), as a user's solve would
+        os.environ["PREHENSION_CACHE_DIR"] = str(solved)
         for name, task in rows(args.quick, folder, args.blob_segments, args.blob):
             result = solve(task, "local")
             faces = str(len(task.object.surface.faces))
             if not result.solutions:
-                table.add_row(name, faces, "-", "-", "unsolved", "", "", "", "")
+                table.add_row(name, faces, *("-",) * 6, "unsolved", "", "", "", "")
                 continue
             path = folder / f"{name.split()[0]}.json"
             write_result(result, path, quality_entries(result), approach_entries_of(result))
-            cache = folder / f"cache-{name.split()[0]}"
-            cold, code, grasp, _ = _simulate(path, cache)
-            warm, code, grasp, err = _simulate(path, cache)
+            cache, after = folder / f"cache-{name.split()[0]}", folder / f"after-{name.split()[0]}"
+            after.mkdir()
+            if solved.is_dir():
+                shutil.copytree(solved, after, dirs_exist_ok=True)
+            runs = [_simulate(path, cache), _simulate(path, after), _simulate(path, cache)]  # cold, after solve, warm
+            _, _, code, grasp, err = runs[-1]
+            times = [f"{x:.1f}" for run in runs for x in run[:2]]
             if grasp is None:
-                table.add_row(name, faces, f"{cold:.1f}", f"{warm:.1f}", str(code), err[:60], "", "", "")
+                table.add_row(name, faces, *times, str(code), err[:60], "", "", "")
                 continue
             hand = grasp["hand_penetration_mm"]
-            table.add_row(name, faces, f"{cold:.1f}", f"{warm:.1f}", str(code), f"{grasp['initial_penetration_mm']:.2f}",
+            table.add_row(name, faces, *times, str(code), f"{grasp['initial_penetration_mm']:.2f}",
                           "-" if hand is None else f"{hand:.2f}", f"{grasp['approximation_mm']:.2f}", str(grasp["object_pieces"]))  # fmt: skip
         open_task = blob_task(blob_obj(folder / "open.obj", hole=200, segments=args.blob_segments), closed=False)
         result = solve(open_task, "local")
         if result.solutions:
             write_result(result, folder / "open.json", quality_entries(result), approach_entries_of(result))
-            seconds, code, _, err = _simulate(folder / "open.json", folder / "cache-open")
-            table.add_row("open blob (200 removed)", str(len(open_task.object.surface.faces)), f"{seconds:.1f}", "", str(code), err[:80])
+            seconds, cpu, code, _, err = _simulate(folder / "open.json", folder / "cache-open")
+            table.add_row("open blob (200 removed)", str(len(open_task.object.surface.faces)), f"{seconds:.1f}", f"{cpu:.1f}",
+                          *("",) * 4, str(code), err[:80])  # fmt: skip
     console.print(table)
 
 

@@ -182,3 +182,29 @@ def test_on_forward_built_tasks_the_ascent_never_lowers_the_merit_and_returns_ve
             tried += 1
             rose += end > start
     assert tried >= 10 and rose >= 5
+
+
+def test_a_contact_near_its_cones_edge_does_not_cut_the_step_to_a_sliver(box, chart):
+    """A fingertip contact 0.01 mm-worth inside its cap's cone, the objective pushing it out:
+    the cone is kept (the step slides along it) and the step keeps its length, instead of
+    stopping at the sliver left before the edge (the ascent then crawled: 20 steps of 0.0 mm)."""
+    ch, z, T = chart
+    assert ch.cones
+    k, region = ch.cones[0]
+    _, grad = region.cone_margin(z[k : k + 2])
+    outward = -np.asarray(grad, float) / np.linalg.norm(grad)
+    lo, hi = 0.0, 1.0  # the cap parameter on the cone's edge along ``outward``, by bisection
+    while region.cone_margin(z[k : k + 2] + hi * outward)[0] >= 0.0:
+        hi *= 2.0
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if region.cone_margin(z[k : k + 2] + mid * outward)[0] >= 0.0 else (lo, mid)
+    near = z.copy()
+    near[k : k + 2] += lo * outward - 1e-2 * outward / ch.scale[k : k + 2]
+    assert 0.0 < region.cone_margin(near[k : k + 2])[0]
+    _, J = ch.jacobian(near, T)
+    gradient = np.zeros(ch.nz + 6)
+    gradient[k : k + 2] = outward * ch.scale[k : k + 2]
+    d = ch.tangent(near, J, gradient, 2.0)
+    assert np.linalg.norm(d * ch.scale) > 1.0  # not a sliver of the 2 mm asked
+    assert region.cone_margin(near[k : k + 2] + d[k : k + 2])[0] >= 0.0

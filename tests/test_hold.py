@@ -2,19 +2,24 @@
 
 from __future__ import annotations
 
+import io
 import json
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
+from rich.console import Console
 
 pytest.importorskip("mujoco")
 
 from prehension.cli import EXIT_BAD_INPUT, EXIT_OK, main  # noqa: E402
 from prehension.cli.codes import EXIT_CHECK_FAILED, EXIT_DROPPED  # noqa: E402
-from prehension.hold import hold_first  # noqa: E402
+from prehension.hold import closure_model, hold_first  # noqa: E402
 from prehension.results import SolveResult, write_result  # noqa: E402
-from prehension.quality import quality_entries
+from prehension.cli.best import best_table  # noqa: E402
+from prehension.quality import QualityOptions, grasp_quality, quality_entries  # noqa: E402
+from prehension.sim import SimOptions  # noqa: E402
 from prehension.pregrasp import approach_entries_of
 from prehension.verification import verify_result_file  # noqa: E402
 
@@ -76,7 +81,9 @@ def test_solve_hold_on_the_command_line(tmp_path, capsys):
     assert all(s["physics"]["success"] is False for s in data["solutions"])
     held_counts = [s["physics"]["held"] for s in data["solutions"]]
     assert held_counts == sorted(held_counts, reverse=True)
-    assert "no candidate holds" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "no candidate holds" in printed and "no grasp in these regions is force closure" in printed
+    assert data["stats"]["hold"]["closure"]["status"] == "infeasible"
 
 
 def test_solve_hold_without_mujoco_names_the_extra(tmp_path, capsys, monkeypatch):
@@ -91,3 +98,82 @@ def test_solve_hold_says_what_it_cannot_be_combined_with(tmp_path, capsys):
     task = str(ROOT / "examples" / "quality" / "box-one-face.yaml")
     assert main(["solve", task, "--hold", "--require", "force-closure", "-o", str(tmp_path / "r.json")]) == EXIT_BAD_INPUT
     assert "--hold runs the candidates of --best 5" in capsys.readouterr().err
+
+
+def test_when_no_candidate_is_force_closure_a_proof_that_none_exists_is_stored_and_re_proved(tmp_path, one_face, four):
+    """Every contact on one face: the complete solver proves that no grasp of these regions is
+    force closure (the physics test's friction and torsion); check re-proves it, and a proof
+    claimed for a task that has a force-closure grasp is caught."""
+    task, drops = one_face
+    out = hold_first(SolveResult(task, "local", "solved", "one candidate", (drops,)))
+    closure = out.result.stats["hold"]["closure"]
+    assert not out.held and out.proven_none and closure["status"] == "infeasible" and closure["closure_pruned"] >= 1
+    assert closure["quality"]["torsion_mm"] == 20.0 and closure["options"]["require"] == "force-closure"
+    assert "no grasp in these regions is force closure" in out.result.message
+    path = tmp_path / "none.result.json"
+    write_result(out.result, path, quality_entries(out.result), approach_entries_of(out.result), physics=out.physics)
+    found = [f for f in verify_result_file(path).findings if f.what.startswith("--hold")]
+    assert len(found) == 1 and found[0].ok and "re-proved" in found[0].what
+    assert [f.ok for f in verify_result_file(path, reprove=False).findings if f.what.startswith("--hold")] == [True]
+    task4, holds = four  # the same claim about the four-finger task, whose regions do admit force closure
+    lie = hold_first(SolveResult(task4, "local", "solved", "one", (holds,)))
+    lie = replace(lie.result, stats={**lie.result.stats, "hold": {**lie.result.stats["hold"], "closure": closure}})
+    write_result(lie, path, quality_entries(lie), approach_entries_of(lie))
+    found = [f for f in verify_result_file(path).findings if f.what.startswith("--hold")]
+    assert len(found) == 1 and not found[0].ok and "FALSE" in found[0].detail
+
+
+def test_a_force_closure_grasp_of_the_complete_solver_is_the_next_candidate(four):
+    """No candidate (none force closure): the complete solver's force-closure grasp is tried
+    in the physics test, and its quality is the physics test's contact model's."""
+    task, _ = four
+    best = {"requested": 5, "rank": "q1", "candidates": 0, "distinct": 0, "quality_options": QualityOptions().to_dict(),
+            "sources": [], "epsilon": [], "force_closure": [], "ascent": []}  # fmt: skip
+    out = hold_first(SolveResult(task, "local", "gave_up", "no candidate", (), 0.0, {"best": best}))
+    assert out.closure["status"] == "solved" and len(out.result.solutions) == 1
+    listed = out.result.stats["best"]  # solve --best's per-solution lists follow, the ranking's friction model
+    assert listed["sources"] == ["complete solver (force closure required, --hold)"] and listed["ascent"] == [None]
+    assert listed["epsilon"][0] == grasp_quality(task, out.result.solutions[0], QualityOptions()).epsilon
+    console = Console(width=200, record=True, file=io.StringIO())
+    console.print(best_table(out.result))
+    assert "complete solver (force closure required, --hold)" in console.export_text()
+    assert out.result.stats["hold"]["tried"][0]["candidate"] == 0 and out.physics[0] is not None
+    assert grasp_quality(task, out.result.solutions[0], closure_model(SimOptions())).force_closure
+    assert "the complete solver found a force-closure grasp" in out.result.message
+    assert hold_first(SolveResult(task, "local", "gave_up", "none", ()), closure_time_s=0).closure is None
+
+
+def test_the_closure_budget_needs_hold(tmp_path, capsys):
+    task = str(ROOT / "examples" / "quality" / "box-one-face.yaml")
+    assert main(["solve", task, "--hold-closure-time", "5", "-o", str(tmp_path / "r.json")]) == EXIT_BAD_INPUT
+    assert "--hold-closure-time is the budget of --hold" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exc:  # argparse: the usage and the reason
+        main(["solve", task, "--hold", "--hold-closure-time", "-1", "-o", str(tmp_path / "r.json")])
+    assert exc.value.code == EXIT_BAD_INPUT and "must be a number of seconds >= 0 (0: not asked)" in capsys.readouterr().err
+
+
+def test_a_task_the_complete_solver_does_not_take_keeps_the_candidates_verdicts(one_face, monkeypatch):
+    import prehension.hold as hold_module
+    from prehension.errors import PrehensionError
+
+    def refuse(task, options):
+        raise PrehensionError("the complete solver does not take this region")
+
+    task, drops = one_face
+    monkeypatch.setattr(hold_module, "solve", refuse)
+    out = hold_first(SolveResult(task, "local", "solved", "one candidate", (drops,)))
+    assert not out.held and out.result.solutions == (drops,) and out.physics[0]["success"] is False
+    assert out.closure["status"] == "unavailable" and not out.proven_none
+    assert "could not look for a force-closure grasp: the complete solver does not take this region" in out.result.message
+
+
+def test_an_open_task_refuses_the_closure_budget_it_would_not_use(tmp_path, capsys):
+    from prehension.assignment import OpenContact, OpenTask
+    from prehension.tasks.yaml_io import dumps_task
+    from tiny_tasks import pincer_task
+
+    pincer = pincer_task(40.0)
+    path = tmp_path / "open.yaml"  # either finger on either region: an open task
+    path.write_text(dumps_task(OpenTask("open", pincer.hand, pincer.object, (OpenContact("A", None), OpenContact("B", None)))))
+    assert main(["solve", str(path), "--hold", "--hold-closure-time", "5", "-o", str(tmp_path / "r.jsonl")]) == EXIT_BAD_INPUT
+    assert "--hold-closure-time is not used by an open task's assignment search" in capsys.readouterr().err

@@ -273,3 +273,29 @@ def test_simulate_interrupted_writes_the_grasps_it_finished(tmp_path, capsys, mo
     assert "interrupted after 1 of 3 grasp(s)" in capsys.readouterr().err
     assert (signal.getsignal(signal.SIGTERM), signal.getsignal(signal.SIGHUP)) == before
     assert not [p for p in tmp_path.iterdir() if p.name not in ("three.json", "physics.json")]  # no temporary left
+
+
+def test_a_start_with_many_contacts_fits_mujocos_arena():
+    """teapot-service's first answer: the start probe (3 mm margin) meets 325 contacts, whose
+    1300 constraint rows overflowed MuJoCo's default arena (a FatalError, a traceback);
+    the scene's arena (ARENA_MB) holds them, and the test runs to its verdict."""
+    from prehension.solve import SolveOptions, solve
+    from prehension.tasks.library import load_builtin_task
+
+    task = load_builtin_task("teapot-service")
+    solution = solve(task, SolveOptions(method="local", seed=0)).solutions[0]
+    report = simulate_grasp(task, solution)
+    assert len(report.pushes) == 6 or report.rejected
+    assert 'memory="256M"' in scene_for(task, solution, SimOptions()).xml
+
+
+def test_an_error_inside_mujoco_is_a_clear_error_not_a_traceback(four, monkeypatch):
+    import prehension.sim.run as run
+
+    def overflow(*args, **kwargs):
+        raise mujoco.FatalError("mj_stackAlloc: out of memory\nmore")
+
+    task, grasp = four
+    monkeypatch.setattr(run, "_simulated", overflow)
+    with pytest.raises(PrehensionError, match="stopped inside MuJoCo: mj_stackAlloc: out of memory$"):
+        simulate_grasp(task, grasp)

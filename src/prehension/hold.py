@@ -17,15 +17,39 @@ each returned solution's verdict is stored with it in the result file (``"physic
 which ``prehension check`` re-runs when MuJoCo is installed.  Interrupted (Ctrl-C,
 SIGTERM, SIGHUP) the candidates tried so far are kept and ``stats["hold"]["interrupted"]``
 says so.
+
+**When no candidate holds**, the complete solver is asked, for at most ``closure_time_s``
+seconds (:data:`CLOSURE_TIME_S` by default; 0: not asked), for a force-closure grasp of
+the same task (``require="force-closure"``, :mod:`prehension.solvers.complete.closure`)
+with the physics test's own contact model (friction ``SimOptions.friction``, soft fingers
+of torsion ``SimOptions.torsion_mm``):
+
+* it finds one: that grasp (moved up by the quality ascent) is a further candidate,
+  tried in the physics test like the others (its source says where it came from);
+* it proves that none exists: the answer says "no grasp in these regions is force
+  closure" with the proof, and ``stats["hold"]["closure"]`` stores it (status
+  ``"infeasible"``, the search's options and counts), which ``prehension check``
+  re-proves.  Without force closure some wrench is resisted by no contact forces; the
+  six pushes of the test are pure forces, so such a grasp can still pass them (the
+  candidates were all tried first);
+* its time runs out: the answer says so (``"gave_up"``): nothing proven;
+* it cannot take the task (a :class:`~prehension.errors.PrehensionError`, e.g. a region
+  it does not handle): ``"unavailable"`` with the reason; the candidates' verdicts stand.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-from .results import SolveResult
+from .ascent import improve_grasp
+from .errors import PrehensionError
+from .quality import QualityOptions, grasp_quality
+from .results import SolveResult, Status
+from .solve import SolveOptions, solve
 
-__all__ = ["HoldOutcome", "hold_first"]
+__all__ = ["HoldOutcome", "hold_first", "CLOSURE_TIME_S", "closure_model"]
+
+CLOSURE_TIME_S = 30.0  # the complete solver's budget [s] when no candidate holds (module docstring)
 
 _PER_SOLUTION = ("sources", "epsilon", "force_closure", "ascent")  # solve_best's stats, one entry per solution
 
@@ -39,11 +63,21 @@ class HoldOutcome:
         held: some candidate held against all six pushes.
         physics: per returned solution, its :class:`~prehension.sim.PhysicsReport` as a
             dict (``None``: not judged, interrupted before any verdict).
+        closure: what the complete solver answered when no candidate was force closure
+            (``stats["hold"]["closure"]``: ``"status"`` ``"solved"``, ``"infeasible"`` --
+            proven: no grasp in the regions is force closure -- or ``"gave_up"``), or
+            ``None`` when it was not asked.
     """
 
     result: SolveResult
     held: bool
     physics: tuple[dict, ...]
+    closure: dict | None = None
+
+    @property
+    def proven_none(self) -> bool:
+        """No candidate held and the complete solver proved that no grasp in the task's regions is force closure."""
+        return not self.held and (self.closure or {}).get("status") == Status.INFEASIBLE
 
 
 def _why(report) -> str:
@@ -53,48 +87,135 @@ def _why(report) -> str:
     return "held in all six pushes" if not dropped else "dropped " + ", ".join(dropped)
 
 
-def hold_first(result: SolveResult, options=None, seed: int = 0, progress=None) -> HoldOutcome:
-    """The first of ``result.solutions`` that holds in the physics test (module docstring).
+def closure_model(options):
+    """The :class:`~prehension.quality.QualityOptions` of the physics test's contacts
+    (``options``: a :class:`~prehension.sim.SimOptions`): its friction, soft fingers of its
+    torsional friction; what "force closure" means for ``--hold``."""
+    return QualityOptions(friction=options.friction, torsion_mm=options.torsion_mm)
 
-    Args:
-        result: a result whose solutions are the ranked candidates.
-        options: :class:`~prehension.sim.SimOptions` (default: the protocol's).
-        seed: seed of the physics test's jitter.
-        progress: called with a one-line string before each candidate, or ``None``.
-    """
-    from .sim import SimOptions, simulate_grasp
 
-    options = options or SimOptions()
-    tried, reports, interrupted = [], [], False
+def _trials(task, solutions, first: int, options, seed: int, progress, total: int) -> tuple[list, list, bool]:
+    """The physics test of ``solutions`` (ranks from ``first``) until one holds:
+    ``(reports [(rank, report)], tried [dict], interrupted)``."""
+    from .sim import simulate_grasp
+
+    reports, tried = [], []
     try:
-        for rank, solution in enumerate(result.solutions):
+        for rank, solution in enumerate(solutions, start=first):
             if progress is not None:
-                progress(f"physics test of candidate {rank + 1} of {len(result.solutions)}")
-            report = simulate_grasp(result.task, solution, options, seed)
+                progress(f"physics test of candidate {rank + 1} of {total}")
+            report = simulate_grasp(task, solution, options, seed)
             reports.append((rank, report))
             tried.append({"candidate": rank, "success": report.success, "rejected": report.rejected,
                           "pushes_held": report.held, "why": _why(report)})  # fmt: skip
             if report.success:
                 break
     except KeyboardInterrupt:  # SIGTERM and SIGHUP arrive as KeyboardInterrupt too (cli.terminate)
-        interrupted = True
+        return reports, tried, True
+    return reports, tried, False
+
+
+def _closure_search(result: SolveResult, options, seed: int, time_s: float, progress) -> tuple[dict, object]:
+    """The complete solver asked for a force-closure grasp (the physics test's contact
+    model) within ``time_s``: ``(record for stats["hold"]["closure"], the grasp improved
+    by the ascent or None)``."""
+    if progress is not None:
+        progress(f"no candidate holds: the complete solver looks for a force-closure grasp (at most {time_s:g} s)")
+    quality = closure_model(options)
+    found = solve(result.task, SolveOptions(method="complete", require="force-closure", quality=quality,
+                                            time_limit_s=time_s, seed=seed))  # fmt: skip
+    record = {"status": str(found.status), "message": found.message, "seconds": round(found.seconds, 3),
+              "time_limit_s": time_s, "quality": quality.to_dict(),
+              **{k: found.stats.get(k) for k in ("boxes", "lps", "closure_pruned")}, "options": found.stats.get("options")}  # fmt: skip
+    if not found.solutions:
+        return record, None
+    return record, improve_grasp(result.task, found.solutions[0], quality).solution
+
+
+def hold_first(result: SolveResult, options=None, seed: int = 0, progress=None,
+               closure_time_s: float = CLOSURE_TIME_S) -> HoldOutcome:  # fmt: skip
+    """The first of ``result.solutions`` that holds in the physics test (module docstring).
+
+    Args:
+        result: a result whose solutions are the ranked candidates.
+        options: :class:`~prehension.sim.SimOptions` (default: the protocol's).
+        seed: seed of the physics test's jitter (and of the complete solver).
+        progress: called with a one-line string before each candidate, or ``None``.
+        closure_time_s: the complete solver's budget [s] when no candidate holds (0: not asked).
+    """
+    from .sim import SimOptions
+
+    options = options or SimOptions()
+    solutions = tuple(result.solutions)
+    ranked = len(solutions)  # solve --best's; one more when the complete solver finds a force-closure grasp
+    reports, tried, interrupted = _trials(result.task, solutions, 0, options, seed, progress, len(solutions))
+    closure = None
+    if not interrupted and not any(r.success for _, r in reports) and closure_time_s > 0:
+        try:
+            closure, extra = _closure_search(result, options, seed, closure_time_s, progress)
+        except KeyboardInterrupt:
+            closure, extra, interrupted = None, None, True
+        except PrehensionError as exc:  # a task the complete solver does not take: the candidates' verdicts stand
+            closure, extra = {"status": "unavailable", "message": str(exc), "time_limit_s": closure_time_s}, None
+        if extra is not None:
+            solutions += (extra,)
+            result = replace(result, stats=_with_extra(result, extra))
+            more, more_tried, interrupted = _trials(result.task, (extra,), len(solutions) - 1, options, seed, progress, len(solutions))
+            reports, tried = reports + more, tried + more_tried
+    return _outcome(replace(result, solutions=solutions), options, reports, tried, interrupted, closure, ranked)
+
+
+def _with_extra(result: SolveResult, extra) -> dict:
+    """``result.stats`` with ``solve --best``'s per-solution lists extended by the complete
+    solver's grasp (its source, and its quality with the ranking's friction model)."""
+    stats = dict(result.stats)
+    best = stats.get("best")
+    if not isinstance(best, dict):
+        return stats
+    q = grasp_quality(result.task, extra, QualityOptions.from_dict(best.get("quality_options") or {}))
+    more = {"sources": "complete solver (force closure required, --hold)", "epsilon": q.epsilon,
+            "force_closure": q.force_closure, "ascent": None}  # fmt: skip
+    stats["best"] = {k: list(v) + [more[k]] if k in _PER_SOLUTION and v is not None else v for k, v in best.items()}
+    return stats
+
+
+def _outcome(result: SolveResult, options, reports, tried, interrupted: bool, closure, ranked: int) -> HoldOutcome:
+    """The answer (module docstring) of the candidates ``result.solutions`` (the first
+    ``ranked`` of them ``solve --best``'s, any later one the complete solver's) and their verdicts."""
     held = bool(reports) and reports[-1][1].success
+    n = len(result.solutions)
     if held:
         keep = [reports[-1]]
-        message = (f"{result.message}; candidate {keep[0][0] + 1} of {len(result.solutions)} holds in the physics "
+        message = (f"{result.message}; candidate {keep[0][0] + 1} of {n} holds in the physics "
                    f"test (all six pushes, {options.squeeze} squeeze)")  # fmt: skip
     else:
         keep = sorted(reports, key=lambda r: (-r[1].held, r[0]))
         why = "interrupted" if interrupted else "no candidate holds"
-        message = (f"{result.message}; but {why} in the physics test ({len(reports)} of {len(result.solutions)} "
+        message = (f"{result.message}; but {why} in the physics test ({len(reports)} of {n} "
                    f"tried; the best held {keep[0][1].held if keep else 0} of 6 pushes)")  # fmt: skip
+    message += _closure_note(closure, held, ranked < n)
     stats = dict(result.stats)
-    stats["hold"] = {"held": held, "interrupted": interrupted, "candidates": len(result.solutions), "tried": tried,
+    stats["hold"] = {"held": held, "interrupted": interrupted, "candidates": n, "tried": tried,
                      "kept": [rank for rank, _ in keep], "squeeze": options.squeeze}  # fmt: skip
-    ranks = [rank for rank, _ in keep] if reports else list(range(len(result.solutions)))  # none judged: all, as ranked
-    solutions = tuple(result.solutions[rank] for rank in ranks)
+    if closure is not None:
+        stats["hold"]["closure"] = closure
+    ranks = [rank for rank, _ in keep] if reports else list(range(n))  # none judged: all, as ranked
     if isinstance(stats.get("best"), dict):  # solve --best's per-solution lists follow the solutions kept
         stats["best"] = {k: [v[r] for r in ranks] if k in _PER_SOLUTION and v is not None else v for k, v in stats["best"].items()}
-    out = replace(result, solutions=solutions, stats=stats, message=message)
-    physics = tuple(r.to_dict() for _, r in keep) if reports else (None,) * len(solutions)
-    return HoldOutcome(out, held, physics)
+    out = replace(result, solutions=tuple(result.solutions[r] for r in ranks), stats=stats, message=message)
+    physics = tuple(r.to_dict() for _, r in keep) if reports else (None,) * len(ranks)
+    return HoldOutcome(out, held, physics, closure)
+
+
+def _closure_note(closure: dict | None, held: bool, found: bool) -> str:
+    """What the message adds about the complete solver's search (module docstring)."""
+    if closure is None:
+        return ""
+    if closure["status"] == Status.INFEASIBLE:
+        return ("; no grasp in these regions is force closure (proven by the complete solver with the physics "
+                f"test's contact model: {closure['message']})")  # fmt: skip
+    if closure["status"] == "unavailable":
+        return f"; the complete solver could not look for a force-closure grasp: {closure['message']}"
+    if found:
+        return "; the complete solver found a force-closure grasp" + (" and it holds" if held else ": it drops too")
+    return f"; the complete solver found no force-closure grasp within {closure['time_limit_s']:g} s (nothing proven)"

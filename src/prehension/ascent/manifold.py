@@ -218,8 +218,10 @@ class GraspChart:
         of an objective, in scaled units, projected onto the null space of ``J`` (the
         Jacobian at ``z``: first-order moves along the set) with every unknown that the
         direction would carry to its bound within a tenth of the step held where it is
-        (``_NEAR_BOUND``: a step is not spent on a sliver) and every cap cone met that it would leave
-        kept at its value (decided again until none is); then shortened so that no unknown
+        (``_NEAR_BOUND``: a step is not spent on a sliver) and every cap cone it would
+        leave within a tenth of the step kept at its value (decided again until none is;
+        a contact near its cone's edge would otherwise cut every step short to the
+        sliver left before it); then shortened so that no unknown
         passes its bound and no contact leaves its cap's cone.  Unscaled, (nz + 6,); zero
         when no move raises the objective to first order."""
         g, Js = gradient / self.scale, J / self.scale  # per mm of scaled unknown
@@ -234,7 +236,8 @@ class GraspChart:
             u /= size  # unit step, scaled units
             reach = self._reach(z, u[: self.nz] / self.scale[: self.nz])  # mm along u until each unknown meets its bound
             blocked = np.r_[reach <= _NEAR_BOUND * radius_mm, np.zeros(6, dtype=bool)]
-            leaving = (value <= _AT_BOUND_MM * np.abs(rows @ u)) & (rows @ u < 0)
+            toward = rows @ u  # per mm along u: < 0 toward the cone's boundary
+            leaving = (toward < 0) & (value <= _NEAR_BOUND * radius_mm * -toward)  # met within a tenth of the step: kept
             if not np.any(blocked & ~held) and not np.any(leaving & ~active):
                 break
             held, active = held | blocked, active | leaving

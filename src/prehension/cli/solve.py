@@ -79,11 +79,25 @@ def add_parser(sub) -> None:
                    help="physics in the loop: run the ranked candidates of --best N (--best 5 unless given) through "
                         "the physics test (prehension simulate) and answer with the first that holds; exit 7 when none "
                         'does (needs: pip install "prehension[sim]"; docs/quality.md)')  # fmt: skip
+    p.add_argument("--hold-closure-time", type=_closure_seconds, default=None, metavar="SECONDS",
+                   help="--hold, when no candidate holds: the complete solver looks for a force-closure grasp (the "
+                        "physics test's friction and torsion), or proves that the regions admit none, for at most "
+                        "this long (default 30 s: prehension.hold.CLOSURE_TIME_S; 0: not asked)")  # fmt: skip
     add_assignment_arguments(p)
     types.add_option_rule(p, _method_options)
 
 
 _COMPLETE_ONLY = ("all", "sigma", "max_boxes", "checkpoint", "resume", "workers", "scheduler")
+
+
+def _closure_seconds(text: str) -> float:
+    """``--hold-closure-time``: seconds >= 0 (0: the complete solver is not asked)."""
+    import argparse
+
+    value = types.finite(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be a number of seconds >= 0 (0: not asked), got {text!r}")
+    return value
 
 
 def _method_options(args) -> str | None:
@@ -164,6 +178,9 @@ def cmd_solve(args, console: Console) -> int:
     from ..tasks.yaml_io import is_open_task_file
 
     if is_open_task_file(args.task):  # hand: any, or candidates: the assignment search
+        if args.hold_closure_time is not None:
+            raise PrehensionError("--hold-closure-time is not used by an open task's assignment search (its --hold "
+                                  "judges every solution of each feasible assignment): drop it")  # fmt: skip
         return cmd_solve_open(args, console)
     refuse_open_only(args)
     args.time_limit = float(args.time_limit)  # a plain number (not the open task's default marker)
@@ -224,6 +241,8 @@ def _checked(args, task):
         quality, best = quality_options(args), best_options(args, types.time_limit(args.time_limit))
     except PrehensionError as exc:
         raise PrehensionError(f"--hold runs the candidates of --best {HOLD_CANDIDATES}: {exc}" if implied else str(exc)) from None
+    if args.hold_closure_time is not None and not args.hold:
+        raise PrehensionError("--hold-closure-time is the budget of --hold's force-closure search: give --hold too, or drop it")
     if args.require and args.method == "local":
         raise PrehensionError(f"--require {args.require} needs the complete solver (--method complete, or auto): "
                               "the local solver cannot prove that no such grasp exists")  # fmt: skip
@@ -264,14 +283,18 @@ def _solve(task, options, best):
 
 def _hold(console: Console, args, result):
     """``--hold``: the first candidate that holds in the physics test (:func:`prehension.hold.hold_first`)."""
-    from ..hold import hold_first
+    from ..hold import CLOSURE_TIME_S, hold_first
 
     say = None if (args.quiet or args.json) else (lambda line: console.print(line, style="dim"))
-    hold = hold_first(result, seed=args.seed, progress=say)
+    budget = CLOSURE_TIME_S if args.hold_closure_time is None else args.hold_closure_time
+    hold = hold_first(result, seed=args.seed, progress=say, closure_time_s=budget)
     if not (args.quiet or args.json):
         for t in hold.result.stats["hold"]["tried"]:
             style = "green" if t["success"] else "red"
             console.print(f"candidate {t['candidate'] + 1}: [{style}]{escape(t['why'])}[/]")
+        if hold.proven_none:
+            console.print("[bold yellow]no grasp in these regions is force closure[/] (proven by the complete solver "
+                          "with the physics test's friction and torsion; prehension check re-proves it)")  # fmt: skip
         if not hold.held:
             console.print("[bold red]no candidate holds in the physics test[/]: the solutions are every candidate "
                           "tried, the one that held the most pushes first (exit code 7)")  # fmt: skip

@@ -158,6 +158,14 @@ def simulate_grasp(task: Task, solution, options: SimOptions = SimOptions(), see
     :mod:`prehension.pregrasp`): the hand first closes onto the object (:class:`Closing`).
     """
     mujoco = require_mujoco()
+    try:
+        return _simulated(mujoco, task, solution, options, seed, pregrasp_q)
+    except mujoco.FatalError as exc:  # e.g. the arena overflows: a clear error, never a traceback
+        raise PrehensionError(f"the physics test of task {task.name!r} stopped inside MuJoCo: {str(exc).splitlines()[0]}") from None
+
+
+def _simulated(mujoco, task: Task, solution, options: SimOptions, seed: int, pregrasp_q) -> PhysicsReport:
+    """:func:`simulate_grasp` with MuJoCo at hand."""
     scene = scene_for(task, solution, options, seed)
     q = np.asarray(solution.q, dtype=float)
     model, data = posed(mujoco, scene.xml, scene.dof_names, q)

@@ -30,6 +30,8 @@ from ..tasks.model import Task
 from ..tessellation import region_solid
 from .options import SimOptions
 
+ARENA_MB = 256  # MuJoCo's arena per model: its default (~14 MB) overflows at ~1300 constraint rows (teapot-service's start probe: 325 contacts within the 3 mm margin); untouched pages cost nothing
+
 __all__ = ["SimScene", "build_scene_xml", "MM"]
 
 MM = 1e-3  # metres per millimetre
@@ -106,6 +108,7 @@ def build_scene_xml(task: Task, T_palm_object: np.ndarray, pieces, options: SimO
     assets = "\n".join(mjcf.assets)
     xml = f"""<mujoco model={quoteattr("prehension: " + task.name)}>
   <compiler angle="radian" autolimits="true"/>
+  <size memory="{ARENA_MB}M"/>
   <option timestep="{_num(options.timestep_s)}" integrator="implicitfast" cone="elliptic" impratio="10" noslip_iterations="2">
     <flag gravity="disable"/>
   </option>

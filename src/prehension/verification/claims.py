@@ -24,6 +24,9 @@ each of them from the task the file embeds, and reports one :class:`Finding` per
   a physics verdict (``"physics"``, written by ``solve --hold``) is re-run -- the same
   protocol, options and seed -- and must agree push by push on held or not, when MuJoCo
   is installed; without it the finding says the verdict was not re-run (and holds);
+  ``solve --hold``'s proof that no grasp in the regions is force closure
+  (``stats.hold.closure``, status ``infeasible``) is run again by the complete solver
+  with the stored search options, as an ``infeasible`` status is;
 * ``infeasible``: the proof is run again by the complete solver on the embedded task (so
   it cannot have been computed for another task); without ``reprove`` the claim is only
   restated, never called verified.  A *span proof* (``method: "span"``, an assignment the
@@ -140,7 +143,7 @@ def verify_result(
         findings += found
         if isinstance(sol, dict) and "physics" in sol and report is not None:
             findings += _physics(task, sol, report, f"solution {i}", physics)
-    findings += _requirement(task, data, reports)
+    findings += _requirement(task, data, reports) + _hold_closure(task, data, reprove, time_limit_s)
     reproof = None
     if status == Status.INFEASIBLE and not solutions:
         reproof, found = _reprove(task, data, reprove, time_limit_s)
@@ -404,24 +407,54 @@ def _reprove(task: Task, data: dict, reprove: bool, time_limit_s) -> tuple[Solve
     claimed += _from_checkpoint(stats)
     if not reprove:
         return None, [Finding("infeasibility (not re-proved)", True, claimed + "; run check without --no-reprove to re-derive it")]
-    from ..solvers.complete.search import solve_complete
-    from ..solvers.local.verifier import LocalVerifier
-
-    again = solve_complete(task, replace(_search_options(stats.get("options"), time_limit_s), verifier=LocalVerifier()))
+    again = _complete_again(task, stats.get("options"), time_limit_s)
     if again.status == Status.INFEASIBLE:
-        same = again.stats.get("boxes") == stats.get("boxes")
-        note = "same count" if same else f"the file says {stats.get('boxes')}: other options or another version"
-        by_collision = again.stats.get("collision_pruned", 0)
-        by_self = again.stats.get("self_collision_pruned", 0)
-        how = f", {by_collision} of them for hand-object collision: no penetration-free solution" if by_collision else ""
-        how += f", {by_self} of them for self-collision: no self-collision-free solution" if by_self else ""
-        by_closure = again.stats.get("closure_pruned", 0)
-        how += f", {by_closure} of them by a certificate that none of their configurations is force closure" if by_closure else ""
-        return again, [Finding("infeasibility re-proved", True, f"all {again.stats['boxes']} boxes pruned again{how} "
-                               f"({note}){_from_checkpoint(stats)}")]  # fmt: skip
+        return again, [Finding("infeasibility re-proved", True, _pruned_again(again, stats) + _from_checkpoint(stats))]
     if again.status == Status.SOLVED:
         return again, [Finding("infeasibility", False, "FALSE: the complete solver finds a verified solution of the embedded task")]
     return again, [Finding("infeasibility (could not re-prove)", True, f"{claimed}; re-running it: {again.message}")]
+
+
+def _complete_again(task: Task, stored_options, time_limit_s) -> SolveResult:
+    """The complete solver run again on ``task`` with the stored search options."""
+    from ..solvers.complete.search import solve_complete
+    from ..solvers.local.verifier import LocalVerifier
+
+    return solve_complete(task, replace(_search_options(stored_options, time_limit_s), verifier=LocalVerifier()))
+
+
+def _pruned_again(again: SolveResult, stored: dict) -> str:
+    """How an infeasibility re-proved was proven (what pruned the boxes), against the stored count."""
+    same = again.stats.get("boxes") == stored.get("boxes")
+    note = "same count" if same else f"the file says {stored.get('boxes')}: other options or another version"
+    by_collision = again.stats.get("collision_pruned", 0)
+    by_self = again.stats.get("self_collision_pruned", 0)
+    how = f", {by_collision} of them for hand-object collision: no penetration-free solution" if by_collision else ""
+    how += f", {by_self} of them for self-collision: no self-collision-free solution" if by_self else ""
+    by_closure = again.stats.get("closure_pruned", 0)
+    how += f", {by_closure} of them by a certificate that none of their configurations is force closure" if by_closure else ""
+    return f"all {again.stats['boxes']} boxes pruned again{how} ({note})"
+
+
+def _hold_closure(task: Task, data: dict, reprove: bool, time_limit_s) -> list[Finding]:
+    """``solve --hold``'s proof that no grasp in the regions is force closure
+    (``stats.hold.closure`` with status ``infeasible``), run again by the complete solver."""
+    stats = data.get("stats") if isinstance(data.get("stats"), dict) else {}
+    hold = stats.get("hold") if isinstance(stats.get("hold"), dict) else {}
+    closure = hold.get("closure") if isinstance(hold.get("closure"), dict) else {}
+    if closure.get("status") != Status.INFEASIBLE:
+        return []
+    what = "--hold: no grasp in the regions is force closure"
+    if not isinstance(closure.get("options"), dict) or closure["options"].get("require") != "force-closure":
+        return [Finding(what, False, "FALSE: the stored search does not require force closure")]
+    if not reprove:
+        return [Finding(f"{what} (not re-proved)", True, f"claimed: {closure.get('message')}; run check without --no-reprove to re-derive it")]
+    again = _complete_again(task, closure["options"], time_limit_s)
+    if again.status == Status.INFEASIBLE:
+        return [Finding(f"{what}: re-proved", True, _pruned_again(again, closure))]
+    if again.status == Status.SOLVED:
+        return [Finding(what, False, "FALSE: the complete solver finds a verified force-closure grasp of the embedded task")]
+    return [Finding(f"{what} (could not re-prove)", True, f"claimed: {closure.get('message')}; re-running it: {again.message}")]
 
 
 def _span_proof(task: Task, proof) -> Finding:
