@@ -45,6 +45,22 @@ def _own_geometry_cache(tmp_path_factory):
         os.environ[CACHE_ENV] = before
 
 
+@pytest.fixture
+def default_signals():
+    """SIGINT, SIGTERM and SIGHUP at Python's defaults for one test, as a terminal gives
+    them: a runner started in the background or under ``nohup`` hands the suite SIGINT
+    and SIGHUP ignored, and prehension rightly keeps an ignored signal ignored
+    (``cli/terminate.py``), so tests that send them need their defaults.  Restored after."""
+    import signal
+
+    defaults = {signal.SIGINT: signal.default_int_handler, signal.SIGTERM: signal.SIG_DFL,
+                signal.SIGHUP: signal.SIG_DFL}  # fmt: skip
+    before = {sig: signal.signal(sig, handler) for sig, handler in defaults.items()}
+    yield
+    for sig, handler in before.items():
+        signal.signal(sig, handler)
+
+
 @pytest.fixture(scope="session")
 def sa_hand():
     from prehension.hands.sa_hand import schunk_sa_hand

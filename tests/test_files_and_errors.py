@@ -219,7 +219,7 @@ def test_quiet_progress_is_silent():
 
 
 # -- Ctrl-C ---------------------------------------------------------------------------------------
-def test_local_cluster_workers_ignore_ctrl_c():
+def test_local_cluster_workers_ignore_ctrl_c(default_signals):
     """A terminal's Ctrl-C reaches every process of the group: the workers ignore it (the
     command stops them), so that no worker prints a traceback."""
     from prehension.parallel import cluster

@@ -243,7 +243,7 @@ def test_every_kind_of_hand_region_becomes_a_solid(tmp_path):
 
 
 @pytest.mark.parametrize("how", ["SIGINT", "SIGTERM", "SIGHUP"])
-def test_simulate_interrupted_writes_the_grasps_it_finished(tmp_path, capsys, monkeypatch, four, how):
+def test_simulate_interrupted_writes_the_grasps_it_finished(tmp_path, capsys, monkeypatch, four, how, default_signals):
     """The signal arrives while the second of three grasps runs: the first is written,
     atomically, marked interrupted; exit 4; the previous signal handlers come back."""
     import os
