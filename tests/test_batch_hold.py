@@ -80,6 +80,22 @@ def test_batch_options_say_what_hold_needs():
     with pytest.raises(PrehensionError, match="give hold or simulate, not both"):
         BatchOptions(best=BEST, hold=SimOptions(), simulate=SimOptions())
     assert BatchOptions(method="local", best=BEST, hold=SimOptions()).chunk_size_for(100, 2) == 1
+    with pytest.raises(PrehensionError, match="budget of hold's force-closure search"):
+        BatchOptions(best=BEST, hold_closure_time_s=5.0)  # without hold
+    with pytest.raises(PrehensionError, match=r">= 0 s with hold, got -1"):
+        BatchOptions(best=BEST, hold=SimOptions(), hold_closure_time_s=-1.0)
+
+
+def test_hold_task_passes_the_force_closure_budget_on(one_face):
+    """box-one-face (every fingertip on one face: no candidate holds): with the default budget
+    the complete solver proves that its regions admit no force-closure grasp, as
+    ``solve --hold`` does; with 0 it is not asked."""
+    task, _ = one_face
+    result = solve_best(task, BEST, SolveOptions(method="local", seed=0))
+    asked = hold_task(result, SimOptions(), 0)
+    assert asked.held is False and asked.result.stats["hold"]["closure"]["status"] == "infeasible"
+    not_asked = hold_task(result, SimOptions(), 0, 0.0)
+    assert not_asked.held is False and not_asked.result.stats["hold"].get("closure") is None
 
 
 def test_the_batch_command_holds_and_check_re_runs_the_verdicts(client, tasks, tmp_path, capsys):
@@ -109,6 +125,11 @@ def test_batch_hold_refuses_what_it_cannot_do(tasks, tmp_path, capsys, monkeypat
     assert "not allowed with argument" in capsys.readouterr().err
     assert main(["batch", str(tasks), "-o", out, "--hold", "--starts", "-1"]) == EXIT_BAD_INPUT
     assert "--hold runs the candidates of --best 5: --starts must be" in capsys.readouterr().err
+    assert main(["batch", str(tasks), "-o", out, "--hold-closure-time", "5"]) == EXIT_BAD_INPUT
+    assert "--hold-closure-time is the budget of --hold" in capsys.readouterr().err
+    with pytest.raises(SystemExit):  # argparse: a number of seconds >= 0
+        main(["batch", str(tasks), "-o", out, "--hold", "--hold-closure-time", "-1"])
+    assert "must be a number of seconds >= 0" in capsys.readouterr().err
     monkeypatch.setitem(sys.modules, "mujoco", None)
     assert main(["batch", str(tasks), "-o", out, "--hold"]) == EXIT_BAD_INPUT
     assert 'pip install "prehension[sim]"' in capsys.readouterr().err

@@ -73,6 +73,9 @@ class BatchOptions:
             or every candidate tried when none does, each solution's verdict stored with
             it (``"physics"``, as in a result file) and the record gets ``"held"``
             (``true``/``false``; ``null``: not judged) (:func:`prehension.batch_extras.hold_task`).
+        hold_closure_time_s: with ``hold``, the complete solver's budget [s] for a
+            force-closure grasp when no candidate holds (``None``: ``solve --hold``'s
+            default, :data:`prehension.hold.CLOSURE_TIME_S`; 0: not asked).
         sequences: initial-pose sequences of ``prehension offline`` (their JSON
             mappings); a task uses the one made for its hand (by name), if any, else
             its hand's default.
@@ -90,6 +93,7 @@ class BatchOptions:
     quality: Any = None
     simulate: Any = None
     hold: Any = None
+    hold_closure_time_s: float | None = None
     sequences: tuple = ()
 
     def __post_init__(self):
@@ -106,6 +110,8 @@ class BatchOptions:
         need(self.hold is None or self.best is not None, "hold runs the candidates of best: give best (e.g. BestOptions(n=5))")
         need(self.hold is None or self.simulate is None,
              "hold already stores the physics verdict of every solution it keeps: give hold or simulate, not both")  # fmt: skip
+        need(self.hold_closure_time_s is None or (self.hold is not None and self.hold_closure_time_s >= 0),
+             f"hold_closure_time_s is the budget of hold's force-closure search: >= 0 s with hold, got {self.hold_closure_time_s}")  # fmt: skip
         hands = [s.get("hand") for s in self.sequences]
         need(len(set(hands)) == len(hands), f"give one initial-pose sequence per hand, got several for {hands}")
 
@@ -223,7 +229,7 @@ class _Chunk:
         if self.options.hold is not None:
             from ..batch_extras import hold_task
 
-            held = hold_task(result, self.options.hold, self.seed(entry))
+            held = hold_task(result, self.options.hold, self.seed(entry), self.options.hold_closure_time_s)
             return held.result, {"held": held.held}, held.physics
         return result, {}, None
 

@@ -70,6 +70,24 @@ def _needs_best(args) -> str | None:
     return None
 
 
+def _closure_seconds(text: str) -> float:
+    """``--hold-closure-time``: seconds >= 0 (0: the complete solver is not asked)."""
+    import argparse
+
+    value = types.finite(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be a number of seconds >= 0 (0: not asked), got {text!r}")
+    return value
+
+
+def add_hold_closure_argument(p) -> None:
+    """``--hold-closure-time`` (``solve`` and ``batch``): the budget of ``--hold``'s force-closure search."""
+    p.add_argument("--hold-closure-time", type=_closure_seconds, default=None, metavar="SECONDS",
+                   help="--hold, when no candidate holds: the complete solver looks for a force-closure grasp (the "
+                        "physics test's friction and torsion), or proves that the regions admit none, for at most "
+                        "this long (default 30 s: prehension.hold.CLOSURE_TIME_S; 0: not asked)")  # fmt: skip
+
+
 def add_batch_arguments(p) -> None:
     """``batch``: the same quality and ``--best`` options, ``--simulate`` and ``--hold``."""
     add_quality_arguments(p)
@@ -82,6 +100,7 @@ def add_batch_arguments(p) -> None:
                          help=f"physics in the loop, as solve --hold: each task keeps the first candidate of --best N "
                               f"(--best {HOLD_CANDIDATES} unless given) that holds in the physics test, its verdict "
                               f"stored; each record gets \"held\" (needs: pip install \"prehension[sim]\")")  # fmt: skip
+    add_hold_closure_argument(p)
 
 
 def batch_extras(args) -> dict:
@@ -102,7 +121,10 @@ def batch_extras(args) -> dict:
     except PrehensionError as exc:
         raise PrehensionError(f"--hold runs the candidates of --best {HOLD_CANDIDATES}: {exc}" if implied else str(exc)) from None
     hold = physics if args.hold else None
-    return {"best": best, "quality": quality_options(args), "simulate": None if args.hold else physics, "hold": hold}
+    if args.hold_closure_time is not None and not args.hold:
+        raise PrehensionError("--hold-closure-time is the budget of --hold's force-closure search: give --hold too, or drop it")
+    return {"best": best, "quality": quality_options(args), "simulate": None if args.hold else physics, "hold": hold,
+            "hold_closure_time_s": args.hold_closure_time}  # fmt: skip
 
 
 def quality_options(args):

@@ -25,7 +25,7 @@ from ..results import Status, result_to_dict, write_result
 from . import args as types
 from .assign import DEFAULT_OPEN_TIME_LIMIT_S, SolveDefaultLimit, add_assignment_arguments, cmd_solve_open, refuse_open_only
 from .best import (
-    HOLD_CANDIDATES, add_best_arguments, add_quality_arguments, add_require_argument, best_options, best_table, quality_lines,
+    HOLD_CANDIDATES, add_best_arguments, add_hold_closure_argument, add_quality_arguments, add_require_argument, best_options, best_table, quality_lines,
     quality_options,
 )  # fmt: skip
 from .codes import EXIT_APPROXIMATE, EXIT_DROPPED, EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK
@@ -79,25 +79,12 @@ def add_parser(sub) -> None:
                    help="physics in the loop: run the ranked candidates of --best N (--best 5 unless given) through "
                         "the physics test (prehension simulate) and answer with the first that holds; exit 7 when none "
                         'does (needs: pip install "prehension[sim]"; docs/quality.md)')  # fmt: skip
-    p.add_argument("--hold-closure-time", type=_closure_seconds, default=None, metavar="SECONDS",
-                   help="--hold, when no candidate holds: the complete solver looks for a force-closure grasp (the "
-                        "physics test's friction and torsion), or proves that the regions admit none, for at most "
-                        "this long (default 30 s: prehension.hold.CLOSURE_TIME_S; 0: not asked)")  # fmt: skip
+    add_hold_closure_argument(p)
     add_assignment_arguments(p)
     types.add_option_rule(p, _method_options)
 
 
 _COMPLETE_ONLY = ("all", "sigma", "max_boxes", "checkpoint", "resume", "workers", "scheduler")
-
-
-def _closure_seconds(text: str) -> float:
-    """``--hold-closure-time``: seconds >= 0 (0: the complete solver is not asked)."""
-    import argparse
-
-    value = types.finite(text)
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be a number of seconds >= 0 (0: not asked), got {text!r}")
-    return value
 
 
 def _method_options(args) -> str | None:
