@@ -73,12 +73,12 @@ def hold_task(result: SolveResult, options, seed: int, closure_time_s: float | N
     budget, ``None``: :data:`prehension.hold.CLOSURE_TIME_S`).  Without solutions nothing is judged; a task the
     physics test cannot run (e.g. an object without a solid) keeps its solutions, unjudged,
     its message saying why -- the solutions stand, only the verdict is missing."""
-    from .hold import CLOSURE_TIME_S, hold_first
+    from .hold import hold_first
 
     if not result.solutions:
         return HeldTask(result, None, None)
     try:
-        outcome = hold_first(result, options, seed, closure_time_s=CLOSURE_TIME_S if closure_time_s is None else closure_time_s)
+        outcome = hold_first(result, options, seed, closure_time_s=closure_time_s)
     except PrehensionError as exc:
         stats = {**result.stats, "hold": {"held": None, "unavailable": str(exc)}}
         return HeldTask(replace(result, stats=stats, message=f"{result.message}; physics test unavailable: {exc}"), None, None)

@@ -133,7 +133,7 @@ def _closure_search(result: SolveResult, options, seed: int, time_s: float, prog
 
 
 def hold_first(result: SolveResult, options=None, seed: int = 0, progress=None,
-               closure_time_s: float = CLOSURE_TIME_S) -> HoldOutcome:  # fmt: skip
+               closure_time_s: float | None = None) -> HoldOutcome:  # fmt: skip
     """The first of ``result.solutions`` that holds in the physics test (module docstring).
 
     Args:
@@ -141,11 +141,13 @@ def hold_first(result: SolveResult, options=None, seed: int = 0, progress=None,
         options: :class:`~prehension.sim.SimOptions` (default: the protocol's).
         seed: seed of the physics test's jitter (and of the complete solver).
         progress: called with a one-line string before each candidate, or ``None``.
-        closure_time_s: the complete solver's budget [s] when no candidate holds (0: not asked).
+        closure_time_s: the complete solver's budget [s] when no candidate holds (``None``:
+            :data:`CLOSURE_TIME_S`; 0: not asked).
     """
     from .sim import SimOptions
 
     options = options or SimOptions()
+    closure_time_s = CLOSURE_TIME_S if closure_time_s is None else closure_time_s
     solutions = tuple(result.solutions)
     ranked = len(solutions)  # solve --best's; one more when the complete solver finds a force-closure grasp
     reports, tried, interrupted = _trials(result.task, solutions, 0, options, seed, progress, len(solutions))

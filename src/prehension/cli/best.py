@@ -103,6 +103,13 @@ def add_batch_arguments(p) -> None:
     add_hold_closure_argument(p)
 
 
+def hold_closure_time(args) -> float | None:
+    """``--hold-closure-time`` (``None``: the default), refused without ``--hold``."""
+    if args.hold_closure_time is not None and not args.hold:
+        raise PrehensionError("--hold-closure-time is the budget of --hold's force-closure search: give --hold too, or drop it")
+    return args.hold_closure_time
+
+
 def batch_extras(args) -> dict:
     """``best``, ``quality``, ``simulate`` and ``hold`` of :class:`~prehension.batch.BatchOptions`;
     checks that MuJoCo is installed before a cluster starts when ``--simulate`` or ``--hold``
@@ -121,10 +128,8 @@ def batch_extras(args) -> dict:
     except PrehensionError as exc:
         raise PrehensionError(f"--hold runs the candidates of --best {HOLD_CANDIDATES}: {exc}" if implied else str(exc)) from None
     hold = physics if args.hold else None
-    if args.hold_closure_time is not None and not args.hold:
-        raise PrehensionError("--hold-closure-time is the budget of --hold's force-closure search: give --hold too, or drop it")
     return {"best": best, "quality": quality_options(args), "simulate": None if args.hold else physics, "hold": hold,
-            "hold_closure_time_s": args.hold_closure_time}  # fmt: skip
+            "hold_closure_time_s": hold_closure_time(args)}  # fmt: skip
 
 
 def quality_options(args):

@@ -25,8 +25,8 @@ from ..results import Status, result_to_dict, write_result
 from . import args as types
 from .assign import DEFAULT_OPEN_TIME_LIMIT_S, SolveDefaultLimit, add_assignment_arguments, cmd_solve_open, refuse_open_only
 from .best import (
-    HOLD_CANDIDATES, add_best_arguments, add_hold_closure_argument, add_quality_arguments, add_require_argument, best_options, best_table, quality_lines,
-    quality_options,
+    HOLD_CANDIDATES, add_best_arguments, add_hold_closure_argument, add_quality_arguments, add_require_argument, best_options,
+    best_table, hold_closure_time, quality_lines, quality_options,
 )  # fmt: skip
 from .codes import EXIT_APPROXIMATE, EXIT_DROPPED, EXIT_GAVE_UP, EXIT_INFEASIBLE, EXIT_OK
 from .hands import print_hand_warnings
@@ -228,8 +228,7 @@ def _checked(args, task):
         quality, best = quality_options(args), best_options(args, types.time_limit(args.time_limit))
     except PrehensionError as exc:
         raise PrehensionError(f"--hold runs the candidates of --best {HOLD_CANDIDATES}: {exc}" if implied else str(exc)) from None
-    if args.hold_closure_time is not None and not args.hold:
-        raise PrehensionError("--hold-closure-time is the budget of --hold's force-closure search: give --hold too, or drop it")
+    hold_closure_time(args)
     if args.require and args.method == "local":
         raise PrehensionError(f"--require {args.require} needs the complete solver (--method complete, or auto): "
                               "the local solver cannot prove that no such grasp exists")  # fmt: skip
@@ -270,11 +269,10 @@ def _solve(task, options, best):
 
 def _hold(console: Console, args, result):
     """``--hold``: the first candidate that holds in the physics test (:func:`prehension.hold.hold_first`)."""
-    from ..hold import CLOSURE_TIME_S, hold_first
+    from ..hold import hold_first
 
     say = None if (args.quiet or args.json) else (lambda line: console.print(line, style="dim"))
-    budget = CLOSURE_TIME_S if args.hold_closure_time is None else args.hold_closure_time
-    hold = hold_first(result, seed=args.seed, progress=say, closure_time_s=budget)
+    hold = hold_first(result, seed=args.seed, progress=say, closure_time_s=args.hold_closure_time)
     if not (args.quiet or args.json):
         for t in hold.result.stats["hold"]["tried"]:
             style = "green" if t["success"] else "red"
