@@ -27,8 +27,8 @@ def add_parsers(sub) -> None:
     render.add_argument("--azim", type=finite, default=None, metavar="DEG", help="view azimuth [deg] (default 35)")
     render.add_argument("--size", default="900x700", metavar="WxH", help="picture size in pixels (default 900x700)")
     render.add_argument(
-        "--layers", metavar="A,B", help="layers to draw (default: hand,object,hand_regions,pads,object_regions,contacts; also frames, and "
-        "hand_pregrasp, hand_squeeze of a result's stages)"
+        "--layers", metavar="A,B", help="layers to draw (default: hand,object,hand_regions,pads,object_regions,contacts; also frames, "
+        "capsules (a hand drawn as its meshes), and hand_pregrasp, hand_squeeze of a result's stages)"
     )
 
 
@@ -40,6 +40,10 @@ def _common(p, suffix: str) -> None:
     p.add_argument("--stage", choices=("pregrasp", "grasp", "squeeze"), default=None,
                    help="result files: which stage of the grasp to show -- the pre-grasp (fingers backed off), the "
                         "grasp, or the squeeze targets of the physics test (default: grasp; the page can switch)")  # fmt: skip
+    p.add_argument("--draw", choices=("meshes", "capsules"), default="meshes",
+                   help="how the hand's links are drawn: 'meshes' (default) -- the hand file's mesh files where it has "
+                        "them (a URDF or MJCF hand), with the collision capsules the checks judge in a layer of their own; "
+                        "'capsules' -- every link as its capsules")  # fmt: skip
 
 
 def _load_scene(args):
@@ -51,10 +55,10 @@ def _load_scene(args):
 
     hand = hand_named(args.input) if args.solution is None else None
     if hand is not None:
-        scene = build_hand_scene(hand)
+        scene = build_hand_scene(hand, draw=args.draw)
     else:
         loaded = load_grasp(args.input, args.solution)
-        scene = build_scene(loaded.task, loaded.pose, status=loaded.status)
+        scene = build_scene(loaded.task, loaded.pose, status=loaded.status, draw=args.draw)
     return scene if args.stage is None else with_stage(scene, args.stage)
 
 

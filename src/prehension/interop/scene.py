@@ -32,7 +32,7 @@ from ..errors import InvalidTask
 from ..hands.kinematics import forward_kinematics
 from ..hands.link_meshes import link_mesh_triangles
 from ..hands.model import Capsule
-from ..tasks.format.hand_files import source_hand
+from ..tasks.format.hand_files import hand_meshes
 
 __all__ = ["SCENE_FORMATS", "UNITS", "OBJECT_NODE", "grasp_scene", "hand_meshes", "scene_bytes", "capsule_mesh"]
 
@@ -71,21 +71,6 @@ def _link_mesh(link, meshes) -> tuple:
             pass
     mesh = _capsules(link)
     return mesh, ("none" if mesh is None else "capsules")
-
-
-def hand_meshes(hand) -> tuple[dict, str]:
-    """``({link name: its LinkMesh files}, a note)``: the hand's own link meshes, else those of
-    the hand file it was read from (:attr:`Hand.source`, a result's inline hand) while that
-    file is unchanged; the note says why there are none when the file is missing or changed."""
-    own = {link.name: link.meshes for link in hand.links if link.meshes}
-    if own or hand.source is None or hand.source.format not in ("urdf", "mjcf"):
-        return own, ""
-    if hand.source.changed():
-        return {}, f"hand file {hand.source.path} is missing or changed since the result was written"
-    base = source_hand(hand.source)
-    if base is None:
-        return {}, f"hand file {hand.source.path} no longer gives a hand"
-    return {link.name: link.meshes for link in base.links if link.meshes and link.name in hand.link_names}, ""
 
 
 def _scaled(T: np.ndarray, s: float) -> np.ndarray:

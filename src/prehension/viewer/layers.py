@@ -6,10 +6,12 @@ and returns a :class:`~prehension.viewer.model.Layer`.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Mapping
 
 import numpy as np
 
+from ..hands.link_meshes import link_mesh_triangles
 from ..hands.model import Capsule, Hand
 from ..objects.meshes import Mesh
 from ..tasks.model import Task
@@ -18,8 +20,8 @@ from .grasp import GraspPose
 from ..tessellation import capsule_mesh, region_center, region_mesh
 
 __all__ = [
-    "hand_layer", "object_layer", "hand_region_layer", "object_region_layer", "contact_layer", "frame_layer",
-    "object_extent_mm", "penetrating_links", "pad_layer", "sunk_pads",
+    "HandDrawing", "hand_drawing", "hand_layer", "capsule_layer", "object_layer", "hand_region_layer",
+    "object_region_layer", "contact_layer", "frame_layer", "object_extent_mm", "penetrating_links", "pad_layer", "sunk_pads",
 ]  # fmt: skip
 
 
@@ -40,23 +42,82 @@ def _merged(meshes_in_palm: list[Mesh], color: str, opacity: float = 1.0, closed
     return S.TriangleMesh(mesh.vertices, mesh.faces, color, opacity, closed)
 
 
-def hand_layer(hand: Hand, T_palm_link: Mapping[str, np.ndarray], penetrating: Mapping[str, float] | None = None) -> "S.Layer":
-    """Every link's collision capsules (red for the links in ``penetrating``, those deeper
-    than the tolerance into the object); a thin segment between joint centres for links
-    without any."""
+@dataclass(frozen=True, eq=False)
+class HandDrawing:
+    """How each link of a hand is drawn, in the link's own frame [mm].
+
+    Attributes:
+        shapes: per link name, its mesh files' triangles (:attr:`Link.meshes`: a URDF's or
+            MJCF's visual meshes) where it has readable ones, else its collision capsules
+            (an empty mesh for a link without either).
+        drawn: per link name, ``"mesh"``, ``"capsules"`` or ``"none"``.
+        note: why meshes that were asked for are not drawn (``""``: nothing to say).
+    """
+
+    shapes: Mapping[str, Mesh]
+    drawn: Mapping[str, str]
+    note: str = ""
+
+    @property
+    def meshed(self) -> bool:
+        """Some link is drawn as its mesh files (not as the capsules every check judges)."""
+        return any(d == "mesh" for d in self.drawn.values())
+
+
+def hand_drawing(hand: Hand, meshes: Mapping[str, tuple] | None = None, note: str = "") -> HandDrawing:
+    """The :class:`HandDrawing` of ``hand``: each link as its files in ``meshes`` (link name
+    -> :class:`~prehension.hands.model.LinkMesh` files, e.g.
+    :func:`~prehension.tasks.format.hand_files.hand_meshes`; ``None``: none), else as its
+    capsules.  A file that cannot be read leaves its link drawn as capsules, said in
+    ``note``."""
+    meshes = meshes or {}
+    shapes, drawn, unreadable = {}, {}, []
+    for link in hand.links:
+        files = meshes.get(link.name, ())
+        if files:
+            try:
+                shapes[link.name] = Mesh.concatenate([Mesh(*link_mesh_triangles(m)) for m in files])
+                drawn[link.name] = "mesh"
+                continue
+            except ValueError:  # InvalidObject: the file is gone or unreadable; the capsules stand in
+                unreadable.append(link.name)
+        shapes[link.name] = Mesh.concatenate([capsule_mesh(c) for c in link.collision])
+        drawn[link.name] = "capsules" if link.collision else "none"
+    if unreadable:
+        note = (f"{note}; " if note else "") + (f"the mesh files of {len(unreadable)} link(s) cannot be read "
+                                                f"({', '.join(unreadable[:3])}{', ...' if len(unreadable) > 3 else ''}): "
+                                                "drawn as their capsules")  # fmt: skip
+    return HandDrawing(shapes, drawn, note)
+
+
+def hand_layer(hand: Hand, T_palm_link: Mapping[str, np.ndarray], penetrating: Mapping[str, float] | None = None,
+               drawing: HandDrawing | None = None) -> "S.Layer":  # fmt: skip
+    """Every link as ``drawing`` draws it (default: its collision capsules), red for the
+    links in ``penetrating`` (those deeper than the tolerance into the object); a thin
+    segment between joint centres for links drawn as nothing."""
+    drawing = drawing or hand_drawing(hand)
     penetrating = penetrating or {}
-    palm, fingers, red, lines = [], [], [], []
+    groups: dict[tuple[str, bool], list[Mesh]] = {}
+    lines = []
     for link in hand.links:
         T = T_palm_link[link.name]
-        placed = [capsule_mesh(c).transformed(T) for c in link.collision]
-        (red if link.name in penetrating else palm if link.name == hand.palm else fingers).extend(placed)
-        if not link.collision:
+        kind = drawing.drawn[link.name]
+        if kind == "none":
             lines.extend(_skeleton(hand, link.name, T))
-    meshes = (
-        _merged(palm, S.PALM_COLOR, closed=True), _merged(fingers, S.HAND_COLOR, closed=True),
-        _merged(red, S.PENETRATION_COLOR, closed=True),
-    )  # fmt: skip
+            continue
+        color = S.PENETRATION_COLOR if link.name in penetrating else S.PALM_COLOR if link.name == hand.palm else S.HAND_COLOR
+        groups.setdefault((color, kind == "capsules"), []).append(drawing.shapes[link.name].transformed(T))
+    order = (S.PALM_COLOR, S.HAND_COLOR, S.PENETRATION_COLOR)
+    groups = dict(sorted(groups.items(), key=lambda kv: order.index(kv[0][0])))
+    meshes = [_merged(parts, color, closed=closed) for (color, closed), parts in groups.items()]
     return S.Layer("hand", "hand", tuple(m for m in meshes if m is not None), tuple(lines))
+
+
+def capsule_layer(hand: Hand, T_palm_link: Mapping[str, np.ndarray], penetrating: Mapping[str, float] | None = None) -> "S.Layer":
+    """The collision capsules of every link (what every check judges), hidden at first: the
+    layer a picture adds when its hand is drawn as its mesh files."""
+    drawn = hand_layer(hand, T_palm_link, penetrating)
+    return S.Layer("capsules", "collision capsules (what the checks judge)", drawn.meshes, drawn.lines, visible=False)
 
 
 def penetrating_links(task: Task, pose: GraspPose, tolerance_mm: float = 0.5) -> dict[str, float]:

@@ -11,13 +11,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import PrehensionError
 from ..hands.kinematics import forward_kinematics
+from ..tasks.format.hand_files import hand_meshes
 from ..tasks.model import Configuration, Task
 from .cones import friction_cone_layer
 from .grasp import REFERENCE, GraspPose, beside_the_hand, link_poses, pose_from_configuration, pose_from_solution, reference_angles
 from .layers import (
-    all_hand_regions_layer, contact_layer, frame_layer, hand_layer, hand_region_layer, object_extent_mm, object_layer,
-    object_region_layer, pad_layer, penetrating_links, sunk_pads,
+    HandDrawing, all_hand_regions_layer, capsule_layer, contact_layer, frame_layer, hand_drawing, hand_layer,
+    hand_region_layer, object_extent_mm, object_layer, object_region_layer, pad_layer, penetrating_links, sunk_pads,
 )  # fmt: skip
 from .stages import stage_choices, stage_layers, stage_legend, tag_grasp_layers
 from .model import (
@@ -25,9 +27,11 @@ from .model import (
     LegendEntry, Polyline, Scene,
 )  # fmt: skip
 
-__all__ = ["build_scene", "build_hand_scene"]
+__all__ = ["build_scene", "build_hand_scene", "DRAW_CHOICES"]
 
-def build_scene(task: Task, grasp=None, *, status: str | None = None) -> Scene:
+DRAW_CHOICES = ("meshes", "capsules")  # how a hand's links are drawn (``draw=``)
+
+def build_scene(task: Task, grasp=None, *, status: str | None = None, draw: str = "meshes") -> Scene:
     """The picture of ``task`` with ``grasp`` made (or the task alone, ``grasp=None``).
 
     Args:
@@ -39,17 +43,24 @@ def build_scene(task: Task, grasp=None, *, status: str | None = None) -> Scene:
             unrotated beside it (:func:`~prehension.viewer.grasp.beside_the_hand`).
         status: the status of the result the grasp comes from, shown in the title
             (e.g. ``"infeasible"`` for a result without a solution, shown as its task).
+        draw: ``"meshes"``: each link as its hand file's mesh files where it has them
+            (:func:`~prehension.tasks.format.hand_files.hand_meshes`: a URDF's or MJCF's
+            visual meshes; a result's hand takes them from the file it names, while that
+            file is unchanged), else as its capsules, with the capsules in a layer of their
+            own, hidden at first; ``"capsules"``: every link as the capsules every check
+            judges.
     """
+    drawing = _drawing(task.hand, draw)
     pose = _as_pose(task, grasp)
     colors = {c.name: CONTACT_COLORS[i % len(CONTACT_COLORS)] for i, c in enumerate(task.contacts)}
     if pose is None:
         links = link_poses(task, reference_angles(task))
-        hand = hand_layer(task.hand, links).all_points_mm()
+        hand = hand_layer(task.hand, links, drawing=drawing).all_points_mm()
         pose = GraspPose(links, beside_the_hand(hand.min(0), hand.max(0), *object_extent_mm(task)))
     scale_mm = _arrow_length_mm(task, pose)
     red, sunk = penetrating_links(task, pose), sunk_pads(task, pose)
     layers = (
-        hand_layer(task.hand, pose.T_palm_link, red),
+        hand_layer(task.hand, pose.T_palm_link, red, drawing),
         object_layer(task, pose.T_palm_object),
         hand_region_layer(task, pose.T_palm_link, colors),
         pad_layer(task, pose.T_palm_link, sunk),
@@ -59,24 +70,28 @@ def build_scene(task: Task, grasp=None, *, status: str | None = None) -> Scene:
     )
     if pose.has_solution:
         layers += (friction_cone_layer(pose, colors, scale_mm),)
+    if drawing.meshed:
+        layers += (capsule_layer(task.hand, pose.T_palm_link, red),)
     if pose.stages:  # pre-grasp and squeeze stored with the solution: one stage shown at a time
-        layers = tag_grasp_layers(layers) + stage_layers(task, pose)
+        layers = tag_grasp_layers(layers) + stage_layers(task, pose, drawing)
     status = status or pose.status
-    legend = _legend(task, colors, has_hand=bool(layers[0].meshes), has_object=bool(layers[1].meshes))
+    legend = _legend(task, colors, drawing if layers[0].meshes else None, has_object=bool(layers[1].meshes))
     if layers[3].meshes:
         legend += (LegendEntry("pad (a fingertip's ball, excused from its link)", PAD_COLOR),)
     if red or sunk:
         legend += (LegendEntry("link or pad into the object (> 0.5 mm)", PENETRATION_COLOR),)
     sunk_names = {f"{name} pad": depth for name, depth in sunk.items()}
-    caption = _caption(pose) + ((_penetration_line({**red, **sunk_names}),) if red or sunk else ())
+    caption = _caption(pose) + ((_penetration_line({**red, **sunk_names}),) if red or sunk else ()) + _drawing_line(drawing)
     legend += stage_legend(pose)
     return Scene(task.name, status, _title(task, pose, status), caption, layers, legend, stages=stage_choices(pose))
 
 
-def build_hand_scene(hand) -> Scene:
+def build_hand_scene(hand, draw: str = "meshes") -> Scene:
     """The picture of a hand alone (``prehension view HAND``): its links at zero angles
-    clamped into the limits (couplings applied), every hand region (found fingertips
-    included), and the palm and link frames."""
+    clamped into the limits (couplings applied), drawn as ``draw`` says
+    (:func:`build_scene`), every hand region (found fingertips included), and the palm and
+    link frames."""
+    drawing = _drawing(hand, draw)
     q = np.clip(np.zeros(hand.n_dof), hand.lower, hand.upper)
     for c in hand.couplings:
         q[hand.dof_index(c.dof)] = c.ratio * q[hand.dof_index(c.source)] + c.offset
@@ -88,15 +103,40 @@ def build_hand_scene(hand) -> Scene:
         for F, size in frames for axis, color in enumerate(AXIS_COLORS)
     )  # fmt: skip
     layers = (
-        hand_layer(hand, links),
+        hand_layer(hand, links, drawing=drawing),
         all_hand_regions_layer(hand, links),
         Layer("frames", "frames (x y z = red green blue)", (), lines, visible=False, on_top=True),
-    )
+    ) + ((capsule_layer(hand, links),) if drawing.meshed else ())
     fingers = ", ".join(f.name for f in hand.fingers) or "none"
     caption = (f"fingers: {fingers}; regions: {', '.join(hand.regions) or 'none'}",
-               "links at zero angles clamped into their limits; palm frame, mm")  # fmt: skip
-    legend = (LegendEntry("hand (collision capsules)", HAND_COLOR),)
+               "links at zero angles clamped into their limits; palm frame, mm") + _drawing_line(drawing)  # fmt: skip
+    legend = (_hand_entry(drawing),)
     return Scene(hand.name, "hand", f"hand {hand.name!r}: {len(hand.links)} links, {hand.n_dof} joint angles", caption, layers, legend)
+
+
+def _drawing(hand, draw: str) -> HandDrawing:
+    """The hand's :class:`~.layers.HandDrawing` for ``draw`` (:data:`DRAW_CHOICES`)."""
+    if draw not in DRAW_CHOICES:
+        raise PrehensionError(f"draw must be one of {', '.join(DRAW_CHOICES)}, got {draw!r}")
+    if draw == "capsules":
+        return hand_drawing(hand)
+    return hand_drawing(hand, *hand_meshes(hand))
+
+
+def _hand_entry(drawing: HandDrawing) -> LegendEntry:
+    what = "link meshes of its hand file" if drawing.meshed else "collision capsules"
+    return LegendEntry(f"hand ({what})", HAND_COLOR)
+
+
+def _drawing_line(drawing: HandDrawing) -> tuple[str, ...]:
+    """A caption line when the links are not drawn as the capsules the checks judge, or
+    when meshes were wanted and are not drawn (why)."""
+    lines = []
+    if drawing.meshed:
+        lines.append("links drawn as their hand file's meshes; the checks judge the collision capsules (layer 'capsules')")
+    if drawing.note:
+        lines.append(f"links drawn as capsules: {drawing.note}")
+    return tuple(lines)
 
 
 def _penetration_line(red: dict[str, float]) -> str:
@@ -148,8 +188,8 @@ def _caption(pose: GraspPose) -> tuple[str, ...]:
     )
 
 
-def _legend(task: Task, colors: dict[str, str], has_hand: bool, has_object: bool) -> tuple[LegendEntry, ...]:
-    entries = [LegendEntry("hand (collision capsules)", HAND_COLOR)] if has_hand else []
+def _legend(task: Task, colors: dict[str, str], drawing: HandDrawing | None, has_object: bool) -> tuple[LegendEntry, ...]:
+    entries = [_hand_entry(drawing)] if drawing is not None else []
     entries += [LegendEntry(task.object.name, OBJECT_COLOR)] if has_object else []
     entries += [LegendEntry(f"contact {name}", color) for name, color in colors.items()]
     entries.append(LegendEntry("normal out of the object", OBJECT_NORMAL_COLOR))

@@ -19,7 +19,7 @@ from dataclasses import replace
 from ..errors import PrehensionError
 from ..tasks.model import Task
 from .grasp import GraspPose, link_poses
-from .layers import hand_layer
+from .layers import HandDrawing, hand_layer
 from .model import PREGRASP_COLOR, SQUEEZE_COLOR, Layer, LegendEntry, Scene
 
 __all__ = ["STAGES", "GRASP_STAGE_LAYERS", "stage_layers", "stage_legend", "stage_choices", "tag_grasp_layers", "with_stage"]
@@ -30,12 +30,13 @@ _COLORS = {"pregrasp": PREGRASP_COLOR, "squeeze": SQUEEZE_COLOR}
 _NAMES = {"pregrasp": "pre-grasp", "grasp": "grasp", "squeeze": "squeeze"}
 
 
-def stage_layers(task: Task, pose: GraspPose) -> tuple[Layer, ...]:
-    """One hidden layer per stored stage: the hand's capsules at the stage's angles, in the
-    stage's colour (key ``hand_pregrasp`` / ``hand_squeeze``)."""
+def stage_layers(task: Task, pose: GraspPose, drawing: HandDrawing | None = None) -> tuple[Layer, ...]:
+    """One hidden layer per stored stage: the hand at the stage's angles, drawn as the
+    grasp's hand is (``drawing``; default: its capsules), in the stage's colour (key
+    ``hand_pregrasp`` / ``hand_squeeze``)."""
     out = []
     for stage in pose.stages:
-        drawn = hand_layer(task.hand, link_poses(task, stage.q))
+        drawn = hand_layer(task.hand, link_poses(task, stage.q), drawing=drawing)
         meshes = tuple(replace(m, color=_COLORS[stage.name]) for m in drawn.meshes)
         out.append(Layer(f"hand_{stage.name}", f"hand at the {_NAMES[stage.name]}", meshes, drawn.lines,
                          visible=False, stage=stage.name))  # fmt: skip

@@ -40,7 +40,7 @@ from .schema import Name, PosNum, Vec3, _Spec
 from .yaml_text import parse_yaml, read_text
 
 __all__ = ["HandFileSpec", "TipSpec", "hand_file", "hand_from_file_entry", "is_hand_reference",
-           "hand_from_reference", "reference_entries", "source_hand"]  # fmt: skip
+           "hand_from_reference", "reference_entries", "source_hand", "hand_meshes"]  # fmt: skip
 
 FILE_KEYS = ("urdf", "mjcf")
 
@@ -152,3 +152,19 @@ def reference_entries(hand: Hand, full: dict, base_dir, compare) -> dict | None:
     if base is None:
         return None
     return compare(reference_value(hand.source, base_dir), full, hand_to_dict(base))
+
+
+def hand_meshes(hand: Hand) -> tuple[dict, str]:
+    """``({link name: its LinkMesh files}, a note)``: the mesh files that draw ``hand``'s
+    links (for pictures and scenes only): the hand's own link meshes, else those of the
+    hand file it was read from (:attr:`Hand.source`, a result's inline hand) while that
+    file is unchanged; the note says why there are none when the file is missing or changed."""
+    own = {link.name: link.meshes for link in hand.links if link.meshes}
+    if own or hand.source is None or hand.source.format not in ("urdf", "mjcf"):
+        return own, ""
+    if hand.source.changed():
+        return {}, f"hand file {hand.source.path} is missing or changed since the result was written"
+    base = source_hand(hand.source)
+    if base is None:
+        return {}, f"hand file {hand.source.path} no longer gives a hand"
+    return {link.name: link.meshes for link in base.links if link.meshes and link.name in hand.link_names}, ""
