@@ -39,7 +39,8 @@ KERNEL_DECORATORS = frozenset({"njit", "jit", "vectorize", "guvectorize"})
 
 #: The layers of docs/architecture.md, bottom first: module-name prefixes under the package.
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("errors", "frozen", "deadline", "atomic", "disk_cache", "lp", "kernels", "paper", "_aot_build", "_dask_plugins"),
+    ("errors", "frozen", "deadline", "atomic", "disk_cache", "lp", "kernels", "paper", "_aot_build", "_dask_plugins",
+     "mujoco_log"),
     ("geometry",),
     ("hands", "objects", "tasks.model", "tasks.locate"),
     ("tasks",),

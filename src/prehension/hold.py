@@ -83,7 +83,7 @@ class HoldOutcome:
 def _why(report) -> str:
     if report.rejected:
         return report.describe()
-    dropped = [f"{p.direction} (moved {p.shift_mm:.0f} mm, turned {p.turn_deg:.0f} deg)" for p in report.pushes if not p.held]
+    dropped = [p.describe() for p in report.pushes if not p.held]
     return "held in all six pushes" if not dropped else "dropped " + ", ".join(dropped)
 
 

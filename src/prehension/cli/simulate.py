@@ -231,8 +231,9 @@ def _table(k: int, report) -> Table:
     for col in ("push", "held", "moved [mm]", "turned [deg]", "initial penetration [mm]"):
         table.add_column(col)
     for p in report.pushes:
-        table.add_row(p.direction, "yes" if p.held else "[bold red]no[/]", f"{p.shift_mm:.1f}", f"{p.turn_deg:.1f}",
-                      f"{p.initial_penetration_mm:.2f}")  # fmt: skip
+        held = "yes" if p.held else "[bold red]no (unstable)[/]" if p.unstable else "[bold red]no[/]"
+        moved = ("-", "-") if p.unstable else (f"{p.shift_mm:.1f}", f"{p.turn_deg:.1f}")  # read after MuJoCo's reset
+        table.add_row(p.direction, held, *moved, f"{p.initial_penetration_mm:.2f}")
     o = report.options
     table.caption = (f"object {o.mass_kg:g} kg, friction {o.friction:g}, pushed with {o.push_accel * o.mass_kg:g} N for "
                      f"{o.hold_s:g} s after a {o.squeeze_mm:g} mm {o.squeeze} squeeze; held: moved < {o.max_shift_mm:g} mm and "

@@ -55,6 +55,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InvalidHand, InvalidObject, PrehensionError
+from ..mujoco_log import import_mujoco
 from ..objects.mesh_io import read_triangles
 from .assemble import ImportOptions, assemble
 from .description import RawCoupling, RawHand, RawJoint, RawShape
@@ -73,10 +74,9 @@ _WORLD = 0
 def require_mujoco():
     """The ``mujoco`` module, or a :class:`PrehensionError` that says how to install it."""
     try:
-        import mujoco
+        return import_mujoco()
     except ImportError:
         raise PrehensionError(f"reading MJCF files needs the mujoco package; install it with: {INSTALL_HINT}") from None
-    return mujoco
 
 
 # -- public API ---------------------------------------------------------------------------

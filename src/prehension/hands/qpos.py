@@ -26,6 +26,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..errors import InvalidConfiguration
+from ..mujoco_log import import_mujoco
 from .mjcf import compile_mjcf
 from .model import Hand
 
@@ -65,7 +66,7 @@ def _mjcf_joint_names(path: str, sha256: str) -> tuple[str, ...]:
     """Joint names of an MJCF file in MuJoCo's order (``()`` when the file cannot be read:
     the hand's own order is then used).  ``sha256`` keys the cache to the file's bytes."""
     try:
-        import mujoco
+        mujoco = import_mujoco()
     except ImportError:
         mujoco = None
     try:

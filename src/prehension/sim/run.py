@@ -13,6 +13,7 @@ from dataclasses import asdict, dataclass, field, replace
 import numpy as np
 
 from ..errors import PrehensionError
+from ..mujoco_log import import_mujoco
 from ..geometry.rotations import rotation_about
 from ..tasks.model import Task
 from .options import PUSH_DIRECTIONS, SimOptions
@@ -29,23 +30,32 @@ _BLOCKS = 10  # the push is checked this many times (early stop), as DexGraspBen
 def require_mujoco():
     """The ``mujoco`` module, or a :class:`PrehensionError` that says how to install it."""
     try:
-        import mujoco
+        return import_mujoco()
     except ImportError:
         raise PrehensionError(f"the physics test needs MuJoCo; install it with: {_INSTALL}") from None
-    return mujoco
 
 
 @dataclass(frozen=True)
 class PushOutcome:
     """One push: ``direction`` (``"-x"``...), whether the grasp ``held``, how far the
     object's centre of mass moved [mm] and how far it turned [deg], and the deepest
-    hand-object penetration at the start [mm]."""
+    hand-object penetration at the start [mm].  ``unstable``: the simulation went
+    unstable (MuJoCo found a NaN, infinite or huge position, velocity or acceleration and
+    reset its state): the push counts as dropped, whatever the distances read after the
+    reset."""
 
     direction: str
     held: bool
     shift_mm: float
     turn_deg: float
     initial_penetration_mm: float
+    unstable: bool = False
+
+    def describe(self) -> str:
+        """``"-x (moved 3 mm, turned 2 deg)"``, or why the distances mean nothing."""
+        if self.unstable:
+            return f"{self.direction} (the simulation went unstable)"
+        return f"{self.direction} (moved {self.shift_mm:.0f} mm, turned {self.turn_deg:.0f} deg)"
 
 
 @dataclass(frozen=True)
@@ -54,14 +64,18 @@ class Closing:
     targets move from the pre-grasp's angles to the grasp's over ``close_s``, then hold
     there for as long again.  The grasp is **reached** when the object then stands within
     ``REACH_MM`` and ``REACH_DEG`` of its solved pose and every joint within
-    ``REACH_JOINT_DEG`` of its solved angle."""
+    ``REACH_JOINT_DEG`` of its solved angle, and the simulation stayed stable
+    (``unstable``: it did not)."""
 
     reached: bool
     shift_mm: float
     turn_deg: float
     joint_error_deg: float
+    unstable: bool = False
 
     def describe(self) -> str:
+        if self.unstable:
+            return "closing from the pre-grasp does NOT reach the grasp (the simulation went unstable)"
         return (f"closing from the pre-grasp {'reaches' if self.reached else 'does NOT reach'} the grasp (object moved "
                 f"{self.shift_mm:.1f} mm, turned {self.turn_deg:.1f} deg; joints within {self.joint_error_deg:.1f} deg)")
 
@@ -121,7 +135,9 @@ class PhysicsReport:
                     f"(limit {self.options.max_penetration_mm:g} mm)")  # fmt: skip
         verdict = "holds" if self.success else "DROPS"
         closing = "" if self.closing is None else f"; {self.closing.describe()}"
-        return f"{verdict}: held against {self.held} of {len(self.pushes)} pushes{closing}"
+        unstable = sum(p.unstable for p in self.pushes)
+        unstable = f" (the simulation went unstable in {unstable} of them)" if unstable else ""
+        return f"{verdict}: held against {self.held} of {len(self.pushes)} pushes{unstable}{closing}"
 
 
 def _jittered(T: np.ndarray, centre_mm: np.ndarray, options: SimOptions, seed: int) -> np.ndarray:
@@ -225,9 +241,17 @@ class _Sim:
             mj.mj_step(m, d)
         shift, turn = self._moved(com0, R0)
         error = float(np.degrees(np.max(np.abs(d.qpos[self.qpos_adr] - q_grasp)))) if len(q_grasp) else 0.0
+        unstable = self._unstable()
         self.closed = (d.qpos.copy(), d.qvel.copy(), d.ctrl.copy())
         self.q = np.asarray(q_grasp, dtype=float)  # the squeeze ramps from the grasp's targets
-        return Closing(bool(shift < REACH_MM and turn < REACH_DEG and error < REACH_JOINT_DEG), shift, turn, error)
+        reached = not unstable and shift < REACH_MM and turn < REACH_DEG and error < REACH_JOINT_DEG
+        return Closing(bool(reached), shift, turn, error, unstable)
+
+    def _unstable(self) -> bool:
+        """MuJoCo found a NaN, infinite or huge position, velocity or acceleration since the
+        last reset (and reset its state: the counters of ``mjData.warning`` survive that)."""
+        W = self.mj.mjtWarning
+        return any(self.data.warning[int(w)].number > 0 for w in (W.mjWARN_BADQPOS, W.mjWARN_BADQVEL, W.mjWARN_BADQACC))
 
     def _moved(self, com0, R0) -> tuple[float, float]:
         com, R = self.data.xipos[self.body], self.data.xmat[self.body].reshape(3, 3)
@@ -247,10 +271,13 @@ class _Sim:
         hold = max(int(round(o.hold_s / o.timestep_s)), 1)
         shift, turn = self._moved(com0, R0)
         for block in range(_BLOCKS):
+            if self._unstable():
+                break
             mj.mj_step(m, d, nstep=hold * (block + 1) // _BLOCKS - hold * block // _BLOCKS)
             shift, turn = self._moved(com0, R0)
             if not (shift < o.max_shift_mm and turn < o.max_turn_deg):
                 break
         d.xfrc_applied[self.body] = 0.0
-        held = bool(shift < o.max_shift_mm and turn < o.max_turn_deg)
-        return PushOutcome(name, held, shift, turn, depth)
+        unstable = self._unstable()
+        held = bool(not unstable and shift < o.max_shift_mm and turn < o.max_turn_deg)
+        return PushOutcome(name, held, shift, turn, depth, unstable)
