@@ -93,7 +93,7 @@ def test_solve_open_task_writes_records_that_check_verifies(open_file, tmp_path,
     records = _records(out)
     assert set(records) == {"pad->A, tip->B", "tip->A, pad->B"}
     good = records["pad->A, tip->B"]
-    assert good["status"] == "solved" and good["assignment"] == {"hand_regions": ["pad", "tip"], "object_regions": ["A", "B"]}
+    assert good["status"] == "solved" and good["assignment"] == {"hand_regions": ["pad", "tip"], "object_regions": ["A", "B"], "initial_poses": 64}
     assert good["result"]["solutions"][0]["quality"]
     assert main(["check", str(out)]) == EXIT_OK
     assert "DOES NOT HOLD" not in capsys.readouterr().out

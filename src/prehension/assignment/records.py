@@ -8,7 +8,7 @@ resume and the same ``prehension check``.  A record's ``id`` is the assignment's
     {"prehension": "batch/1", "id": "thumb_tip->A, index_tip->B", "task": NAME, "source": FILE,
      "method": "local" | "complete" | "span", "seed": ..., "status": ..., "seconds": ...,
      "message": ..., "task_ref": ..., "result": {...},
-     "assignment": {"hand_regions": [...], "object_regions": [...]}}
+     "assignment": {"hand_regions": [...], "object_regions": [...], "initial_poses": N}}
 
 ``result`` is the result file of the assignment's concrete task: its verified solutions
 (with their quality), the complete solver's ``infeasible`` (re-proved by ``check``), or,
@@ -44,16 +44,19 @@ def verdict_result(item) -> SolveResult:
     raise TypeError(f"not an assignment verdict: {type(item).__name__}")
 
 
-def verdict_line(item, source: str, seed: int) -> tuple[RecordLine, LoadedTask]:
+def verdict_line(item, source: str, seed: int, initial_poses: int | None = None) -> tuple[RecordLine, LoadedTask]:
     """The record of one verdict (``item``: :class:`~.search.AssignmentOutcome`,
     :class:`~.search.Impossible` or :class:`~.search.Undecided`) of the open task read from
-    ``source``, searched with base seed ``seed``; and its loaded task (its task and file lines)."""
+    ``source``, searched with base seed ``seed`` and ``initial_poses`` initial poses per
+    assignment (kept in the record's ``assignment`` entry, for a retry to go on from it:
+    :mod:`.resume`; ``None``: not said); and its loaded task (its task and file lines)."""
     result = verdict_result(item)
     assignment = item.assignment
     entry = {"id": assignment.label, "name": result.task.name, "source": source}
     loaded = LoadedTask(result.task)
     qualities = item.qualities if isinstance(item, AssignmentOutcome) else ()
-    extra = {ASSIGNMENT_KEY: {"hand_regions": list(assignment.hand_regions), "object_regions": list(assignment.object_regions)}}
+    named = {"hand_regions": list(assignment.hand_regions), "object_regions": list(assignment.object_regions)}
+    extra = {ASSIGNMENT_KEY: named if initial_poses is None else {**named, "initial_poses": initial_poses}}
     if isinstance(item, AssignmentOutcome) and item.physics:
         extra["physics"] = list(item.physics)
     head = RecordHead(entry, result.method, assignment_seed(seed, assignment))

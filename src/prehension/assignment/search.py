@@ -35,6 +35,7 @@ from ..results import SolveResult, Status
 from ..tasks.model import Task
 from .model import Assignment, OpenTask, concrete_task, enumerate_assignments
 from .span import SpanProof, prove_by_span
+from .resume import Earlier, resume_point
 from .rounds import Driver, round_ranges
 from .solving import complete_job, local_job, ship
 
@@ -264,6 +265,7 @@ def search_assignments(
     progress: Callable[[AssignmentProgress], None] | None = None,
     skip: Iterable[str] = (),
     on_decided: Callable[[Any], None] | None = None,
+    earlier: Mapping[str, Earlier] | None = None,
 ) -> AssignmentReport:
     """Decide every assignment of ``open_task`` (module docstring).
 
@@ -276,6 +278,9 @@ def search_assignments(
         on_decided: called with each verdict (:class:`AssignmentOutcome`,
             :class:`Impossible` or :class:`Undecided`) as it is reached (e.g. to append it
             to a journal).
+        earlier: by label, what an earlier run left of undecided assignments
+            (:func:`.resume.earlier_runs` of its journal): they go on after the initial
+            poses it tried (:mod:`.resume`), with the same answer.
 
     Returns:
         An :class:`AssignmentReport`.
@@ -289,7 +294,7 @@ def search_assignments(
     collect.report()
     to_solve = _span_step(open_task, todo, options, collect)
     collect.report()
-    _solve_step(open_task, to_solve, options, collect, started)
+    _solve_step(open_task, to_solve, options, collect, started, earlier or {})
     feasible = sorted(collect.feasible, key=lambda o: o.score, reverse=True) if options.rank else collect.feasible
     return AssignmentReport(open_task, feasible, collect.infeasible, collect.undecided, len(every),
                             len(every) - len(todo), time.perf_counter() - started)  # fmt: skip
@@ -310,12 +315,13 @@ def _span_step(open_task: OpenTask, todo: list[Assignment], options: AssignmentO
 
 
 def _solve_step(open_task: OpenTask, items: list[tuple[Assignment, Task]], options: AssignmentOptions, collect: _Collect,
-                started: float) -> None:  # fmt: skip
+                started: float, earlier: Mapping[str, Earlier]) -> None:  # fmt: skip
     """The local solver in rounds of initial poses on every assignment no earlier pose
     solved, a chunk at a time (:mod:`.rounds`); then the complete solver on each one no
     pose solved (one assignment a call), while the search's time limit allows.  Here, or
     on ``options.executor`` (the open task shipped pickled, unpickled once per worker:
-    :func:`.solving.ship`)."""
+    :func:`.solving.ship`).  An assignment in ``earlier`` goes on where that run left it
+    (:mod:`.resume`)."""
     deadline = None if options.time_limit_s is None else time.time() + options.time_limit_s - (time.perf_counter() - started)
     workers = getattr(options.executor, "max_workers", 1) if options.executor is not None else 1
     size = options.chunk_size or max(1, min(MAX_CHUNK, math.ceil(len(items) / (4 * max(workers, 1)))))
@@ -337,7 +343,7 @@ def _solve_step(open_task: OpenTask, items: list[tuple[Assignment, Task]], optio
         round_ = part.round_
         go_on = []
         for (assignment, task, _, before), (result, record) in zip(part, answers):
-            result = replace(result, task=task, seconds=result.seconds + (before.seconds if before is not None else 0.0))
+            result = _after(result, task, before)
             if not result.success and record.time_limit_s is not None and _past(deadline):
                 _out_of_time([(assignment, task, record, result)], collect)  # the search's limit stopped it
             elif result.success or (round_ + 1 >= len(ranges) and options.complete_time_s <= 0):
@@ -347,10 +353,13 @@ def _solve_step(open_task: OpenTask, items: list[tuple[Assignment, Task]], optio
             elif options.complete_time_s <= 0:
                 collect.result(assignment, task, result)
             else:
-                args = (source, assignment, replace(result, task=None), assignment_seed(options.seed, assignment), plain, deadline)
-                driver.later(([(assignment, task, None, result)], complete_job, args), complete_done)
+                to_complete(assignment, task, result)
         collect.report()
         driver.gather(round_ + 1, go_on)
+
+    def to_complete(assignment, task, result):
+        args = (source, assignment, replace(result, task=None), assignment_seed(options.seed, assignment), plain, deadline)
+        driver.later(([(assignment, task, None, result)], complete_job, args), complete_done)
 
     def complete_done(part, result):
         assignment, task, _, _ = part[0]
@@ -358,8 +367,44 @@ def _solve_step(open_task: OpenTask, items: list[tuple[Assignment, Task]], optio
         collect.report()
 
     driver.chunking(size, chunk, local_done)
-    driver.gather(0, [(a, t, None, None) for a, t in items])
+    _start(driver, items, earlier if rounds is not None else {}, ranges, to_complete, collect)
     driver.run()
+
+
+def _start(driver: Driver, items: list, earlier: Mapping[str, Earlier], ranges: list, to_complete: Callable,
+           collect: _Collect) -> None:  # fmt: skip
+    """Every assignment of ``items`` to round 1, or where ``earlier`` left it (same seed,
+    as many initial poses)."""
+    options, fresh = collect.options, []
+    for assignment, task in items:
+        gone_on = earlier.get(assignment.label)
+        if gone_on is None or gone_on.seed != assignment_seed(options.seed, assignment) or gone_on.i_max != _i_max(options):
+            fresh.append((assignment, task, None, None))
+        else:
+            _go_on(driver, (assignment, task, *resume_point(gone_on, ranges, task, options.local_options)), to_complete, collect)
+    driver.gather(0, fresh)
+
+
+def _after(result: SolveResult, task: Task, before: SolveResult | None) -> SolveResult:
+    """A round's answer with its task, the seconds of the rounds ``before`` it added, and
+    ``stats["resumed_at_pose"]`` kept (:mod:`.resume`)."""
+    if before is None:
+        return replace(result, task=task)
+    stats = result.stats if "resumed_at_pose" not in before.stats else {**result.stats, "resumed_at_pose": before.stats["resumed_at_pose"]}
+    return replace(result, task=task, seconds=result.seconds + before.seconds, stats=stats)
+
+
+def _go_on(driver: Driver, resumed: tuple, to_complete: Callable, collect: _Collect) -> None:
+    """An assignment an earlier run left undecided, ``(assignment, task, round, record,
+    result)`` of :func:`.resume.resume_point`: to its round, else (every pose tried) to the
+    complete solver, else (none in this search) decided as it was."""
+    assignment, task, round_, record, result = resumed
+    if round_ is not None:
+        driver.gather(round_, [(assignment, task, record, result)])
+    elif collect.options.complete_time_s > 0:
+        to_complete(assignment, task, result)
+    else:
+        collect.result(assignment, task, result)
 
 
 class _Part(list):

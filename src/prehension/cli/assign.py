@@ -50,7 +50,8 @@ def add_assignment_arguments(p) -> None:
                    help="local solver's initial poses per assignment (default 64, as solve; the paper's 12 decides "
                         "a search several times faster, missing a few grasps a long search would find)")  # fmt: skip
     g.add_argument("--retry-undecided", action="store_true",
-                   help="decide again the assignments the output records as undecided (gave_up)")
+                   help="decide again the assignments the output records as undecided (gave_up), going on after the "
+                        "initial poses the earlier run tried (docs/assignment.md)")
 
 
 def refuse_open_only(args) -> None:
@@ -133,14 +134,16 @@ def _run(args, task, path: Path, options, console: Console):
     """The search, its verdicts appended to the journal as they come; ``(report, notes, interrupted)``."""
     from ..assignment import search_assignments
     from ..assignment.records import verdict_line
-    from ..batch.journal import Appender, open_journal
+    from ..assignment.resume import earlier_runs
+    from ..batch.journal import Appender, open_journal, read_records
     from .progress import LiveProgress
 
+    earlier = earlier_runs(read_records(path)) if args.retry_undecided and path.is_file() else {}
     with open_journal(path, args.retry_undecided) as (journal, state):
         appender = Appender(journal)
 
         def write(item) -> None:
-            line, loaded = verdict_line(item, str(args.task), options.seed)
+            line, loaded = verdict_line(item, str(args.task), options.seed, options.local_options.i_max)
             appender.put(journal.lines_needed(loaded) + [line.line])
 
         report, interrupted = None, False
@@ -148,7 +151,8 @@ def _run(args, task, path: Path, options, console: Console):
             progress = None if update is None else (lambda p: update({"stage": "assignments", "decided": f"{p.decided} / {p.total}",
                                                                       **p.counts}))  # fmt: skip
             try:
-                report = search_assignments(task, options, progress=progress, skip=state.done, on_decided=write)
+                report = search_assignments(task, options, progress=progress, skip=state.done, on_decided=write,
+                                            earlier=earlier)  # fmt: skip
             except KeyboardInterrupt:
                 interrupted = True
             finally:
