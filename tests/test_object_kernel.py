@@ -430,6 +430,29 @@ def test_the_seeing_rows_are_the_repairs_rows_and_the_capsules_within_the_reach(
     assert extra > 0
 
 
+@pytest.mark.parametrize("name, seed", [("guitar-holding", 3), ("teapot-service", 4), ("guitar-playing", 5)])
+def test_a_seeing_step_takes_every_row_it_would_bring_within_the_margin(name, seed):
+    """Property over seeded states near the collision-blind grasp, the object moved by up to
+    15 mm: a seeing step (``_kernel._seeing_solve``) solves with every row already within
+    the margin, and when it stopped before its last solve, no row it left out would come
+    within the margin under its step (linearly, ``g + M dx >= 0``); it takes rows in."""
+    rows, x0, R, t0 = _penetrating_state(name, seed)
+    rng = np.random.default_rng(seed)
+    n, nx = 6 * rows.g.layout.sides.shape[0], rows.g.nx
+    m = n + K.MAX_INEQUALITY_ROWS
+    taken_in = 0
+    for _ in range(8):
+        t = t0 + rng.uniform(-15.0, 15.0, 3)
+        dx, g, M = np.zeros(nx), np.zeros(m), np.zeros((m, nx))
+        ok, na, total, solves = K.seeing_step_at(x0, R, t, rows.data, rows.model, dx, g, M)
+        assert ok and n <= na <= total <= m and 1 <= solves <= 1 + K.SEEING_PASSES
+        assert np.all(g[na:total] >= 0.0)  # those within the margin are all in the solve
+        if solves < 1 + K.SEEING_PASSES:
+            assert np.all(g[na:total] + M[na:total] @ dx >= -1e-9)
+        taken_in += int(np.sum(g[n:na] >= 0.0))
+    assert taken_in > 0
+
+
 def test_scalpel_incision_clears_the_palm_drawn_inside_the_published_palm():
     """scalpel-incision puts the palm pad on the handle's back.  The paper's top palm
     capsule (y = +/-45 mm, r = 20) reached 3.5-6.6 mm outside the published palm there,

@@ -39,11 +39,12 @@ from ._layout import S_KIND, S_OFF, S_X
 from ._linalg import copy, dls_again, dls_dense, fill, refresh_column
 from ._model import contact_rows, inequality_rows, initial_pose, move, place_capsules, pose_hand, project_all, seeing_rows
 from ._penetration import surely_in_object
-from ._workspace import MAX_INEQUALITY_ROWS, Options, Outputs, Workspace, new_workspace, penetration_at, residual_at, stacked_rows_at
+from ._workspace import MAX_INEQUALITY_ROWS, Options, Outputs, Workspace, _state_at, new_workspace, penetration_at, residual_at
+from ._workspace import stacked_rows_at
 from ._workspace import _WorkspaceType  # noqa: F401 -- named here by numba caches written before the workspace moved
 
 __all__ = ["Options", "Workspace", "Outputs", "MESSAGES", "run_states", "residual_at", "penetration_at", "stacked_rows_at",
-           "LOCAL_SOLUTIONS"]
+           "seeing_step_at", "LOCAL_SOLUTIONS"]
 
 # status codes of a state, and what they mean
 NOT_RUN, STRICT, WITHIN_DMIN, STALLED, K_MAX, SINGULAR, COLLIDING = 0, 1, 2, 3, 4, 5, 6
@@ -366,6 +367,12 @@ def _take_predicted(ws, na, total):
 
 @njit(cache=True)
 def _seeing_step(ws, data):
+    """One step of :func:`iterate` with ``seeing`` (:func:`_seeing_solve`): True if solved."""
+    return _seeing_solve(ws, data)[0]
+
+
+@njit(cache=True)
+def _seeing_solve(ws, data):
     """One step of :func:`iterate` with ``seeing``: the contact rows and the inequality rows
     (:func:`._model.seeing_rows`) stacked.  A row already within the margin is always in
     the solve; a capsule farther (up to :data:`SEEING_REACH_MM`) joins only when the step
@@ -373,7 +380,9 @@ def _seeing_step(ws, data):
     most :data:`SEEING_PASSES` more solves): with rows made only once a capsule is within
     the margin, a step of tens of millimetres carried links through the object before any
     row saw it.  While a row is deeper than :data:`DEEP_MM`, the contact rows weigh
-    :data:`DEEP_WEIGHT`: the hand leaves the object before it closes the contacts."""
+    :data:`DEEP_WEIGHT`: the hand leaves the object before it closes the contacts.
+    ``(solved, rows in the solve, rows made, solves)``, the rows counted from 0, the
+    contact rows first."""
     n = 6 * ws.lay.sides.shape[0]
     copy(ws.J, ws.M[:n])
     copy(ws.f, ws.g[:n])
@@ -390,6 +399,7 @@ def _seeing_step(ws, data):
             for j in range(ws.M.shape[1]):
                 ws.M[r, j] *= DEEP_WEIGHT
     ok = _repair_step(ws, na, ws.opt.damping_sq)
+    solves = 1
     for _ in range(SEEING_PASSES):
         if not ok or na == total:
             break
@@ -398,7 +408,21 @@ def _seeing_step(ws, data):
             break
         na = more
         ok = _repair_step(ws, na, ws.opt.damping_sq)
-    return ok
+        solves += 1
+    return ok, na, total, solves
+
+
+@njit(cache=True)
+def seeing_step_at(x, R, t, data, model, dx, g, M):
+    """One seeing step at a state, as :func:`residual_at`: the step in ``dx``, the stacked
+    rows in ``g`` and ``M`` (the contact rows first, those in the solve next);
+    ``(solved, rows in the solve, rows made, solves)``.  For tests."""
+    ws = _state_at(x, R, t, data, model)
+    ok, na, total, solves = _seeing_solve(ws, data)
+    copy(ws.dx, dx)
+    copy(ws.g[:total], g[:total])
+    copy(ws.M[:total], M[:total])
+    return ok, na, total, solves
 
 
 @njit(cache=True)
