@@ -511,12 +511,12 @@ def test_compile_pending_tells_a_first_run_from_a_cached_one(tmp_path):
 _ONE_SIGNATURE = {
     "_kernel": ("run_states", "solve_state", "start", "iterate", "polish", "repair", "clearance", "_step", "_keep",
                 "_restore", "_update_active_set", "_update_caps", "_turn_rims", "_turn", "_refresh",
-                "_seeing_again", "_repair_step"),
+                "_seeing_again", "_repair_step", "_seeing_step", "_seeing_solve", "_take_predicted", "_swap_rows"),
     "_workspace": ("new_workspace",),
     "_linalg": ("dls_dense", "dls_again", "refresh_column", "cholesky_solve"),
     "_model": ("contact_rows", "_hand_side", "_object_side", "_side_point", "inequality_rows", "self_collision_rows",
-               "pose_hand", "initial_pose", "move"),
-    "_penetration": ("object_rows",),
+               "seeing_rows", "pose_hand", "initial_pose", "move"),
+    "_penetration": ("object_rows", "capsule_rows", "pad_rows"),
 }  # fmt: skip
 
 

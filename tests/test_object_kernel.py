@@ -382,16 +382,75 @@ def test_segment_min_sd_is_within_its_tolerance_of_the_least_signed_distance(nam
 def test_a_start_through_the_object_is_solved_again_seeing_it():
     """guitar-holding's first sequence poses end with links through the guitar's neck; such
     a state starts again with the object's rows in its iterations (``iterate`` with ``seeing``), and
-    a pose of the first quarter of the sequence gives the strict answer (pose 14 since the
-    palm and thumb base capsules were drawn inside the published shapes; pose 1 with the
-    paper's, whose in-place repairs took 13 poses).  Without the object's rows
-    (``check_collisions=False``) the first pose's local solution is through the neck."""
+    the first sequence pose gives the strict answer.  Before the seeing steps took capsules
+    within ``SEEING_REACH_MM`` as rows when the step would bring them in, and let the hand
+    leave the object before closing the contacts (``_kernel._seeing_step``), pose 14 did
+    (every start of the first 13 ended through the neck or never within ``d_min``).
+    Without the object's rows (``check_collisions=False``) the first pose's local solution
+    is through the neck."""
     task = load_builtin_task("guitar-holding")
     record = solve_local_batch([task], LocalOptions(), None, [0])[0]
-    assert record.success and record.solved_with_pose <= 16
+    assert record.success and record.solved_with_pose <= 3
     assert record.to_result(task, LocalOptions()).status == "solved"
     blind = solve_local_batch([task], dataclasses.replace(LocalOptions(), check_collisions=False, i_max=1), None, [0])[0]
     assert blind.tolerance is None and blind.collision_rejections == 1  # its answer fails the object check
+
+
+@pytest.mark.parametrize("name, seed", [("guitar-holding", 0), ("teapot-service", 1), ("scalpel-handling", 2)])
+def test_the_seeing_rows_are_the_repairs_rows_and_the_capsules_within_the_reach(name, seed):
+    """The seeing steps' rows (``_model.seeing_rows``): every row that the margin makes
+    (``inequality_rows`` with the idle fingers), the same value, except the pads' (the
+    seeing steps make none), and one more per capsule between the margin and the reach,
+    written ``value - margin`` (so ``0 <= g < reach - margin``): the step takes those only
+    when it would bring them within the margin."""
+    rows, x0, R, t0 = _penetrating_state(name, seed)
+    rng = np.random.default_rng(seed)
+    n_pads = rows.g.layout.sides.shape[0]
+    margin, reach, cap = 0.5, K.SEEING_REACH_MM, 6 * n_pads + K.MAX_INEQUALITY_ROWS
+    extra = 0
+    for _ in range(6):  # moved away a little: capsules between the margin and the reach
+        t = t0 + rng.uniform(-8.0, 8.0, 3)
+        near, seeing = np.zeros(cap), np.zeros(cap)
+        n_near, v_near = K.stacked_rows_at(x0, R, t, rows.data, rows.model, margin, margin, near)
+        n_see, v_see = K.stacked_rows_at(x0, R, t, rows.data, rows.model, margin, reach, seeing)
+        assert n_see >= n_near
+        if n_see == cap:  # rows cut at the cap: the sets may differ
+            continue
+        inside, outside = seeing[:n_see][seeing[:n_see] < 0.0], seeing[:n_see][seeing[:n_see] >= 0.0]
+        near = list(near[:n_near])
+        for value in inside:  # each one of the margin's rows (which has the pads' rows too)
+            k = int(np.argmin(np.abs(np.array(near) - value)))
+            assert near[k] == pytest.approx(value, abs=1e-9)
+            near.pop(k)
+        assert len(near) <= n_pads  # the rest: pads' rows
+        assert np.all(outside < reach - margin)
+        extra += len(outside)
+        if v_near < margin:
+            assert v_see == pytest.approx(v_near, abs=1e-9)
+    assert extra > 0
+
+
+@pytest.mark.parametrize("name, seed", [("guitar-holding", 3), ("teapot-service", 4), ("guitar-playing", 5)])
+def test_a_seeing_step_takes_every_row_it_would_bring_within_the_margin(name, seed):
+    """Property over seeded states near the collision-blind grasp, the object moved by up to
+    15 mm: a seeing step (``_kernel._seeing_solve``) solves with every row already within
+    the margin, and when it stopped before its last solve, no row it left out would come
+    within the margin under its step (linearly, ``g + M dx >= 0``); it takes rows in."""
+    rows, x0, R, t0 = _penetrating_state(name, seed)
+    rng = np.random.default_rng(seed)
+    n, nx = 6 * rows.g.layout.sides.shape[0], rows.g.nx
+    m = n + K.MAX_INEQUALITY_ROWS
+    taken_in = 0
+    for _ in range(8):
+        t = t0 + rng.uniform(-15.0, 15.0, 3)
+        dx, g, M = np.zeros(nx), np.zeros(m), np.zeros((m, nx))
+        ok, na, total, solves = K.seeing_step_at(x0, R, t, rows.data, rows.model, dx, g, M)
+        assert ok and n <= na <= total <= m and 1 <= solves <= 1 + K.SEEING_PASSES
+        assert np.all(g[na:total] >= 0.0)  # those within the margin are all in the solve
+        if solves < 1 + K.SEEING_PASSES:
+            assert np.all(g[na:total] + M[na:total] @ dx >= -1e-9)
+        taken_in += int(np.sum(g[n:na] >= 0.0))
+    assert taken_in > 0
 
 
 def test_scalpel_incision_clears_the_palm_drawn_inside_the_published_palm():

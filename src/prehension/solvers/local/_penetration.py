@@ -52,7 +52,7 @@ from ...objects.segment_distance import REL_TOL, segment_min_sd
 from ._linalg import cross, mat_vec
 from ._sd_grid import GRID_PAD_MM, SdGrid, empty_sd_grid, grid_segment_min_sd, grid_span, in_grid
 
-__all__ = ["ObjectArrays", "NO_OBJECT", "object_rows", "pad_rows", "surely_in_object", "PAD_ROW_MM", "PAD_CLEAR_MM"]
+__all__ = ["ObjectArrays", "NO_OBJECT", "object_rows", "capsule_rows", "pad_rows", "surely_in_object", "PAD_ROW_MM", "PAD_CLEAR_MM"]
 
 PAD_ROW_MM = 0.2  # a pad deeper than this into the object gets a row, which pushes it back to this depth [mm]
 PAD_CLEAR_MM = 0.35  # a pad this deep or less is clear (the residual function allows 0.5 mm) [mm]
@@ -232,8 +232,10 @@ def _penetration_row(ws, data, li, outward, row):
 
 
 @njit(cache=True)
-def object_rows(ws, data, margin, row0, max_rows, every):
-    """Rows ``value - margin`` of the checked capsules whose value (see the module
+def capsule_rows(ws, data, margin, row0, max_rows, every):
+    """The capsules' part of :func:`object_rows` (without the pads' rows).
+
+    Rows ``value - margin`` of the checked capsules whose value (see the module
     docstring) is below ``margin`` [mm], into ``ws.M``, ``ws.g`` from ``row0``, at most
     ``max_rows``; ``(rows written, smallest value seen)``, a capsule farther than the margin
     counted as ``margin`` (its distance is searched only up to there).  The capsules must be placed
@@ -258,6 +260,16 @@ def object_rows(ws, data, margin, row0, max_rows, every):
             _penetration_row(ws, data, ws.hand.cap_link[s], 1.0 if value + ws.hand.cap_radius[s] >= 0.0 else -1.0, row0 + nrows)
             ws.g[row0 + nrows] = value - margin
             nrows += 1
+    return nrows, vmin
+
+
+@njit(cache=True)
+def object_rows(ws, data, margin, row0, max_rows, every):
+    """The object's rows: the capsules' (:func:`capsule_rows`), then the pads'
+    (:func:`pad_rows`); ``(rows written, smallest value seen)``; none without an object."""
+    if not ws.obj.active:
+        return 0, 1e300
+    nrows, vmin = capsule_rows(ws, data, margin, row0, max_rows, every)
     n_pads, vpad = pad_rows(ws, data, row0 + nrows, max_rows - nrows, every)
     return nrows + n_pads, min(vmin, vpad)
 

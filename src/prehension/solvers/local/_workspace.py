@@ -16,11 +16,11 @@ import numpy as np
 from ...kernels.jit import HAVE_NUMBA, njit
 from . import _regions as RG
 from ._linalg import copy
-from ._model import contact_rows, place_capsules, pose_hand
+from ._model import contact_rows, inequality_rows, place_capsules, pose_hand, seeing_rows
 from ._penetration import object_rows, surely_in_object
 
 __all__ = ["Options", "Workspace", "Outputs", "new_workspace", "residual_at", "penetration_at", "surely_in_object_at",
-           "MAX_INEQUALITY_ROWS"]
+           "stacked_rows_at", "MAX_INEQUALITY_ROWS"]
 
 MAX_INEQUALITY_ROWS = 32  # self-collision pairs first, then the object's capsules
 
@@ -181,3 +181,19 @@ def surely_in_object_at(x, R, t, data, model):
     ws = _state_at(x, R, t, data, model)
     place_capsules(ws)
     return surely_in_object(ws)
+
+
+@njit(cache=True)
+def stacked_rows_at(x, R, t, data, model, margin, reach, g):
+    """The inequality rows at a state, as :func:`residual_at`: the seeing steps'
+    (:func:`._model.seeing_rows`, the object searched up to ``reach``) or, with ``reach <=
+    margin``, :func:`._model.inequality_rows` with the idle fingers (``every``); values in
+    ``g`` (at most ``len(g)``), ``(rows written, smallest value seen)``.  For tests."""
+    ws = _state_at(x, R, t, data, model)
+    m = min(g.shape[0], ws.g.shape[0])
+    if reach <= margin:
+        n, vmin = inequality_rows(ws, data, margin, np.int64(0), m, np.bool_(True))
+    else:
+        n, vmin = seeing_rows(ws, data, margin, reach, np.int64(0), m)
+    copy(ws.g[:n], g[:n])
+    return n, vmin
