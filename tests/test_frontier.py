@@ -191,6 +191,19 @@ def test_two_fingertip_families_just_inside_their_frontier_are_near_and_never_pr
     assert not proof.proved and proof.near == {(0, 1)}
 
 
+def test_a_frontier_short_of_a_solution_past_it_is_raised_to_a_strict_solution(frontier_module):
+    """s1-14 of ``frontier.py --random 20 --seed 1`` (mesh 002-ring): the maximisation from
+    the local solver's starts stops short, and the complete solver's first box finds a strict
+    solution ``PROBE_MM`` past it; ``find_frontier`` restarts from it, and the raised ``t*``
+    still has a strict solution (self-collision included), past the unprobed one."""
+    family, _ = frontier_module._draw(1, 14, 0)
+    short = frontier_module.find_frontier(family, seeds=1, probe_rounds=0)
+    found = frontier_module.find_frontier(family, seeds=1)
+    assert short.raised == 0 and found.raised >= 1
+    assert found.t_mm >= short.t_mm + frontier_module.PROBE_MM
+    assert make_solution(family.task_at(found.t_mm), found.configuration) is not None
+
+
 def test_random_families_are_drawn_alike_alone_and_in_a_run(frontier_module):
     """A family of a draw depends on its seed, index and attempt only (``--families i,j``
     draws the same tasks as the whole run), and the draws differ."""
