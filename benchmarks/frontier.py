@@ -875,7 +875,8 @@ def _family_table(records: list[dict], runs: list[dict]) -> Table:
             short = {Status.SOLVED: "solved", Status.INFEASIBLE: "certified", Status.GAVE_UP: "undecided"}
             cells.append(f"{short.get(r[-1]['status'], r[-1]['status'])} {r[-1]['seconds']:.0f} s" if r else "")
         k = anatomy.get((f["seed"], f["index"]))
-        table.add_row(f["name"], f"{f['t_star']:.3f}", f["described"], "?" if k is None else f"{k[0]} of {k[1]}", *cells)
+        t_star = f"{f['t_star']:.3f}" + (f" (raised {f['raised']} x)" if f.get("raised") else "")  # PROBE_MM
+        table.add_row(f["name"], t_star, f["described"], "?" if k is None else f"{k[0]} of {k[1]}", *cells)
     return table
 
 
