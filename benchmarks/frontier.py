@@ -10,7 +10,12 @@ script
    task at ``t = 0`` (local solver, several seeds) are the starts of SLSQP runs that
    *maximise t* subject to the contact equations, the joint limits, the couplings and the
    regions' domains; the largest ``t`` is then polished into a strict solution of the
-   task at ``t*`` (so ``t*`` is feasible, verified by the residual function);
+   task at ``t*`` (so ``t*`` is feasible, verified by the residual function); while the
+   complete solver's first box (its verification alone, no pair test) finds a strict
+   solution ``PROBE_MM`` (0.5 mm) past ``t*``, the maximisation restarts from that
+   solution (at most ``PROBE_ROUNDS`` times): ``t*`` is only ever raised, by strict
+   solutions, so a run past it that is *solved* shows a maximisation stopped short, never
+   a certificate;
 2. runs the complete solver (depth first, sigma 0.1, one process) on the tasks at
    ``t* + delta`` for ``delta`` in -1, -0.5, +0.5, +1, +2, +4 mm and prints status, boxes,
    LPs, time and closest miss.
@@ -378,6 +383,7 @@ class Frontier:
     starts: int
     collides: bool
     seconds: float
+    raised: int = 0  # times a solution past the maximum restarted it (PROBE_MM)
 
 
 class _Unknowns:
@@ -483,20 +489,56 @@ def _with_jacobian(fun, step: float = 1e-7):
     return value, jacobian
 
 
-def find_frontier(family: Family, seeds: int = 3) -> Frontier:
-    """``t*`` by SLSQP from local solutions near the frontier (see the module docstring)."""
+#: Past a maximum, the task at ``t + PROBE_MM`` is given to the complete solver's first box
+#: (its verification from points spread over the whole initial box, no LP counted on, no
+#: pair test): a strict solution there restarts the maximisation from it, at most
+#: ``PROBE_ROUNDS`` times.  s1-14 (mesh 002-ring) of ``--random 20 --seed 1`` was solved in
+#: its first box at t* + 1 and + 2 mm: the local solver's starts had all led SLSQP to a
+#: smaller local maximum.
+PROBE_MM = 0.5
+PROBE_ROUNDS = 6
+
+
+def find_frontier(family: Family, seeds: int = 3, probe_rounds: int = PROBE_ROUNDS) -> Frontier:
+    """``t*`` by SLSQP from local solutions near the frontier (see the module docstring),
+    raised while the complete solver's first box finds a strict solution ``PROBE_MM`` past
+    it (:func:`_probe_past`; ``probe_rounds`` times at most: the maximisation restarts from
+    that solution).  Only ever raised by a strict solution, so ``t*`` stays feasible."""
     started = time.perf_counter()
     unknowns = _Unknowns(family)
     t0, starts = _scan(family, seeds)
-    best: tuple[float, Configuration] = (t0, starts[0])
-    for config in starts:
-        z = _maximise(unknowns, unknowns.pack(config, t0))
-        found = _polish(family, unknowns, z)
+    t, config = _best_maximum(family, unknowns, [(t0, c) for c in starts], (t0, starts[0]))
+    collides = not evaluate(family.task_at(t), config).ok
+    raised = 0
+    while not collides and raised < probe_rounds and (past := _probe_past(family, t + PROBE_MM)) is not None:
+        probed = (t + PROBE_MM, past)
+        t, config = _best_maximum(family, unknowns, [probed], probed)
+        if not evaluate(family.task_at(t), config).ok:  # the maximum collides: the probe's solution does not
+            t, config = probed
+        raised += 1
+    return Frontier(t, config, len(starts), collides, time.perf_counter() - started, raised)
+
+
+def _best_maximum(family: Family, unknowns: _Unknowns, starts: list[tuple[float, Configuration]],
+                  best: tuple[float, Configuration]) -> tuple[float, Configuration]:  # fmt: skip
+    """The largest polished maximum of SLSQP from each ``(t, solution at t)`` of ``starts``
+    (``best`` when none is larger)."""
+    for t, config in starts:
+        found = _polish(family, unknowns, _maximise(unknowns, unknowns.pack(config, t)))
         if found is not None and found[0] > best[0]:
             best = found
-    t, config = best
-    collides = not evaluate(family.task_at(t), config).ok
-    return Frontier(t, config, len(starts), collides, time.perf_counter() - started)
+    return best
+
+
+def _probe_past(family: Family, t: float) -> Configuration | None:
+    """A strict solution (self-collision included) of the task at ``t`` found by the complete
+    solver's first box (its verifier from points spread over the initial box), or None."""
+    task = family.task_at(t)
+    result = solve_complete(task, BranchAndPruneOptions(verifier=LocalVerifier(), max_boxes=1, pair_test_boxes=0))
+    if result.status != Status.SOLVED:
+        return None
+    config = result.solutions[0].configuration()
+    return config if make_solution(task, config) is not None else None
 
 
 def _local_solutions(family: Family, t: float, seeds: int) -> list[Configuration]:
@@ -708,10 +750,11 @@ def _random_frontier(console: Console, seed: int, index: int, records: list[dict
     f = found.frontier
     record = {"kind": "frontier", "seed": seed, "index": index, "attempt": found.attempt, "name": found.family.name,
               "described": found.described, "t_star": f.t_mm, "starts": f.starts, "seconds": f.seconds,
-              "refused": list(found.refused)}  # fmt: skip
+              "raised": f.raised, "refused": list(found.refused)}  # fmt: skip
     records.append(record)
     _append(out, record)
-    console.print(f"{found.family.name}: t* = {f.t_mm:.3f} mm ({f.seconds:.1f} s, attempt {found.attempt}): {found.described}")
+    raised = f", raised {f.raised} x by a solution {PROBE_MM:g} mm past it" if f.raised else ""
+    console.print(f"{found.family.name}: t* = {f.t_mm:.3f} mm ({f.seconds:.1f} s, attempt {found.attempt}{raised}): {found.described}")
     return found.family, found.described, f.t_mm
 
 
@@ -832,7 +875,8 @@ def _family_table(records: list[dict], runs: list[dict]) -> Table:
             short = {Status.SOLVED: "solved", Status.INFEASIBLE: "certified", Status.GAVE_UP: "undecided"}
             cells.append(f"{short.get(r[-1]['status'], r[-1]['status'])} {r[-1]['seconds']:.0f} s" if r else "")
         k = anatomy.get((f["seed"], f["index"]))
-        table.add_row(f["name"], f"{f['t_star']:.3f}", f["described"], "?" if k is None else f"{k[0]} of {k[1]}", *cells)
+        t_star = f"{f['t_star']:.3f}" + (f" (raised {f['raised']} x)" if f.get("raised") else "")  # PROBE_MM
+        table.add_row(f["name"], t_star, f["described"], "?" if k is None else f"{k[0]} of {k[1]}", *cells)
     return table
 
 

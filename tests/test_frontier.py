@@ -154,7 +154,8 @@ def test_guitar_tuning_a_millimetre_past_its_frontier_is_certified_at_the_first_
 
 
 # -- random families (issue 32) -----------------------------------------------------------
-RANDOM_FAMILIES = ((1, 0), (1, 1), (2, 0))  # (seed, index) of frontier.py --random: ~15-50 s each (load 10)
+# (seed, index) of frontier.py --random: ~15-50 s each (load 10); s1-14: t* raised by a solution past the maximum
+RANDOM_FAMILIES = ((1, 0), (1, 1), (1, 14), (2, 0))
 
 
 @pytest.mark.parametrize("seed,index", RANDOM_FAMILIES)
@@ -189,6 +190,19 @@ def test_two_fingertip_families_just_inside_their_frontier_are_near_and_never_pr
     assert witness is not None and make_solution(task, witness) is not None
     proof = congruence_test(task, max_boxes=40_000)
     assert not proof.proved and proof.near == {(0, 1)}
+
+
+def test_a_frontier_short_of_a_solution_past_it_is_raised_to_a_strict_solution(frontier_module):
+    """s1-14 of ``frontier.py --random 20 --seed 1`` (mesh 002-ring): the maximisation from
+    the local solver's starts stops short, and the complete solver's first box finds a strict
+    solution ``PROBE_MM`` past it; ``find_frontier`` restarts from it, and the raised ``t*``
+    still has a strict solution (self-collision included), past the unprobed one."""
+    family, _ = frontier_module._draw(1, 14, 0)
+    short = frontier_module.find_frontier(family, seeds=1, probe_rounds=0)
+    found = frontier_module.find_frontier(family, seeds=1)
+    assert short.raised == 0 and found.raised >= 1
+    assert found.t_mm >= short.t_mm + frontier_module.PROBE_MM
+    assert make_solution(family.task_at(found.t_mm), found.configuration) is not None
 
 
 def test_random_families_are_drawn_alike_alone_and_in_a_run(frontier_module):
