@@ -18,11 +18,20 @@ which ``prehension check`` re-runs when MuJoCo is installed.  Interrupted (Ctrl-
 SIGTERM, SIGHUP) the candidates tried so far are kept and ``stats["hold"]["interrupted"]``
 says so.
 
-**When no candidate holds**, the complete solver is asked, for at most ``closure_time_s``
-seconds (:data:`CLOSURE_TIME_S` by default; 0: not asked), for a force-closure grasp of
-the same task (``require="force-closure"``, :mod:`prehension.solvers.complete.closure`)
-with the physics test's own contact model (friction ``SimOptions.friction``, soft fingers
-of torsion ``SimOptions.torsion_mm``):
+**When no candidate holds**, force closure is looked for within ``closure_time_s``
+seconds (:data:`CLOSURE_TIME_S` by default; 0: not looked for), with the physics test's
+own contact model (friction ``SimOptions.friction``, soft fingers of torsion
+``SimOptions.torsion_mm``), in two steps:
+
+1. **without the hand** (:func:`prehension.region_closure.regions_closure`, at most
+   :data:`REGIONS_SHARE` of the time): a branch-and-prune over the object regions'
+   parameters alone.  When it proves that no choice of one point in each object region is
+   force closure, no grasp of the task is, and the complete solver is not asked: the
+   proof is stored (``stats["hold"]["closure"]``, status ``"infeasible"``, ``"method":
+   "regions"``) and ``prehension check`` re-derives it (a few seconds at most);
+2. otherwise the **complete solver** is asked, for the time left, for a force-closure
+   grasp of the same task (``require="force-closure"``,
+   :mod:`prehension.solvers.complete.closure`):
 
 * it finds one: that grasp (moved up by the quality ascent) is a further candidate,
   tried in the physics test like the others (its source says where it came from);
@@ -33,6 +42,8 @@ of torsion ``SimOptions.torsion_mm``):
   six pushes of the test are pure forces, so such a grasp can still pass them (the
   candidates were all tried first);
 * its time runs out: the answer says so (``"gave_up"``): nothing proven;
+  ``stats["hold"]["closure"]["regions"]`` says what step 1 found (a force-closure choice
+  of points in the regions -- ``"witness"`` -- or nothing in its time);
 * it cannot take the task (a :class:`~prehension.errors.PrehensionError`, e.g. a region
   it does not handle): ``"unavailable"`` with the reason; the candidates' verdicts stand.
 """
@@ -44,12 +55,14 @@ from dataclasses import dataclass, replace
 from .ascent import improve_grasp
 from .errors import PrehensionError
 from .quality import QualityOptions, grasp_quality
+from .region_closure import regions_closure
 from .results import SolveResult, Status
 from .solve import SolveOptions, solve
 
-__all__ = ["HoldOutcome", "hold_first", "CLOSURE_TIME_S", "closure_model"]
+__all__ = ["HoldOutcome", "hold_first", "CLOSURE_TIME_S", "REGIONS_SHARE", "closure_model"]
 
-CLOSURE_TIME_S = 30.0  # the complete solver's budget [s] when no candidate holds (module docstring)
+CLOSURE_TIME_S = 30.0  # the force-closure search's budget [s] when no candidate holds (module docstring)
+REGIONS_SHARE = 1.0 / 3.0  # of it, what the search without the hand may take at most (step 1)
 
 _PER_SOLUTION = ("sources", "epsilon", "force_closure", "ascent")  # solve_best's stats, one entry per solution
 
@@ -116,17 +129,26 @@ def _trials(task, solutions, first: int, options, seed: int, progress, total: in
 
 
 def _closure_search(result: SolveResult, options, seed: int, time_s: float, progress) -> tuple[dict, object]:
-    """The complete solver asked for a force-closure grasp (the physics test's contact
-    model) within ``time_s``: ``(record for stats["hold"]["closure"], the grasp improved
-    by the ascent or None)``."""
-    if progress is not None:
-        progress(f"no candidate holds: the complete solver looks for a force-closure grasp (at most {time_s:g} s)")
+    """Force closure looked for within ``time_s`` (the physics test's contact model): first
+    without the hand, then by the complete solver (module docstring): ``(record for
+    stats["hold"]["closure"], the complete solver's grasp improved by the ascent or None)``."""
     quality = closure_model(options)
+    if progress is not None:
+        progress(f"no candidate holds: can any points of the object regions be force closure? (at most {REGIONS_SHARE * time_s:g} s)")
+    regions = regions_closure(result.task, quality, REGIONS_SHARE * time_s)
+    if regions.status == Status.INFEASIBLE:
+        return {"status": str(Status.INFEASIBLE), "method": "regions", "message": regions.message,
+                "seconds": round(regions.seconds, 3), "time_limit_s": time_s, "quality": quality.to_dict(),
+                "boxes": regions.boxes, "closure_pruned": regions.pruned}, None  # fmt: skip
+    left = max(time_s - regions.seconds, 1e-3)
+    if progress is not None:
+        progress(f"no candidate holds: the complete solver looks for a force-closure grasp (at most {left:.3g} s)")
     found = solve(result.task, SolveOptions(method="complete", require="force-closure", quality=quality,
-                                            time_limit_s=time_s, seed=seed))  # fmt: skip
-    record = {"status": str(found.status), "message": found.message, "seconds": round(found.seconds, 3),
+                                            time_limit_s=left, seed=seed))  # fmt: skip
+    record = {"status": str(found.status), "message": found.message, "seconds": round(regions.seconds + found.seconds, 3),
               "time_limit_s": time_s, "quality": quality.to_dict(),
-              **{k: found.stats.get(k) for k in ("boxes", "lps", "closure_pruned")}, "options": found.stats.get("options")}  # fmt: skip
+              **{k: found.stats.get(k) for k in ("boxes", "lps", "closure_pruned")}, "options": found.stats.get("options"),
+              "regions": regions.to_dict()}  # fmt: skip
     if not found.solutions:
         return record, None
     return record, improve_grasp(result.task, found.solutions[0], quality).solution
@@ -141,8 +163,8 @@ def hold_first(result: SolveResult, options=None, seed: int = 0, progress=None,
         options: :class:`~prehension.sim.SimOptions` (default: the protocol's).
         seed: seed of the physics test's jitter (and of the complete solver).
         progress: called with a one-line string before each candidate, or ``None``.
-        closure_time_s: the complete solver's budget [s] when no candidate holds (``None``:
-            :data:`CLOSURE_TIME_S`; 0: not asked).
+        closure_time_s: the force-closure search's budget [s] when no candidate holds
+            (``None``: :data:`CLOSURE_TIME_S`; 0: no search).
     """
     from .sim import SimOptions
 
@@ -213,6 +235,9 @@ def _closure_note(closure: dict | None, held: bool, found: bool) -> str:
     """What the message adds about the complete solver's search (module docstring)."""
     if closure is None:
         return ""
+    if closure["status"] == Status.INFEASIBLE and closure.get("method") == "regions":
+        return ("; no grasp in these regions is force closure (proven without the hand: no choice of one point in each "
+                f"object region is, with the physics test's contact model; {closure['message']})")  # fmt: skip
     if closure["status"] == Status.INFEASIBLE:
         return ("; no grasp in these regions is force closure (proven by the complete solver with the physics "
                 f"test's contact model: {closure['message']})")  # fmt: skip
@@ -220,4 +245,5 @@ def _closure_note(closure: dict | None, held: bool, found: bool) -> str:
         return f"; the complete solver could not look for a force-closure grasp: {closure['message']}"
     if found:
         return "; the complete solver found a force-closure grasp" + (" and it holds" if held else ": it drops too")
-    return f"; the complete solver found no force-closure grasp within {closure['time_limit_s']:g} s (nothing proven)"
+    points = " (some points of the object regions are force closure)" if (closure.get("regions") or {}).get("status") == "witness" else ""
+    return f"; the complete solver found no force-closure grasp within {closure['time_limit_s']:g} s{points} (nothing proven)"
