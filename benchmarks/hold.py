@@ -143,11 +143,14 @@ def _physics(task, first, best) -> dict:
         hold = hold_first(best)
         out["hold_s"] = time.perf_counter() - started
         tried, closure = hold.result.stats["hold"]["tried"], hold.closure
-        n = hold.result.stats["hold"]["candidates"]
+        n = hold.result.stats["hold"]["candidates"]  # solve --best's and the force-closure search's
         said = f"#{tried[-1]['candidate'] + 1} of {n}" if hold.held else f"none of {n}"
         if closure is not None:
-            said += {"infeasible": "; PROVEN: no force-closure grasp", "gave_up": "; complete: none in time",
-                     "solved": " (complete solver's)" if hold.held and tried[-1]["candidate"] == n - 1 else ""}.get(closure["status"], "")  # fmt: skip
+            extra = hold.held and tried[-1]["candidate"] >= len(best.solutions)  # a grasp of the force-closure search held
+            method = closure.get("method")
+            said += {"infeasible": "; PROVEN: no force-closure grasp" + (" (regions alone)" if method == "regions" else ""),
+                     "gave_up": "; complete: none in time",
+                     "solved": (" (aimed starts')" if method == "aimed" else " (complete solver's)") if extra else ""}.get(closure["status"], "")  # fmt: skip
         out["hold"], out["proven"] = (hold.held, said), hold.proven_none
     return out
 

@@ -15,7 +15,7 @@ pytest.importorskip("mujoco")
 
 from prehension.cli import EXIT_BAD_INPUT, EXIT_OK, main  # noqa: E402
 from prehension.cli.codes import EXIT_CHECK_FAILED, EXIT_DROPPED  # noqa: E402
-from prehension.hold import closure_model, hold_first  # noqa: E402
+from prehension.hold import AIMED_SOURCE, closure_model, hold_first  # noqa: E402
 from prehension.results import SolveResult, write_result  # noqa: E402
 from prehension.cli.best import best_table  # noqa: E402
 from prehension.quality import QualityOptions, grasp_quality, quality_entries  # noqa: E402
@@ -158,9 +158,32 @@ def test_when_no_candidate_is_force_closure_a_proof_that_none_exists_is_stored_a
     assert len(found) == 1 and not found[0].ok and "FALSE" in found[0].detail
 
 
-def test_a_force_closure_grasp_of_the_complete_solver_is_the_next_candidate(four):
-    """No candidate (none force closure): the complete solver's force-closure grasp is tried
-    in the physics test, and its quality is the physics test's contact model's."""
+def test_force_closure_grasps_aimed_at_force_closure_points_are_the_next_candidates(four):
+    """No candidate: the regions have force-closure points, and the local iterations aimed at
+    them reach force-closure grasps (the physics test's contact model), tried in the physics
+    test before the complete solver is asked (it is not)."""
+    task, _ = four
+    best = {"requested": 5, "rank": "q1", "candidates": 0, "distinct": 0, "quality_options": QualityOptions().to_dict(),
+            "sources": [], "epsilon": [], "force_closure": [], "ascent": []}  # fmt: skip
+    out = hold_first(SolveResult(task, "local", "gave_up", "no candidate", (), 0.0, {"best": best}))
+    assert out.closure["status"] == "solved" and out.closure["method"] == "aimed" and out.closure["regions"]["status"] == "witness"
+    assert "options" not in out.closure  # the complete solver was not asked
+    tried = out.result.stats["hold"]["tried"]
+    assert 1 <= len(tried) <= 3 and out.held == tried[-1]["success"]
+    listed = out.result.stats["best"]
+    assert set(listed["sources"]) == {AIMED_SOURCE} and len(listed["sources"]) == len(out.result.solutions)
+    for solution in out.result.solutions:
+        assert grasp_quality(task, solution, closure_model(SimOptions())).force_closure
+    assert "aimed at force-closure points of the regions found force-closure grasps" in out.result.message
+
+
+def test_a_force_closure_grasp_of_the_complete_solver_is_the_next_candidate(four, monkeypatch):
+    """No candidate (none force closure), none from the aimed starts: the complete solver's
+    force-closure grasp is tried in the physics test, and its quality is the physics test's
+    contact model's."""
+    import prehension.hold as hold_module
+
+    monkeypatch.setattr(hold_module, "aimed_grasps", lambda task, quality, seed, witness: [])
     task, _ = four
     best = {"requested": 5, "rank": "q1", "candidates": 0, "distinct": 0, "quality_options": QualityOptions().to_dict(),
             "sources": [], "epsilon": [], "force_closure": [], "ascent": []}  # fmt: skip

@@ -29,6 +29,16 @@ closure with that friction model, so no grasp of the task is.  The search also s
 ``MIN_WIDTH`` of its ranges that is neither pruned nor a witness (a choice of points on
 the frontier of force closure).  The search is deterministic: ``prehension check``
 re-derives a stored proof by running it again (:func:`regions_closure`).
+
+**Aimed starts** (:func:`aimed_grasps`).  When the regions do admit force-closure points
+but no candidate is force closure, the local solver's iterations start from
+``AIMED_STARTS`` random hand configurations whose object contact parameters are
+force-closure points of the regions (the witness, and the ``AIMED_POINTS`` best of
+``AIMED_SAMPLES`` seeded random choices of one point per region, by the merit of
+:func:`prehension.ascent.merit`, positive ones only): the iterations move the hand onto
+those points when it can reach them (they move the points too: every grasp reached is
+verified and measured again).  The force-closure grasps reached, distinct, best merit
+first, each moved up by the quality ascent, are ``--hold``'s further candidates.
 """
 
 from __future__ import annotations
@@ -38,16 +48,24 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .ascent import improve_grasp, merit, wrench_merit
+from .best import BestOptions, distinct, random_starts
 from .quality import QualityOptions, force_closure, primitive_wrenches, torque_reference
+from .results import Solution, make_solution
 from .solvers.complete.closure import closure_prune, contact_enclosures
+from .solvers.local import LocalOptions, refine_local
 from .system.formulation import build_system
 from .system.regions import form_of
-from .tasks.model import Task
+from .tasks.model import Configuration, Task
 
-__all__ = ["RegionClosure", "regions_closure", "MIN_WIDTH", "MAX_BOXES"]
+__all__ = ["RegionClosure", "regions_closure", "aimed_grasps", "MIN_WIDTH", "MAX_BOXES"]
 
 MIN_WIDTH = 1e-6  # a box this narrow (relative to each parameter's range) that is neither pruned nor a witness: undecided
 MAX_BOXES = 200_000  # boxes examined at most
+AIMED_SAMPLES = 400  # random choices of points in the regions, measured (aimed starts)
+AIMED_POINTS = 10  # the best force-closure ones the starts aim at
+AIMED_STARTS = 100  # starts of the local iterations
+AIMED_KEPT = 3  # force-closure grasps returned at most
 
 
 @dataclass(frozen=True)
@@ -144,3 +162,39 @@ def _closed(task: Task, params: tuple, centre, rho: float, quality: QualityOptio
         points.append(p[0])
         inward.append(-n[0])
     return force_closure(primitive_wrenches(np.array(points), np.array(inward), centre, rho, quality)).force_closure
+
+
+def aimed_grasps(task: Task, quality: QualityOptions, seed: int, witness=None) -> list[Solution]:
+    """Force-closure grasps of ``task`` (``quality``'s model) from the local iterations aimed
+    at force-closure points of its regions (module docstring, "Aimed starts"); ``witness``:
+    per contact, object parameters known to be force closure (:class:`RegionClosure`)."""
+    rng = np.random.default_rng(seed)
+    points = ([tuple(witness)] if witness is not None else []) + _closure_points(task, quality, rng)
+    if not points:
+        return []
+    starts = [Configuration(s.joint_angles, s.T_palm_object, tuple((hp, np.array(points[k % len(points)][c], float))
+                                                                     for c, (hp, _) in enumerate(s.contact_params)))
+              for k, s in enumerate(random_starts(task, AIMED_STARTS, rng))]  # fmt: skip
+    found = [make_solution(task, c) for c in refine_local(task, starts, LocalOptions()).configurations if c is not None]
+    scored = sorted(((merit(task, s, quality), k, s) for k, s in enumerate(found) if s is not None), key=lambda m: (-m[0], m[1]))
+    kept: list[Solution] = []
+    for value, _, solution in scored:
+        if value <= 0.0 or len(kept) == AIMED_KEPT:
+            break
+        if all(distinct(solution, k, task, BestOptions()) for k in kept):
+            kept.append(solution)
+    return [improve_grasp(task, s, quality).solution for s in kept]
+
+
+def _closure_points(task: Task, quality: QualityOptions, rng) -> list[tuple]:
+    """The ``AIMED_POINTS`` best of ``AIMED_SAMPLES`` random choices of one point per object
+    region whose merit is positive (force closure), best first: per contact, its parameters."""
+    centre, rho = torque_reference(task, quality)
+    regions = [task.object_region(c) for c in task.contacts]
+    params = [rng.uniform(*r.param_bounds(), size=(AIMED_SAMPLES, r.param_bounds()[0].size)) for r in regions]
+    at = [r.evaluate(u) for r, u in zip(regions, params)]
+    points, inward = np.stack([p for p, _ in at], axis=1), -np.stack([n for _, n in at], axis=1)
+    value = np.array([wrench_merit(primitive_wrenches(points[i], inward[i], centre, rho, quality).reshape(-1, 6))
+                      for i in range(AIMED_SAMPLES)])  # fmt: skip
+    order = [i for i in np.argsort(-value, kind="stable")[:AIMED_POINTS] if value[i] > 0.0]
+    return [tuple(u[i] for u in params) for i in order]
