@@ -116,12 +116,17 @@ def test_when_no_points_of_the_regions_are_force_closure_the_proof_without_the_h
     for reprove in (True, False):
         found = [f for f in verify_result_file(path, reprove=reprove).findings if f.what.startswith("--hold")]
         assert len(found) == 1 and found[0].ok and "re-proved" in found[0].what
-    task4, holds = four  # the same claim about the four-finger task, whose regions do admit force closure
+    found = _claimed_for_the_four_finger_task(four, closure, path)
+    assert len(found) == 1 and not found[0].ok and "some points of the object regions are force closure" in found[0].detail
+
+
+def _claimed_for_the_four_finger_task(four, closure: dict, path) -> list:
+    """check's findings on ``closure`` claimed for the four-finger task, whose regions do admit force closure."""
+    task4, holds = four
     lie = hold_first(SolveResult(task4, "local", "solved", "one", (holds,)))
     lie = replace(lie.result, stats={**lie.result.stats, "hold": {**lie.result.stats["hold"], "closure": closure}})
     write_result(lie, path, quality_entries(lie), approach_entries_of(lie))
-    found = [f for f in verify_result_file(path).findings if f.what.startswith("--hold")]
-    assert len(found) == 1 and not found[0].ok and "some points of the object regions are force closure" in found[0].detail
+    return [f for f in verify_result_file(path).findings if f.what.startswith("--hold")]
 
 
 def _undecided_regions(monkeypatch):
@@ -150,11 +155,7 @@ def test_when_no_candidate_is_force_closure_a_proof_that_none_exists_is_stored_a
     found = [f for f in verify_result_file(path).findings if f.what.startswith("--hold")]
     assert len(found) == 1 and found[0].ok and "re-proved" in found[0].what
     assert [f.ok for f in verify_result_file(path, reprove=False).findings if f.what.startswith("--hold")] == [True]
-    task4, holds = four  # the same claim about the four-finger task, whose regions do admit force closure
-    lie = hold_first(SolveResult(task4, "local", "solved", "one", (holds,)))
-    lie = replace(lie.result, stats={**lie.result.stats, "hold": {**lie.result.stats["hold"], "closure": closure}})
-    write_result(lie, path, quality_entries(lie), approach_entries_of(lie))
-    found = [f for f in verify_result_file(path).findings if f.what.startswith("--hold")]
+    found = _claimed_for_the_four_finger_task(four, closure, path)
     assert len(found) == 1 and not found[0].ok and "FALSE" in found[0].detail
 
 

@@ -5,8 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from box_example import box_grasps
-from fk_tasks import build_fk_case
+from test_closure_prune import _fk_case  # forward-built tasks, random or around the four-finger box grasp
 from prehension.quality import QualityOptions, configuration_quality, force_closure, primitive_wrenches, torque_reference
 from prehension.region_closure import regions_closure
 
@@ -37,17 +36,6 @@ def test_one_face_is_proven_and_the_four_finger_box_has_force_closure_points(one
         assert regions_closure(one_face[0], quality).boxes == none.boxes  # deterministic: check re-derives it
 
 
-def _near_box_grasp(sa_hand, rng):
-    """A forward-built task around the four-finger box grasp (joint angles moved by up to 0.1
-    rad, its fingertip contact parameters, random object regions): mostly force closure."""
-    task, grasp = box_grasps.four_finger_grasp()
-    q = np.clip(grasp.q + np.where(task.active_mask, rng.uniform(-0.1, 0.1, grasp.q.size), 0.0), sa_hand.lower, sa_hand.upper)
-    for c in sa_hand.couplings:
-        q[sa_hand.dof_index(c.dof)] = c.ratio * q[sa_hand.dof_index(c.source)] + c.offset
-    hand_params = [hp for hp, _ in grasp.configuration().contact_params]
-    return build_fk_case(sa_hand, rng, fingers=("index", "middle", "ring", "thumb"), q=q, palm=False, hand_params=hand_params)
-
-
 @pytest.mark.parametrize("seed", range(3))
 def test_a_proof_is_never_given_for_regions_with_force_closure_points(sa_hand, seed):
     """Forward-built tasks (seeded: random, and around a force-closure grasp; point, patch and
@@ -57,7 +45,7 @@ def test_a_proof_is_never_given_for_regions_with_force_closure_points(sa_hand, s
     rng = np.random.default_rng(9100 + seed)
     witnesses = 0
     for k in range(4):
-        case = _near_box_grasp(sa_hand, rng) if k % 2 else build_fk_case(sa_hand, rng, palm=False)
+        case = _fk_case(sa_hand, rng, near_box_grasp=bool(k % 2))
         quality = MODELS[(k + seed) % len(MODELS)]
         found = regions_closure(case.task, quality, time_limit_s=1.5)
         if configuration_quality(case.task, case.config, quality).force_closure:
