@@ -59,3 +59,18 @@ def test_a_proof_is_never_given_for_regions_with_force_closure_points(sa_hand, s
         if found.status == "infeasible":
             assert _sampled_closure(case.task, quality, rng, 300) == 0
     assert witnesses >= 1  # the grasps near the box grasp have force-closure points, found at once
+
+
+def test_point_regions_are_one_choice_decided_at_once(sa_hand):
+    """Point regions only: nothing to split; the one choice of points is force closure
+    (a witness), proven not to be, or -- the certificate failing on a choice that is not
+    force closure -- undecided, never an error."""
+    from fk_tasks import build_fk_case
+
+    rng = np.random.default_rng(9200)
+    for _ in range(4):
+        case = build_fk_case(sa_hand, rng, fingers=("thumb", "index", "middle"), palm=False, kinds=["point"] * 3)
+        for quality in MODELS:
+            found = regions_closure(case.task, quality)
+            assert found.boxes == 1 and found.status in ("infeasible", "witness", "gave_up")
+            assert (found.status == "witness") == configuration_quality(case.task, case.config, quality).force_closure

@@ -118,7 +118,7 @@ def regions_closure(task: Task, quality: QualityOptions, time_limit_s: float | N
         if _closed(task, params, centre, rho, quality):
             return _answer("witness", boxes, pruned, started, params, "the points at a box's centre are force closure")
         relative = (hi[split] - lo[split]) / span
-        if np.max(relative) < MIN_WIDTH:
+        if split.size == 0 or np.max(relative) < MIN_WIDTH:  # nothing left to split (point regions: one choice)
             return _answer("gave_up", boxes, pruned, started, None, "a box on the frontier of force closure stays undecided")
         k = split[int(np.argmax(weight * relative))]
         left_hi, right_lo = hi.copy(), lo.copy()
