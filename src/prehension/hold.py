@@ -21,7 +21,7 @@ says so.
 **When no candidate holds**, force closure is looked for within ``closure_time_s``
 seconds (:data:`CLOSURE_TIME_S` by default; 0: not looked for), with the physics test's
 own contact model (friction ``SimOptions.friction``, soft fingers of torsion
-``SimOptions.torsion_mm``), in two steps:
+``SimOptions.torsion_mm``), in three steps:
 
 1. **without the hand** (:func:`prehension.region_closure.regions_closure`, at most
    :data:`REGIONS_SHARE` of the time): a branch-and-prune over the object regions'
