@@ -181,7 +181,7 @@ def aimed_grasps(task: Task, quality: QualityOptions, seed: int, witness=None) -
     for value, _, solution in scored:
         if value <= 0.0 or len(kept) == AIMED_KEPT:
             break
-        if all(distinct(solution, k, task, BestOptions()) for k in kept):
+        if all(distinct(solution, other, task, BestOptions()) for other in kept):
             kept.append(solution)
     return [improve_grasp(task, s, quality).solution for s in kept]
 
