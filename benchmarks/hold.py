@@ -19,9 +19,10 @@ of its fingers).  With ``--physics`` (needs MuJoCo; 2-8 s per simulated grasp): 
 physics test of the first solution with the old uniform squeeze (every contact 10 mm in,
 DexGraspBench's) and with the balanced one (the default), and the answer of ``solve
 --hold`` (the candidates of ``--best 5``, balanced squeeze, then -- when none holds -- the
-complete solver's force-closure grasp within ``prehension.hold.CLOSURE_TIME_S``): which
-candidate held, or "none", and "PROVEN" where the complete solver proved that the task's
-regions admit no force-closure grasp (friction 0.6, torsion 20 mm: the physics test's).
+force-closure search within ``prehension.hold.CLOSURE_TIME_S``: the regions alone, aimed
+starts, the complete solver): which candidate held, or "none", and "PROVEN" where the
+search proved that the task's regions admit no force-closure grasp (friction 0.6, torsion
+20 mm: the physics test's; "(regions alone)": no choice of points in them is).
 Those tasks are counted apart in the summary (never dropped): the hold rate is given over
 every judged task and over the tasks not so proven.  Summary: the median ratio best/first over the tasks whose first solution is
 force closure, how many tasks go from not force closure to force closure, the median and
@@ -143,11 +144,14 @@ def _physics(task, first, best) -> dict:
         hold = hold_first(best)
         out["hold_s"] = time.perf_counter() - started
         tried, closure = hold.result.stats["hold"]["tried"], hold.closure
-        n = hold.result.stats["hold"]["candidates"]
+        n = hold.result.stats["hold"]["candidates"]  # solve --best's and the force-closure search's
         said = f"#{tried[-1]['candidate'] + 1} of {n}" if hold.held else f"none of {n}"
         if closure is not None:
-            said += {"infeasible": "; PROVEN: no force-closure grasp", "gave_up": "; complete: none in time",
-                     "solved": " (complete solver's)" if hold.held and tried[-1]["candidate"] == n - 1 else ""}.get(closure["status"], "")  # fmt: skip
+            extra = hold.held and tried[-1]["candidate"] >= len(best.solutions)  # a grasp of the force-closure search held
+            method = closure.get("method")
+            said += {"infeasible": "; PROVEN: no force-closure grasp" + (" (regions alone)" if method == "regions" else ""),
+                     "gave_up": "; complete: none in time",
+                     "solved": (" (aimed starts')" if method == "aimed" else " (complete solver's)") if extra else ""}.get(closure["status"], "")  # fmt: skip
         out["hold"], out["proven"] = (hold.held, said), hold.proven_none
     return out
 

@@ -49,7 +49,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("system",),
     ("quality", "sim", "pregrasp", "tessellation", "ascent"),
     ("solvers",),
-    ("solve", "best", "hold", "batch_extras"),
+    ("solve", "best", "hold", "batch_extras", "region_closure"),
     ("parallel", "batch", "assignment"),
     ("planning",),
     ("verification.claims", "viewer", "interop", "cli"),

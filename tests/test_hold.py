@@ -15,7 +15,7 @@ pytest.importorskip("mujoco")
 
 from prehension.cli import EXIT_BAD_INPUT, EXIT_OK, main  # noqa: E402
 from prehension.cli.codes import EXIT_CHECK_FAILED, EXIT_DROPPED  # noqa: E402
-from prehension.hold import closure_model, hold_first  # noqa: E402
+from prehension.hold import AIMED_SOURCE, closure_model, hold_first  # noqa: E402
 from prehension.results import SolveResult, write_result  # noqa: E402
 from prehension.cli.best import best_table  # noqa: E402
 from prehension.quality import QualityOptions, grasp_quality, quality_entries  # noqa: E402
@@ -100,32 +100,91 @@ def test_solve_hold_says_what_it_cannot_be_combined_with(tmp_path, capsys):
     assert "--hold runs the candidates of --best 5" in capsys.readouterr().err
 
 
-def test_when_no_candidate_is_force_closure_a_proof_that_none_exists_is_stored_and_re_proved(tmp_path, one_face, four):
-    """Every contact on one face: the complete solver proves that no grasp of these regions is
-    force closure (the physics test's friction and torsion); check re-proves it, and a proof
-    claimed for a task that has a force-closure grasp is caught."""
+def test_when_no_points_of_the_regions_are_force_closure_the_proof_without_the_hand_is_stored_and_re_derived(tmp_path, one_face, four):
+    """Every contact on one face: the search over the object regions' points alone proves that
+    none is force closure (the physics test's friction and torsion), the complete solver is
+    not asked; check derives it again (with or without --no-reprove: it is cheap), and the
+    same claim for a task whose regions do admit force closure is caught."""
+    task, drops = one_face
+    out = hold_first(SolveResult(task, "local", "solved", "one candidate", (drops,)))
+    closure = out.result.stats["hold"]["closure"]
+    assert not out.held and out.proven_none and closure["status"] == "infeasible" and closure["method"] == "regions"
+    assert closure["quality"]["torsion_mm"] == 20.0 and closure["closure_pruned"] == closure["boxes"] >= 1
+    assert "no grasp in these regions is force closure (proven without the hand" in out.result.message
+    path = tmp_path / "none.result.json"
+    write_result(out.result, path, quality_entries(out.result), approach_entries_of(out.result), physics=out.physics)
+    for reprove in (True, False):
+        found = [f for f in verify_result_file(path, reprove=reprove).findings if f.what.startswith("--hold")]
+        assert len(found) == 1 and found[0].ok and "re-proved" in found[0].what
+    found = _claimed_for_the_four_finger_task(four, closure, path)
+    assert len(found) == 1 and not found[0].ok and "some points of the object regions are force closure" in found[0].detail
+
+
+def _claimed_for_the_four_finger_task(four, closure: dict, path) -> list:
+    """check's findings on ``closure`` claimed for the four-finger task, whose regions do admit force closure."""
+    task4, holds = four
+    lie = hold_first(SolveResult(task4, "local", "solved", "one", (holds,)))
+    lie = replace(lie.result, stats={**lie.result.stats, "hold": {**lie.result.stats["hold"], "closure": closure}})
+    write_result(lie, path, quality_entries(lie), approach_entries_of(lie))
+    return [f for f in verify_result_file(path).findings if f.what.startswith("--hold")]
+
+
+def _undecided_regions(monkeypatch):
+    """The search without the hand gives up at once: the complete solver is asked."""
+    import prehension.hold as hold_module
+    from prehension.region_closure import RegionClosure
+
+    monkeypatch.setattr(hold_module, "regions_closure", lambda task, quality, time_s: RegionClosure("gave_up", 0, 0, 0.0, None, "no time"))
+
+
+def test_when_no_candidate_is_force_closure_a_proof_that_none_exists_is_stored_and_re_proved(tmp_path, one_face, four, monkeypatch):
+    """Every contact on one face, the search without the hand undecided: the complete solver
+    proves that no grasp of these regions is force closure (the physics test's friction and
+    torsion); check re-proves it, and a proof claimed for a task that has a force-closure
+    grasp is caught."""
+    _undecided_regions(monkeypatch)
     task, drops = one_face
     out = hold_first(SolveResult(task, "local", "solved", "one candidate", (drops,)))
     closure = out.result.stats["hold"]["closure"]
     assert not out.held and out.proven_none and closure["status"] == "infeasible" and closure["closure_pruned"] >= 1
     assert closure["quality"]["torsion_mm"] == 20.0 and closure["options"]["require"] == "force-closure"
-    assert "no grasp in these regions is force closure" in out.result.message
+    assert closure["regions"]["status"] == "gave_up" and "method" not in closure
+    assert "no grasp in these regions is force closure (proven by the complete solver" in out.result.message
     path = tmp_path / "none.result.json"
     write_result(out.result, path, quality_entries(out.result), approach_entries_of(out.result), physics=out.physics)
     found = [f for f in verify_result_file(path).findings if f.what.startswith("--hold")]
     assert len(found) == 1 and found[0].ok and "re-proved" in found[0].what
     assert [f.ok for f in verify_result_file(path, reprove=False).findings if f.what.startswith("--hold")] == [True]
-    task4, holds = four  # the same claim about the four-finger task, whose regions do admit force closure
-    lie = hold_first(SolveResult(task4, "local", "solved", "one", (holds,)))
-    lie = replace(lie.result, stats={**lie.result.stats, "hold": {**lie.result.stats["hold"], "closure": closure}})
-    write_result(lie, path, quality_entries(lie), approach_entries_of(lie))
-    found = [f for f in verify_result_file(path).findings if f.what.startswith("--hold")]
+    found = _claimed_for_the_four_finger_task(four, closure, path)
     assert len(found) == 1 and not found[0].ok and "FALSE" in found[0].detail
 
 
-def test_a_force_closure_grasp_of_the_complete_solver_is_the_next_candidate(four):
-    """No candidate (none force closure): the complete solver's force-closure grasp is tried
-    in the physics test, and its quality is the physics test's contact model's."""
+def test_force_closure_grasps_aimed_at_force_closure_points_are_the_next_candidates(four):
+    """No candidate: the regions have force-closure points, and the local iterations aimed at
+    them reach force-closure grasps (the physics test's contact model), tried in the physics
+    test before the complete solver is asked (it is not)."""
+    task, _ = four
+    best = {"requested": 5, "rank": "q1", "candidates": 0, "distinct": 0, "quality_options": QualityOptions().to_dict(),
+            "sources": [], "epsilon": [], "force_closure": [], "ascent": []}  # fmt: skip
+    out = hold_first(SolveResult(task, "local", "gave_up", "no candidate", (), 0.0, {"best": best}))
+    assert out.closure["status"] == "solved" and out.closure["method"] == "aimed" and out.closure["regions"]["status"] == "witness"
+    assert "options" not in out.closure  # the complete solver was not asked
+    tried = out.result.stats["hold"]["tried"]
+    assert 1 <= len(tried) <= 3 and out.held == tried[-1]["success"]
+    listed = out.result.stats["best"]
+    assert set(listed["sources"]) == {AIMED_SOURCE} and len(listed["sources"]) == len(out.result.solutions)
+    for solution in out.result.solutions:
+        assert grasp_quality(task, solution, closure_model(SimOptions())).force_closure
+    assert "aimed at force-closure points of the regions found force-closure grasps" in out.result.message
+
+
+def test_a_force_closure_grasp_of_the_complete_solver_is_the_next_candidate(four, monkeypatch):
+    """No candidate (none force closure), none from the aimed starts: the complete solver's
+    force-closure grasp is tried in the physics test, and its quality is the physics test's
+    contact model's."""
+    import prehension.hold as hold_module
+
+    monkeypatch.setattr(hold_module, "aimed_grasps", lambda task, quality, seed, witness: [])
     task, _ = four
     best = {"requested": 5, "rank": "q1", "candidates": 0, "distinct": 0, "quality_options": QualityOptions().to_dict(),
             "sources": [], "epsilon": [], "force_closure": [], "ascent": []}  # fmt: skip
@@ -160,6 +219,7 @@ def test_a_task_the_complete_solver_does_not_take_keeps_the_candidates_verdicts(
         raise PrehensionError("the complete solver does not take this region")
 
     task, drops = one_face
+    _undecided_regions(monkeypatch)
     monkeypatch.setattr(hold_module, "solve", refuse)
     out = hold_first(SolveResult(task, "local", "solved", "one candidate", (drops,)))
     assert not out.held and out.result.solutions == (drops,) and out.physics[0]["success"] is False

@@ -299,3 +299,22 @@ def test_an_error_inside_mujoco_is_a_clear_error_not_a_traceback(four, monkeypat
     monkeypatch.setattr(run, "_simulated", overflow)
     with pytest.raises(PrehensionError, match="stopped inside MuJoCo: mj_stackAlloc: out of memory$"):
         simulate_grasp(task, grasp)
+
+
+def test_a_sliver_piece_of_the_object_is_simulated_and_a_scene_mujoco_refuses_is_a_clear_error(four):
+    """A convex piece whose volume MuJoCo finds too small (CoACD can leave one) is accepted:
+    the object's inertia is stated, the pieces' meshes are shells; a scene MuJoCo's compiler
+    refuses all the same is a PrehensionError naming MuJoCo's reason."""
+    from prehension.objects.meshes import Mesh
+    from prehension.sim.start import posed
+
+    task, grasp = four
+    scene = scene_for(task, grasp, SimOptions())
+    sliver = Mesh(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 1e-9]], float), np.array([[0, 1, 2], [0, 1, 3], [0, 2, 3], [1, 2, 3]]))
+    from prehension.sim.scene import build_scene_xml
+
+    xml = build_scene_xml(task, grasp.T_palm_object, tuple(scene.object_pieces) + (sliver,), SimOptions()).xml
+    model, _ = posed(mujoco, xml, scene.dof_names, grasp.q)
+    assert model.ngeom > 0
+    with pytest.raises(PrehensionError, match="MuJoCo cannot build the physics test's scene: Error: mesh volume is too small"):
+        posed(mujoco, xml.replace(' inertia="shell"', ""), scene.dof_names, grasp.q)

@@ -18,11 +18,26 @@ which ``prehension check`` re-runs when MuJoCo is installed.  Interrupted (Ctrl-
 SIGTERM, SIGHUP) the candidates tried so far are kept and ``stats["hold"]["interrupted"]``
 says so.
 
-**When no candidate holds**, the complete solver is asked, for at most ``closure_time_s``
-seconds (:data:`CLOSURE_TIME_S` by default; 0: not asked), for a force-closure grasp of
-the same task (``require="force-closure"``, :mod:`prehension.solvers.complete.closure`)
-with the physics test's own contact model (friction ``SimOptions.friction``, soft fingers
-of torsion ``SimOptions.torsion_mm``):
+**When no candidate holds**, force closure is looked for within ``closure_time_s``
+seconds (:data:`CLOSURE_TIME_S` by default; 0: not looked for), with the physics test's
+own contact model (friction ``SimOptions.friction``, soft fingers of torsion
+``SimOptions.torsion_mm``), in three steps:
+
+1. **without the hand** (:func:`prehension.region_closure.regions_closure`, at most
+   :data:`REGIONS_SHARE` of the time): a branch-and-prune over the object regions'
+   parameters alone.  When it proves that no choice of one point in each object region is
+   force closure, no grasp of the task is, and the complete solver is not asked: the
+   proof is stored (``stats["hold"]["closure"]``, status ``"infeasible"``, ``"method":
+   "regions"``) and ``prehension check`` re-derives it (a few seconds at most);
+2. otherwise the local iterations start from random hand configurations **aimed** at
+   force-closure points of the regions (:func:`prehension.region_closure.aimed_grasps`,
+   a second or two); the force-closure grasps they reach (at most three, each moved up by
+   the quality ascent) are further candidates, tried in the physics test like the
+   others (``stats["hold"]["closure"]``: status ``"solved"``, ``"method": "aimed"``), and
+   the complete solver is not asked;
+3. when they reach none, the **complete solver** is asked, for the time left, for a
+   force-closure grasp of the same task (``require="force-closure"``,
+   :mod:`prehension.solvers.complete.closure`):
 
 * it finds one: that grasp (moved up by the quality ascent) is a further candidate,
   tried in the physics test like the others (its source says where it came from);
@@ -33,23 +48,30 @@ of torsion ``SimOptions.torsion_mm``):
   six pushes of the test are pure forces, so such a grasp can still pass them (the
   candidates were all tried first);
 * its time runs out: the answer says so (``"gave_up"``): nothing proven;
+  ``stats["hold"]["closure"]["regions"]`` says what step 1 found (a force-closure choice
+  of points in the regions -- ``"witness"`` -- or nothing in its time);
 * it cannot take the task (a :class:`~prehension.errors.PrehensionError`, e.g. a region
   it does not handle): ``"unavailable"`` with the reason; the candidates' verdicts stand.
 """
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, replace
 
 from .ascent import improve_grasp
 from .errors import PrehensionError
 from .quality import QualityOptions, grasp_quality
+from .region_closure import aimed_grasps, regions_closure
 from .results import SolveResult, Status
 from .solve import SolveOptions, solve
 
-__all__ = ["HoldOutcome", "hold_first", "CLOSURE_TIME_S", "closure_model"]
+__all__ = ["HoldOutcome", "hold_first", "CLOSURE_TIME_S", "REGIONS_SHARE", "closure_model"]
 
-CLOSURE_TIME_S = 30.0  # the complete solver's budget [s] when no candidate holds (module docstring)
+COMPLETE_SOURCE = "complete solver (force closure required, --hold)"
+AIMED_SOURCE = "local iterations aimed at force-closure points of the regions (--hold)"
+CLOSURE_TIME_S = 30.0  # the force-closure search's budget [s] when no candidate holds (module docstring)
+REGIONS_SHARE = 1.0 / 3.0  # of it, what the search without the hand may take at most (step 1)
 
 _PER_SOLUTION = ("sources", "epsilon", "force_closure", "ascent")  # solve_best's stats, one entry per solution
 
@@ -116,20 +138,37 @@ def _trials(task, solutions, first: int, options, seed: int, progress, total: in
 
 
 def _closure_search(result: SolveResult, options, seed: int, time_s: float, progress) -> tuple[dict, object]:
-    """The complete solver asked for a force-closure grasp (the physics test's contact
-    model) within ``time_s``: ``(record for stats["hold"]["closure"], the grasp improved
-    by the ascent or None)``."""
+    """Force closure looked for within ``time_s`` (the physics test's contact model): first
+    without the hand, then by the complete solver (module docstring): ``(record for
+    stats["hold"]["closure"], the complete solver's grasp improved by the ascent or None)``."""
+    quality, started = closure_model(options), time.perf_counter()
     if progress is not None:
-        progress(f"no candidate holds: the complete solver looks for a force-closure grasp (at most {time_s:g} s)")
-    quality = closure_model(options)
+        progress(f"no candidate holds: can any points of the object regions be force closure? (at most {REGIONS_SHARE * time_s:g} s)")
+    regions = regions_closure(result.task, quality, REGIONS_SHARE * time_s)
+    if regions.status == Status.INFEASIBLE:
+        return {"status": str(Status.INFEASIBLE), "method": "regions", "message": regions.message,
+                "seconds": round(regions.seconds, 3), "time_limit_s": time_s, "quality": quality.to_dict(),
+                "boxes": regions.boxes, "closure_pruned": regions.pruned}, []  # fmt: skip
+    if progress is not None:
+        progress("no candidate holds: local iterations aimed at force-closure points of the regions")
+    aimed = aimed_grasps(result.task, quality, seed, regions.witness)
+    spent = time.perf_counter() - started
+    if aimed:
+        return {"status": str(Status.SOLVED), "method": "aimed", "message": f"{len(aimed)} force-closure grasp(s) from "
+                "starts aimed at force-closure points of the regions", "seconds": round(spent, 3), "time_limit_s": time_s,
+                "quality": quality.to_dict(), "regions": regions.to_dict()}, [(s, AIMED_SOURCE) for s in aimed]  # fmt: skip
+    left = max(time_s - spent, 1e-3)
+    if progress is not None:
+        progress(f"no candidate holds: the complete solver looks for a force-closure grasp (at most {left:.3g} s)")
     found = solve(result.task, SolveOptions(method="complete", require="force-closure", quality=quality,
-                                            time_limit_s=time_s, seed=seed))  # fmt: skip
-    record = {"status": str(found.status), "message": found.message, "seconds": round(found.seconds, 3),
+                                            time_limit_s=left, seed=seed))  # fmt: skip
+    record = {"status": str(found.status), "message": found.message, "seconds": round(spent + found.seconds, 3),
               "time_limit_s": time_s, "quality": quality.to_dict(),
-              **{k: found.stats.get(k) for k in ("boxes", "lps", "closure_pruned")}, "options": found.stats.get("options")}  # fmt: skip
+              **{k: found.stats.get(k) for k in ("boxes", "lps", "closure_pruned")}, "options": found.stats.get("options"),
+              "regions": regions.to_dict()}  # fmt: skip
     if not found.solutions:
-        return record, None
-    return record, improve_grasp(result.task, found.solutions[0], quality).solution
+        return record, []
+    return record, [(improve_grasp(result.task, found.solutions[0], quality).solution, COMPLETE_SOURCE)]
 
 
 def hold_first(result: SolveResult, options=None, seed: int = 0, progress=None,
@@ -141,43 +180,47 @@ def hold_first(result: SolveResult, options=None, seed: int = 0, progress=None,
         options: :class:`~prehension.sim.SimOptions` (default: the protocol's).
         seed: seed of the physics test's jitter (and of the complete solver).
         progress: called with a one-line string before each candidate, or ``None``.
-        closure_time_s: the complete solver's budget [s] when no candidate holds (``None``:
-            :data:`CLOSURE_TIME_S`; 0: not asked).
+        closure_time_s: the force-closure search's budget [s] when no candidate holds
+            (``None``: :data:`CLOSURE_TIME_S`; 0: no search).
     """
     from .sim import SimOptions
 
     options = options or SimOptions()
     closure_time_s = CLOSURE_TIME_S if closure_time_s is None else closure_time_s
     solutions = tuple(result.solutions)
-    ranked = len(solutions)  # solve --best's; one more when the complete solver finds a force-closure grasp
+    ranked = len(solutions)  # solve --best's; more when the force-closure search finds force-closure grasps
     reports, tried, interrupted = _trials(result.task, solutions, 0, options, seed, progress, len(solutions))
     closure = None
     if not interrupted and not any(r.success for _, r in reports) and closure_time_s > 0:
         try:
             closure, extra = _closure_search(result, options, seed, closure_time_s, progress)
         except KeyboardInterrupt:
-            closure, extra, interrupted = None, None, True
+            closure, extra, interrupted = None, [], True
         except PrehensionError as exc:  # a task the complete solver does not take: the candidates' verdicts stand
-            closure, extra = {"status": "unavailable", "message": str(exc), "time_limit_s": closure_time_s}, None
-        if extra is not None:
-            solutions += (extra,)
+            closure, extra = {"status": "unavailable", "message": str(exc), "time_limit_s": closure_time_s}, []
+        if extra:
+            first, solutions = len(solutions), solutions + tuple(s for s, _ in extra)
             result = replace(result, stats=_with_extra(result, extra))
-            more, more_tried, interrupted = _trials(result.task, (extra,), len(solutions) - 1, options, seed, progress, len(solutions))
+            more, more_tried, interrupted = _trials(result.task, solutions[first:], first, options, seed, progress, len(solutions))
             reports, tried = reports + more, tried + more_tried
     return _outcome(replace(result, solutions=solutions), options, reports, tried, interrupted, closure, ranked)
 
 
-def _with_extra(result: SolveResult, extra) -> dict:
-    """``result.stats`` with ``solve --best``'s per-solution lists extended by the complete
-    solver's grasp (its source, and its quality with the ranking's friction model)."""
+def _with_extra(result: SolveResult, extra: list) -> dict:
+    """``result.stats`` with ``solve --best``'s per-solution lists extended by the further
+    grasps ``extra [(solution, source)]`` (their source, and their quality with the
+    ranking's friction model)."""
     stats = dict(result.stats)
     best = stats.get("best")
     if not isinstance(best, dict):
         return stats
-    q = grasp_quality(result.task, extra, QualityOptions.from_dict(best.get("quality_options") or {}))
-    more = {"sources": "complete solver (force closure required, --hold)", "epsilon": q.epsilon,
-            "force_closure": q.force_closure, "ascent": None}  # fmt: skip
-    stats["best"] = {k: list(v) + [more[k]] if k in _PER_SOLUTION and v is not None else v for k, v in best.items()}
+    model = QualityOptions.from_dict(best.get("quality_options") or {})
+    more = {"sources": [], "epsilon": [], "force_closure": [], "ascent": []}
+    for solution, source in extra:
+        q = grasp_quality(result.task, solution, model)
+        for key, value in (("sources", source), ("epsilon", q.epsilon), ("force_closure", q.force_closure), ("ascent", None)):
+            more[key].append(value)
+    stats["best"] = {k: list(v) + more[k] if k in _PER_SOLUTION and v is not None else v for k, v in best.items()}
     return stats
 
 
@@ -213,11 +256,18 @@ def _closure_note(closure: dict | None, held: bool, found: bool) -> str:
     """What the message adds about the complete solver's search (module docstring)."""
     if closure is None:
         return ""
+    if closure["status"] == Status.INFEASIBLE and closure.get("method") == "regions":
+        return ("; no grasp in these regions is force closure (proven without the hand: no choice of one point in each "
+                f"object region is, with the physics test's contact model; {closure['message']})")  # fmt: skip
     if closure["status"] == Status.INFEASIBLE:
         return ("; no grasp in these regions is force closure (proven by the complete solver with the physics "
                 f"test's contact model: {closure['message']})")  # fmt: skip
     if closure["status"] == "unavailable":
         return f"; the complete solver could not look for a force-closure grasp: {closure['message']}"
+    if found and closure.get("method") == "aimed":
+        return ("; local iterations aimed at force-closure points of the regions found force-closure grasps"
+                + (" and one holds" if held else ": they drop too"))  # fmt: skip
     if found:
         return "; the complete solver found a force-closure grasp" + (" and it holds" if held else ": it drops too")
-    return f"; the complete solver found no force-closure grasp within {closure['time_limit_s']:g} s (nothing proven)"
+    points = " (some points of the object regions are force closure)" if (closure.get("regions") or {}).get("status") == "witness" else ""
+    return f"; the complete solver found no force-closure grasp within {closure['time_limit_s']:g} s{points} (nothing proven)"

@@ -43,7 +43,7 @@ from ..tasks.model import Task
 from .manifold import GraspChart
 from .surrogate import support_surrogate
 
-__all__ = ["AscentOptions", "Improvement", "improve_grasp", "merit"]
+__all__ = ["AscentOptions", "Improvement", "improve_grasp", "merit", "wrench_merit"]
 
 
 @dataclass(frozen=True)
@@ -101,7 +101,12 @@ def merit(task: Task, solution, options: QualityOptions = QualityOptions()) -> f
     """What the ascent raises: epsilon of a force-closure grasp (> 0); otherwise the signed
     distance from the origin to the nearest facet plane of the hull of its primitive
     wrenches (<= 0; 0 for a flat hull)."""
-    return _measured(_wrenches_of(task, solution, options))[0]
+    return wrench_merit(_wrenches_of(task, solution, options))
+
+
+def wrench_merit(W: np.ndarray) -> float:
+    """:func:`merit` of primitive wrenches ``W (K, 6)`` (any contacts, not only a solution's)."""
+    return _measured(W)[0]
 
 
 def _measured(W: np.ndarray) -> tuple[float, np.ndarray | None]:

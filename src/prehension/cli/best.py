@@ -71,7 +71,7 @@ def _needs_best(args) -> str | None:
 
 
 def _closure_seconds(text: str) -> float:
-    """``--hold-closure-time``: seconds >= 0 (0: the complete solver is not asked)."""
+    """``--hold-closure-time``: seconds >= 0 (0: no force-closure search)."""
     import argparse
 
     value = types.finite(text)
@@ -83,9 +83,10 @@ def _closure_seconds(text: str) -> float:
 def add_hold_closure_argument(p) -> None:
     """``--hold-closure-time`` (``solve`` and ``batch``): the budget of ``--hold``'s force-closure search."""
     p.add_argument("--hold-closure-time", type=_closure_seconds, default=None, metavar="SECONDS",
-                   help="--hold, when no candidate holds: the complete solver looks for a force-closure grasp (the "
-                        "physics test's friction and torsion), or proves that the regions admit none, for at most "
-                        "this long (default 30 s: prehension.hold.CLOSURE_TIME_S; 0: not asked)")  # fmt: skip
+                   help="--hold, when no candidate holds: look for a force-closure grasp (the physics test's friction "
+                        "and torsion) -- over the object regions alone, from starts aimed at their force-closure points, "
+                        "then with the complete solver -- or prove that the regions admit none, for at most this long "
+                        "(default 30 s: prehension.hold.CLOSURE_TIME_S; 0: not asked)")  # fmt: skip
 
 
 def add_batch_arguments(p) -> None:

@@ -278,8 +278,10 @@ def _hold(console: Console, args, result):
             style = "green" if t["success"] else "red"
             console.print(f"candidate {t['candidate'] + 1}: [{style}]{escape(t['why'])}[/]")
         if hold.proven_none:
-            console.print("[bold yellow]no grasp in these regions is force closure[/] (proven by the complete solver "
-                          "with the physics test's friction and torsion; prehension check re-proves it)")  # fmt: skip
+            by = ("without the hand: no choice of points in the object regions is" if hold.closure.get("method") == "regions"
+                  else "by the complete solver")  # fmt: skip
+            console.print(f"[bold yellow]no grasp in these regions is force closure[/] (proven {by}, with the physics "
+                          "test's friction and torsion; prehension check re-proves it)")  # fmt: skip
         if not hold.held:
             console.print("[bold red]no candidate holds in the physics test[/]: the solutions are every candidate "
                           "tried, the one that held the most pushes first (exit code 7)")  # fmt: skip

@@ -74,11 +74,14 @@ class _Mjcf:
         self.options = options
         self.assets: list[str] = []
 
-    def mesh(self, prefix: str, mesh: Mesh) -> str:
-        """Register ``mesh`` (mm) as an asset; its name."""
+    def mesh(self, prefix: str, mesh: Mesh, shell: bool = False) -> str:
+        """Register ``mesh`` (mm) as an asset; its name.  ``shell``: MuJoCo computes its
+        inertia as a shell's (for a body whose inertia is stated, so the mesh's is never
+        used: a sliver piece whose volume MuJoCo finds too small is then accepted)."""
         name = f"{prefix}_{len(self.assets)}"
         faces = " ".join(str(int(i)) for i in mesh.faces.ravel())
-        self.assets.append(f'    <mesh name={quoteattr(name)} vertex="{_num(mesh.vertices * MM)}" face="{faces}"/>')
+        extra = ' inertia="shell"' if shell else ""
+        self.assets.append(f'    <mesh name={quoteattr(name)} vertex="{_num(mesh.vertices * MM)}" face="{faces}"{extra}/>')
         return name
 
 
@@ -187,7 +190,7 @@ def _object(mjcf: _Mjcf, task: Task, T: np.ndarray, pieces) -> str:
     density = options.mass_kg / (props.volume_mm3 * MM**3)
     inertia = props.inertia_mm5 * MM**5 * density  # (3, 3) [kg m^2] about the centroid, object frame
     full = _num([inertia[0, 0], inertia[1, 1], inertia[2, 2], inertia[0, 1], inertia[0, 2], inertia[1, 2]])
-    geoms = [f'      <geom name="object_{k}" type="mesh" mesh={quoteattr(mjcf.mesh("object", piece))} {_OBJECT}/>'
+    geoms = [f'      <geom name="object_{k}" type="mesh" mesh={quoteattr(mjcf.mesh("object", piece, shell=True))} {_OBJECT}/>'
              for k, piece in enumerate(pieces)]  # fmt: skip
     return "\n".join([
         f'    <body name="object" pos="{_num(T[:3, 3] * MM)}" {_frame(T[:3, :3])}>',

@@ -32,6 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import PrehensionError
 from ..objects.distance import MeshDistance
 from ..objects.meshes import Mesh
 from ..quality.solid import object_solid
@@ -60,8 +61,12 @@ class StartState:
 
 
 def posed(mujoco, xml: str, dof_names, q):
-    """``(model, data)`` of a scene's MJCF with the hand at ``q (n_dof,)`` [rad], forward-computed."""
-    model = mujoco.MjModel.from_xml_string(xml)
+    """``(model, data)`` of a scene's MJCF with the hand at ``q (n_dof,)`` [rad], forward-computed;
+    a scene MuJoCo refuses is a :class:`~prehension.errors.PrehensionError` naming its reason."""
+    try:
+        model = mujoco.MjModel.from_xml_string(xml)
+    except ValueError as exc:  # MuJoCo's compiler refuses the scene (its message says why)
+        raise PrehensionError(f"MuJoCo cannot build the physics test's scene: {str(exc).splitlines()[0]}") from None
     data = mujoco.MjData(model)
     adr = np.array([model.joint(f"dof:{d}").qposadr[0] for d in dof_names])
     data.qpos[adr] = q

@@ -26,7 +26,9 @@ each of them from the task the file embeds, and reports one :class:`Finding` per
   is installed; without it the finding says the verdict was not re-run (and holds);
   ``solve --hold``'s proof that no grasp in the regions is force closure
   (``stats.hold.closure``, status ``infeasible``) is run again by the complete solver
-  with the stored search options, as an ``infeasible`` status is;
+  with the stored search options, as an ``infeasible`` status is -- or, a proof without
+  the hand (``"method": "regions"``: no choice of points in the object regions is force
+  closure, :mod:`prehension.region_closure`), derived again every time (seconds);
 * ``infeasible``: the proof is run again by the complete solver on the embedded task (so
   it cannot have been computed for another task); without ``reprove`` the claim is only
   restated, never called verified.  A *span proof* (``method: "span"``, an assignment the
@@ -445,6 +447,8 @@ def _hold_closure(task: Task, data: dict, reprove: bool, time_limit_s) -> list[F
     if closure.get("status") != Status.INFEASIBLE:
         return []
     what = "--hold: no grasp in the regions is force closure"
+    if closure.get("method") == "regions":
+        return [_regions_again(task, closure, what, time_limit_s)]
     if not isinstance(closure.get("options"), dict) or closure["options"].get("require") != "force-closure":
         return [Finding(what, False, "FALSE: the stored search does not require force closure")]
     if not reprove:
@@ -455,6 +459,26 @@ def _hold_closure(task: Task, data: dict, reprove: bool, time_limit_s) -> list[F
     if again.status == Status.SOLVED:
         return [Finding(what, False, "FALSE: the complete solver finds a verified force-closure grasp of the embedded task")]
     return [Finding(f"{what} (could not re-prove)", True, f"claimed: {closure.get('message')}; re-running it: {again.message}")]
+
+
+def _regions_again(task: Task, closure: dict, what: str, time_limit_s) -> Finding:
+    """``solve --hold``'s proof without the hand (``"method": "regions"``: no choice of one
+    point in each object region is force closure, :mod:`prehension.region_closure`),
+    derived again from the embedded task with the stored friction model (cheap: always)."""
+    from ..quality import QualityOptions
+    from ..region_closure import regions_closure
+
+    try:
+        quality = QualityOptions.from_dict(closure.get("quality") or {})
+    except (TypeError, ValueError, PrehensionError) as exc:
+        return Finding(what, False, f"FALSE: the stored friction model is not valid ({exc})")
+    again = regions_closure(task, quality, time_limit_s)
+    if again.status == Status.INFEASIBLE:
+        return Finding(f"{what}: re-proved", True, f"without the hand, {again.message} (friction {quality.friction:g}, "
+                       f"torsion {quality.torsion_mm:g} mm)")  # fmt: skip
+    if again.status == "witness":
+        return Finding(what, False, "FALSE: some points of the object regions are force closure (" + again.message + ")")
+    return Finding(f"{what} (could not re-prove)", True, f"claimed: {closure.get('message')}; re-deriving it: {again.message}")
 
 
 def _span_proof(task: Task, proof) -> Finding:
