@@ -101,9 +101,9 @@ def regions_closure(task: Task, quality: QualityOptions, time_limit_s: float | N
     started = time.perf_counter()
     form = build_system(task)
     lower, upper = form.system.lower.copy(), form.system.upper.copy()
-    split, weight = _split_variables(form, lower, upper, quality)
-    span = np.maximum(upper[split] - lower[split], 1e-300)
     centre, rho = torque_reference(task, quality)
+    split, weight = _split_variables(form, lower, upper, rho)
+    span = np.maximum(upper[split] - lower[split], 1e-300)
     stack, boxes, pruned = [(lower, upper)], 0, 0
     while stack:
         if (time_limit_s is not None and time.perf_counter() - started > time_limit_s) or boxes >= max_boxes:
@@ -132,11 +132,10 @@ def _answer(status: str, boxes: int, pruned: int, started: float, witness, messa
     return RegionClosure(status, boxes, pruned, time.perf_counter() - started, witness, message)
 
 
-def _split_variables(form, lower, upper, quality: QualityOptions) -> tuple[np.ndarray, np.ndarray]:
+def _split_variables(form, lower, upper, rho: float) -> tuple[np.ndarray, np.ndarray]:
     """The system variables the search splits (per contact its object patch's ``(s, t)``,
     else its normal's, else none) and each one's weight: how far its contact's point and
-    normal (times the torque radius) enclosures extend over the initial box [mm]."""
-    _, rho = torque_reference(form.task, quality)
+    normal (times the torque radius ``rho`` [mm]) enclosures extend over the initial box [mm]."""
     p_lo, p_hi, nu_lo, nu_hi = contact_enclosures(form, lower, upper)
     extent = np.max(p_hi - p_lo, axis=1) + rho * np.max(np.minimum(nu_hi - nu_lo, 2.0), axis=1)
     split, weight = [], []

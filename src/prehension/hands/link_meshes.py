@@ -19,7 +19,7 @@ import numpy as np
 from ..objects.mesh_io import read_triangles
 from .model import LinkMesh
 
-__all__ = ["link_mesh_triangles"]
+__all__ = ["link_mesh_triangles", "joined_link_triangles"]
 
 
 @functools.lru_cache(maxsize=128)
@@ -45,3 +45,21 @@ def link_mesh_triangles(mesh: LinkMesh) -> tuple[np.ndarray, np.ndarray]:
         vertices, faces = read_triangles(mesh.path)
     T = mesh.T_link_mesh
     return (vertices * np.asarray(mesh.scale)) @ T[:3, :3].T + T[:3, 3], faces
+
+
+def joined_link_triangles(meshes) -> tuple[np.ndarray, np.ndarray] | None:
+    """The triangles of all of a link's ``meshes`` (:class:`LinkMesh` files) in its frame,
+    joined: vertices ``(V, 3)`` [mm] and faces ``(F, 3)``; ``None`` when one of them cannot
+    be read (a picture or scene then draws the link's capsules instead)."""
+    vertices, faces, offset = [], [], 0
+    try:
+        for mesh in meshes:
+            v, f = link_mesh_triangles(mesh)
+            vertices.append(v)
+            faces.append(np.asarray(f) + offset)
+            offset += len(v)
+    except ValueError:  # InvalidObject: the file is gone or unreadable
+        return None
+    if not vertices:
+        return None
+    return np.concatenate(vertices), np.concatenate(faces)

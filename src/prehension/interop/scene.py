@@ -30,7 +30,7 @@ import trimesh
 
 from ..errors import InvalidTask
 from ..hands.kinematics import forward_kinematics
-from ..hands.link_meshes import link_mesh_triangles
+from ..hands.link_meshes import joined_link_triangles
 from ..hands.model import Capsule
 from ..tasks.format.hand_files import hand_meshes
 
@@ -63,13 +63,10 @@ def _capsules(link):
 
 def _link_mesh(link, meshes) -> tuple:
     """``(trimesh of the link in its frame [mm] or None, what was drawn)``."""
-    if meshes:
-        try:
-            parts = [trimesh.Trimesh(*link_mesh_triangles(m), process=False) for m in meshes]
-            return trimesh.util.concatenate(parts), "mesh"
-        except ValueError:  # InvalidObject: the file is gone or unreadable; the capsules stand in
-            pass
-    mesh = _capsules(link)
+    joined = joined_link_triangles(meshes) if meshes else None
+    if joined is not None:
+        return trimesh.Trimesh(*joined, process=False), "mesh"
+    mesh = _capsules(link)  # none, or a file gone or unreadable: the capsules stand in
     return mesh, ("none" if mesh is None else "capsules")
 
 

@@ -11,7 +11,7 @@ from typing import Mapping
 
 import numpy as np
 
-from ..hands.link_meshes import link_mesh_triangles
+from ..hands.link_meshes import joined_link_triangles
 from ..hands.model import Capsule, Hand
 from ..objects.meshes import Mesh
 from ..tasks.model import Task
@@ -74,13 +74,12 @@ def hand_drawing(hand: Hand, meshes: Mapping[str, tuple] | None = None, note: st
     shapes, drawn, unreadable = {}, {}, []
     for link in hand.links:
         files = meshes.get(link.name, ())
-        if files:
-            try:
-                shapes[link.name] = Mesh.concatenate([Mesh(*link_mesh_triangles(m)) for m in files])
-                drawn[link.name] = "mesh"
-                continue
-            except ValueError:  # InvalidObject: the file is gone or unreadable; the capsules stand in
-                unreadable.append(link.name)
+        joined = joined_link_triangles(files) if files else None
+        if joined is not None:
+            shapes[link.name], drawn[link.name] = Mesh(*joined), "mesh"
+            continue
+        if files:  # a file gone or unreadable: the capsules stand in
+            unreadable.append(link.name)
         shapes[link.name] = Mesh.concatenate([capsule_mesh(c) for c in link.collision])
         drawn[link.name] = "capsules" if link.collision else "none"
     if unreadable:
