@@ -54,11 +54,11 @@ def join_negative_values(argv: list[str], options: tuple[str, ...] = ("--at",)) 
     return out
 
 
-def seconds(text: str) -> float:
-    """A duration [s] >= 0; 0 means no limit."""
+def seconds(text: str, zero: str = "no limit") -> float:
+    """A duration [s] >= 0; 0 means ``zero`` (no limit, for a time limit)."""
     value = _number(text)
     if value < 0:
-        raise argparse.ArgumentTypeError(f"must be a number of seconds >= 0 (0: no limit), got {text!r}")
+        raise argparse.ArgumentTypeError(f"must be a number of seconds >= 0 (0: {zero}), got {text!r}")
     return value
 
 

@@ -72,12 +72,7 @@ def _needs_best(args) -> str | None:
 
 def _closure_seconds(text: str) -> float:
     """``--hold-closure-time``: seconds >= 0 (0: no force-closure search)."""
-    import argparse
-
-    value = types.finite(text)
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be a number of seconds >= 0 (0: not asked), got {text!r}")
-    return value
+    return types.seconds(text, zero="not asked")
 
 
 def add_hold_closure_argument(p) -> None:
