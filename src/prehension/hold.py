@@ -2,7 +2,7 @@
 
 :func:`hold_first` runs the candidates of a result (the ranked solutions of
 :func:`~prehension.best.solve_best`), best first, through the physics test
-(:func:`~prehension.sim.simulate_grasp`, the balanced squeeze by default) until one holds
+(:func:`~prehension.sim.simulate_grasp`, the ``"forces"`` squeeze by default) until one holds
 against all six pushes, or the candidates run out:
 
 * one holds: the answer is that grasp alone (``held`` true), with its physics verdict;
