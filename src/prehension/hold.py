@@ -31,7 +31,7 @@ own contact model (friction ``SimOptions.friction``, soft fingers of torsion
    "regions"``) and ``prehension check`` re-derives it (a few seconds at most);
 2. otherwise the local iterations start from random hand configurations **aimed** at
    force-closure points of the regions (:func:`prehension.region_closure.aimed_grasps`,
-   a second or two); the force-closure grasps they reach (at most three, each moved up by
+   a second or two); the force-closure grasps they reach (at most eight, each moved up by
    the quality ascent) are further candidates, tried in the physics test like the
    others (``stats["hold"]["closure"]``: status ``"solved"``, ``"method": "aimed"``), and
    the complete solver is not asked;
