@@ -111,3 +111,30 @@ def test_every_kind_gives_its_depths_and_targets(four):
         assert np.array_equal(q_s, squeeze_targets(task, grasp.q, grasp.contacts, 10.0, depths))
     with pytest.raises(ValueError, match="squeeze_step"):
         squeeze_depths(grasp.contacts, 10.0, "forces")
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_forces_squeeze_on_forward_built_grasps(sa_hand, seed):
+    """Seeded forward-built grasps (every region kind, 2-5 contacts, mostly not force
+    closure): the forces step keeps the joint limits and the couplings, aims its deepest
+    contact the stated 10 mm, and the contact forces that balance its actuator torques are
+    less unbalanced than the balanced-depth squeeze's (measured on seeds 300-311: 12 of 12)."""
+    from fk_tasks import build_fk_case
+
+    from prehension.results import make_solution
+
+    rng = np.random.default_rng(300 + seed)
+    solution = None
+    while solution is None:  # a draw whose fingers collide is no grasp: draw again
+        case = build_fk_case(sa_hand, rng)
+        solution = make_solution(case.task, case.config)
+    task, q = case.task, np.asarray(solution.q, float)
+    q_s, depths = squeeze_step(task, q, solution.contacts, 10.0, "forces")
+    assert np.all(q_s >= sa_hand.lower - 1e-12) and np.all(q_s <= sa_hand.upper + 1e-12)
+    for c in sa_hand.couplings:
+        i, s = sa_hand.dof_index(c.dof), sa_hand.dof_index(c.source)
+        if sa_hand.lower[i] < q_s[i] < sa_hand.upper[i]:  # not clipped
+            assert q_s[i] - q[i] == pytest.approx(c.ratio * (q_s[s] - q[s]), abs=1e-12)
+    assert depths.max() == pytest.approx(10.0)
+    assert np.all(q_s[~np.asarray(task.active_mask, bool)] == q[~np.asarray(task.active_mask, bool)])
+    assert _static_imbalance(task, solution, "forces")[0] < _static_imbalance(task, solution, "balanced")[0]
