@@ -5,7 +5,7 @@ test pushes with a fixed force (``push_accel`` x ``mass_kg``, 1 N) against whate
 forces the position actuators produce.  :func:`push_margin` predicts the outcome from both:
 
 1. **The squeeze's forces.**  The squeeze moves the actuators' targets from the solved
-   angles ``q`` to ``q_s`` (:func:`~.squeeze.squeeze_targets`, with the test's own depths).
+   angles ``q`` to ``q_s`` (:func:`~.squeeze.squeeze_step`, the test's own kind and depth).
    While the object blocks the fingers the hand stays near ``q``, so the actuators apply the
    torques ``tau = kp (q_s - q)``; the contact forces ``f`` (palm frame, on the object)
    balance them through the contacts' point Jacobians ``J`` (``J^T f = tau`` over the
@@ -26,10 +26,12 @@ forces the position actuators produce.  :func:`push_margin` predicts the outcome
 The margin is the smallest of the six ``t`` over the push force: at least 1, the squeeze
 presses hard enough to resist every push, to first order; 0, some push is resisted by no
 such forces (a contact the squeeze does not load, or no force closure).  It is a model
-(rigid fingers, the forces of the squeeze's first instant), not the test, and it predicts
-the test's verdict no better than epsilon does (``benchmarks/hold.py --per-candidate``:
-concordant candidate pairs, docs/quality.md, "Physics in the loop"), so ``--hold`` does not
-rank by it.
+(rigid fingers, the forces of the squeeze's first instant), not the test.  With the
+``"forces"`` squeeze (the default) every candidate of margin at least 1 held in the test
+(49 of 65 measured, ``benchmarks/hold.py --per-candidate``); with the ``"balanced"`` one,
+whose quasi-static forces are far from the simulated ones, it orders candidates no better
+than epsilon (docs/quality.md, "Physics in the loop").  ``--hold`` runs the test on every
+candidate and does not rank by it.
 """
 
 from __future__ import annotations
@@ -47,7 +49,7 @@ from ..tasks.model import Task
 from .options import PUSH_DIRECTIONS, SimOptions
 from .squeeze import squeeze_step
 
-__all__ = ["PushMargin", "push_margin", "squeeze_normal_forces"]
+__all__ = ["PushMargin", "push_margin", "squeeze_normal_forces", "squeeze_forces"]
 
 MM = 1e-3
 

@@ -23,7 +23,7 @@ Three kinds (``SimOptions.squeeze``; :func:`squeeze_step` computes any of them):
   position actuators press roughly in proportion to how far their targets lie inside the
   object -- which holds only when every contact's finger is equally stiff: through the
   hand's Jacobians a fingertip with a short lever presses many times harder per mm than
-  one with a long lever (docs/quality.md, "The balanced squeeze"), so the forces need not
+  one with a long lever (docs/quality.md, "The squeeze"), so the forces need not
   cancel; ``"forces"`` corrects this.
 """
 
@@ -103,7 +103,7 @@ def balanced_normal_forces(points_mm, inward_normals, friction: float, n_edges: 
 def squeeze_step(task: Task, q, contacts, squeeze_mm: float, kind: str = "forces", friction: float = 0.6) -> tuple[np.ndarray, np.ndarray]:
     """The squeeze of ``kind`` (module docstring): ``(targets (n_dof,) [rad], how far each
     contact is aimed into the object (C,) [mm])``.  ``"forces"``: when no contact would be
-    aimed inward (no step), the ``"balanced"`` one."""
+    aimed inward (more than 1e-9 mm per unit of balanced force), the ``"balanced"`` one."""
     q = np.asarray(q, dtype=float)
     if kind == "forces":
         J, _, free, _ = _problem(task, q, contacts, squeeze_mm, None)  # (3C, n_dof) [mm/rad], couplings folded
@@ -116,7 +116,7 @@ def squeeze_step(task: Task, q, contacts, squeeze_mm: float, kind: str = "forces
         dq = np.zeros(task.hand.n_dof)
         dq[free] = J[:, free].T @ forces.reshape(-1) / weight[free]
         depths = np.einsum("cd,cd->c", (J @ dq).reshape(-1, 3), inward)
-        if len(contacts) and depths.max() > 0:
+        if len(contacts) and depths.max() > 1e-9:
             scale = squeeze_mm / depths.max()
             return _targets(task.hand, q, free, scale * dq[free]), scale * depths
         kind = "balanced"
