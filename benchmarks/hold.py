@@ -16,9 +16,11 @@ re-verified at every step), and the time of ``--best 5`` (wall clock and CPU of 
 process: one core); the pre-grasp of the first solution (15 mm asked, 10 or 5 mm when
 that collides: collision-free or not, the distance used, the least and largest stand-off
 of its fingers).  With ``--physics`` (needs MuJoCo; 2-8 s per simulated grasp): the
-physics test of the first solution with the old uniform squeeze (every contact 10 mm in,
-DexGraspBench's) and with the balanced one (the default), and the answer of ``solve
---hold`` (the candidates of ``--best 5``, balanced squeeze, then -- when none holds -- the
+physics test of the first solution with the uniform squeeze (every contact 10 mm in,
+DexGraspBench's), the balanced one (depths in proportion to balanced forces) and the forces
+one (the default: targets whose actuator torques press with balanced forces), and the
+answer of ``solve --hold`` with the forces squeeze and, as before it, with the balanced one
+(the candidates of ``--best 5``, then -- when none holds -- the
 force-closure search within ``prehension.hold.CLOSURE_TIME_S``: the regions alone, aimed
 starts, the complete solver): which candidate held, or "none", and "PROVEN" where the
 search proved that the task's regions admit no force-closure grasp (friction 0.6, torsion
@@ -36,7 +38,8 @@ largest time, and the hold rates over the solved 3- and 4-contact tasks.
 
 ``--per-candidate`` (needs MuJoCo): per task, every candidate of ``--best N`` in rank order
 with its epsilon (hard fingers, and soft fingers with the physics test's 20 mm torsion),
-the pushes it held and why the others failed (moved / turned how far), and how often
+the squeeze's normal forces and the push margin (:mod:`prehension.sim.push`), the pushes
+it held and why the others failed (moved / turned how far), and how often
 each measure orders two candidates of one task as the physics test does (concordant
 pairs among those the test tells apart): is there a measure to rank ``--hold``'s
 candidates by?
@@ -131,29 +134,35 @@ def _epsilon(task, result, quality) -> float | None:
 
 
 def _physics(task, first, best) -> dict:
-    """The first solution's physics verdict with either squeeze, and ``--hold``'s answer."""
+    """The first solution's physics verdict with each squeeze, and ``--hold``'s answer with
+    the default (``"forces"``) squeeze and, as before it, the balanced one."""
     from prehension.sim import SimOptions, simulate_grasp
 
     out = {}
-    for kind in ("uniform", "balanced"):
+    for kind in ("uniform", "balanced", "forces"):
         r = simulate_grasp(task, first.solutions[0], SimOptions(squeeze=kind)) if first.solutions else None
         out[kind] = None if r is None else (r.success, "rejected" if r.rejected else f"{r.held}/6")
-    out["hold"], out["proven"], out["hold_s"] = None, False, None
-    if best.solutions:
-        started = time.perf_counter()
-        hold = hold_first(best)
-        out["hold_s"] = time.perf_counter() - started
-        tried, closure = hold.result.stats["hold"]["tried"], hold.closure
-        n = hold.result.stats["hold"]["candidates"]  # solve --best's and the force-closure search's
-        said = f"#{tried[-1]['candidate'] + 1} of {n}" if hold.held else f"none of {n}"
-        if closure is not None:
-            extra = hold.held and tried[-1]["candidate"] >= len(best.solutions)  # a grasp of the force-closure search held
-            method = closure.get("method")
-            said += {"infeasible": "; PROVEN: no force-closure grasp" + (" (regions alone)" if method == "regions" else ""),
-                     "gave_up": "; complete: none in time",
-                     "solved": (" (aimed starts')" if method == "aimed" else " (complete solver's)") if extra else ""}.get(closure["status"], "")  # fmt: skip
-        out["hold"], out["proven"] = (hold.held, said), hold.proven_none
+    for key, kind in (("hold", "forces"), ("hold_balanced", "balanced")):
+        out[key], out[f"{key}_proven"], out[f"{key}_s"] = _hold(best, SimOptions(squeeze=kind)) if best.solutions else (None, False, None)
+    out["proven"] = out["hold_proven"]
     return out
+
+
+def _hold(best, options) -> tuple:
+    """``--hold``'s first answer with the physics test ``options``: ``((held, what), proven, seconds)``."""
+    started = time.perf_counter()
+    hold = hold_first(best, options)
+    seconds = time.perf_counter() - started
+    tried, closure = hold.result.stats["hold"]["tried"], hold.closure
+    n = hold.result.stats["hold"]["candidates"]  # solve --best's and the force-closure search's
+    said = f"#{tried[-1]['candidate'] + 1} of {n}" if hold.held else f"none of {n}"
+    if closure is not None:
+        extra = hold.held and tried[-1]["candidate"] >= len(best.solutions)  # a grasp of the force-closure search held
+        method = closure.get("method")
+        said += {"infeasible": "; PROVEN: no force-closure grasp" + (" (regions alone)" if method == "regions" else ""),
+                 "gave_up": "; complete: none in time",
+                 "solved": (" (aimed starts')" if method == "aimed" else " (complete solver's)") if extra else ""}.get(closure["status"], "")  # fmt: skip
+    return (hold.held, said), hold.proven_none, seconds
 
 
 def _pre(p) -> str:
@@ -187,22 +196,28 @@ def _per_candidate(console: Console, tasks, args) -> None:
 
     from prehension.sim import SimOptions, simulate_grasp
 
+    from prehension.sim.push import push_margin, squeeze_forces
+
     soft = QualityOptions(torsion_mm=SimOptions().torsion_mm)
-    concordant = {"epsilon": [0, 0], "epsilon, soft": [0, 0]}
+    keys = ("epsilon", "epsilon, soft", "soft epsilon x squeeze normal force", "push margin")
+    concordant = {key: [0, 0] for key in keys}
     for task in tasks:
         best = solve_best(task, BestOptions(n=args.best), SolveOptions(method="local", seed=args.seed))
         rows = []
         for k, s in enumerate(best.solutions):
             r = simulate_grasp(task, s, SimOptions())
             failed = ", ".join(f"{p.direction} {p.shift_mm:.0f} mm {p.turn_deg:.0f} deg" for p in r.pushes if not p.held)
-            rows.append((grasp_quality(task, s, QualityOptions()).epsilon, grasp_quality(task, s, soft).epsilon, r.held,
-                         "rejected" if r.rejected else failed))  # fmt: skip
-            console.print(f"{task.name} #{k + 1}: epsilon {rows[-1][0]:.4f}, soft {rows[-1][1]:.4f}, held {r.held}/6"
-                          + (f"; failed: {rows[-1][3]}" if rows[-1][3] else ""))  # fmt: skip
+            eps_soft, push = grasp_quality(task, s, soft).epsilon, push_margin(task, s, SimOptions())
+            rows.append((grasp_quality(task, s, QualityOptions()).epsilon, eps_soft, eps_soft * push.normal.sum(),
+                         push.margin, r.held, "rejected" if r.rejected else failed))  # fmt: skip
+            f = squeeze_forces(task, s, SimOptions())
+            console.print(f"{task.name} #{k + 1}: epsilon {rows[-1][0]:.4f}, soft {rows[-1][1]:.4f}, squeeze normal "
+                          f"{push.normal.round(1)} N (net {np.linalg.norm(f.sum(0)):.1f} N), push margin {push.margin:.3f}, held {r.held}/6"
+                          + (f"; failed: {rows[-1][5]}" if rows[-1][5] else ""))  # fmt: skip
         for i, j in combinations(range(len(rows)), 2):
-            for col, key in ((0, "epsilon"), (1, "epsilon, soft")):
-                if rows[i][2] != rows[j][2] and rows[i][col] != rows[j][col]:
-                    concordant[key][(rows[i][2] - rows[j][2]) * (rows[i][col] - rows[j][col]) < 0] += 1
+            for col, key in enumerate(keys):
+                if rows[i][4] != rows[j][4] and rows[i][col] != rows[j][col]:
+                    concordant[key][int((rows[i][4] - rows[j][4]) * (rows[i][col] - rows[j][col]) < 0)] += 1
     for key, (same, other) in concordant.items():
         console.print(f"{key}: orders {same} of {same + other} candidate pairs the physics test tells apart as the test does")
 
@@ -236,7 +251,8 @@ def main() -> None:
     table = Table(title=f"first solution vs --best {args.best} (epsilon, mu {quality.friction:g}, "
                         f"{'torsion %g mm' % args.torsion if args.torsion else 'hard fingers'})")  # fmt: skip
     for col in ("task", "contacts", "first", f"best {args.best} as found", f"best {args.best}", "ratio", "ascent steps",
-                "time [s] wall", "cpu", "pre-grasp of first [mm]", "first: uniform squeeze", "first: balanced", "--hold"):  # fmt: skip
+                "time [s] wall", "cpu", "pre-grasp of first [mm]", "first: uniform squeeze", "first: balanced", "first: forces",
+                "--hold (balanced)", "--hold"):  # fmt: skip
         table.add_column(col, justify="left" if col == "task" else "right")
     rows = []
     tasks = [t for t in _tasks(args) if args.tasks is None or args.tasks in t.name][args.skip:]
@@ -249,25 +265,27 @@ def main() -> None:
         ratio = m["best"] / m["first"] if m["first"] and m["best"] is not None else None
         table.add_row(task.name, str(len(task.contacts)), _fmt(m["first"]), _fmt(m["found"]), _fmt(m["best"]),
                       "-" if ratio is None else f"{ratio:.2f}", m["steps"], f"{m['wall']:.2f}", f"{m['cpu']:.2f}", _pre(m["pregrasp"]),
-                      *(_verdict((m["physics"] or {}).get(k)) for k in ("uniform", "balanced", "hold")))  # fmt: skip
+                      *(_verdict((m["physics"] or {}).get(k)) for k in ("uniform", "balanced", "forces", "hold_balanced", "hold")))  # fmt: skip
         console.file.flush()
     console.print(table)
     _summary(console, rows)
 
 
 def _hold_summary(console: Console, judged: list) -> None:
-    """``--hold`` counted two ways: over every judged task, and over the tasks whose regions
-    are not proven to admit no force-closure grasp (those are reported apart, never dropped)."""
-    proven = [m for m in judged if m["physics"]["proven"]]
-    rest = [m for m in judged if not m["physics"]["proven"] and m["physics"]["hold"] is not None]
-    held = sum(m["physics"]["hold"][0] for m in rest)
-    console.print(f"--hold: {len(proven)} of {len(judged)} tasks proven to admit no force-closure grasp (the physics "
-                  f"test's friction and torsion; none of them held); of the other {len(rest)}, the first answer holds "
-                  f"in {held} ({held / max(len(rest), 1):.0%})")  # fmt: skip
-    times = [m["physics"]["hold_s"] for m in judged if m["physics"]["hold_s"] is not None]
-    if times:
-        console.print(f"--hold wall time per task (physics tests and the complete solver's search): median "
-                      f"{statistics.median(times):.1f} s, max {max(times):.1f} s")  # fmt: skip
+    """``--hold`` counted two ways, with each squeeze: over every judged task, and over the
+    tasks whose regions are not proven to admit no force-closure grasp (those are reported
+    apart, never dropped)."""
+    for key, what in (("hold", "forces squeeze (default)"), ("hold_balanced", "balanced squeeze (before)")):
+        proven = [m for m in judged if m["physics"][f"{key}_proven"]]
+        rest = [m for m in judged if not m["physics"][f"{key}_proven"] and m["physics"][key] is not None]
+        held = sum(m["physics"][key][0] for m in rest)
+        console.print(f"--hold, {what}: {len(proven)} of {len(judged)} tasks proven to admit no force-closure grasp (the "
+                      f"physics test's friction and torsion; none of them held); of the other {len(rest)}, the first "
+                      f"answer holds in {held} ({held / max(len(rest), 1):.0%})")  # fmt: skip
+        times = [m["physics"][f"{key}_s"] for m in judged if m["physics"][f"{key}_s"] is not None]
+        if times:
+            console.print(f"--hold wall time per task, {what} (physics tests and the force-closure search): median "
+                          f"{statistics.median(times):.1f} s, max {max(times):.1f} s")  # fmt: skip
 
 
 def _summary(console: Console, rows: list) -> None:
@@ -291,12 +309,13 @@ def _summary(console: Console, rows: list) -> None:
     if judged:
         parts = []
         for key, what in (("uniform", "first solution, uniform squeeze"), ("balanced", "first solution, balanced squeeze"),
-                          ("hold", "first answer of --hold")):  # fmt: skip
+                          ("forces", "first solution, forces squeeze"), ("hold_balanced", "first answer of --hold, balanced squeeze"),
+                          ("hold", "first answer of --hold (forces squeeze)")):  # fmt: skip
             got = [m["physics"][key] for m in judged if m["physics"][key] is not None]
             parts.append(f"{what}: {sum(v[0] for v in got)}/{len(got)}")
         console.print(f"holds (all six pushes) over the {len(judged)} solved 3- and 4-contact tasks: " + "; ".join(parts))
         for m in judged:
-            console.print(f"  --hold, {m['name']}: {_verdict(m['physics']['hold'])}")
+            console.print(f"  --hold, {m['name']}: {_verdict(m['physics']['hold'])} (balanced squeeze: {_verdict(m['physics']['hold_balanced'])})")
         _hold_summary(console, judged)
     if solved:
         cpu = [m["cpu"] for m in solved]

@@ -201,6 +201,20 @@ def test_simulate_on_the_command_line(tmp_path, capsys, four, one_face):
     assert len(data["grasps"][0]["pushes"]) == 6 and json.loads(capsys.readouterr().out) == data
 
 
+def test_every_squeeze_kind_on_the_command_line(tmp_path, capsys, four):
+    """``--squeeze-kind``: forces (the default), balanced, uniform; each report says which."""
+    holds = _result_file(tmp_path, *four, "holds")
+    for kind in (None, "forces", "balanced", "uniform"):
+        out = tmp_path / f"physics-{kind}.json"
+        args = ["simulate", str(holds), "-o", str(out)] + ([] if kind is None else ["--squeeze-kind", kind])
+        assert main(args) in (EXIT_OK, EXIT_DROPPED)
+        assert json.loads(out.read_text())["grasps"][0]["options"]["squeeze"] == (kind or "forces")
+    capsys.readouterr()
+    with pytest.raises(SystemExit):  # argparse names the valid kinds
+        main(["simulate", str(holds), "--squeeze-kind", "hard"])
+    assert "choose from 'forces', 'balanced', 'uniform'" in capsys.readouterr().err
+
+
 def test_simulate_refuses_what_it_cannot_trust(tmp_path, capsys, four):
     path = _result_file(tmp_path, *four, "r")
     assert main(["simulate", str(path), "--solution", "3"]) == EXIT_BAD_INPUT

@@ -2,7 +2,7 @@
 
 :func:`hold_first` runs the candidates of a result (the ranked solutions of
 :func:`~prehension.best.solve_best`), best first, through the physics test
-(:func:`~prehension.sim.simulate_grasp`, the balanced squeeze by default) until one holds
+(:func:`~prehension.sim.simulate_grasp`, the ``"forces"`` squeeze by default) until one holds
 against all six pushes, or the candidates run out:
 
 * one holds: the answer is that grasp alone (``held`` true), with its physics verdict;
@@ -31,7 +31,7 @@ own contact model (friction ``SimOptions.friction``, soft fingers of torsion
    "regions"``) and ``prehension check`` re-derives it (a few seconds at most);
 2. otherwise the local iterations start from random hand configurations **aimed** at
    force-closure points of the regions (:func:`prehension.region_closure.aimed_grasps`,
-   a second or two); the force-closure grasps they reach (at most three, each moved up by
+   a second or two); the force-closure grasps they reach (at most eight, each moved up by
    the quality ascent) are further candidates, tried in the physics test like the
    others (``stats["hold"]["closure"]``: status ``"solved"``, ``"method": "aimed"``), and
    the complete solver is not asked;

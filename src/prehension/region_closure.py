@@ -65,7 +65,7 @@ MAX_BOXES = 200_000  # boxes examined at most
 AIMED_SAMPLES = 400  # random choices of points in the regions, measured (aimed starts)
 AIMED_POINTS = 10  # the best force-closure ones the starts aim at
 AIMED_STARTS = 100  # starts of the local iterations
-AIMED_KEPT = 3  # force-closure grasps returned at most
+AIMED_KEPT = 8  # force-closure grasps returned at most
 
 
 @dataclass(frozen=True)

@@ -24,9 +24,11 @@ class SimOptions:
     (torsional, MuJoCo's elliptic soft contacts, ``condim`` 4); the hand is held by
     position actuators (gain ``kp``) at the solved angles, then squeezed: the targets move
     over ``squeeze_s`` to angles that would carry each contact further into the object
-    (``squeeze``: ``"balanced"``, by default, each contact ``squeeze_mm`` times its normal
-    force in a set of contact forces with zero net wrench over the largest such force;
-    ``"uniform"``, DexGraspBench's, every contact ``squeeze_mm``; :mod:`.squeeze`); then a force of ``push_accel`` x ``mass_kg`` pushes the object's centre of
+    (``squeeze``: ``"forces"``, by default, targets whose actuator torques press the
+    object with a set of contact forces of zero net wrench, the deepest contact aimed
+    ``squeeze_mm`` in; ``"balanced"``, each contact ``squeeze_mm`` times its normal force in
+    such a set over the largest; ``"uniform"``, DexGraspBench's, every contact
+    ``squeeze_mm``; :mod:`.squeeze`); then a force of ``push_accel`` x ``mass_kg`` pushes the object's centre of
     mass along one of six directions for ``hold_s``.  A direction *holds* when the object's
     centre of mass moves less than ``max_shift_mm`` and it turns less than
     ``max_turn_deg`` (both from the pose before the squeeze).  A grasp that starts with a
@@ -38,9 +40,9 @@ class SimOptions:
         torsion_mm: torsional friction [mm] (20 mm: DexGraspBench's 0.02 m).
         kp: position gain of every joint actuator [N m / rad] (5).
         damping: joint damping [N m s / rad] (keeps the stiff hand stable).
-        squeeze_mm: how far each contact is aimed into the object [mm] (with the balanced
-            squeeze: the contact with the largest balanced normal force; the others less).
-        squeeze: ``"balanced"`` (default) or ``"uniform"`` (DexGraspBench's).
+        squeeze_mm: how far each contact is aimed into the object [mm] (with the forces
+            and the balanced squeeze: the contact aimed deepest; the others less).
+        squeeze: ``"forces"`` (default), ``"balanced"`` or ``"uniform"`` (DexGraspBench's).
         squeeze_s: duration of the squeeze [s] (0.4 s: 100 steps of 4 ms).
         push_accel: push force per kg [N/kg = m/s^2] (10).
         hold_s: duration of the push [s] (2).
@@ -58,7 +60,7 @@ class SimOptions:
     kp: float = 5.0
     damping: float = 0.1
     squeeze_mm: float = 10.0
-    squeeze: str = "balanced"
+    squeeze: str = "forces"
     squeeze_s: float = 0.4
     push_accel: float = 10.0
     hold_s: float = 2.0
@@ -80,8 +82,8 @@ class SimOptions:
             if not ok:
                 need = "a positive number" if name in positive else "a number >= 0"
                 raise PrehensionError(f"simulation options: {name} must be {need}, got {value!r}")
-        if self.squeeze not in ("balanced", "uniform"):
-            raise PrehensionError(f"simulation options: squeeze must be 'balanced' or 'uniform', got {self.squeeze!r}")
+        if self.squeeze not in ("forces", "balanced", "uniform"):
+            raise PrehensionError(f"simulation options: squeeze must be 'forces', 'balanced' or 'uniform', got {self.squeeze!r}")
         if self.timestep_s > 0.05:
             raise PrehensionError(f"simulation options: timestep_s must be at most 0.05 s, got {self.timestep_s}")
 

@@ -1,6 +1,17 @@
 """The squeeze: joint angles that would carry each contact a little further into the object.
 
-Two kinds (``SimOptions.squeeze``):
+Three kinds (``SimOptions.squeeze``; :func:`squeeze_step` computes any of them):
+
+* ``"forces"`` (the default): the targets are chosen so that the actuators' own torques
+  press the object with a set of contact forces that resist each other.  With
+  ``f*`` the balanced contact forces of :func:`balanced_normal_forces` (zero net wrench
+  when the grasp is force closure) and ``J`` the contacts' point Jacobians over the
+  independent dofs, the step is ``dq = s J^T f* / w`` (``w``: 1 plus the squared ratios of
+  the dofs coupled to a dof), ``s`` scaled so that the contact aimed deepest along its
+  inward normal goes ``squeeze_mm`` in.  A position actuator of gain ``kp`` held at ``q``
+  by the object applies ``tau = kp dq``, and the contact forces that balance it,
+  ``J^T f = tau``, are then ``f = kp s f*`` (``J^T`` of full column rank, no couplings):
+  the forces of the balanced set, whatever the fingers' leverage.
 
 * ``"uniform"`` (DexGraspBench's): every contact is aimed ``squeeze_mm`` into the object,
   whatever the balance of forces.  Three fingertips on one face and a thumb on the other
@@ -10,7 +21,10 @@ Two kinds (``SimOptions.squeeze``):
   into the object, ``f_i`` its normal force in a set of contact forces that resist each
   other -- a zero net force and torque -- found by :func:`balanced_normal_forces`.  The
   position actuators press roughly in proportion to how far their targets lie inside the
-  object, so the squeeze presses the object with forces that cancel, to first order.
+  object -- which holds only when every contact's finger is equally stiff: through the
+  hand's Jacobians a fingertip with a short lever presses many times harder per mm than
+  one with a long lever (docs/quality.md, "The squeeze"), so the forces need not
+  cancel; ``"forces"`` corrects this.
 """
 
 from __future__ import annotations
@@ -24,9 +38,10 @@ from ..hands.kinematics import forward_kinematics, point_jacobian
 from ..quality.wrenches import cone_edges
 from ..tasks.model import Task
 
-__all__ = ["squeeze_targets", "as_good_a_squeeze", "squeeze_depths", "balanced_normal_forces", "BalancedForces", "SQUEEZE_KINDS"]
+__all__ = ["squeeze_step", "squeeze_targets", "as_good_a_squeeze", "squeeze_depths", "balanced_normal_forces",
+           "BalancedForces", "SQUEEZE_KINDS"]  # fmt: skip
 
-SQUEEZE_KINDS = ("balanced", "uniform")
+SQUEEZE_KINDS = ("forces", "balanced", "uniform")
 
 
 class BalancedForces(NamedTuple):
@@ -85,8 +100,35 @@ def balanced_normal_forces(points_mm, inward_normals, friction: float, n_edges: 
     return BalancedForces(normal / normal.min(), forces, residual if residual > 1e-7 else 0.0)
 
 
+def squeeze_step(task: Task, q, contacts, squeeze_mm: float, kind: str = "forces", friction: float = 0.6) -> tuple[np.ndarray, np.ndarray]:
+    """The squeeze of ``kind`` (module docstring): ``(targets (n_dof,) [rad], how far each
+    contact is aimed into the object (C,) [mm])``.  ``"forces"``: when no contact would be
+    aimed inward (more than 1e-9 mm per unit of balanced force), the ``"balanced"`` one."""
+    q = np.asarray(q, dtype=float)
+    if kind == "forces":
+        J, _, free, _ = _problem(task, q, contacts, squeeze_mm, None)  # (3C, n_dof) [mm/rad], couplings folded
+        points = np.array([np.asarray(c.hand_point, float) for c in contacts])
+        inward = -np.array([np.asarray(c.object_normal, float) for c in contacts])
+        forces = balanced_normal_forces(points, inward, friction).forces  # (C, 3)
+        weight = np.ones(task.hand.n_dof)
+        for c in task.hand.couplings:
+            weight[task.hand.dof_index(c.source)] += c.ratio**2
+        dq = np.zeros(task.hand.n_dof)
+        dq[free] = J[:, free].T @ forces.reshape(-1) / weight[free]
+        depths = np.einsum("cd,cd->c", (J @ dq).reshape(-1, 3), inward)
+        if len(contacts) and depths.max() > 1e-9:
+            scale = squeeze_mm / depths.max()
+            return _targets(task.hand, q, free, scale * dq[free]), scale * depths
+        kind = "balanced"
+    depths = squeeze_depths(contacts, squeeze_mm, kind, friction)
+    return squeeze_targets(task, q, contacts, squeeze_mm, depths), depths
+
+
 def squeeze_depths(contacts, squeeze_mm: float, kind: str = "balanced", friction: float = 0.6) -> np.ndarray:
-    """How far each contact is aimed into the object [mm] ``(C,)`` (see the module docstring)."""
+    """How far each contact is aimed into the object [mm] ``(C,)`` by the ``"balanced"`` or
+    ``"uniform"`` squeeze (module docstring; ``"forces"``' depths: :func:`squeeze_step`)."""
+    if kind not in ("balanced", "uniform"):
+        raise ValueError(f"squeeze_depths: the {kind!r} squeeze's depths need the hand: squeeze_step")
     C = len(contacts)
     if kind == "uniform" or C == 0:
         return np.full(C, float(squeeze_mm))
