@@ -178,3 +178,19 @@ def test_limit_ball_matches_the_systems_limit_row(sa_hand):
     far[structure.limit_cols[0, 9:]] = (-Rb).ravel()  # not a rotation: only the row is tested
     cut = limit_cuts(structure, far[None], per_joint=1)
     assert cut is not None and not rows_hold(cut, far)
+
+
+def test_a_tiny_positive_diagonal_bound_does_not_flip_a_division():
+    """``Z_aa`` known to be in ``(0, 1e-12]``: the padded lower end is not positive, so no
+    division by it may narrow ``Z_bc`` or the quaternion (the true ``Z_bc`` is kept)."""
+    q = np.array([1e-7, 0.6, 0.48, 0.0])
+    q[3] = np.sqrt(1.0 - q @ q)
+    Z = 4.0 * np.outer(q, q)
+    zl, zh = (Z - 1e-9)[None], (Z + 1e-9)[None]
+    zl[0, 0, 0], zh[0, 0, 0] = 1e-14, 1e-9  # Z_00 = 4e-14
+    from prehension.solvers.complete import rotation_cuts as rc
+
+    rc._narrow_off_diagonal(zl, zh)
+    assert np.all(zl[0] <= Z) and np.all(Z <= zh[0])
+    ql, qh = quaternion_box(zl, zh)
+    assert any(np.all((ql[0] <= s * q) & (s * q <= qh[0])) for s in (1.0, -1.0))

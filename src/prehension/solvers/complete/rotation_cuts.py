@@ -156,7 +156,7 @@ def _narrow_off_diagonal(zl, zh):
         zh[:, a, b] = zh[:, b, a] = oh
     for a in range(4):
         others = [b for b in range(4) if b != a]
-        pos = d_lo[:, a] > 0
+        pos = _lo(d_lo[:, a]) > 0  # the padded end divides: it must be positive too
         if not np.any(pos):
             continue
         for b, c in itertools.combinations(others, 2):
@@ -190,8 +190,8 @@ def quaternion_box(zl: np.ndarray, zh: np.ndarray):
     ql, qh = -half_hi, half_hi.copy()
     rows = np.arange(len(zl))
     a0 = np.argmax(d_lo, axis=1)
-    anchored = d_lo[rows, a0] > 0
     s_lo = _lo(2.0 * np.sqrt(d_lo[rows, a0]))  # 4 q_a0 = 2 sqrt(Z_a0a0) in [s_lo, s_hi]
+    anchored = s_lo > 0  # the padded end divides: it must be positive
     s_hi = _hi(2.0 * np.sqrt(d_hi[rows, a0]))
     with np.errstate(divide="ignore", invalid="ignore"):
         for b in range(4):
