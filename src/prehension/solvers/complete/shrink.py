@@ -11,7 +11,9 @@ with the stacked rows
     row\_lo = (b, -\infty, -\infty), \qquad row\_hi = (b, h, h_{rel}),
 
 where ``G_rel x <= h_rel`` are the relaxation rows of the Psi equations on ``B``
-(:func:`.relaxations.relaxation_rows`).  For each variable ``x_i`` (widest first) the
+(:func:`.relaxations.relaxation_rows`), with the rows of the link rotations and joint limits
+when ``shrink_box`` is given the system's ``rotations`` (:mod:`.rotation_cuts`; from the
+second pass on also cuts at the previous pass's LP optima).  For each variable ``x_i`` (widest first) the
 programs "minimise / maximise ``x_i`` subject to these rows and ``x in B``" (LP1/LP2 of
 the paper) give new bounds.  A pass solves them all with ONE HiGHS model: only the
 objective (and, as the box shrinks within the pass, the column bounds) change between
