@@ -15,6 +15,7 @@ from prehension.results import Status, make_solution
 from prehension.system.embedding import embed
 from prehension.system.formulation import build_system
 from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
+from prehension.solvers.complete.rotation_cuts import rotation_structure
 from prehension.solvers.complete.shrink import ShrinkOptions, shrink_box
 from prehension.verification.residuals import Tolerances
 from prehension.solvers.local.verifier import LocalVerifier
@@ -74,6 +75,11 @@ def test_shrinking_a_box_around_a_known_solution_keeps_it(sa_hand, seed):
     base = tuple(sorted(form.base_keys))  # as the search shrinks them
     shrunk = shrink_box(system, lower, upper, ShrinkOptions(variables=base, max_passes=1))
     assert not shrunk.empty and shrunk.n_lps > 0
+    assert np.all(shrunk.lower <= x + 1e-9) and np.all(x <= shrunk.upper + 1e-9)
+    # with the rotation and limit rows, and a second pass with cuts at the first pass's optima
+    options = ShrinkOptions(variables=base, max_passes=2, size="sum", rho=1.0)
+    shrunk = shrink_box(system, lower, upper, options, rotations=rotation_structure(form))
+    assert not shrunk.empty and shrunk.n_passes == 2
     assert np.all(shrunk.lower <= x + 1e-9) and np.all(x <= shrunk.upper + 1e-9)
 
 
@@ -164,7 +170,7 @@ def test_regions_just_beyond_reach_are_certified_and_just_within_are_solved():
 def test_solutions_found_before_a_stop_survive_the_resume(tmp_path, solution_set):
     options, whole = SOLUTION_SET, solution_set
     ckpt = tmp_path / "all.json"
-    first = solve_complete(pincer_task(30.0), BranchAndPruneOptions(verifier=LocalVerifier(), max_boxes=26, **options), checkpoint=ckpt)
+    first = solve_complete(pincer_task(30.0), BranchAndPruneOptions(verifier=LocalVerifier(), max_boxes=12, **options), checkpoint=ckpt)
     assert first.solutions and first.stats["open_boxes"] > 0  # stopped with a solution in hand
     assert len(first.solutions) - first.stats["open_box_solutions"] < len(whole.solutions)
     resumed = solve_complete(pincer_task(30.0), BranchAndPruneOptions(verifier=LocalVerifier(), **options), checkpoint=ckpt, resume=True)

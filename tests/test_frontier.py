@@ -20,7 +20,11 @@ import pytest
 
 from prehension.results import Status, make_solution
 from prehension.solvers.complete.pair import congruence_test
+from prehension.solvers.complete.rotation_cuts import rotation_structure
 from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
+from prehension.solvers.complete.shrink import ShrinkOptions, shrink_box
+from prehension.system.embedding import embed
+from prehension.system.formulation import build_system
 from prehension.verification.residuals import Tolerances
 from prehension.solvers.local.verifier import LocalVerifier
 
@@ -174,6 +178,32 @@ def test_random_families_just_inside_their_frontier_are_never_called_infeasible(
     assert result.status in (Status.SOLVED, Status.GAVE_UP), result.message
     for solution in result.solutions:
         assert make_solution(result.task, solution.configuration()) is not None
+
+
+@pytest.mark.parametrize("seed,index", [(1, 4), pytest.param(2, 1, marks=pytest.mark.slow)])
+def test_rotation_cuts_keep_a_solution_just_inside_a_three_contact_frontier(frontier_module, seed, index):
+    """teapot-service (s1-4) and guitar-playing (s2-1), whose frontier three contacts make:
+    boxes of seeded random widths around the strict solution at ``t* - 0.01 mm``, shrunk
+    with the rotation and joint-limit cuts (two passes: cuts at the first pass's LP optima),
+    keep it."""
+    found = frontier_module.draw_family(seed, index, seeds=1)
+    family, t = found.family, found.frontier.t_mm - 0.01
+    witness = frontier_module.solution_at(family, found.frontier.configuration, found.frontier.t_mm, t)
+    assert witness is not None
+    form = build_system(family.task_at(t))
+    system = form.system
+    x = np.clip(embed(form, witness), system.lower, system.upper)  # strict, not exact: a hair outside
+    assert np.max(np.abs(x - embed(form, witness))) < 1e-6
+    rng = np.random.default_rng(8000 + index)
+    width = system.upper - system.lower
+    for _ in range(2):
+        lower = np.maximum(system.lower, x - rng.uniform(0.0, 0.2, system.n) * width)
+        upper = np.minimum(system.upper, x + rng.uniform(0.0, 0.2, system.n) * width)
+        options = ShrinkOptions(variables=tuple(form.base_indices.tolist()), max_passes=2, size="sum", rho=1.0)
+        shrunk = shrink_box(system, lower, upper, options, rotations=rotation_structure(form))
+        assert not shrunk.empty, shrunk.reason
+        slack = 1e-5  # the witness is strict (1e-6 mm), not exact
+        assert np.all(shrunk.lower <= x + slack) and np.all(x <= shrunk.upper + slack)
 
 
 @pytest.mark.slow  # a draw and a 40,000-box pair test (~10-25 s each)

@@ -264,6 +264,12 @@ def options_record(options) -> dict:
     return {("refine" if k == "verifier" else k): (refine if k == "verifier" else v) for k, v in record.items()}
 
 
+#: Shrink options added after checkpoints existed; on by default, left out of the
+#: fingerprint while on, so a checkpoint written before them resumes (the cuts only add
+#: valid rows: the open boxes still hold every solution).
+_NEW_ON_BY_DEFAULT = ("shrink.rotation_cuts", "shrink.limit_cuts")
+
+
 def _options_mapping(options) -> dict:
     """The options that change the search, flattened to ``{"shrink.rho": 0.9, ...}``."""
     flat: dict = {}
@@ -280,6 +286,9 @@ def _options_mapping(options) -> dict:
         values.pop("require", None)
         values.pop("quality", None)
     walk("", values)
+    for key in _NEW_ON_BY_DEFAULT:  # cuts added later (sound either way): at their default, the old fingerprint
+        if flat.get(key) is True:
+            del flat[key]
     return flat
 
 

@@ -73,6 +73,7 @@ from scipy.spatial import ConvexHull, QhullError
 from ...geometry.bezier import subdivision_matrix
 from ...system.canonical import System
 from .couplings import coupling_rows
+from .rotation_cuts import RotationStructure, eigen_cuts, limit_cuts, limit_rows, rotation_rows
 
 __all__ = [
     "down",
@@ -266,19 +267,26 @@ def bernstein_relaxation(coeffs: np.ndarray, li: float, ui: float, lj: float, uj
 # All rows of a System
 # ----------------------------------------------------------------------------------
 def relaxation_rows(
-    system: System, lower: np.ndarray, upper: np.ndarray, *, midpoint_tangent: bool = True
-) -> tuple[sp.csr_matrix, np.ndarray]:
+    system: System, lower: np.ndarray, upper: np.ndarray, *, midpoint_tangent: bool = True,
+    rotations: RotationStructure | None = None, cut_points: np.ndarray | None = None, quaternion: bool = True,
+    limits: bool = True,
+) -> tuple[sp.csr_matrix, np.ndarray]:  # fmt: skip
     """All relaxation rows of ``system``'s Psi equations on the box ``[lower, upper]``.
 
     Args:
         system: The canonical system.
         lower, upper: The box, shape ``(n,)``, finite.
         midpoint_tangent: Passed to :func:`square_relaxation`.
+        rotations: The system's rotations and joint limits (:mod:`.rotation_cuts`).  With
+            ``quaternion``, adds their quaternion-box rows (:func:`.rotation_cuts.rotation_rows`)
+            and the eigenvector cuts at ``cut_points``; with ``limits``, the ball rows of the
+            joint limits (:func:`.rotation_cuts.limit_rows`) and their cuts at ``cut_points``.
+        cut_points: ``(P, n)`` points to separate (e.g. LP optima of an earlier pass).
 
     Returns:
         ``(G_rel, h_rel)``: sparse ``(r, n)`` and ``(r,)`` with ``G_rel x <= h_rel`` for every
         solution of the Psi equations in the box (and the chord cuts of its angle
-        couplings, :func:`.couplings.coupling_rows`).
+        couplings, :func:`.couplings.coupling_rows`; and the rotation cuts).
     """
     lower = np.asarray(lower, dtype=float)
     upper = np.asarray(upper, dtype=float)
@@ -297,7 +305,23 @@ def relaxation_rows(
     chords = coupling_rows(system.couplings, lower, upper)
     if chords is not None:
         blocks.append(chords)
+    blocks.extend(_rotation_blocks(rotations, lower, upper, cut_points, quaternion, limits))
     return _assemble(blocks, system.n)
+
+
+def _rotation_blocks(rotations: RotationStructure | None, lower, upper, cut_points, quaternion: bool, limits: bool):
+    if rotations is None:
+        return []
+    blocks = []
+    if quaternion:
+        blocks.append(rotation_rows(rotations.rotations, lower, upper))
+        if cut_points is not None:
+            blocks.append(eigen_cuts(rotations.rotations, cut_points))
+    if limits:
+        blocks.append(limit_rows(rotations))
+        if cut_points is not None:
+            blocks.append(limit_cuts(rotations, cut_points))
+    return [b for b in blocks if b is not None]
 
 
 def _assemble(blocks, n: int) -> tuple[sp.csr_matrix, np.ndarray]:

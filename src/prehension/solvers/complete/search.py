@@ -52,6 +52,7 @@ from .self_collision import self_collision_prune
 from .witnesses import makeable_pairs
 from .pair import congruence_test
 from .contract import contract
+from .rotation_cuts import rotation_structure
 from .shrink import ShrinkOptions, shrink_box
 from .verifier import BoxVerifier
 
@@ -249,8 +250,8 @@ def process_box(form: Formulation, lower, upper, depth: int, options: BranchAndP
         solution, best = _verify(form, lower, upper, options)
         if solution is not None:
             return BoxOutcome("solution", lower, upper, depth, 0, solution, best=best)
-    shrink_options = replace(options.shrink, variables=tuple(form.base_indices.tolist()))
-    shrunk = shrink_box(form.system, lower, upper, shrink_options, deadline=deadline_after(options.time_limit_s))
+    shrunk = shrink_box(form.system, lower, upper, replace(options.shrink, variables=tuple(form.base_indices.tolist())),
+                        deadline=deadline_after(options.time_limit_s), rotations=rotation_structure(form))
     if shrunk.empty:
         return BoxOutcome("empty", shrunk.lower, shrunk.upper, depth, shrunk.n_lps, best=best)
     lo, hi = shrunk.lower, shrunk.upper

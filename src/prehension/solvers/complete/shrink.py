@@ -11,7 +11,9 @@ with the stacked rows
     row\_lo = (b, -\infty, -\infty), \qquad row\_hi = (b, h, h_{rel}),
 
 where ``G_rel x <= h_rel`` are the relaxation rows of the Psi equations on ``B``
-(:func:`.relaxations.relaxation_rows`).  For each variable ``x_i`` (widest first) the
+(:func:`.relaxations.relaxation_rows`), with the rows of the link rotations and joint limits
+when ``shrink_box`` is given the system's ``rotations`` (:mod:`.rotation_cuts`; from the
+second pass on also cuts at the previous pass's LP optima).  For each variable ``x_i`` (widest first) the
 programs "minimise / maximise ``x_i`` subject to these rows and ``x in B``" (LP1/LP2 of
 the paper) give new bounds.  A pass solves them all with ONE HiGHS model: only the
 objective (and, as the box shrinks within the pass, the column bounds) change between
@@ -74,7 +76,7 @@ Rounding margins of the relaxation rows are described in :mod:`.relaxations`.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import highspy
 import numpy as np
@@ -84,6 +86,7 @@ from ...deadline import passed
 from ...lp import quiet_highs
 from .contract import contract
 from .relaxations import EPS, TINY, down, relaxation_rows, up
+from .rotation_cuts import RotationStructure
 from ...system.canonical import System
 
 _MIN_ROW_NORM = 1e-200  # rows with a smaller scaled norm are not rescaled (no overflow)
@@ -113,6 +116,12 @@ class ShrinkOptions:
             (resp. ``u_j - x_j <= ...``): that LP could gain at most about this fraction of
             the width.  Negative: never skip.  (Skipping never affects safety.)
         midpoint_tangent: Add the midpoint tangent to each square's triangle.
+        rotation_cuts: With the ``rotations`` of :func:`shrink_box`, add their quaternion-box
+            rows and, from the second pass on, eigenvector cuts at the previous pass's LP
+            optima (:mod:`.rotation_cuts`).
+        limit_cuts: With the ``rotations`` of :func:`shrink_box`, add the ball rows of the
+            joint limits and, from the second pass on, their cuts at the previous pass's LP
+            optima.
     """
 
     rho: float = 0.9
@@ -128,6 +137,8 @@ class ShrinkOptions:
     lp_thin_width: float = 1e-11
     lp_filter_tol: float = 1e-3
     midpoint_tangent: bool = True
+    rotation_cuts: bool = True
+    limit_cuts: bool = True
 
     def __post_init__(self):
         if not 0.0 < self.rho <= 1.0:
@@ -370,12 +381,18 @@ class _Counters:
     n_skipped: int = 0
     unverified: bool = False
     out_of_time: bool = False
+    points: list = field(default_factory=list)  # LP optima of the last pass (eigenvector cuts)
 
 
-def _lp_pass(system: System, lower, upper, options: ShrinkOptions, cnt: _Counters, deadline: float | None = None) -> str:
+def _lp_pass(system: System, lower, upper, options: ShrinkOptions, cnt: _Counters, deadline: float | None = None,
+             rotations: RotationStructure | None = None) -> str:  # fmt: skip
     """One LP pass in place; returns ``""`` or the reason of emptiness.  Stops early (the box
     shrunk so far, which is safe) once ``deadline`` passes (``cnt.out_of_time``)."""
-    g_rel, h_rel = relaxation_rows(system, lower, upper, midpoint_tangent=options.midpoint_tangent)
+    cut_points = np.array(cnt.points) if cnt.points else None
+    cnt.points = []
+    g_rel, h_rel = relaxation_rows(system, lower, upper, midpoint_tangent=options.midpoint_tangent,
+                                   rotations=rotations, cut_points=cut_points, quaternion=options.rotation_cuts,
+                                   limits=options.limit_cuts)
     M = sp.vstack([system.A, system.G, g_rel]).tocsr()
     row_lo = np.concatenate([system.b, np.full(len(system.h) + len(h_rel), -np.inf)])
     row_hi = np.concatenate([system.b, system.h, h_rel])
@@ -396,6 +413,8 @@ def _lp_pass(system: System, lower, upper, options: ShrinkOptions, cnt: _Counter
             kind, value = lp.solve(int(i), sense, lower, upper)
             cnt.n_lps += 1
             if kind == "bound":
+                if lp.point is not None:
+                    cnt.points.append(lp.point)
                 if options.lp_filter_tol >= 0 and lp.point is not None:
                     slack = options.lp_filter_tol * (upper - lower)
                     touched[1.0] |= lp.point - lower <= slack
@@ -418,7 +437,7 @@ def _lp_pass(system: System, lower, upper, options: ShrinkOptions, cnt: _Counter
 
 
 def shrink_box(system: System, lower, upper, options: ShrinkOptions | None = None, *,
-               deadline: float | None = None) -> ShrinkResult:  # fmt: skip
+               deadline: float | None = None, rotations: RotationStructure | None = None) -> ShrinkResult:  # fmt: skip
     """Shrink ``[lower, upper]`` around the solutions of ``system`` (never losing one).
 
     Args:
@@ -427,6 +446,9 @@ def shrink_box(system: System, lower, upper, options: ShrinkOptions | None = Non
         options: :class:`ShrinkOptions` (defaults when ``None``).
         deadline: no LP is started after this :func:`time.perf_counter` instant: the box
             is returned as shrunk so far (still holding every solution).
+        rotations: ``system``'s rotations and joint limits
+            (:func:`.rotation_cuts.rotation_structure`): their cuts join the LPs
+            (``options.rotation_cuts``, ``options.limit_cuts``).
 
     Returns:
         :class:`ShrinkResult`.  See the module docstring for the safety rule.
@@ -456,7 +478,7 @@ def shrink_box(system: System, lower, upper, options: ShrinkOptions | None = Non
             if empty:
                 return result(True, "contraction")
         cnt.n_passes += 1
-        reason = _lp_pass(system, lower, upper, options, cnt, deadline)
+        reason = _lp_pass(system, lower, upper, options, cnt, deadline, rotations)
         if reason:
             return result(True, reason)
         size_after = _box_size(lower, upper, ref, options.size)
