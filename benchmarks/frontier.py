@@ -86,6 +86,7 @@ from prehension.objects.model import GraspObject
 from prehension.results import Status, make_solution
 from prehension.solvers.complete.pair import congruence_test
 from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
+from prehension.solvers.complete.shrink import ShrinkOptions
 from prehension.solvers.local.verifier import LocalVerifier
 from prehension.solvers.local import LocalOptions, solve_local
 from prehension.solvers.local.solver import refine_local
@@ -662,8 +663,13 @@ def made_by(t_star: float, subsets: dict[str, float], contacts: int) -> int:
 
 
 # -- the runs --------------------------------------------------------------------------------
+def _shrink(args) -> ShrinkOptions:
+    """The complete solver's shrink options: the default, or with the rotation cuts."""
+    return ShrinkOptions(rotation_cuts=True, limit_cuts=True) if args.rotation_cuts else ShrinkOptions()
+
+
 def run_family(console: Console, family: Family, frontier: Frontier, limit: float | None, offsets,
-               max_boxes: int | None = None) -> list[dict]:  # fmt: skip
+               max_boxes: int | None = None, shrink: ShrinkOptions = ShrinkOptions()) -> list[dict]:  # fmt: skip
     table = Table(title=f"{family.name}: t* = {frontier.t_mm:.3f} mm ({frontier.starts} starts, "
                         f"{frontier.seconds:.1f} s; configuration at t* {'collides' if frontier.collides else 'collision-free'})")  # fmt: skip
     for col in ("t - t* [mm]", "status", "boxes", "LPs", "time [s]", "closest miss"):
@@ -672,7 +678,8 @@ def run_family(console: Console, family: Family, frontier: Frontier, limit: floa
     for delta in offsets:
         task = family.task_at(frontier.t_mm + delta)
         try:
-            result = solve_complete(task, BranchAndPruneOptions(verifier=LocalVerifier(), time_limit_s=limit, max_boxes=max_boxes))
+            result = solve_complete(task, BranchAndPruneOptions(verifier=LocalVerifier(), time_limit_s=limit, max_boxes=max_boxes,
+                                                                shrink=shrink))
         except PrehensionError as exc:  # e.g. a version of the solver that refuses the task
             table.add_row(f"{delta:+g}", f"error: {exc}", "", "", "", "")
             continue
@@ -793,13 +800,15 @@ def run_random(console: Console, args) -> list[dict]:
             continue
         for delta in args.offsets:
             key = {"seed": args.seed, "index": index, "delta": delta, "time_limit": args.time_limit,
-                   "max_boxes": args.max_boxes, "tag": args.tag}  # fmt: skip
-            if any(r["kind"] == "run" and all(r.get(k) == v for k, v in key.items()) for r in records):
+                   "max_boxes": args.max_boxes, "tag": args.tag, **({"cuts": True} if args.rotation_cuts else {})}  # fmt: skip
+            if any(r["kind"] == "run" and all(r.get(k) == v for k, v in key.items())
+                   and r.get("cuts", False) == args.rotation_cuts for r in records):  # fmt: skip
                 continue
             task = family.task_at(t_star + delta)
             load = os.getloadavg()[0]
             limit = None if args.time_limit == float("inf") else args.time_limit
-            result = solve_complete(task, BranchAndPruneOptions(verifier=LocalVerifier(), time_limit_s=limit, max_boxes=args.max_boxes))
+            result = solve_complete(task, BranchAndPruneOptions(verifier=LocalVerifier(), time_limit_s=limit, max_boxes=args.max_boxes,
+                                                                shrink=_shrink(args)))
             s = result.stats
             best = s.get("best_residual")
             record = {"kind": "run", **key, "name": family.name, "t_star": t_star, "status": str(result.status),
@@ -813,7 +822,7 @@ def run_random(console: Console, args) -> list[dict]:
             console.print(f"{family.name} t*{delta:+g} mm: {result.status}, {s['boxes']} boxes, {s['lps']} LPs, "
                           f"{result.seconds:.1f} s (load {load:.1f}){flag}")  # fmt: skip
     return [r for r in records if r["kind"] == "run" and r["seed"] == args.seed and r.get("tag") == args.tag
-            and (args.indices is None or r["index"] in indices)]  # fmt: skip
+            and r.get("cuts", False) == args.rotation_cuts and (args.indices is None or r["index"] in indices)]  # fmt: skip
 
 
 def distribution(runs: list[dict]) -> Table:
@@ -910,6 +919,8 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="lid, scalpel, sa-pinch at -0.5, +2, +4 mm, 30 s per run")
     parser.add_argument("--max-boxes", type=int, help="box budget per complete run (then no time limit unless "
                         "--time-limit is given): the same search on a loaded machine")
+    parser.add_argument("--rotation-cuts", action="store_true", help="the complete solver with ShrinkOptions(rotation_cuts="
+                        "True, limit_cuts=True) (off by default; docs/complete-solver.md)")
     parser.add_argument("--frontier-only", action="store_true", help="only find t* of each family")
     parser.add_argument("--pair-test", type=int, metavar="BOXES", help="run the pose-free pair test alone with this "
                         "box budget instead of the complete solver (its time is CPU seconds)")
@@ -955,7 +966,7 @@ def main() -> None:
             all_rows += run_pair_tests(console, family, frontier, args.offsets, args.pair_test)
         elif not args.frontier_only:
             limit = None if args.time_limit == float("inf") else args.time_limit
-            all_rows += run_family(console, family, frontier, limit, args.offsets, args.max_boxes)
+            all_rows += run_family(console, family, frontier, limit, args.offsets, args.max_boxes, _shrink(args))
     console.print(summary)
     false = [r for r in all_rows if r["delta"] < 0 and r["status"] in (Status.INFEASIBLE, "proved")]
     console.print(f"false 'infeasible' below t*: {len(false)}")
@@ -977,6 +988,7 @@ def main_random(args) -> None:
     if args.report:
         records = _read_jsonl(args.out)
         runs = [r for r in records if r["kind"] == "run" and r["seed"] == args.seed and r.get("tag") == args.tag
+                and r.get("cuts", False) == args.rotation_cuts  # runs with and without --rotation-cuts kept apart
                 and (args.indices is None or r["index"] in args.indices) and r["index"] < args.random]  # fmt: skip
     else:
         runs = run_random(console, args)

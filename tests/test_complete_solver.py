@@ -77,7 +77,7 @@ def test_shrinking_a_box_around_a_known_solution_keeps_it(sa_hand, seed):
     assert not shrunk.empty and shrunk.n_lps > 0
     assert np.all(shrunk.lower <= x + 1e-9) and np.all(x <= shrunk.upper + 1e-9)
     # with the rotation and limit rows, and a second pass with cuts at the first pass's optima
-    options = ShrinkOptions(variables=base, max_passes=2, size="sum", rho=1.0)
+    options = ShrinkOptions(variables=base, max_passes=2, size="sum", rho=1.0, rotation_cuts=True, limit_cuts=True)
     shrunk = shrink_box(system, lower, upper, options, rotations=rotation_structure(form))
     assert not shrunk.empty and shrunk.n_passes == 2
     assert np.all(shrunk.lower <= x + 1e-9) and np.all(x <= shrunk.upper + 1e-9)

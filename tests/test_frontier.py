@@ -199,7 +199,8 @@ def test_rotation_cuts_keep_a_solution_just_inside_a_three_contact_frontier(fron
     for _ in range(2):
         lower = np.maximum(system.lower, x - rng.uniform(0.0, 0.2, system.n) * width)
         upper = np.minimum(system.upper, x + rng.uniform(0.0, 0.2, system.n) * width)
-        options = ShrinkOptions(variables=tuple(form.base_indices.tolist()), max_passes=2, size="sum", rho=1.0)
+        options = ShrinkOptions(variables=tuple(form.base_indices.tolist()), max_passes=2, size="sum", rho=1.0,
+                                rotation_cuts=True, limit_cuts=True)
         shrunk = shrink_box(system, lower, upper, options, rotations=rotation_structure(form))
         assert not shrunk.empty, shrunk.reason
         slack = 1e-5  # the witness is strict (1e-6 mm), not exact

@@ -12,6 +12,7 @@ from fractions import Fraction
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
+from tiny_tasks import FEASIBLE_UP_TO_MM, pincer_task
 
 from prehension.solvers.complete.rotation_cuts import (
     eigen_cuts,
@@ -23,6 +24,11 @@ from prehension.solvers.complete.rotation_cuts import (
     z_intervals,
     z_matrix,
 )
+from prehension.results import Status
+from prehension.solvers.complete.checkpoint import _options_mapping
+from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
+from prehension.solvers.complete.shrink import ShrinkOptions
+from prehension.solvers.local.verifier import LocalVerifier
 from prehension.system.embedding import embed
 from prehension.system.formulation import build_system
 
@@ -194,3 +200,16 @@ def test_a_tiny_positive_diagonal_bound_does_not_flip_a_division():
     assert np.all(zl[0] <= Z) and np.all(Z <= zh[0])
     ql, qh = quaternion_box(zl, zh)
     assert any(np.all((ql[0] <= s * q) & (s * q <= qh[0])) for s in (1.0, -1.0))
+
+
+@pytest.mark.parametrize("cuts", [True, False])
+def test_the_search_with_and_without_the_cuts_decides_the_pincer_alike(cuts):
+    """Off by default (ShrinkOptions); on, the search still solves the pincer within reach
+    and proves it infeasible just past reach, and a checkpoint tells the two searches apart."""
+    options = BranchAndPruneOptions(verifier=LocalVerifier(), time_limit_s=120,
+                                    shrink=ShrinkOptions(rotation_cuts=cuts, limit_cuts=cuts))
+    assert solve_complete(pincer_task(FEASIBLE_UP_TO_MM - 1.0), options).status == Status.SOLVED
+    assert solve_complete(pincer_task(FEASIBLE_UP_TO_MM + 1.0), options).status == Status.INFEASIBLE
+    mapping = _options_mapping(options)
+    assert ("shrink.rotation_cuts" in mapping) == cuts  # off: the fingerprint of the search before the cuts
+    assert ShrinkOptions().rotation_cuts is False and ShrinkOptions().limit_cuts is False

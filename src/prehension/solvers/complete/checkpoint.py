@@ -264,10 +264,10 @@ def options_record(options) -> dict:
     return {("refine" if k == "verifier" else k): (refine if k == "verifier" else v) for k, v in record.items()}
 
 
-#: Shrink options added after checkpoints existed; on by default, left out of the
-#: fingerprint while on, so a checkpoint written before them resumes (the cuts only add
-#: valid rows: the open boxes still hold every solution).
-_NEW_ON_BY_DEFAULT = ("shrink.rotation_cuts", "shrink.limit_cuts")
+#: Shrink options added after checkpoints existed; off by default and left out of the
+#: fingerprint while off (the search before them), so a checkpoint written before them
+#: resumes.  Turned on, they are part of it: a different search.
+_ADDED_LATER_OFF = ("shrink.rotation_cuts", "shrink.limit_cuts")
 
 
 def _options_mapping(options) -> dict:
@@ -286,8 +286,8 @@ def _options_mapping(options) -> dict:
         values.pop("require", None)
         values.pop("quality", None)
     walk("", values)
-    for key in _NEW_ON_BY_DEFAULT:  # cuts added later (sound either way): at their default, the old fingerprint
-        if flat.get(key) is True:
+    for key in _ADDED_LATER_OFF:  # cuts added later: at their default (off), the old fingerprint
+        if flat.get(key) is False:
             del flat[key]
     return flat
 

@@ -52,8 +52,7 @@ from .self_collision import self_collision_prune
 from .witnesses import makeable_pairs
 from .pair import congruence_test
 from .contract import contract
-from .rotation_cuts import rotation_structure
-from .shrink import ShrinkOptions, shrink_box
+from .shrink import ShrinkOptions, cut_rotations, shrink_box
 from .verifier import BoxVerifier
 
 __all__ = ["ALL_SOLUTIONS_MAX_BOXES", "PAIR_TEST_LATE", "BranchAndPruneOptions", "solve_complete", "process_box", "BoxOutcome"]
@@ -251,7 +250,7 @@ def process_box(form: Formulation, lower, upper, depth: int, options: BranchAndP
         if solution is not None:
             return BoxOutcome("solution", lower, upper, depth, 0, solution, best=best)
     shrunk = shrink_box(form.system, lower, upper, replace(options.shrink, variables=tuple(form.base_indices.tolist())),
-                        deadline=deadline_after(options.time_limit_s), rotations=rotation_structure(form))
+                        deadline=deadline_after(options.time_limit_s), rotations=cut_rotations(form, options.shrink))
     if shrunk.empty:
         return BoxOutcome("empty", shrunk.lower, shrunk.upper, depth, shrunk.n_lps, best=best)
     lo, hi = shrunk.lower, shrunk.upper
