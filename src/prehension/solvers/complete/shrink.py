@@ -127,7 +127,7 @@ class ShrinkOptions:
         boxes past a 3-4-contact frontier that the LPs without them only narrow), but a box
         they do not empty costs 2-3x the CPU, and on the measured workloads the search
         decided no more with them (docs/complete-solver.md, "Rotation cuts": the random
-        frontier families, the assignment search's 0.5 s proofs: 39 against 42).
+        frontier families, the assignment search's 0.5 s proofs).
     """
 
     rho: float = 0.9
@@ -419,7 +419,7 @@ def _lp_pass(system: System, lower, upper, options: ShrinkOptions, cnt: _Counter
             kind, value = lp.solve(int(i), sense, lower, upper)
             cnt.n_lps += 1
             if kind == "bound":
-                if lp.point is not None:
+                if lp.point is not None and rotations is not None:  # kept only where the cuts use them
                     cnt.points.append(lp.point)
                 if options.lp_filter_tol >= 0 and lp.point is not None:
                     slack = options.lp_filter_tol * (upper - lower)
