@@ -61,3 +61,27 @@ def test_the_interrupted_sync_noise_and_only_it_is_dropped():
     assert noise.filter(record_of("/x/site-packages/distributed/utils.py", "other", NameError))
     assert noise.filter(record_of("/x/mycode.py", "cancel", NameError))
     assert noise.filter(logging.LogRecord("tornado.application", logging.ERROR, "f", 1, "no exception", None, None))
+
+
+def test_after_an_interrupt_tornados_callback_errors_are_dropped_for_a_while(monkeypatch):
+    """An interrupt through a local cluster's client starts a bounded quiet period on
+    tornado's application logger (late callback tracebacks of the closing cluster); before
+    and after it, records pass."""
+    import logging
+
+    from prehension import parallel
+
+    quiet = parallel._QuietAfterInterrupt()
+    record = logging.LogRecord("tornado.application", logging.ERROR, "f", 1, "callback", None, None)
+    assert quiet.filter(record)  # no interrupt yet
+    clock = [100.0]
+    monkeypatch.setattr(parallel.time, "monotonic", lambda: clock[0])
+    monkeypatch.setattr(parallel, "_QUIET_AFTER_INTERRUPT", quiet)
+    logger = logging.getLogger("tornado.application")
+    try:
+        parallel._quiet_interrupted_shutdown()
+        assert quiet in logger.filters and not quiet.filter(record)
+        clock[0] += parallel.INTERRUPTED_SHUTDOWN_S
+        assert quiet.filter(record)  # the quiet period is over
+    finally:
+        logger.removeFilter(quiet)
