@@ -41,13 +41,12 @@ from typing import NamedTuple
 import numpy as np
 from scipy.optimize import linprog
 
-from ..hands.kinematics import forward_kinematics, point_jacobian
 from ..quality.options import QualityOptions
 from ..quality.solid import object_reference
 from ..quality.wrenches import primitive_wrenches
 from ..tasks.model import Task
 from .options import PUSH_DIRECTIONS, SimOptions
-from .squeeze import squeeze_step
+from .squeeze import contact_jacobian, inward_normals, squeeze_step
 
 __all__ = ["PushMargin", "push_margin", "squeeze_normal_forces", "squeeze_forces"]
 
@@ -67,7 +66,7 @@ class PushMargin(NamedTuple):
 
 def squeeze_normal_forces(task: Task, solution, options: SimOptions = SimOptions()) -> np.ndarray:
     """The normal forces ``(C,)`` [N] the squeeze's actuators press each contact with (module docstring, 1)."""
-    inward = -np.array([np.asarray(c.object_normal, float) for c in solution.contacts])
+    inward = inward_normals(solution.contacts)
     return np.maximum(np.einsum("cd,cd->c", squeeze_forces(task, solution, options), inward), 0.0)
 
 
@@ -76,15 +75,10 @@ def squeeze_forces(task: Task, solution, options: SimOptions = SimOptions()) -> 
     q = np.asarray(solution.q, dtype=float)
     q_squeeze = squeeze_step(task, q, solution.contacts, options.squeeze_mm, options.squeeze, options.friction)[0]
     tau = options.kp * (q_squeeze - q)  # [N m]
-    hand, pose = task.hand, forward_kinematics(task.hand, q)
-    rows = []
-    for contact, state in zip(task.contacts, solution.contacts):
-        link = hand.link_index(hand.region(contact.hand_region).link)
-        rows.append(point_jacobian(hand, pose, link, np.asarray(state.hand_point, float)[None])[0] * MM)  # (3, n) [m/rad]
-    J = np.concatenate(rows)  # (3C, n_dof)
+    J = contact_jacobian(task, q, solution.contacts) * MM  # (3C, n_dof) [m/rad]
     moving = np.asarray(task.active_mask, bool)
     if not moving.any():
-        return np.zeros((len(rows), 3))
+        return np.zeros((len(solution.contacts), 3))
     return np.linalg.lstsq(J[:, moving].T, tau[moving], rcond=None)[0].reshape(-1, 3)  # on the object [N]
 
 
@@ -95,7 +89,7 @@ def push_margin(task: Task, solution, options: SimOptions = SimOptions()) -> Pus
     centre, rho = object_reference(task.object)  # the centroid: the centre of mass the test pushes
     com = T[:3, :3] @ centre + T[:3, 3]
     points = np.array([np.asarray(c.object_point, float) for c in solution.contacts])
-    inward = -np.array([np.asarray(c.object_normal, float) for c in solution.contacts])
+    inward = inward_normals(solution.contacts)
     model = QualityOptions(friction=options.friction, torsion_mm=options.torsion_mm)
     W = primitive_wrenches(points, inward, com, rho, model)  # (C, G, 6)
     C, G = W.shape[:2]

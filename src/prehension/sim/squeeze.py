@@ -107,9 +107,8 @@ def squeeze_step(task: Task, q, contacts, squeeze_mm: float, kind: str = "forces
     q = np.asarray(q, dtype=float)
     if kind == "forces":
         J, _, free, _ = _problem(task, q, contacts, squeeze_mm, None)  # (3C, n_dof) [mm/rad], couplings folded
-        points = np.array([np.asarray(c.hand_point, float) for c in contacts])
-        inward = -np.array([np.asarray(c.object_normal, float) for c in contacts])
-        forces = balanced_normal_forces(points, inward, friction).forces  # (C, 3)
+        inward = inward_normals(contacts)
+        forces = _balanced(contacts, friction).forces  # (C, 3)
         weight = np.ones(task.hand.n_dof)
         for c in task.hand.couplings:
             weight[task.hand.dof_index(c.source)] += c.ratio**2
@@ -132,24 +131,38 @@ def squeeze_depths(contacts, squeeze_mm: float, kind: str = "balanced", friction
     C = len(contacts)
     if kind == "uniform" or C == 0:
         return np.full(C, float(squeeze_mm))
-    points = np.array([np.asarray(c.hand_point, float) for c in contacts])
-    inward = -np.array([np.asarray(c.object_normal, float) for c in contacts])
-    normal = balanced_normal_forces(points, inward, friction).normal
+    normal = _balanced(contacts, friction).normal
     return squeeze_mm * normal / normal.max()
+
+
+def inward_normals(contacts) -> np.ndarray:
+    """The contacts' inward normals ``(C, 3)`` (into the object)."""
+    return -np.array([np.asarray(c.object_normal, float) for c in contacts])
+
+
+def _balanced(contacts, friction: float) -> BalancedForces:
+    """:func:`balanced_normal_forces` at the contacts' points and inward normals."""
+    return balanced_normal_forces(np.array([np.asarray(c.hand_point, float) for c in contacts]), inward_normals(contacts), friction)
+
+
+def contact_jacobian(task: Task, q: np.ndarray, contacts) -> np.ndarray:
+    """The contacts' hand-point Jacobians stacked, ``(3C, n_dof)`` [mm/rad] (no coupling folded)."""
+    hand = task.hand
+    pose = forward_kinematics(hand, q)
+    rows = []
+    for contact, state in zip(task.contacts, contacts):
+        link = hand.link_index(hand.region(contact.hand_region).link)
+        rows.append(point_jacobian(hand, pose, link, np.asarray(state.hand_point, float)[None])[0])  # (3, n_dof)
+    return np.concatenate(rows)
 
 
 def _problem(task: Task, q: np.ndarray, contacts, squeeze_mm: float, depths_mm):
     """``(J (3C, n_dof) [mm/rad], target (3C,) [mm], free (n_dof,) bool, (lo, hi) of dq[free])``
     of :func:`squeeze_targets`: coupled dofs folded into their sources."""
     hand = task.hand
-    pose = forward_kinematics(hand, q)
     depths = np.full(len(task.contacts), float(squeeze_mm)) if depths_mm is None else np.asarray(depths_mm, float)
-    rows, target = [], []
-    for contact, state, depth in zip(task.contacts, contacts, depths):
-        link = hand.link_index(hand.region(contact.hand_region).link)
-        rows.append(point_jacobian(hand, pose, link, np.asarray(state.hand_point)[None])[0])  # (3, n_dof) [mm/rad]
-        target.append(-depth * np.asarray(state.object_normal, float))
-    J = np.concatenate(rows)  # (3C, n_dof)
+    J = contact_jacobian(task, q, contacts)  # (3C, n_dof)
+    target = [-depth * np.asarray(state.object_normal, float) for state, depth in zip(contacts, depths)]
     free = task.active_mask.copy()
     for c in hand.couplings:  # a coupled dof moves with its source
         i, s = hand.dof_index(c.dof), hand.dof_index(c.source)
