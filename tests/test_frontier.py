@@ -267,3 +267,15 @@ def test_a_palm_moved_four_contact_frontier_is_made_by_all_four_contacts(frontie
     assert set(subsets) == {"0,3", "1,3", "2,3", "0,1,3", "0,2,3", "1,2,3"}
     assert min(subsets.values()) > t_star + 1.0
     assert frontier_module.made_by(t_star, subsets, 4) == 4
+
+
+def test_shrink_fields_of_the_command_line(frontier_module):
+    """``--shrink FIELD=VALUE``: typed like the field's default; a clear error (no traceback)
+    for an unknown field, a value of the wrong type or one ShrinkOptions refuses."""
+    fields = frontier_module.shrink_fields(["stop_after=10", "lp_order=narrowest", "feasibility_first=true",
+                                            "stop_gain=0.02"])  # fmt: skip
+    assert fields == {"stop_after": 10, "lp_order": "narrowest", "feasibility_first": True, "stop_gain": 0.02}
+    for bad, says in ((["speed=1"], "not FIELD=VALUE"), (["stop_after"], "not FIELD=VALUE"),
+                      (["stop_after=many"], "not a valid int"), (["lp_order=random"], "lp_order must be")):  # fmt: skip
+        with pytest.raises(SystemExit, match=says):
+            frontier_module.shrink_fields(bad)

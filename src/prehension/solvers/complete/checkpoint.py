@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 from collections import deque
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field, fields, is_dataclass
@@ -77,6 +78,13 @@ class SearchState:
     self_collision_pruned: int = 0  # boxes pruned because every solution in them collides with the hand itself
     closure_pruned: int = 0  # boxes pruned because no configuration in them is force closure (require)
     resumed: dict | None = None  # where a resumed search came from: {"checkpoint", "boxes", "lps"} (see the module docstring)
+
+    def open_share(self) -> float:
+        """The share of the search tree still open: ``sum 2^-depth`` over the open boxes (a
+        split halves its box's share; the initial box is 1).  A stopped search's progress:
+        the rest was pruned, solved or kept as small boxes.  Depth first, the share closed
+        first lies below the first splits: a rough rate, not an estimate of the time left."""
+        return float(math.fsum(2.0 ** -depth for _, _, depth in self.open))
 
     def to_json(self) -> dict:
         return {
