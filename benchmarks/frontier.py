@@ -851,7 +851,7 @@ def run_random(console: Console, args) -> list[dict]:
             records.append(record)
             _append(args.out, record)
             flag = "  [red]FALSE INFEASIBLE[/red]" if delta < 0 and result.status == Status.INFEASIBLE else ""
-            left = f", {s['open_share']:.3g} of the tree open" if s.get("open_share") else ""
+            left = f", {s['open_share']:.3g} of the tree open" if result.status == Status.GAVE_UP else ""
             console.print(f"{family.name} t*{delta:+g} mm: {result.status}, {s['boxes']} boxes, {s['lps']} LPs{left}, "
                           f"{result.seconds:.1f} s (load {load:.1f}){flag}")  # fmt: skip
     return [r for r in records if r["kind"] == "run" and r["seed"] == args.seed and r.get("tag") == args.tag

@@ -305,7 +305,10 @@ def test_lp_exception_means_no_reduction(monkeypatch):
     assert np.array_equal(res.lower, system.lower)
 
 
-def test_unverified_infeasibility_is_not_empty(monkeypatch):
+@pytest.mark.parametrize("feasibility_first", [False, True])
+def test_unverified_infeasibility_is_not_empty(monkeypatch, feasibility_first):
+    """HiGHS saying "infeasible" with a ray that proves nothing: no reduction, not empty, and
+    the pass stops there (with ``feasibility_first``, at its feasibility LP)."""
     class LyingHighs(highspy.Highs):
         def getModelStatus(self):
             return highspy.HighsModelStatus.kInfeasible
@@ -315,24 +318,7 @@ def test_unverified_infeasibility_is_not_empty(monkeypatch):
 
     monkeypatch.setattr(shrink_mod.highspy, "Highs", LyingHighs)
     system = circle_line()
-    res = shrink_box(system, system.lower, system.upper, ShrinkOptions(contract=False))
-    assert not res.empty and res.unverified_infeasible
-    assert np.array_equal(res.lower, system.lower) and np.array_equal(res.upper, system.upper)
-
-
-def test_unverified_infeasibility_of_the_feasibility_lp_is_not_empty(monkeypatch):
-    """HiGHS saying "infeasible" to the feasibility LP with a ray that proves nothing: no
-    reduction, not empty, no bound LP after it."""
-    class LyingHighs(highspy.Highs):
-        def getModelStatus(self):
-            return highspy.HighsModelStatus.kInfeasible
-
-        def getDualRay(self):
-            return highspy.HighsStatus.kOk, True, np.ones(self.getNumRow())
-
-    monkeypatch.setattr(shrink_mod.highspy, "Highs", LyingHighs)
-    system = circle_line()
-    res = shrink_box(system, system.lower, system.upper, ShrinkOptions(contract=False, feasibility_first=True))
+    res = shrink_box(system, system.lower, system.upper, ShrinkOptions(contract=False, feasibility_first=feasibility_first))
     assert not res.empty and res.unverified_infeasible and res.n_lps == 1
     assert np.array_equal(res.lower, system.lower) and np.array_equal(res.upper, system.upper)
 
