@@ -408,7 +408,6 @@ class _Counters:
     n_skipped: int = 0
     unverified: bool = False
     out_of_time: bool = False
-    stopped: bool = False  # a pass stopped by ``stop_after``
     points: list = field(default_factory=list)  # LP optima of the last pass (eigenvector cuts)
 
 
@@ -417,7 +416,7 @@ def _lp_pass(system: System, lower, upper, options: ShrinkOptions, cnt: _Counter
     """One LP pass in place; returns ``""`` or the reason of emptiness.  Stops early (the box
     shrunk so far, which is safe) once ``deadline`` passes (``cnt.out_of_time``), and, with
     ``options.stop_after``, once that many LPs in a row narrowed their variable by less than
-    ``options.stop_gain`` of its width (``cnt.stopped``)."""
+    ``options.stop_gain`` of its width (the next pass, if any, starts again)."""
     cut_points = np.array(cnt.points) if cnt.points else None
     cnt.points = []
     g_rel, h_rel = relaxation_rows(system, lower, upper, midpoint_tangent=options.midpoint_tangent,
@@ -444,7 +443,6 @@ def _lp_pass(system: System, lower, upper, options: ShrinkOptions, cnt: _Counter
                 cnt.n_skipped += 1
                 continue
             if options.stop_after and dull >= options.stop_after:
-                cnt.stopped = True
                 return ""
             width = upper[i] - lower[i]
             kind, value = lp.solve(int(i), sense, lower, upper)
