@@ -53,6 +53,12 @@ by the pose-free pair test; the report counts the certified runs of both kinds.
     python benchmarks/frontier.py --random 20 --seed 1 --out s1.jsonl --families 0,1 --offsets 1 2 --time-limit 60
     python benchmarks/frontier.py --random 20 --seed 1 --out s1.jsonl --report        # the distribution so far
     python benchmarks/frontier.py --random 20 --seed 1 --out s1.jsonl --anatomy --frontier-only   # sub-task frontiers
+    python benchmarks/frontier.py --random 20 --seed 1 --out s1.jsonl --families 0 --offsets 1 --time-limit 60 \
+        --shrink feasibility_first=true lp_order=narrowest stop_after=10 --tag cheap     # other ShrinkOptions
+
+Each run also records the share of the search tree still open when it stopped
+(``stats["open_share"]``, ``sum 2^-depth`` over the open boxes; 0 once decided): the
+progress of an undecided run, to compare solver variants in minutes rather than hours.
 
 One process, BLAS and numba pinned to one thread (the targets of issue 15 are on one core).
 At the end a Markdown table of every run is printed (for benchmarks/README.md).
@@ -664,8 +670,32 @@ def made_by(t_star: float, subsets: dict[str, float], contacts: int) -> int:
 
 # -- the runs --------------------------------------------------------------------------------
 def _shrink(args) -> ShrinkOptions:
-    """The complete solver's shrink options: the default, or with the rotation cuts."""
-    return ShrinkOptions(rotation_cuts=True, limit_cuts=True) if args.rotation_cuts else ShrinkOptions()
+    """The complete solver's shrink options: the default, with the rotation cuts, and with
+    the fields of ``--shrink`` (``KEY=VALUE``)."""
+    fields = {"rotation_cuts": True, "limit_cuts": True} if args.rotation_cuts else {}
+    return ShrinkOptions(**{**fields, **shrink_fields(getattr(args, "shrink", None) or [])})
+
+
+def shrink_fields(pairs: list[str]) -> dict:
+    """``["stop_after=10", "lp_order=narrowest", "feasibility_first=true"]`` as ShrinkOptions
+    fields, each typed like its default (a clear error for an unknown field or value)."""
+    defaults = ShrinkOptions()
+    fields = {}
+    for pair in pairs:
+        key, sep, text = pair.partition("=")
+        if not sep or not hasattr(defaults, key) or key == "variables":
+            raise SystemExit(f"--shrink: {pair!r} is not FIELD=VALUE with a field of ShrinkOptions "
+                             f"(e.g. stop_after=10, lp_order=narrowest, feasibility_first=true)")
+        kind = type(getattr(defaults, key))
+        try:
+            fields[key] = text.lower() in ("1", "true", "yes", "on") if kind is bool else kind(text)
+        except ValueError:
+            raise SystemExit(f"--shrink: {key}={text!r} is not a valid {kind.__name__} (the type of its default)") from None
+    try:
+        ShrinkOptions(**fields)
+    except ValueError as exc:
+        raise SystemExit(f"--shrink: {exc}") from None
+    return fields
 
 
 def run_family(console: Console, family: Family, frontier: Frontier, limit: float | None, offsets,
@@ -800,7 +830,8 @@ def run_random(console: Console, args) -> list[dict]:
             continue
         for delta in args.offsets:
             key = {"seed": args.seed, "index": index, "delta": delta, "time_limit": args.time_limit,
-                   "max_boxes": args.max_boxes, "tag": args.tag, **({"cuts": True} if args.rotation_cuts else {})}  # fmt: skip
+                   "max_boxes": args.max_boxes, "tag": args.tag, **({"cuts": True} if args.rotation_cuts else {}),
+                   **({"shrink": shrink_fields(args.shrink)} if args.shrink else {})}  # fmt: skip
             if any(r["kind"] == "run" and all(r.get(k) == v for k, v in key.items())
                    and r.get("cuts", False) == args.rotation_cuts for r in records):  # fmt: skip
                 continue
@@ -813,13 +844,15 @@ def run_random(console: Console, args) -> list[dict]:
             best = s.get("best_residual")
             record = {"kind": "run", **key, "name": family.name, "t_star": t_star, "status": str(result.status),
                       "boxes": s["boxes"], "lps": s["lps"], "seconds": result.seconds, "load": load,
+                      "open_share": s.get("open_share"),
                       "pair_test": s.get("pair_test"), "self_collision_pruned": s.get("self_collision_pruned", 0),
                       "miss": None if best is None else [best["contact_mm"], best["normal_deg"]],
                       "message": result.message, "commit": args.commit}  # fmt: skip
             records.append(record)
             _append(args.out, record)
             flag = "  [red]FALSE INFEASIBLE[/red]" if delta < 0 and result.status == Status.INFEASIBLE else ""
-            console.print(f"{family.name} t*{delta:+g} mm: {result.status}, {s['boxes']} boxes, {s['lps']} LPs, "
+            left = f", {s['open_share']:.3g} of the tree open" if result.status == Status.GAVE_UP else ""
+            console.print(f"{family.name} t*{delta:+g} mm: {result.status}, {s['boxes']} boxes, {s['lps']} LPs{left}, "
                           f"{result.seconds:.1f} s (load {load:.1f}){flag}")  # fmt: skip
     return [r for r in records if r["kind"] == "run" and r["seed"] == args.seed and r.get("tag") == args.tag
             and r.get("cuts", False) == args.rotation_cuts and (args.indices is None or r["index"] in indices)]  # fmt: skip
@@ -921,6 +954,9 @@ def main() -> None:
                         "--time-limit is given): the same search on a loaded machine")
     parser.add_argument("--rotation-cuts", action="store_true", help="the complete solver with ShrinkOptions(rotation_cuts="
                         "True, limit_cuts=True) (off by default; docs/complete-solver.md)")
+    parser.add_argument("--shrink", nargs="*", metavar="FIELD=VALUE", help="ShrinkOptions fields of the complete "
+                        "solver (e.g. feasibility_first=true lp_order=narrowest stop_after=10); runs of the JSONL "
+                        "keep them (give them a --tag of their own to sum them apart)")
     parser.add_argument("--frontier-only", action="store_true", help="only find t* of each family")
     parser.add_argument("--pair-test", type=int, metavar="BOXES", help="run the pose-free pair test alone with this "
                         "box budget instead of the complete solver (its time is CPU seconds)")

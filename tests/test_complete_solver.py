@@ -90,9 +90,12 @@ def test_time_limit_gives_up_and_checkpoint_resumes(tmp_path):
     assert first.status == Status.GAVE_UP and "box limit" in first.message and str(ckpt) in first.message
     saved = json.loads(ckpt.read_text())
     assert saved["open"] and saved["boxes"] == 3
+    # the open share: sum 2^-depth over the open boxes, at most 1, the same after a resume
+    assert 0.0 < first.stats["open_share"] <= 1.0
+    assert first.stats["open_share"] == sum(2.0 ** -box["depth"] for box in saved["open"])
     assert saved["search"]["task"] and saved["search"]["options"]  # bound to its task and options
     resumed = solve_complete(task, replace(FAST, pair_test_boxes=0), checkpoint=ckpt, resume=True)
-    assert resumed.status == Status.INFEASIBLE
+    assert resumed.status == Status.INFEASIBLE and resumed.stats["open_share"] == 0.0
     assert resumed.stats["boxes"] > 3  # counted from where the first run stopped
 
 

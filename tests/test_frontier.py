@@ -20,9 +20,8 @@ import pytest
 
 from prehension.results import Status, make_solution
 from prehension.solvers.complete.pair import congruence_test
-from prehension.solvers.complete.rotation_cuts import rotation_structure
 from prehension.solvers.complete.search import BranchAndPruneOptions, solve_complete
-from prehension.solvers.complete.shrink import ShrinkOptions, shrink_box
+from prehension.solvers.complete.shrink import ShrinkOptions, cut_rotations, shrink_box
 from prehension.system.embedding import embed
 from prehension.system.formulation import build_system
 from prehension.verification.residuals import Tolerances
@@ -185,7 +184,8 @@ def test_rotation_cuts_keep_a_solution_just_inside_a_three_contact_frontier(fron
     """teapot-service (s1-4) and guitar-playing (s2-1), whose frontier three contacts make:
     boxes of seeded random widths around the strict solution at ``t* - 0.01 mm``, shrunk
     with the rotation and joint-limit cuts (two passes: cuts at the first pass's LP optima),
-    keep it."""
+    keep it; so do the cheaper passes (a feasibility LP first, narrowest first, stopped after
+    dull LPs) and the passes repeated on the summed width."""
     found = frontier_module.draw_family(seed, index, seeds=1)
     family, t = found.family, found.frontier.t_mm - 0.01
     witness = frontier_module.solution_at(family, found.frontier.configuration, found.frontier.t_mm, t)
@@ -199,12 +199,15 @@ def test_rotation_cuts_keep_a_solution_just_inside_a_three_contact_frontier(fron
     for _ in range(2):
         lower = np.maximum(system.lower, x - rng.uniform(0.0, 0.2, system.n) * width)
         upper = np.minimum(system.upper, x + rng.uniform(0.0, 0.2, system.n) * width)
-        options = ShrinkOptions(variables=tuple(form.base_indices.tolist()), max_passes=2, size="sum", rho=1.0,
-                                rotation_cuts=True, limit_cuts=True)
-        shrunk = shrink_box(system, lower, upper, options, rotations=rotation_structure(form))
-        assert not shrunk.empty, shrunk.reason
-        slack = 1e-5  # the witness is strict (1e-6 mm), not exact
-        assert np.all(shrunk.lower <= x + slack) and np.all(x <= shrunk.upper + slack)
+        base = tuple(form.base_indices.tolist())
+        for options in (ShrinkOptions(variables=base, max_passes=2, size="sum", rho=1.0, rotation_cuts=True,
+                                      limit_cuts=True),
+                        ShrinkOptions(variables=base, max_passes=3, size="sum", rho=0.99, feasibility_first=True,
+                                      lp_order="narrowest", stop_after=5)):  # fmt: skip
+            shrunk = shrink_box(system, lower, upper, options, rotations=cut_rotations(form, options))
+            assert not shrunk.empty, shrunk.reason
+            slack = 1e-5  # the witness is strict (1e-6 mm), not exact
+            assert np.all(shrunk.lower <= x + slack) and np.all(x <= shrunk.upper + slack)
 
 
 @pytest.mark.slow  # a draw and a 40,000-box pair test (~10-25 s each)
@@ -267,3 +270,15 @@ def test_a_palm_moved_four_contact_frontier_is_made_by_all_four_contacts(frontie
     assert set(subsets) == {"0,3", "1,3", "2,3", "0,1,3", "0,2,3", "1,2,3"}
     assert min(subsets.values()) > t_star + 1.0
     assert frontier_module.made_by(t_star, subsets, 4) == 4
+
+
+def test_shrink_fields_of_the_command_line(frontier_module):
+    """``--shrink FIELD=VALUE``: typed like the field's default; a clear error (no traceback)
+    for an unknown field, a value of the wrong type or one ShrinkOptions refuses."""
+    fields = frontier_module.shrink_fields(["stop_after=10", "lp_order=narrowest", "feasibility_first=true",
+                                            "stop_gain=0.02"])  # fmt: skip
+    assert fields == {"stop_after": 10, "lp_order": "narrowest", "feasibility_first": True, "stop_gain": 0.02}
+    for bad, says in ((["speed=1"], "not FIELD=VALUE"), (["stop_after"], "not FIELD=VALUE"),
+                      (["stop_after=many"], "not a valid int"), (["lp_order=random"], "lp_order must be")):  # fmt: skip
+        with pytest.raises(SystemExit, match=says):
+            frontier_module.shrink_fields(bad)

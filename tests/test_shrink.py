@@ -125,6 +125,26 @@ def test_contraction_and_shrinking_keep_the_solution(seed):
         assert not res.empty and inside(res.lower, res.upper, x_star)
 
 
+#: the cheaper passes: a feasibility LP first, narrowest first, passes stopped early
+CHEAP = (ShrinkOptions(max_passes=4, feasibility_first=True),
+         ShrinkOptions(max_passes=4, lp_order="narrowest", stop_after=1, stop_gain=0.5),
+         ShrinkOptions(max_passes=3, feasibility_first=True, lp_order="narrowest", stop_after=2),
+         ShrinkOptions(max_passes=2, contract=False, feasibility_first=True, stop_after=1, stop_gain=1.0))
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_cheaper_passes_keep_the_solution(seed):
+    """A pass that starts with a feasibility LP, bounds the narrowest first or stops early
+    never loses a solution (and never widens the box)."""
+    rng = np.random.default_rng(5000 + seed)
+    system, x_star = random_system(rng)
+    for options in CHEAP:
+        lower, upper = random_box_around(rng, system, x_star)
+        res = shrink_box(system, lower, upper, options)
+        assert not res.empty and inside(res.lower, res.upper, x_star), (seed, options, res.reason)
+        assert np.all(res.lower >= lower) and np.all(res.upper <= upper)
+
+
 @pytest.mark.parametrize("seed", range(5))
 def test_solution_on_the_box_boundary_survives_repeated_shrinking(seed):
     rng = np.random.default_rng(2000 + seed)
@@ -184,9 +204,42 @@ def test_rho_and_max_passes_limit_the_work():
     assert subset.lower[0] > 0.4
 
 
+def test_a_pass_stops_after_dull_lps():
+    """``stop_after``: a pass ends once that many LPs in a row narrowed less than
+    ``stop_gain`` of their variable's width (a gain of 1 is never reached: every LP is dull)."""
+    system = circle_line()
+    full = shrink_box(system, system.lower, system.upper, ShrinkOptions(max_passes=1, contract=False))
+    for k in (1, 3):
+        short = shrink_box(system, system.lower, system.upper,
+                           ShrinkOptions(max_passes=1, contract=False, stop_after=k, stop_gain=1.0))
+        assert short.n_lps == k < full.n_lps
+        assert np.all(short.upper - short.lower >= full.upper - full.lower)
+    keen = shrink_box(system, system.lower, system.upper, ShrinkOptions(max_passes=1, contract=False, stop_after=1,
+                                                                        stop_gain=0.0))  # fmt: skip
+    assert keen.n_lps == full.n_lps  # no LP narrows by less than nothing
+
+
+def test_narrowest_first_order():
+    system = circle_line()
+    lower, upper = system.lower.copy(), system.upper.copy()
+    upper[3] = 0.6  # Y the narrowest, then x, y, X in index order (stable)
+    thin = np.zeros(4, dtype=bool)
+    options = ShrinkOptions(lp_order="narrowest")
+    assert shrink_mod._pass_order(system, lower, upper, options, thin).tolist() == [3, 0, 1, 2]
+    thin[0] = True
+    assert shrink_mod._pass_order(system, lower, upper, options, thin).tolist() == [3, 1, 2]
+
+
 # ----------------------------------------------------------------------------------
 # Emptiness
 # ----------------------------------------------------------------------------------
+def test_feasibility_lp_proves_emptiness_alone():
+    """The feasibility LP empties a box with a verified Farkas certificate, at one LP."""
+    system = make_system(["x", "y"], [0, 0], [1, 1], A=[[1, 1], [1, 1]], b=[0.5, 0.75])
+    res = shrink_box(system, system.lower, system.upper, ShrinkOptions(contract=False, feasibility_first=True))
+    assert res.empty and res.reason == "farkas" and res.n_lps == 1
+
+
 def test_square_with_negative_box_is_empty():
     system = make_system(["x", "y"], [-1, -2], [1, -1], squares=[(1, 0)])
     assert contract(system, system.lower, system.upper).empty
@@ -252,7 +305,10 @@ def test_lp_exception_means_no_reduction(monkeypatch):
     assert np.array_equal(res.lower, system.lower)
 
 
-def test_unverified_infeasibility_is_not_empty(monkeypatch):
+@pytest.mark.parametrize("feasibility_first", [False, True])
+def test_unverified_infeasibility_is_not_empty(monkeypatch, feasibility_first):
+    """HiGHS saying "infeasible" with a ray that proves nothing: no reduction, not empty, and
+    the pass stops there (with ``feasibility_first``, at its feasibility LP)."""
     class LyingHighs(highspy.Highs):
         def getModelStatus(self):
             return highspy.HighsModelStatus.kInfeasible
@@ -262,8 +318,8 @@ def test_unverified_infeasibility_is_not_empty(monkeypatch):
 
     monkeypatch.setattr(shrink_mod.highspy, "Highs", LyingHighs)
     system = circle_line()
-    res = shrink_box(system, system.lower, system.upper, ShrinkOptions(contract=False))
-    assert not res.empty and res.unverified_infeasible
+    res = shrink_box(system, system.lower, system.upper, ShrinkOptions(contract=False, feasibility_first=feasibility_first))
+    assert not res.empty and res.unverified_infeasible and res.n_lps == 1
     assert np.array_equal(res.lower, system.lower) and np.array_equal(res.upper, system.upper)
 
 
@@ -458,8 +514,27 @@ def test_options_are_validated():
         ShrinkOptions(size="volume")
     with pytest.raises(ValueError):
         ShrinkOptions(lp_time_limit=0)
+    with pytest.raises(ValueError):
+        ShrinkOptions(lp_order="random")
+    with pytest.raises(ValueError):
+        ShrinkOptions(stop_after=-1)
     system = circle_line()
     with pytest.raises(ValueError):
         shrink_box(system, np.zeros(3), np.ones(3))
     res = shrink_box(system, system.lower, system.upper, ShrinkOptions(size="sum", rho=0.99, max_passes=50))
     assert not res.empty and np.all(res.upper - res.lower < 1e-9)
+
+
+def test_checkpoint_fingerprint_leaves_out_the_cheaper_passes_at_their_old_values():
+    """A search with the pass options at the values of the search before them keeps the old
+    fingerprint (a checkpoint written before them resumes); set otherwise, they are part of it."""
+    from prehension.solvers.complete.checkpoint import _options_mapping
+    from prehension.solvers.complete.search import BranchAndPruneOptions
+
+    old = _options_mapping(BranchAndPruneOptions(shrink=ShrinkOptions()))
+    assert not {"shrink.feasibility_first", "shrink.lp_order", "shrink.stop_after", "shrink.stop_gain"} & set(old)
+    for change in ({"feasibility_first": True}, {"lp_order": "narrowest"}, {"stop_after": 5}):
+        new = _options_mapping(BranchAndPruneOptions(shrink=ShrinkOptions(**change)))
+        key = "shrink." + next(iter(change))
+        assert new[key] == next(iter(change.values())) and new != old
+    assert "shrink.stop_gain" in _options_mapping(BranchAndPruneOptions(shrink=ShrinkOptions(stop_after=5)))

@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 from collections import deque
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field, fields, is_dataclass
@@ -77,6 +78,13 @@ class SearchState:
     self_collision_pruned: int = 0  # boxes pruned because every solution in them collides with the hand itself
     closure_pruned: int = 0  # boxes pruned because no configuration in them is force closure (require)
     resumed: dict | None = None  # where a resumed search came from: {"checkpoint", "boxes", "lps"} (see the module docstring)
+
+    def open_share(self) -> float:
+        """The share of the search tree still open: ``sum 2^-depth`` over the open boxes (a
+        split halves its box's share; the initial box is 1).  A stopped search's progress:
+        the rest was pruned, solved or kept as small boxes.  Depth first, the share closed
+        first lies below the first splits: a rough rate, not an estimate of the time left."""
+        return float(math.fsum(2.0 ** -depth for _, _, depth in self.open))
 
     def to_json(self) -> dict:
         return {
@@ -264,10 +272,13 @@ def options_record(options) -> dict:
     return {("refine" if k == "verifier" else k): (refine if k == "verifier" else v) for k, v in record.items()}
 
 
-#: Shrink options added after checkpoints existed; off by default and left out of the
-#: fingerprint while off (the search before them), so a checkpoint written before them
-#: resumes.  Turned on, they are part of it: a different search.
-_ADDED_LATER_OFF = ("shrink.rotation_cuts", "shrink.limit_cuts")
+#: Shrink options added after checkpoints existed, with the value that is the search before
+#: them; left out of the fingerprint at that value, so a checkpoint written before them
+#: resumes.  Set otherwise, they are part of it: a different search.
+_ADDED_LATER = {"shrink.rotation_cuts": False, "shrink.limit_cuts": False, "shrink.feasibility_first": False,
+                "shrink.lp_order": "widest", "shrink.stop_after": 0}
+#: Added with ``shrink.stop_after`` and meaningless without it (left out while it is 0).
+_STOP_GAIN = "shrink.stop_gain"
 
 
 def _options_mapping(options) -> dict:
@@ -286,8 +297,10 @@ def _options_mapping(options) -> dict:
         values.pop("require", None)
         values.pop("quality", None)
     walk("", values)
-    for key in _ADDED_LATER_OFF:  # cuts added later: at their default (off), the old fingerprint
-        if flat.get(key) is False:
+    if flat.get("shrink.stop_after") == 0:
+        flat.pop(_STOP_GAIN, None)
+    for key, before in _ADDED_LATER.items():  # added later: at the search before them, the old fingerprint
+        if key in flat and flat[key] == before and type(flat[key]) is type(before):
             del flat[key]
     return flat
 

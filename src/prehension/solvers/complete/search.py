@@ -547,6 +547,7 @@ def _result(task, form, state: SearchState, options, started: float, stop: str, 
         status = Status.INFEASIBLE
         msg = f"infeasible: all {state.boxes} boxes pruned ({state.lps} linear programs)"
     stats["open_box_solutions"] = len(in_open)
+    stats["open_share"] = state.open_share()
     stats["collision_pruned"] = state.collision_pruned
     stats["self_collision_pruned"] = state.self_collision_pruned
     if options.require is not None:

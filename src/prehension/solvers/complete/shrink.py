@@ -123,6 +123,15 @@ class ShrinkOptions:
             joint limits and, from the second pass on, their cuts at the previous pass's LP
             optima.
 
+        feasibility_first: Start each pass with one LP of zero objective: infeasible with a
+            verified Farkas certificate, the box is empty at the cost of one LP.
+        lp_order: ``"widest"``: bound the variables widest first (absolute widths);
+            ``"narrowest"``: narrowest first, relative to the system's initial box (where
+            the LPs of a box past a 3-4-contact frontier narrow most).
+        stop_after, stop_gain: End a pass once ``stop_after`` LPs in a row narrowed their
+            variable by less than ``stop_gain`` of its width (a failed LP counts as such);
+            0: never (every variable is bounded).  Stopping early only keeps a box larger.
+
         Both cuts are off by default: sound and stronger per box (they empty most of the
         boxes past a 3-4-contact frontier that the LPs without them only narrow), but a box
         they do not empty costs 2-3x the CPU, and on the measured workloads the search
@@ -145,12 +154,20 @@ class ShrinkOptions:
     midpoint_tangent: bool = True
     rotation_cuts: bool = False
     limit_cuts: bool = False
+    feasibility_first: bool = False
+    lp_order: str = "widest"
+    stop_after: int = 0
+    stop_gain: float = 0.01
 
     def __post_init__(self):
         if not 0.0 < self.rho <= 1.0:
             raise ValueError(f"ShrinkOptions.rho must be in (0, 1], got {self.rho}")
         if self.size not in ("max", "sum"):
             raise ValueError(f"ShrinkOptions.size must be 'max' or 'sum', got {self.size!r}")
+        if self.lp_order not in ("widest", "narrowest"):
+            raise ValueError(f"ShrinkOptions.lp_order must be 'widest' or 'narrowest', got {self.lp_order!r}")
+        if self.stop_after < 0 or not self.stop_gain >= 0.0:
+            raise ValueError("ShrinkOptions: stop_after >= 0 and stop_gain >= 0 required")
         if self.max_passes < 0 or self.lp_time_limit <= 0 or self.lp_iteration_limit <= 0:
             raise ValueError("ShrinkOptions: max_passes >= 0 and positive LP limits required")
 
@@ -309,21 +326,23 @@ class _BoxLP:
         c, s = self.centre[i], self.scale[i]
         self.highs.changeColBounds(i, (lo - c) / s, (hi - c) / s)
 
-    def _run(self, i: int, sense: float):
+    def _run(self, i: int | None, sense: float):
         h = self.highs
         if self.costed is not None:
             h.changeColCost(self.costed, 0.0)
-        h.changeColCost(i, sense)
+        if i is not None:
+            h.changeColCost(i, sense)
         self.costed = i
         h.setOptionValue("time_limit", h.getRunTime() + self.options.lp_time_limit)
         h.run()
         return h.getModelStatus()
 
-    def solve(self, i: int, sense: float, lower, upper) -> tuple[str, float]:
-        """Bound ``x_i`` from below (``sense = +1``) or above (``-1``).
+    def solve(self, i: int | None, sense: float, lower, upper) -> tuple[str, float]:
+        """Bound ``x_i`` from below (``sense = +1``) or above (``-1``); ``i = None``: only
+        whether the rows and the box have a point (a zero objective).
 
-        Returns ``("bound", b)`` with the safe ``x_i >= b`` / ``x_i <= b``;
-        ``("infeasible", verified)``; or ``("failed", nan)``.  A warm start that ends in
+        Returns ``("bound", b)`` with the safe ``x_i >= b`` / ``x_i <= b``; ``("feasible",
+        nan)`` (``i = None``, Optimal); ``("infeasible", verified)``; or ``("failed", nan)``.  A warm start that ends in
         anything but Optimal or a verified infeasibility is retried once from scratch with
         the dual simplex.
         """
@@ -331,7 +350,7 @@ class _BoxLP:
         d_lo = down(lower - self.centre)
         d_hi = up(upper - self.centre)
         outcome = self._attempt(i, sense, d_lo, d_hi)
-        if outcome[0] != "bound" and outcome != ("infeasible", True):
+        if outcome[0] not in ("bound", "feasible") and outcome != ("infeasible", True):
             # retry cold with the dual simplex (which also yields a dual ray on infeasibility)
             try:
                 self.highs.clearSolver()
@@ -342,7 +361,7 @@ class _BoxLP:
                 return "failed", math.nan
         return outcome
 
-    def _attempt(self, i: int, sense: float, d_lo, d_hi) -> tuple[str, float]:
+    def _attempt(self, i: int | None, sense: float, d_lo, d_hi) -> tuple[str, float]:
         try:
             status = self._run(i, sense)
             ok = highspy.HighsModelStatus
@@ -351,6 +370,8 @@ class _BoxLP:
                 z = np.asarray(solution.col_value, dtype=float)
                 ok_shape = z.shape == self.centre.shape
                 self.point = np.where(self.thin, self.centre, self.centre + self.scale * z) if ok_shape else None
+                if i is None:
+                    return "feasible", math.nan
                 y = self.scale[i] * self.row_scale * np.asarray(solution.row_dual, dtype=float)
                 c = np.zeros(len(d_lo))
                 c[i] = sense
@@ -393,7 +414,9 @@ class _Counters:
 def _lp_pass(system: System, lower, upper, options: ShrinkOptions, cnt: _Counters, deadline: float | None = None,
              rotations: RotationStructure | None = None) -> str:  # fmt: skip
     """One LP pass in place; returns ``""`` or the reason of emptiness.  Stops early (the box
-    shrunk so far, which is safe) once ``deadline`` passes (``cnt.out_of_time``)."""
+    shrunk so far, which is safe) once ``deadline`` passes (``cnt.out_of_time``), and, with
+    ``options.stop_after``, once that many LPs in a row narrowed their variable by less than
+    ``options.stop_gain`` of its width (the next pass, if any, starts again)."""
     cut_points = np.array(cnt.points) if cnt.points else None
     cnt.points = []
     g_rel, h_rel = relaxation_rows(system, lower, upper, midpoint_tangent=options.midpoint_tangent,
@@ -403,10 +426,13 @@ def _lp_pass(system: System, lower, upper, options: ShrinkOptions, cnt: _Counter
     row_lo = np.concatenate([system.b, np.full(len(system.h) + len(h_rel), -np.inf)])
     row_hi = np.concatenate([system.b, system.h, h_rel])
     lp = _BoxLP(M, row_lo, row_hi, lower, upper, options)
-    candidates = np.arange(system.n) if options.variables is None else np.asarray(options.variables, dtype=int)
-    order = candidates[np.argsort(-(upper[candidates] - lower[candidates]), kind="stable")]
+    if options.feasibility_first:
+        reason = _feasibility(lp, lower, upper, cnt, rotations)
+        if reason or cnt.unverified:
+            return reason
     touched = {1.0: np.zeros(system.n, dtype=bool), -1.0: np.zeros(system.n, dtype=bool)}
-    for i in order[~lp.thin[order]]:
+    dull = 0  # LPs in a row that narrowed less than ``stop_gain``
+    for i in _pass_order(system, lower, upper, options, lp.thin):
         for sense in (1.0, -1.0):
             if passed(deadline):
                 cnt.out_of_time = True
@@ -416,21 +442,20 @@ def _lp_pass(system: System, lower, upper, options: ShrinkOptions, cnt: _Counter
             if touched[sense][i]:
                 cnt.n_skipped += 1
                 continue
+            if options.stop_after and dull >= options.stop_after:
+                return ""
+            width = upper[i] - lower[i]
             kind, value = lp.solve(int(i), sense, lower, upper)
             cnt.n_lps += 1
             if kind == "bound":
-                if lp.point is not None and rotations is not None:  # kept only where the cuts use them
-                    cnt.points.append(lp.point)
-                if options.lp_filter_tol >= 0 and lp.point is not None:
-                    slack = options.lp_filter_tol * (upper - lower)
-                    touched[1.0] |= lp.point - lower <= slack
-                    touched[-1.0] |= upper - lp.point <= slack
+                _keep_point(lp, lower, upper, options, cnt, rotations, touched)
                 if sense > 0:
                     lower[i] = max(lower[i], value)
                 else:
                     upper[i] = min(upper[i], value)
                 if lower[i] > upper[i]:
                     return "lp-bound"
+                dull = dull + 1 if upper[i] - lower[i] > (1.0 - options.stop_gain) * width else 0
                 lp.set_bounds(int(i), lower[i], upper[i])
             elif kind == "infeasible":
                 if value:
@@ -439,7 +464,51 @@ def _lp_pass(system: System, lower, upper, options: ShrinkOptions, cnt: _Counter
                 return ""
             else:
                 cnt.n_failed += 1
+                dull += 1
     return ""
+
+
+def _pass_order(system: System, lower, upper, options: ShrinkOptions, thin) -> np.ndarray:
+    """The variables a pass bounds, in its order: widest first (absolute widths), or
+    narrowest first relative to the system's initial box (``options.lp_order``)."""
+    candidates = np.arange(system.n) if options.variables is None else np.asarray(options.variables, dtype=int)
+    widths = upper[candidates] - lower[candidates]
+    if options.lp_order == "widest":
+        order = candidates[np.argsort(-widths, kind="stable")]
+    else:
+        ref = np.maximum(system.upper - system.lower, 1e-300)[candidates]
+        order = candidates[np.argsort(widths / ref, kind="stable")]
+    return order[~thin[order]]
+
+
+def _feasibility(lp: _BoxLP, lower, upper, cnt: _Counters, rotations) -> str:
+    """The pass's first LP with a zero objective: ``"farkas"`` when it is infeasible with a
+    verified certificate (the box is empty), else ``""`` (``cnt.unverified`` when HiGHS
+    said infeasible without one; its point joins the cut points when Optimal)."""
+    kind, value = lp.solve(None, 0.0, lower, upper)
+    cnt.n_lps += 1
+    if kind == "infeasible":
+        if value:
+            return "farkas"
+        cnt.unverified = True
+    elif kind == "feasible" and lp.point is not None and rotations is not None:
+        cnt.points.append(lp.point)
+    elif kind == "failed":
+        cnt.n_failed += 1
+    return ""
+
+
+def _keep_point(lp: _BoxLP, lower, upper, options: ShrinkOptions, cnt: _Counters, rotations, touched) -> None:
+    """After an Optimal LP: its point joins the cut points (only where the cuts use them) and
+    marks the bounds it (nearly) reaches, whose LPs the pass then skips (``lp_filter_tol``)."""
+    if lp.point is None:
+        return
+    if rotations is not None:
+        cnt.points.append(lp.point)
+    if options.lp_filter_tol >= 0:
+        slack = options.lp_filter_tol * (upper - lower)
+        touched[1.0] |= lp.point - lower <= slack
+        touched[-1.0] |= upper - lp.point <= slack
 
 
 def cut_rotations(form, options: ShrinkOptions) -> RotationStructure | None:
