@@ -82,8 +82,8 @@ class SimOptions:
             if not ok:
                 need = "a positive number" if name in positive else "a number >= 0"
                 raise PrehensionError(f"simulation options: {name} must be {need}, got {value!r}")
-        if self.squeeze not in ("forces", "balanced", "uniform"):
-            raise PrehensionError(f"simulation options: squeeze must be 'forces', 'balanced' or 'uniform', got {self.squeeze!r}")
+        if self.squeeze not in ("forces", "balanced", "uniform", "push"):
+            raise PrehensionError(f"simulation options: squeeze must be 'forces', 'push', 'balanced' or 'uniform', got {self.squeeze!r}")
         if self.timestep_s > 0.05:
             raise PrehensionError(f"simulation options: timestep_s must be at most 0.05 s, got {self.timestep_s}")
 

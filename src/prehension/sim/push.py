@@ -41,14 +41,12 @@ from typing import NamedTuple
 import numpy as np
 from scipy.optimize import linprog
 
-from ..quality.options import QualityOptions
-from ..quality.solid import object_reference
-from ..quality.wrenches import primitive_wrenches
 from ..tasks.model import Task
 from .options import PUSH_DIRECTIONS, SimOptions
+from .aim import push_squeeze, push_wrenches
 from .squeeze import contact_jacobian, inward_normals, squeeze_step
 
-__all__ = ["PushMargin", "push_margin", "squeeze_normal_forces", "squeeze_forces"]
+__all__ = ["PushMargin", "push_margin", "squeeze_normal_forces", "squeeze_forces", "squeeze_for"]
 
 MM = 1e-3
 
@@ -64,41 +62,69 @@ class PushMargin(NamedTuple):
     normal: np.ndarray
 
 
+def squeeze_for(task: Task, q, T_palm_object, contacts, options: SimOptions = SimOptions()) -> tuple[np.ndarray, np.ndarray]:
+    """The squeeze of ``options.squeeze``: ``(targets (n_dof,) [rad], how far each contact is
+    aimed into the object (C,) [mm])``.  ``"push"``: the squeeze of :func:`~.aim.push_squeeze`
+    when its margin is at least the ``"forces"`` squeeze's, else the ``"forces"`` one (a
+    grasp that is not force closure has no balanced set loading every contact: then the
+    forces squeeze's least-unbalanced forces, which may still resist some pushes)."""
+    q = np.asarray(q, dtype=float)
+    forces = squeeze_step(task, q, contacts, options.squeeze_mm, "forces" if options.squeeze == "push" else options.squeeze,
+                          options.friction)  # fmt: skip
+    if options.squeeze != "push":
+        return forces
+    aimed = push_squeeze(task, q, T_palm_object, contacts, options)
+    if aimed is None:
+        return forces
+    W = push_wrenches(task, T_palm_object, contacts, options)
+    old = _pushes(W, _normal_forces(task, q, contacts, forces[0], options), options).min()
+    return (aimed.targets, aimed.depths) if aimed.margin * options.push_accel * options.mass_kg >= old else forces
+
+
 def squeeze_normal_forces(task: Task, solution, options: SimOptions = SimOptions()) -> np.ndarray:
     """The normal forces ``(C,)`` [N] the squeeze's actuators press each contact with (module docstring, 1)."""
-    inward = inward_normals(solution.contacts)
-    return np.maximum(np.einsum("cd,cd->c", squeeze_forces(task, solution, options), inward), 0.0)
+    q_squeeze = squeeze_for(task, solution.q, solution.T_palm_object, solution.contacts, options)[0]
+    return _normal_forces(task, np.asarray(solution.q, float), solution.contacts, q_squeeze, options)
+
+
+def _normal_forces(task: Task, q: np.ndarray, contacts, q_squeeze: np.ndarray, options: SimOptions) -> np.ndarray:
+    """The normal forces ``(C,)`` [N] of the contact forces balancing the torques towards ``q_squeeze``."""
+    inward = inward_normals(contacts)
+    return np.maximum(np.einsum("cd,cd->c", _forces(task, q, contacts, q_squeeze, options), inward), 0.0)
 
 
 def squeeze_forces(task: Task, solution, options: SimOptions = SimOptions()) -> np.ndarray:
     """The contact forces ``(C, 3)`` [N] (palm frame, on the object) that balance the squeeze's actuator torques (module docstring, 1)."""
     q = np.asarray(solution.q, dtype=float)
-    q_squeeze = squeeze_step(task, q, solution.contacts, options.squeeze_mm, options.squeeze, options.friction)[0]
+    q_squeeze = squeeze_for(task, q, solution.T_palm_object, solution.contacts, options)[0]
+    return _forces(task, q, solution.contacts, q_squeeze, options)
+
+
+def _forces(task: Task, q: np.ndarray, contacts, q_squeeze: np.ndarray, options: SimOptions) -> np.ndarray:
     tau = options.kp * (q_squeeze - q)  # [N m]
-    J = contact_jacobian(task, q, solution.contacts) * MM  # (3C, n_dof) [m/rad]
+    J = contact_jacobian(task, q, contacts) * MM  # (3C, n_dof) [m/rad]
     moving = np.asarray(task.active_mask, bool)
     if not moving.any():
-        return np.zeros((len(solution.contacts), 3))
+        return np.zeros((len(contacts), 3))
     return np.linalg.lstsq(J[:, moving].T, tau[moving], rcond=None)[0].reshape(-1, 3)  # on the object [N]
 
 
 def push_margin(task: Task, solution, options: SimOptions = SimOptions()) -> PushMargin:
     """The largest push per direction a grasp resists with its squeeze's normal forces (module docstring)."""
     normal = squeeze_normal_forces(task, solution, options)
-    T = np.asarray(solution.T_palm_object, float)
-    centre, rho = object_reference(task.object)  # the centroid: the centre of mass the test pushes
-    com = T[:3, :3] @ centre + T[:3, 3]
-    points = np.array([np.asarray(c.object_point, float) for c in solution.contacts])
-    inward = inward_normals(solution.contacts)
-    model = QualityOptions(friction=options.friction, torsion_mm=options.torsion_mm)
-    W = primitive_wrenches(points, inward, com, rho, model)  # (C, G, 6)
+    pushes = _pushes(push_wrenches(task, solution.T_palm_object, solution.contacts, options), normal, options)
+    push = options.push_accel * options.mass_kg
+    return PushMargin(float(pushes.min() / push) if push > 0 else float("inf"), pushes, normal)
+
+
+def _pushes(W: np.ndarray, normal: np.ndarray, options: SimOptions) -> np.ndarray:
+    """The largest push [N] per direction ``(6,)`` resisted by the wrenches ``W`` ``(C, G, 6)`` within the normal forces."""
     C, G = W.shape[:2]
     A_ub = np.c_[np.kron(np.eye(C), np.ones((1, G))), np.zeros((C, 1))]
-    push = options.push_accel * options.mass_kg
     pushes = np.zeros(len(PUSH_DIRECTIONS))
     for k, (_, d) in enumerate(PUSH_DIRECTIONS):
         A_eq = np.c_[W.reshape(C * G, 6).T, np.r_[np.asarray(d, float), np.zeros(3)]]
         res = linprog(np.r_[np.zeros(C * G), -1.0], A_ub=A_ub, b_ub=normal, A_eq=A_eq, b_eq=np.zeros(6),
                       bounds=(0, None), method="highs")  # fmt: skip
         pushes[k] = max(float(res.x[-1]), 0.0) + 0.0 if res.status == 0 else 0.0  # + 0.0: no -0.0
-    return PushMargin(float(pushes.min() / push) if push > 0 else float("inf"), pushes, normal)
+    return pushes

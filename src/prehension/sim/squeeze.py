@@ -41,7 +41,7 @@ from ..tasks.model import Task
 __all__ = ["squeeze_step", "squeeze_targets", "as_good_a_squeeze", "squeeze_depths", "balanced_normal_forces",
            "BalancedForces", "SQUEEZE_KINDS"]  # fmt: skip
 
-SQUEEZE_KINDS = ("forces", "balanced", "uniform")
+SQUEEZE_KINDS = ("forces", "balanced", "uniform", "push")
 
 
 class BalancedForces(NamedTuple):
@@ -105,6 +105,8 @@ def squeeze_step(task: Task, q, contacts, squeeze_mm: float, kind: str = "forces
     contact is aimed into the object (C,) [mm])``.  ``"forces"``: when no contact would be
     aimed inward (more than 1e-9 mm per unit of balanced force), the ``"balanced"`` one."""
     q = np.asarray(q, dtype=float)
+    if kind == "push":
+        raise ValueError("squeeze_step: the 'push' squeeze needs the object's pose and the push: sim.push.squeeze_for")
     if kind == "forces":
         J, _, free, _ = _problem(task, q, contacts, squeeze_mm, None)  # (3C, n_dof) [mm/rad], couplings folded
         inward = inward_normals(contacts)
