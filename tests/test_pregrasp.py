@@ -53,7 +53,7 @@ def test_every_solution_stores_its_pregrasp_and_squeeze_and_check_re_derives_the
     data = json.loads(path.read_text())
     sol = data["solutions"][0]
     assert sol["pregrasp"]["collision_free"] and sol["pregrasp"]["back_off_mm"] == 15.0
-    assert sol["squeeze"]["kind"] == "forces" and max(sol["squeeze"]["depths_mm"]) == pytest.approx(10.0)
+    assert sol["squeeze"]["kind"] == "push" and max(sol["squeeze"]["depths_mm"]) == pytest.approx(10.0)
     checked = verify_result_file(path)
     names = [f.what for f in checked.findings]
     assert checked.holds and "solution 0: pre-grasp (collision-free with the object and itself)" in names

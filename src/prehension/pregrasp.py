@@ -164,7 +164,7 @@ def judge_pregrasp(task: Task, q_grasp, q, T_palm_object, contacts, back_off_mm:
 def approach_entries(task: Task, solution, back_off_mm: float = DEFAULT_BACK_OFF_MM) -> dict:
     """A solution's ``"pregrasp"`` and ``"squeeze"`` as a result file stores them: the
     pre-grasp (:func:`pregrasp`) and the squeeze targets of the physics test's default
-    protocol (:func:`~prehension.sim.squeeze.squeeze_step`, the ``"forces"`` squeeze, 10 mm,
+    protocol (:func:`~prehension.sim.push.squeeze_for`, the ``"push"`` squeeze, 10 mm,
     friction 0.6), the hand closing from the first through the grasp to the second."""
     from .sim.options import SimOptions
     from .sim.push import squeeze_for
