@@ -157,7 +157,7 @@ def _hold(best, options) -> tuple:
     seconds = time.perf_counter() - started
     tried, closure = hold.result.stats["hold"]["tried"], hold.closure
     n = hold.result.stats["hold"]["candidates"]  # solve --best's and the force-closure search's
-    said = f"#{tried[-1]['candidate'] + 1} of {n}" if hold.held else f"none of {n}"
+    said = f"#{tried[-1]['candidate'] + 1} of {n} ({len(tried)} tested)" if hold.held else f"none of {n}"
     if closure is not None:
         extra = hold.held and tried[-1]["candidate"] >= len(best.solutions)  # a grasp of the force-closure search held
         method = closure.get("method")

@@ -5,7 +5,7 @@ test pushes with a fixed force (``push_accel`` x ``mass_kg``, 1 N) against whate
 forces the position actuators produce.  :func:`push_margin` predicts the outcome from both:
 
 1. **The squeeze's forces.**  The squeeze moves the actuators' targets from the solved
-   angles ``q`` to ``q_s`` (:func:`~.squeeze.squeeze_step`, the test's own kind and depth).
+   angles ``q`` to ``q_s`` (:func:`squeeze_for`, the test's own kind and depth).
    While the object blocks the fingers the hand stays near ``q``, so the actuators apply the
    torques ``tau = kp (q_s - q)``; the contact forces ``f`` (palm frame, on the object)
    balance them through the contacts' point Jacobians ``J`` (``J^T f = tau`` over the
@@ -27,11 +27,13 @@ The margin is the smallest of the six ``t`` over the push force: at least 1, the
 presses hard enough to resist every push, to first order; 0, some push is resisted by no
 such forces (a contact the squeeze does not load, or no force closure).  It is a model
 (rigid fingers, the forces of the squeeze's first instant), not the test.  With the
-``"forces"`` squeeze (the default) every candidate of margin at least 1 held in the test
-(49 of 65 measured, ``benchmarks/hold.py --per-candidate``); with the ``"balanced"`` one,
-whose quasi-static forces are far from the simulated ones, it orders candidates no better
-than epsilon (docs/quality.md, "Physics in the loop").  ``--hold`` runs the test on every
-candidate and does not rank by it.
+``"forces"`` squeeze every candidate of margin at least 1 held in the test (49 of 65
+measured, ``benchmarks/hold.py --per-candidate``), though not every one since (two of
+002-3c-3's, margins 1.14 and 1.26, held 3 and 5 of 6: their contacts slide during the
+squeeze); with the ``"balanced"`` one, whose quasi-static forces are far from the simulated
+ones, it orders candidates no better than epsilon (docs/quality.md, "Physics in the
+loop").  The ``"push"`` squeeze (the default, :mod:`.aim`) is the one of largest margin
+among the balanced force sets; ``--hold`` tests its candidates largest margin first.
 """
 
 from __future__ import annotations
