@@ -1,11 +1,11 @@
 """Physics in the loop (``solve --hold``): the first candidate grasp that holds.
 
 :func:`hold_first` runs the candidates of a result (the ranked solutions of
-:func:`~prehension.best.solve_best`) through the physics test
-(:func:`~prehension.sim.simulate_grasp`, the ``"push"`` squeeze by default), the largest
-push margin first (:func:`~prehension.sim.push.push_margin`, a few linear programs per
-candidate; ties in rank order), until one holds against all six pushes, or the candidates
-run out:
+:func:`~prehension.best.solve_best`), best first, through the physics test
+(:func:`~prehension.sim.simulate_grasp`, the ``"push"`` squeeze by default) until one holds
+against all six pushes, or the candidates run out (each tried candidate's push margin,
+:func:`~prehension.sim.push.push_margin`, is recorded beside its verdict; it does not
+reorder them: docs/quality.md, "Physics in the loop"):
 
 * one holds: the answer is that grasp alone (``held`` true), with its physics verdict;
 * none holds: the answer keeps every candidate, ordered by how many pushes it held (then
@@ -74,7 +74,7 @@ from .results import SolveResult, Status
 from .sim.push import push_margin
 from .solve import SolveOptions, solve
 
-__all__ = ["HoldOutcome", "hold_first", "by_margin", "CLOSURE_TIME_S", "REGIONS_SHARE", "closure_model"]
+__all__ = ["HoldOutcome", "hold_first", "margin_of", "CLOSURE_TIME_S", "REGIONS_SHARE", "closure_model"]
 
 COMPLETE_SOURCE = "complete solver (force closure required, --hold)"
 AIMED_SOURCE = "local iterations aimed at force-closure points of the regions (--hold)"
@@ -124,35 +124,30 @@ def closure_model(options):
     return QualityOptions(friction=options.friction, torsion_mm=options.torsion_mm)
 
 
-def by_margin(task, solutions, first: int, options) -> list[tuple[int, object, float]]:
-    """``[(rank, solution, push margin)]`` of ``solutions`` (ranks from ``first``), the
-    largest push margin (:func:`~prehension.sim.push.push_margin` with the test's
-    ``options``) first, ties in rank order; a margin that cannot be computed is ``nan``, last."""
-    out = []
-    for rank, solution in enumerate(solutions, start=first):
-        try:
-            margin = push_margin(task, solution, options).margin
-        except PrehensionError:  # e.g. an object with no size to take torques about: the test itself says why
-            margin = float("nan")
-        out.append((rank, solution, margin))
-    return sorted(out, key=lambda r: (-(r[2] if r[2] == r[2] else -1.0), r[0]))
+def margin_of(task, solution, options) -> float | None:
+    """The candidate's push margin (:func:`~prehension.sim.push.push_margin` with the test's
+    ``options``, 4 decimals), recorded beside its verdict; ``None`` when it cannot be computed."""
+    try:
+        return round(push_margin(task, solution, options).margin, 4)
+    except PrehensionError:  # e.g. an object with no size to take torques about: the test itself says why
+        return None
 
 
 def _trials(task, solutions, first: int, options, seed: int, progress, total: int) -> tuple[list, list, bool]:
-    """The physics test of ``solutions`` (ranks from ``first``), largest push margin first
-    (:func:`by_margin`), until one holds: ``(reports [(rank, report)], tried [dict], interrupted)``."""
+    """The physics test of ``solutions`` (ranks from ``first``), in rank order, until one
+    holds: ``(reports [(rank, report)], tried [dict], interrupted)``."""
     from .sim import simulate_grasp
 
     reports, tried = [], []
     try:
-        for rank, solution, margin in by_margin(task, solutions, first, options):
+        for rank, solution in enumerate(solutions, start=first):
+            margin = margin_of(task, solution, options)
             if progress is not None:
-                progress(f"physics test of candidate {rank + 1} of {total} (push margin {margin:.2f})")
+                progress(f"physics test of candidate {rank + 1} of {total} (push margin {margin})")
             report = simulate_grasp(task, solution, options, seed)
             reports.append((rank, report))
             tried.append({"candidate": rank, "success": report.success, "rejected": report.rejected,
-                          "pushes_held": report.held, "push_margin": None if margin != margin else round(margin, 4),
-                          "why": _why(report)})  # fmt: skip
+                          "pushes_held": report.held, "push_margin": margin, "why": _why(report)})  # fmt: skip
             if report.success:
                 break
     except KeyboardInterrupt:  # SIGTERM and SIGHUP arrive as KeyboardInterrupt too (cli.terminate)
@@ -246,7 +241,7 @@ class _Trying:
         return any(r.success for _, r in self.reports)
 
     def add(self, extra: list, options, seed: int, progress) -> None:
-        """Further grasps ``[(solution, source)]``: appended and tried (largest push margin first) until one holds."""
+        """Further grasps ``[(solution, source)]``: appended and tried in order until one holds."""
         if not extra or self.interrupted or self.held:
             return
         first, self.solutions = len(self.solutions), self.solutions + tuple(s for s, _ in extra)

@@ -33,7 +33,7 @@ measured, ``benchmarks/hold.py --per-candidate``), though not every one since (t
 squeeze); with the ``"balanced"`` one, whose quasi-static forces are far from the simulated
 ones, it orders candidates no better than epsilon (docs/quality.md, "Physics in the
 loop").  The ``"push"`` squeeze (the default, :mod:`.aim`) is the one of largest margin
-among the balanced force sets; ``--hold`` tests its candidates largest margin first.
+among the balanced force sets; ``--hold`` records each tried candidate's margin.
 """
 
 from __future__ import annotations
