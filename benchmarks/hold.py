@@ -17,9 +17,11 @@ process: one core); the pre-grasp of the first solution (15 mm asked, 10 or 5 mm
 that collides: collision-free or not, the distance used, the least and largest stand-off
 of its fingers).  With ``--physics`` (needs MuJoCo; 2-8 s per simulated grasp): the
 physics test of the first solution with the uniform squeeze (every contact 10 mm in,
-DexGraspBench's), the balanced one (depths in proportion to balanced forces) and the forces
-one (the default: targets whose actuator torques press with balanced forces), and the
-answer of ``solve --hold`` with the forces squeeze and, as before it, with the balanced one
+DexGraspBench's), the balanced one (depths in proportion to balanced forces), the forces
+one (targets whose actuator torques press with balanced forces) and the push one (the
+default: the balanced forces whose squeeze resists the largest push), and the answer of
+``solve --hold`` with the two squeezes of ``--squeezes`` (default ``push,forces``: the
+default, then the one before it; which candidate held, after how many physics tests)
 (the candidates of ``--best 5``, then -- when none holds -- the
 force-closure search within ``prehension.hold.CLOSURE_TIME_S``: the regions alone, aimed
 starts, the complete solver): which candidate held, or "none", and "PROVEN" where the
