@@ -71,6 +71,10 @@ def test_the_chosen_forces_are_balanced_in_the_cones_and_the_step_keeps_the_rule
     assert np.allclose(np.cross(p, f).sum(axis=0), 0.0, atol=1e-7 * scale * np.abs(p).max())
     assert aimed.depths.max() <= options.squeeze_mm + 1e-7
     assert np.all(aimed.targets >= task.hand.lower) and np.all(aimed.targets <= task.hand.upper)
+    from prehension.sim.squeeze import contact_jacobian
+
+    moved = contact_jacobian(task, grasp.q, grasp.contacts) @ (aimed.targets - grasp.q)  # every dof, couplings as the targets have them
+    assert np.allclose(np.einsum("cd,cd->c", moved.reshape(-1, 3), n), aimed.depths, atol=1e-9)  # the depths are the step's
 
 
 def test_the_linearised_cones_are_inside_the_friction_cones():
@@ -113,3 +117,31 @@ def test_simulation_options_take_the_push_squeeze_and_name_every_kind():
     assert SimOptions(squeeze="push").squeeze == "push"
     with pytest.raises(PrehensionError, match="'push'"):
         SimOptions(squeeze="squash")
+
+
+def test_check_takes_a_push_squeeze_as_good_as_the_one_found_and_no_worse(tmp_path, four):
+    """A stored push squeeze re-derives when its targets are the program's, or another step
+    as good: here the program's plus a joint motion that moves no contact (the null space
+    of the contacts' Jacobian over the free dofs, couplings kept), same depths, same margin.
+    The forces squeeze's targets (a smaller margin), a coupling broken and stated depths
+    that are not the step's are refused."""
+    from prehension.sim.push import as_good_a_push_squeeze
+    from prehension.sim.squeeze import _problem, _targets
+
+    task, grasp = four
+    q, T, contacts, options = np.asarray(grasp.q, float), grasp.T_palm_object, grasp.contacts, SimOptions()
+    targets, depths = squeeze_for(task, q, T, contacts, options)
+    assert as_good_a_push_squeeze(task, q, T, contacts, options, targets, depths)
+    J, _, free, _ = _problem(task, q, contacts, 10.0, None)
+    null = np.linalg.svd(J[:, free])[2][-1]  # more free dofs than contact rows: a motion that moves no contact
+    assert np.allclose(J[:, free] @ null, 0.0, atol=1e-9)
+    other = _targets(task.hand, targets, free, 0.02 * null)
+    assert not np.allclose(other, targets, atol=1e-6)
+    assert np.all(other >= task.hand.lower) and np.all(other <= task.hand.upper)
+    assert as_good_a_push_squeeze(task, q, T, contacts, options, other, depths)
+    forces, forces_depths = squeeze_step(task, q, contacts, 10.0, "forces", 0.6)
+    assert not as_good_a_push_squeeze(task, q, T, contacts, options, forces, forces_depths)
+    uncoupled = targets.copy()  # a coupled dof that does not follow its source
+    uncoupled[task.hand.dof_index(task.hand.couplings[0].dof)] -= 0.05
+    assert not as_good_a_push_squeeze(task, q, T, contacts, options, uncoupled, depths)
+    assert not as_good_a_push_squeeze(task, q, T, contacts, options, targets, depths + 0.5)

@@ -192,7 +192,7 @@ def check_approach(task: Task, q_grasp, T_palm_object, contacts, stored: dict) -
     targets are recomputed from the contacts with the stated kind, depth and friction.
     """
     from .sim.options import SimOptions
-    from .sim.push import squeeze_for
+    from .sim.push import as_good_a_push_squeeze, squeeze_for
     from .sim.squeeze import as_good_a_squeeze
 
     out = []
@@ -219,6 +219,7 @@ def check_approach(task: Task, q_grasp, T_palm_object, contacts, stored: dict) -
             same = np.allclose(depths, sq["depths_mm"], atol=1e-6, rtol=0) and (
                 np.allclose(q_sq, given, atol=1e-6, rtol=0)  # else an equally good step (not unique: squeeze_targets)
                 or (sq["kind"] in ("balanced", "uniform") and as_good_a_squeeze(task, q_grasp, contacts, float(sq["squeeze_mm"]), depths, given)))
+            same = same or (sq["kind"] == "push" and as_good_a_push_squeeze(task, q_grasp, T_palm_object, contacts, o, given, sq["depths_mm"]))
             out.append((what, bool(same), f"{sq['kind']}, depths {', '.join(f'{d:.1f}' for d in depths)} mm"
                                           + ("" if same else ": differ from the recomputed ones")))  # fmt: skip
         except (KeyError, TypeError, ValueError) as exc:

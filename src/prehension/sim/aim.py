@@ -98,7 +98,7 @@ def _linear_model(task: Task, q: np.ndarray, contacts, options: SimOptions):
     Ju = contact_jacobian(task, q, contacts) * MM  # (3C, n_dof) [m/rad]
     P = options.kp * np.linalg.pinv(Ju[:, moving].T) @ A[moving]  # (3C, 3C) [N per unit g]
     lo, hi = np.minimum(task.hand.lower - q, 0.0), np.maximum(task.hand.upper - q, 0.0)
-    return A, rows @ J @ A, rows @ P, (lo, hi), free
+    return A, rows @ J[:, free] @ A[free], rows @ P, (lo, hi), free  # J folded: the coupled dofs' motion is in their sources' columns
 
 
 def _balance_rows(contacts, friction: float, n_edges: int = 8) -> tuple[np.ndarray, np.ndarray]:

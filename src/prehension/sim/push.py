@@ -46,9 +46,9 @@ from scipy.optimize import linprog
 from ..tasks.model import Task
 from .options import PUSH_DIRECTIONS, SimOptions
 from .aim import push_squeeze, push_wrenches
-from .squeeze import contact_jacobian, inward_normals, squeeze_step
+from .squeeze import _targets, contact_jacobian, inward_normals, squeeze_step
 
-__all__ = ["PushMargin", "push_margin", "squeeze_normal_forces", "squeeze_forces", "squeeze_for"]
+__all__ = ["PushMargin", "push_margin", "squeeze_normal_forces", "squeeze_forces", "squeeze_for", "as_good_a_push_squeeze"]
 
 MM = 1e-3
 
@@ -81,6 +81,36 @@ def squeeze_for(task: Task, q, T_palm_object, contacts, options: SimOptions = Si
     W = push_wrenches(task, T_palm_object, contacts, options)
     old = _pushes(W, _normal_forces(task, q, contacts, forces[0], options), options).min()
     return (aimed.targets, aimed.depths) if aimed.margin * options.push_accel * options.mass_kg >= old else forces
+
+
+def as_good_a_push_squeeze(task: Task, q, T_palm_object, contacts, options: SimOptions, given, depths_mm,
+                           tol: float = 1e-6) -> bool:  # fmt: skip
+    """Whether the angles ``given`` (n_dof,) [rad] with the stated depths ``depths_mm`` (C,)
+    are a ``"push"`` squeeze as good as the one :func:`squeeze_for` finds now: within the
+    joint limits, the dofs that do not move (or follow a coupling) as the step has them,
+    the stated depths those of the step (``tol`` mm), none more than
+    ``squeeze_mm`` in, and a push margin at least the found one's (- ``tol`` relative).  How
+    ``prehension check`` re-derives a stored push squeeze: the program's optimum is unique,
+    its forces need not be (another platform's solver may return others)."""
+    q, given = np.asarray(q, dtype=float), np.asarray(given, dtype=float)
+    hand = task.hand
+    if given.shape != q.shape or np.any(given < hand.lower - 1e-12) or np.any(given > hand.upper + 1e-12):
+        return False
+    free = np.asarray(task.active_mask, bool).copy()
+    for c in hand.couplings:
+        free[hand.dof_index(c.dof)] = False
+    if not np.allclose(_targets(hand, q, free, (given - q)[free]), given, atol=1e-9, rtol=0):
+        return False
+    depths = np.einsum("cd,cd->c", (contact_jacobian(task, q, contacts) @ (given - q)).reshape(-1, 3), inward_normals(contacts))
+    stated = np.asarray(depths_mm, dtype=float)
+    if stated.shape != depths.shape or not np.allclose(stated, depths, atol=tol, rtol=0):
+        return False
+    if len(depths) and depths.max() > options.squeeze_mm + tol:
+        return False
+    W = push_wrenches(task, T_palm_object, contacts, options)
+    found = _pushes(W, _normal_forces(task, q, contacts, squeeze_for(task, q, T_palm_object, contacts, options)[0], options), options)
+    mine = _pushes(W, _normal_forces(task, q, contacts, given, options), options)
+    return bool(mine.min() >= found.min() * (1.0 - tol) - 1e-12)
 
 
 def squeeze_normal_forces(task: Task, solution, options: SimOptions = SimOptions()) -> np.ndarray:
