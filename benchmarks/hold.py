@@ -17,9 +17,11 @@ process: one core); the pre-grasp of the first solution (15 mm asked, 10 or 5 mm
 that collides: collision-free or not, the distance used, the least and largest stand-off
 of its fingers).  With ``--physics`` (needs MuJoCo; 2-8 s per simulated grasp): the
 physics test of the first solution with the uniform squeeze (every contact 10 mm in,
-DexGraspBench's), the balanced one (depths in proportion to balanced forces) and the forces
-one (the default: targets whose actuator torques press with balanced forces), and the
-answer of ``solve --hold`` with the forces squeeze and, as before it, with the balanced one
+DexGraspBench's), the balanced one (depths in proportion to balanced forces), the forces
+one (targets whose actuator torques press with balanced forces) and the push one (the
+default: the balanced forces whose squeeze resists the largest push), and the answer of
+``solve --hold`` with the two squeezes of ``--squeezes`` (default ``push,forces``: the
+default, then the one before it; which candidate held, after how many physics tests)
 (the candidates of ``--best 5``, then -- when none holds -- the
 force-closure search within ``prehension.hold.CLOSURE_TIME_S``: the regions alone, aimed
 starts, the complete solver): which candidate held, or "none", and "PROVEN" where the
@@ -71,6 +73,8 @@ from prehension.solve import SolveOptions, solve  # noqa: E402
 from prehension.tasks.library import builtin_task_names, load_builtin_task, resolve_task  # noqa: E402
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "quality"
+FIRST_SQUEEZES = ("uniform", "balanced", "forces", "push")  # the first solution's physics test with each
+HOLD_SQUEEZES = ("push", "forces")  # --hold's: the default squeeze, then the one before it
 
 
 def _fitted_patch(radius_mm: float):
@@ -133,16 +137,16 @@ def _epsilon(task, result, quality) -> float | None:
     return grasp_quality(task, result.solutions[0], quality).epsilon if result.solutions else None
 
 
-def _physics(task, first, best) -> dict:
+def _physics(task, first, best, squeezes=HOLD_SQUEEZES) -> dict:
     """The first solution's physics verdict with each squeeze, and ``--hold``'s answer with
-    the default (``"forces"``) squeeze and, as before it, the balanced one."""
+    the squeezes ``squeezes`` (the default's, then the one before it)."""
     from prehension.sim import SimOptions, simulate_grasp
 
     out = {}
-    for kind in ("uniform", "balanced", "forces"):
+    for kind in FIRST_SQUEEZES:
         r = simulate_grasp(task, first.solutions[0], SimOptions(squeeze=kind)) if first.solutions else None
         out[kind] = None if r is None else (r.success, "rejected" if r.rejected else f"{r.held}/6")
-    for key, kind in (("hold", "forces"), ("hold_balanced", "balanced")):
+    for key, kind in zip(("hold", "hold_before"), squeezes):
         out[key], out[f"{key}_proven"], out[f"{key}_s"] = _hold(best, SimOptions(squeeze=kind)) if best.solutions else (None, False, None)
     out["proven"] = out["hold_proven"]
     return out
@@ -155,7 +159,7 @@ def _hold(best, options) -> tuple:
     seconds = time.perf_counter() - started
     tried, closure = hold.result.stats["hold"]["tried"], hold.closure
     n = hold.result.stats["hold"]["candidates"]  # solve --best's and the force-closure search's
-    said = f"#{tried[-1]['candidate'] + 1} of {n}" if hold.held else f"none of {n}"
+    said = f"#{tried[-1]['candidate'] + 1} of {n} ({len(tried)} tested)" if hold.held else f"none of {n}"
     if closure is not None:
         extra = hold.held and tried[-1]["candidate"] >= len(best.solutions)  # a grasp of the force-closure search held
         method = closure.get("method")
@@ -175,7 +179,7 @@ def _verdict(v) -> str:
     return "-" if v is None else ("holds " if v[0] else "drops ") + v[1]
 
 
-def _measure(task, quality: QualityOptions, n: int, seed: int, physics: bool) -> dict:
+def _measure(task, quality: QualityOptions, n: int, seed: int, physics: bool, squeezes=HOLD_SQUEEZES) -> dict:
     first = solve(task, SolveOptions(method="local", seed=seed))
     found = solve_best(task, BestOptions(n=n, quality=quality, ascent=None), SolveOptions(method="local", seed=seed))
     wall, cpu = time.perf_counter(), time.process_time()
@@ -186,7 +190,7 @@ def _measure(task, quality: QualityOptions, n: int, seed: int, physics: bool) ->
             "best": _epsilon(task, best, quality), "wall": wall, "cpu": cpu,
             "steps": f"{sum(a['accepted'] for a in steps)}/{sum(a['tried'] for a in steps)}", "contacts": len(task.contacts),
             "name": task.name,
-            "physics": _physics(task, first, best) if physics else None,
+            "physics": _physics(task, first, best, squeezes) if physics else None,
             "pregrasp": pregrasp(task, first.solutions[0]) if first.solutions else None}  # fmt: skip
 
 
@@ -245,14 +249,18 @@ def main() -> None:
     parser.add_argument("--tasks", default=None, metavar="TEXT", help="only the tasks whose name contains TEXT")
     parser.add_argument("--skip", type=int, default=0, metavar="K", help="skip the first K tasks (run in parts)")
     parser.add_argument("--limit", type=int, default=None, metavar="N", help="at most N tasks")
+    parser.add_argument("--squeezes", type=lambda s: tuple(s.split(",")), default=HOLD_SQUEEZES, metavar="A,B",
+                        help="--hold's squeeze kinds compared: the default's, then the one before it (default push,forces)")
     args = parser.parse_args()
+    if len(args.squeezes) != 2:
+        parser.error("--squeezes takes two kinds, e.g. push,forces")
     quality = QualityOptions(torsion_mm=args.torsion)
     console = Console(width=150)
     table = Table(title=f"first solution vs --best {args.best} (epsilon, mu {quality.friction:g}, "
                         f"{'torsion %g mm' % args.torsion if args.torsion else 'hard fingers'})")  # fmt: skip
     for col in ("task", "contacts", "first", f"best {args.best} as found", f"best {args.best}", "ratio", "ascent steps",
-                "time [s] wall", "cpu", "pre-grasp of first [mm]", "first: uniform squeeze", "first: balanced", "first: forces",
-                "--hold (balanced)", "--hold"):  # fmt: skip
+                "time [s] wall", "cpu", "pre-grasp of first [mm]", "first: uniform squeeze", *(f"first: {k}" for k in FIRST_SQUEEZES[1:]),
+                f"--hold ({args.squeezes[1]})", f"--hold ({args.squeezes[0]})"):  # fmt: skip
         table.add_column(col, justify="left" if col == "task" else "right")
     rows = []
     tasks = [t for t in _tasks(args) if args.tasks is None or args.tasks in t.name][args.skip:]
@@ -260,22 +268,22 @@ def main() -> None:
         _per_candidate(console, [t for t in tasks[: args.limit] if len(t.contacts) in (3, 4)], args)
         return
     for task in tasks[: args.limit]:
-        m = _measure(task, quality, args.best, args.seed, args.physics)
+        m = _measure(task, quality, args.best, args.seed, args.physics, args.squeezes)
         rows.append(m)
         ratio = m["best"] / m["first"] if m["first"] and m["best"] is not None else None
         table.add_row(task.name, str(len(task.contacts)), _fmt(m["first"]), _fmt(m["found"]), _fmt(m["best"]),
                       "-" if ratio is None else f"{ratio:.2f}", m["steps"], f"{m['wall']:.2f}", f"{m['cpu']:.2f}", _pre(m["pregrasp"]),
-                      *(_verdict((m["physics"] or {}).get(k)) for k in ("uniform", "balanced", "forces", "hold_balanced", "hold")))  # fmt: skip
+                      *(_verdict((m["physics"] or {}).get(k)) for k in (*FIRST_SQUEEZES, "hold_before", "hold")))  # fmt: skip
         console.file.flush()
     console.print(table)
-    _summary(console, rows)
+    _summary(console, rows, args.squeezes)
 
 
-def _hold_summary(console: Console, judged: list) -> None:
+def _hold_summary(console: Console, judged: list, squeezes) -> None:
     """``--hold`` counted two ways, with each squeeze: over every judged task, and over the
     tasks whose regions are not proven to admit no force-closure grasp (those are reported
     apart, never dropped)."""
-    for key, what in (("hold", "forces squeeze (default)"), ("hold_balanced", "balanced squeeze (before)")):
+    for key, what in (("hold", f"{squeezes[0]} squeeze (default)"), ("hold_before", f"{squeezes[1]} squeeze (before)")):
         proven = [m for m in judged if m["physics"][f"{key}_proven"]]
         rest = [m for m in judged if not m["physics"][f"{key}_proven"] and m["physics"][key] is not None]
         held = sum(m["physics"][key][0] for m in rest)
@@ -288,7 +296,7 @@ def _hold_summary(console: Console, judged: list) -> None:
                           f"{statistics.median(times):.1f} s, max {max(times):.1f} s")  # fmt: skip
 
 
-def _summary(console: Console, rows: list) -> None:
+def _summary(console: Console, rows: list, squeezes=HOLD_SQUEEZES) -> None:
     closed = [m for m in rows if m["first"] and m["best"] is not None]
     opened = sum(1 for m in rows if m["first"] == 0.0 and (m["best"] or 0.0) > 0.0)
     still = sum(1 for m in rows if m["first"] == 0.0 and m["best"] == 0.0)
@@ -308,15 +316,16 @@ def _summary(console: Console, rows: list) -> None:
     judged = [m for m in solved if m["physics"] is not None and m["contacts"] in (3, 4)]
     if judged:
         parts = []
-        for key, what in (("uniform", "first solution, uniform squeeze"), ("balanced", "first solution, balanced squeeze"),
-                          ("forces", "first solution, forces squeeze"), ("hold_balanced", "first answer of --hold, balanced squeeze"),
-                          ("hold", "first answer of --hold (forces squeeze)")):  # fmt: skip
+        for key, what in (*((k, f"first solution, {k} squeeze") for k in FIRST_SQUEEZES),
+                          ("hold_before", f"first answer of --hold, {squeezes[1]} squeeze"),
+                          ("hold", f"first answer of --hold ({squeezes[0]} squeeze)")):  # fmt: skip
             got = [m["physics"][key] for m in judged if m["physics"][key] is not None]
             parts.append(f"{what}: {sum(v[0] for v in got)}/{len(got)}")
         console.print(f"holds (all six pushes) over the {len(judged)} solved 3- and 4-contact tasks: " + "; ".join(parts))
         for m in judged:
-            console.print(f"  --hold, {m['name']}: {_verdict(m['physics']['hold'])} (balanced squeeze: {_verdict(m['physics']['hold_balanced'])})")
-        _hold_summary(console, judged)
+            console.print(f"  --hold, {m['name']}: {_verdict(m['physics']['hold'])} ({squeezes[1]} squeeze: "
+                          f"{_verdict(m['physics']['hold_before'])})")  # fmt: skip
+        _hold_summary(console, judged, squeezes)
     if solved:
         cpu = [m["cpu"] for m in solved]
         wall = [m["wall"] for m in solved]

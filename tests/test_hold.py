@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import io
+import itertools
 import json
 import sys
 from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
 import pytest
 from rich.console import Console
 
@@ -15,7 +17,7 @@ pytest.importorskip("mujoco")
 
 from prehension.cli import EXIT_BAD_INPUT, EXIT_OK, main  # noqa: E402
 from prehension.cli.codes import EXIT_CHECK_FAILED, EXIT_DROPPED  # noqa: E402
-from prehension.hold import AIMED_SOURCE, closure_model, hold_first  # noqa: E402
+from prehension.hold import AIMED_SOURCE, closure_model, hold_first, margin_of  # noqa: E402
 from prehension.region_closure import AIMED_KEPT  # noqa: E402
 from prehension.results import SolveResult, write_result  # noqa: E402
 from prehension.cli.best import best_table  # noqa: E402
@@ -28,7 +30,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_the_first_candidate_that_holds_is_the_answer(four, one_face):
-    """Candidates: a grasp that drops (every contact on one face), then one that holds."""
+    """Candidates: a grasp that drops (every contact on one face), then one that holds; each
+    tried one's push margin is recorded beside its verdict (the one that drops: 0)."""
     task, holds = four
     _, drops = one_face
     result = SolveResult(task, "local", "solved", "two candidates", (drops, holds))
@@ -37,6 +40,7 @@ def test_the_first_candidate_that_holds_is_the_answer(four, one_face):
     assert out.physics[0]["success"] and len(out.physics) == 1
     tried = out.result.stats["hold"]["tried"]
     assert [t["success"] for t in tried] == [False, True] and tried[0]["why"].startswith("dropped")
+    assert tried[0]["push_margin"] == 0.0 and tried[1]["push_margin"] == margin_of(task, holds, SimOptions()) > 1.0
     assert "candidate 2 of 2 holds" in out.result.message
 
 
@@ -201,6 +205,39 @@ def test_a_force_closure_grasp_of_the_complete_solver_is_the_next_candidate(four
     assert grasp_quality(task, out.result.solutions[0], closure_model(SimOptions())).force_closure
     assert "the complete solver found a force-closure grasp" in out.result.message
     assert hold_first(SolveResult(task, "local", "gave_up", "none", ()), closure_time_s=0).closure is None
+
+
+def _turned(task, grasp, dq: float):
+    """The grasp with every moving joint turned by ``dq`` [rad] (a distinct grasp for the bookkeeping; not verified)."""
+    q = np.where(task.active_mask, grasp.q + dq, grasp.q)
+    return replace(grasp, joint_angles=dict(zip(task.hand.dof_names, q.tolist())))
+
+
+def test_further_rounds_of_aimed_starts_while_none_holds_and_the_budget_lasts(four, one_face, monkeypatch):
+    """The first round's force-closure grasp drops; the second round reaches only grasps
+    already tried (not tried again); the third reaches one that holds: it is the answer,
+    and the record says three rounds, two grasps.  With no budget left after the first
+    round, no second one."""
+    import prehension.hold as hold_module
+    import prehension.sim as sim_module
+
+    task, grasp = four
+    a, b = _turned(task, grasp, 0.2), _turned(task, grasp, -0.2)
+    holds = sim_module.simulate_grasp(task, grasp, SimOptions())
+    drops = sim_module.simulate_grasp(*one_face, SimOptions())
+    assert holds.success and not drops.success
+    monkeypatch.setattr(sim_module, "simulate_grasp", lambda task, s, options, seed=0: holds if s is b else drops)
+    rounds = {0: [a], 1: [_turned(task, grasp, 0.2)], 2: [b]}
+    monkeypatch.setattr(hold_module, "aimed_grasps", lambda task, quality, seed, witness: rounds.get(seed, []))
+    out = hold_first(SolveResult(task, "local", "solved", "one candidate", (grasp,)))
+    assert out.held and out.result.solutions == (b,)
+    assert [t["candidate"] for t in out.result.stats["hold"]["tried"]] == [0, 1, 2]
+    assert out.closure["method"] == "aimed" and out.closure["rounds"] == 3 and out.closure["grasps"] == 2
+    assert "2 force-closure grasp(s)" in out.closure["message"] and "3 round(s)" in out.closure["message"]
+    clock = itertools.chain([0.0], itertools.repeat(1e9))  # the search started at 0; every later reading is past its budget
+    monkeypatch.setattr(hold_module.time, "perf_counter", lambda: next(clock))
+    out = hold_first(SolveResult(task, "local", "solved", "one candidate", (grasp,)))
+    assert not out.held and out.closure["rounds"] == 1 and len(out.result.solutions) == 2
 
 
 def test_the_closure_budget_needs_hold(tmp_path, capsys):

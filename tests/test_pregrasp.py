@@ -53,7 +53,7 @@ def test_every_solution_stores_its_pregrasp_and_squeeze_and_check_re_derives_the
     data = json.loads(path.read_text())
     sol = data["solutions"][0]
     assert sol["pregrasp"]["collision_free"] and sol["pregrasp"]["back_off_mm"] == 15.0
-    assert sol["squeeze"]["kind"] == "forces" and max(sol["squeeze"]["depths_mm"]) == pytest.approx(10.0)
+    assert sol["squeeze"]["kind"] == "push" and max(sol["squeeze"]["depths_mm"]) == pytest.approx(10.0)
     checked = verify_result_file(path)
     names = [f.what for f in checked.findings]
     assert checked.holds and "solution 0: pre-grasp (collision-free with the object and itself)" in names
@@ -86,6 +86,30 @@ def test_a_stored_balanced_squeeze_still_checks(tmp_path, four):
     path.write_text(json.dumps(data))
     assert main(["check", str(path)]) == EXIT_OK
     data["solutions"][0]["squeeze"]["kind"] = "forces"  # the other kind's targets: refused
+    path.write_text(json.dumps(data))
+    assert main(["check", str(path)]) == EXIT_CHECK_FAILED
+
+
+def test_a_stored_forces_squeeze_still_checks(tmp_path, four):
+    """Result files written before the ``"push"`` squeeze store the ``"forces"`` one (on this
+    grasp a different step): ``check`` re-derives it with its stated kind; the push squeeze's
+    targets under the forces kind are refused."""
+    from prehension.sim.squeeze import squeeze_step
+
+    task, grasp = four
+    path = tmp_path / "r.result.json"
+    result = SolveResult(task, "local", "solved", "test", (grasp,))
+    write_result(result, path, quality_entries(result), approach_entries_of(result))
+    data = json.loads(path.read_text())
+    assert data["solutions"][0]["squeeze"]["kind"] == "push"
+    pushed = dict(data["solutions"][0]["squeeze"])
+    q_s, depths = squeeze_step(task, grasp.q, grasp.contacts, 10.0, "forces")
+    assert not np.allclose(depths, pushed["depths_mm"], atol=1e-3)
+    data["solutions"][0]["squeeze"].update(kind="forces", depths_mm=depths.tolist(),
+                                           joint_angles_rad=dict(zip(task.hand.dof_names, q_s.tolist())))  # fmt: skip
+    path.write_text(json.dumps(data))
+    assert main(["check", str(path)]) == EXIT_OK
+    data["solutions"][0]["squeeze"] = dict(pushed, kind="forces")
     path.write_text(json.dumps(data))
     assert main(["check", str(path)]) == EXIT_CHECK_FAILED
 

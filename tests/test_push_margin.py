@@ -33,13 +33,13 @@ def test_the_squeeze_forces_balance_the_actuator_torques_in_least_squares(four):
     """``J^T f = kp (q_s - q)`` over the moving dofs, in the least-squares sense: the
     residual is orthogonal to the columns of ``J^T`` (the normal equations)."""
     from prehension.hands.kinematics import forward_kinematics, point_jacobian
-    from prehension.sim.squeeze import squeeze_step
+    from prehension.sim.push import squeeze_for
 
     task, grasp = four
     options = SimOptions()
     f = squeeze_forces(task, grasp, options)
     q = np.asarray(grasp.q, float)
-    tau = options.kp * (squeeze_step(task, q, grasp.contacts, options.squeeze_mm, options.squeeze, options.friction)[0] - q)
+    tau = options.kp * (squeeze_for(task, q, grasp.T_palm_object, grasp.contacts, options)[0] - q)
     hand, pose = task.hand, forward_kinematics(task.hand, q)
     J = np.concatenate([point_jacobian(hand, pose, hand.link_index(hand.region(c.hand_region).link),
                                        np.asarray(s.hand_point, float)[None])[0] * 1e-3

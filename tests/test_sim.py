@@ -202,17 +202,17 @@ def test_simulate_on_the_command_line(tmp_path, capsys, four, one_face):
 
 
 def test_every_squeeze_kind_on_the_command_line(tmp_path, capsys, four):
-    """``--squeeze-kind``: forces (the default), balanced, uniform; each report says which."""
+    """``--squeeze-kind``: push (the default), forces, balanced, uniform; each report says which."""
     holds = _result_file(tmp_path, *four, "holds")
-    for kind in (None, "forces", "balanced", "uniform"):
+    for kind in (None, "push", "forces", "balanced", "uniform"):
         out = tmp_path / f"physics-{kind}.json"
         args = ["simulate", str(holds), "-o", str(out)] + ([] if kind is None else ["--squeeze-kind", kind])
         assert main(args) in (EXIT_OK, EXIT_DROPPED)
-        assert json.loads(out.read_text())["grasps"][0]["options"]["squeeze"] == (kind or "forces")
+        assert json.loads(out.read_text())["grasps"][0]["options"]["squeeze"] == (kind or "push")
     capsys.readouterr()
     with pytest.raises(SystemExit):  # argparse names the valid kinds
         main(["simulate", str(holds), "--squeeze-kind", "hard"])
-    assert "choose from 'forces', 'balanced', 'uniform'" in capsys.readouterr().err
+    assert "choose from 'push', 'forces', 'balanced', 'uniform'" in capsys.readouterr().err
 
 
 def test_simulate_refuses_what_it_cannot_trust(tmp_path, capsys, four):

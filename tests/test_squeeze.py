@@ -59,9 +59,9 @@ def test_the_balanced_squeeze_presses_the_thumb_as_hard_as_three_fingers(four):
 
 
 def test_an_unknown_squeeze_kind_is_refused_by_name():
-    with pytest.raises(PrehensionError, match="squeeze must be 'forces', 'balanced' or 'uniform'"):
+    with pytest.raises(PrehensionError, match="squeeze must be 'forces', 'push', 'balanced' or 'uniform'"):
         SimOptions(squeeze="hard")
-    assert SimOptions().squeeze == "forces"
+    assert SimOptions().squeeze == "push"
 
 
 def _static_imbalance(task, grasp, kind) -> tuple[float, np.ndarray]:

@@ -313,7 +313,7 @@ def test_the_stored_pre_grasp_and_squeeze_are_drawn_at_their_angles(result_file)
                 assert _rows(capsule_mesh(capsule).transformed(poses[link.name]).vertices) <= drawn, (name, link.name)
     hand = _rows(np.concatenate([m.vertices_mm for m in scene.layer("hand").meshes]))
     assert hand != _rows(np.concatenate([m.vertices_mm for m in scene.layer("hand_pregrasp").meshes]))  # the fingers moved
-    assert "backed off 15 mm" in dict(scene.stages)["pregrasp"] and "forces 10 mm" in dict(scene.stages)["squeeze"]
+    assert "backed off 15 mm" in dict(scene.stages)["pregrasp"] and "push 10 mm" in dict(scene.stages)["squeeze"]
 
 
 def test_one_stage_is_shown_at_a_time(result_file):

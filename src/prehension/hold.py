@@ -2,8 +2,10 @@
 
 :func:`hold_first` runs the candidates of a result (the ranked solutions of
 :func:`~prehension.best.solve_best`), best first, through the physics test
-(:func:`~prehension.sim.simulate_grasp`, the ``"forces"`` squeeze by default) until one holds
-against all six pushes, or the candidates run out:
+(:func:`~prehension.sim.simulate_grasp`, the ``"push"`` squeeze by default) until one holds
+against all six pushes, or the candidates run out (each tried candidate's push margin,
+:func:`~prehension.sim.push.push_margin`, is recorded beside its verdict; it does not
+reorder them: docs/quality.md, "Physics in the loop"):
 
 * one holds: the answer is that grasp alone (``held`` true), with its physics verdict;
 * none holds: the answer keeps every candidate, ordered by how many pushes it held (then
@@ -34,7 +36,11 @@ own contact model (friction ``SimOptions.friction``, soft fingers of torsion
    a second or two); the force-closure grasps they reach (at most eight, each moved up by
    the quality ascent) are further candidates, tried in the physics test like the
    others (``stats["hold"]["closure"]``: status ``"solved"``, ``"method": "aimed"``), and
-   the complete solver is not asked;
+   the complete solver is not asked.  While none holds and the budget lasts (its wall
+   clock from the start of step 1, the physics tests of these grasps included), further
+   rounds of aimed starts (seeds ``seed + 1``, ``seed + 2``, ...) add the force-closure
+   grasps they reach that are distinct from every candidate so far, tried the same way
+   (``"rounds"``, ``"grasps"``: how many rounds, how many grasps in all);
 3. when they reach none, the **complete solver** is asked, for the time left, for a
    force-closure grasp of the same task (``require="force-closure"``,
    :mod:`prehension.solvers.complete.closure`):
@@ -60,13 +66,15 @@ import time
 from dataclasses import dataclass, replace
 
 from .ascent import improve_grasp
+from .best import distinct
 from .errors import PrehensionError
 from .quality import QualityOptions, grasp_quality
-from .region_closure import aimed_grasps, regions_closure
+from .region_closure import AIMED_STARTS, aimed_grasps, regions_closure
 from .results import SolveResult, Status
+from .sim.push import push_margin
 from .solve import SolveOptions, solve
 
-__all__ = ["HoldOutcome", "hold_first", "CLOSURE_TIME_S", "REGIONS_SHARE", "closure_model"]
+__all__ = ["HoldOutcome", "hold_first", "margin_of", "CLOSURE_TIME_S", "REGIONS_SHARE", "closure_model"]
 
 COMPLETE_SOURCE = "complete solver (force closure required, --hold)"
 AIMED_SOURCE = "local iterations aimed at force-closure points of the regions (--hold)"
@@ -116,20 +124,30 @@ def closure_model(options):
     return QualityOptions(friction=options.friction, torsion_mm=options.torsion_mm)
 
 
+def margin_of(task, solution, options) -> float | None:
+    """The candidate's push margin (:func:`~prehension.sim.push.push_margin` with the test's
+    ``options``, 4 decimals), recorded beside its verdict; ``None`` when it cannot be computed."""
+    try:
+        return round(push_margin(task, solution, options).margin, 4)
+    except PrehensionError:  # e.g. an object with no size to take torques about: the test itself says why
+        return None
+
+
 def _trials(task, solutions, first: int, options, seed: int, progress, total: int) -> tuple[list, list, bool]:
-    """The physics test of ``solutions`` (ranks from ``first``) until one holds:
-    ``(reports [(rank, report)], tried [dict], interrupted)``."""
+    """The physics test of ``solutions`` (ranks from ``first``), in rank order, until one
+    holds: ``(reports [(rank, report)], tried [dict], interrupted)``."""
     from .sim import simulate_grasp
 
     reports, tried = [], []
     try:
         for rank, solution in enumerate(solutions, start=first):
+            margin = margin_of(task, solution, options)
             if progress is not None:
-                progress(f"physics test of candidate {rank + 1} of {total}")
+                progress(f"physics test of candidate {rank + 1} of {total} (push margin {margin})")
             report = simulate_grasp(task, solution, options, seed)
             reports.append((rank, report))
             tried.append({"candidate": rank, "success": report.success, "rejected": report.rejected,
-                          "pushes_held": report.held, "why": _why(report)})  # fmt: skip
+                          "pushes_held": report.held, "push_margin": margin, "why": _why(report)})  # fmt: skip
             if report.success:
                 break
     except KeyboardInterrupt:  # SIGTERM and SIGHUP arrive as KeyboardInterrupt too (cli.terminate)
@@ -137,10 +155,11 @@ def _trials(task, solutions, first: int, options, seed: int, progress, total: in
     return reports, tried, False
 
 
-def _closure_search(result: SolveResult, options, seed: int, time_s: float, progress) -> tuple[dict, object]:
+def _closure_search(result: SolveResult, options, seed: int, time_s: float, progress) -> tuple[dict, list, object]:
     """Force closure looked for within ``time_s`` (the physics test's contact model): first
-    without the hand, then by the complete solver (module docstring): ``(record for
-    stats["hold"]["closure"], the complete solver's grasp improved by the ascent or None)``."""
+    without the hand, then by the aimed starts, then by the complete solver (module
+    docstring): ``(record for stats["hold"]["closure"], [(further grasp, source)], the
+    regions' force-closure witness or None)``."""
     quality, started = closure_model(options), time.perf_counter()
     if progress is not None:
         progress(f"no candidate holds: can any points of the object regions be force closure? (at most {REGIONS_SHARE * time_s:g} s)")
@@ -148,7 +167,7 @@ def _closure_search(result: SolveResult, options, seed: int, time_s: float, prog
     if regions.status == Status.INFEASIBLE:
         return {"status": str(Status.INFEASIBLE), "method": "regions", "message": regions.message,
                 "seconds": round(regions.seconds, 3), "time_limit_s": time_s, "quality": quality.to_dict(),
-                "boxes": regions.boxes, "closure_pruned": regions.pruned}, []  # fmt: skip
+                "boxes": regions.boxes, "closure_pruned": regions.pruned}, [], None  # fmt: skip
     if progress is not None:
         progress("no candidate holds: local iterations aimed at force-closure points of the regions")
     aimed = aimed_grasps(result.task, quality, seed, regions.witness)
@@ -156,7 +175,7 @@ def _closure_search(result: SolveResult, options, seed: int, time_s: float, prog
     if aimed:
         return {"status": str(Status.SOLVED), "method": "aimed", "message": f"{len(aimed)} force-closure grasp(s) from "
                 "starts aimed at force-closure points of the regions", "seconds": round(spent, 3), "time_limit_s": time_s,
-                "quality": quality.to_dict(), "regions": regions.to_dict()}, [(s, AIMED_SOURCE) for s in aimed]  # fmt: skip
+                "quality": quality.to_dict(), "regions": regions.to_dict(), "rounds": 1, "grasps": len(aimed)}, [(s, AIMED_SOURCE) for s in aimed], regions.witness  # fmt: skip
     left = max(time_s - spent, 1e-3)
     if progress is not None:
         progress(f"no candidate holds: the complete solver looks for a force-closure grasp (at most {left:.3g} s)")
@@ -167,8 +186,8 @@ def _closure_search(result: SolveResult, options, seed: int, time_s: float, prog
               **{k: found.stats.get(k) for k in ("boxes", "lps", "closure_pruned")}, "options": found.stats.get("options"),
               "regions": regions.to_dict()}  # fmt: skip
     if not found.solutions:
-        return record, []
-    return record, [(improve_grasp(result.task, found.solutions[0], quality).solution, COMPLETE_SOURCE)]
+        return record, [], None
+    return record, [(improve_grasp(result.task, found.solutions[0], quality).solution, COMPLETE_SOURCE)], None
 
 
 def hold_first(result: SolveResult, options=None, seed: int = 0, progress=None,
@@ -192,18 +211,65 @@ def hold_first(result: SolveResult, options=None, seed: int = 0, progress=None,
     reports, tried, interrupted = _trials(result.task, solutions, 0, options, seed, progress, len(solutions))
     closure = None
     if not interrupted and not any(r.success for _, r in reports) and closure_time_s > 0:
+        started, witness = time.perf_counter(), None
         try:
-            closure, extra = _closure_search(result, options, seed, closure_time_s, progress)
+            closure, extra, witness = _closure_search(result, options, seed, closure_time_s, progress)
         except KeyboardInterrupt:
             closure, extra, interrupted = None, [], True
         except PrehensionError as exc:  # a task the complete solver does not take: the candidates' verdicts stand
             closure, extra = {"status": "unavailable", "message": str(exc), "time_limit_s": closure_time_s}, []
-        if extra:
-            first, solutions = len(solutions), solutions + tuple(s for s, _ in extra)
-            result = replace(result, stats=_with_extra(result, extra))
-            more, more_tried, interrupted = _trials(result.task, solutions[first:], first, options, seed, progress, len(solutions))
-            reports, tried = reports + more, tried + more_tried
+        state = _Trying(result, solutions, reports, tried, interrupted)
+        state.add(extra, options, seed, progress)
+        if (closure or {}).get("method") == "aimed":
+            _more_rounds(state, closure, witness, options, seed, started + closure_time_s, progress)
+        result, solutions, reports, tried, interrupted = state.result, state.solutions, state.reports, state.tried, state.interrupted
     return _outcome(replace(result, solutions=solutions), options, reports, tried, interrupted, closure, ranked)
+
+
+@dataclass
+class _Trying:
+    """The candidates so far and their verdicts, while the force-closure search adds more."""
+
+    result: SolveResult
+    solutions: tuple
+    reports: list
+    tried: list
+    interrupted: bool
+
+    @property
+    def held(self) -> bool:
+        return any(r.success for _, r in self.reports)
+
+    def add(self, extra: list, options, seed: int, progress) -> None:
+        """Further grasps ``[(solution, source)]``: appended and tried in order until one holds."""
+        if not extra or self.interrupted or self.held:
+            return
+        first, self.solutions = len(self.solutions), self.solutions + tuple(s for s, _ in extra)
+        self.result = replace(self.result, stats=_with_extra(self.result, extra))
+        more, more_tried, self.interrupted = _trials(self.result.task, self.solutions[first:], first, options, seed, progress,
+                                                     len(self.solutions))  # fmt: skip
+        self.reports, self.tried = self.reports + more, self.tried + more_tried
+
+
+def _more_rounds(state: _Trying, closure: dict, witness, options, seed: int, deadline: float, progress) -> None:
+    """Further rounds of aimed starts (seeds ``seed + 1``, ``seed + 2``, ...) while no
+    candidate holds and the search's budget lasts (``deadline``: its wall clock, the physics
+    tests of its grasps included); each round's force-closure grasps that are distinct from
+    every candidate so far are tried.  ``closure["rounds"]`` and its message say how many."""
+    quality, task = closure_model(options), state.result.task
+    try:
+        while not state.held and not state.interrupted and time.perf_counter() < deadline:
+            if progress is not None:
+                progress(f"no candidate holds: aimed starts, round {closure['rounds'] + 1}")
+            found = aimed_grasps(task, quality, seed + closure["rounds"], witness)
+            closure["rounds"] += 1
+            new = [s for s in found if all(distinct(s, other, task) for other in state.solutions)]
+            closure["grasps"] += len(new)
+            state.add([(s, AIMED_SOURCE) for s in new], options, seed, progress)
+    except KeyboardInterrupt:
+        state.interrupted = True
+    closure["message"] = (f"{closure['grasps']} force-closure grasp(s) from starts aimed at force-closure points of the "
+                          f"regions ({closure['rounds']} round(s) of {AIMED_STARTS} starts)")  # fmt: skip
 
 
 def _with_extra(result: SolveResult, extra: list) -> dict:

@@ -164,13 +164,13 @@ def judge_pregrasp(task: Task, q_grasp, q, T_palm_object, contacts, back_off_mm:
 def approach_entries(task: Task, solution, back_off_mm: float = DEFAULT_BACK_OFF_MM) -> dict:
     """A solution's ``"pregrasp"`` and ``"squeeze"`` as a result file stores them: the
     pre-grasp (:func:`pregrasp`) and the squeeze targets of the physics test's default
-    protocol (:func:`~prehension.sim.squeeze.squeeze_step`, the ``"forces"`` squeeze, 10 mm,
+    protocol (:func:`~prehension.sim.push.squeeze_for`, the ``"push"`` squeeze, 10 mm,
     friction 0.6), the hand closing from the first through the grasp to the second."""
     from .sim.options import SimOptions
-    from .sim.squeeze import squeeze_step
+    from .sim.push import squeeze_for
 
     o = SimOptions()
-    q_squeeze, depths = squeeze_step(task, solution.q, solution.contacts, o.squeeze_mm, o.squeeze, o.friction)
+    q_squeeze, depths = squeeze_for(task, solution.q, solution.T_palm_object, solution.contacts, o)
     squeeze = {"kind": o.squeeze, "squeeze_mm": o.squeeze_mm, "friction": o.friction, "depths_mm": depths.tolist(),
                "joint_angles_rad": dict(zip(task.hand.dof_names, q_squeeze.tolist()))}  # fmt: skip
     return {"pregrasp": pregrasp(task, solution, back_off_mm).to_dict(task), "squeeze": squeeze}
@@ -191,7 +191,9 @@ def check_approach(task: Task, q_grasp, T_palm_object, contacts, stored: dict) -
     pre-grasp claimed collision-free must pass the residual function's rows.  The squeeze
     targets are recomputed from the contacts with the stated kind, depth and friction.
     """
-    from .sim.squeeze import as_good_a_squeeze, squeeze_step
+    from .sim.options import SimOptions
+    from .sim.push import as_good_a_push_squeeze, squeeze_for
+    from .sim.squeeze import as_good_a_squeeze
 
     out = []
     if "pregrasp" in stored:
@@ -211,11 +213,13 @@ def check_approach(task: Task, q_grasp, T_palm_object, contacts, stored: dict) -
         what = "squeeze targets"
         try:
             sq = stored["squeeze"]
-            q_sq, depths = squeeze_step(task, q_grasp, contacts, float(sq["squeeze_mm"]), sq["kind"], float(sq["friction"]))
+            o = SimOptions(squeeze_mm=float(sq["squeeze_mm"]), squeeze=str(sq["kind"]), friction=float(sq["friction"]))
+            q_sq, depths = squeeze_for(task, q_grasp, T_palm_object, contacts, o)
             given = np.array([float(sq["joint_angles_rad"][d]) for d in task.hand.dof_names])
             same = np.allclose(depths, sq["depths_mm"], atol=1e-6, rtol=0) and (
                 np.allclose(q_sq, given, atol=1e-6, rtol=0)  # else an equally good step (not unique: squeeze_targets)
-                or (sq["kind"] != "forces" and as_good_a_squeeze(task, q_grasp, contacts, float(sq["squeeze_mm"]), depths, given)))
+                or (sq["kind"] in ("balanced", "uniform") and as_good_a_squeeze(task, q_grasp, contacts, float(sq["squeeze_mm"]), depths, given)))
+            same = same or (sq["kind"] == "push" and as_good_a_push_squeeze(task, q_grasp, T_palm_object, contacts, o, given, sq["depths_mm"]))
             out.append((what, bool(same), f"{sq['kind']}, depths {', '.join(f'{d:.1f}' for d in depths)} mm"
                                           + ("" if same else ": differ from the recomputed ones")))  # fmt: skip
         except (KeyError, TypeError, ValueError) as exc:

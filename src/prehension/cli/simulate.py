@@ -48,9 +48,10 @@ def add_parser(sub) -> None:
     p.add_argument("--jitter-deg", type=types.finite, default=0.0, metavar="DEG",
                    help="and turned by this angle about a seeded random axis (default 0)")  # fmt: skip
     p.add_argument("--squeeze", type=types.finite, default=None, metavar="MM", help="how far each contact is aimed into the object (default 10)")
-    p.add_argument("--squeeze-kind", choices=("forces", "balanced", "uniform"), default=None,
-                   help="forces (default): targets whose actuator torques press with contact forces of zero net wrench, "
-                        "the deepest contact --squeeze mm in; balanced: each contact squeezed in proportion to its force "
+    p.add_argument("--squeeze-kind", choices=("push", "forces", "balanced", "uniform"), default=None,
+                   help="push (default): targets whose actuator torques press with the contact forces of zero net wrench "
+                        "that resist the largest push, every contact at most --squeeze mm in; forces: one such set "
+                        "picked without regard to the pushes, the deepest contact --squeeze mm in; balanced: each contact squeezed in proportion to its force "
                         "in such a set; uniform: every contact --squeeze mm (DexGraspBench's)")  # fmt: skip
     p.add_argument("--mass", type=types.finite, default=None, metavar="KG", help="object mass (default 0.1)")
     p.add_argument("--friction", type=types.finite, default=None, metavar="MU", help="sliding friction (default 0.6)")

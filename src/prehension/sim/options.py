@@ -24,8 +24,10 @@ class SimOptions:
     (torsional, MuJoCo's elliptic soft contacts, ``condim`` 4); the hand is held by
     position actuators (gain ``kp``) at the solved angles, then squeezed: the targets move
     over ``squeeze_s`` to angles that would carry each contact further into the object
-    (``squeeze``: ``"forces"``, by default, targets whose actuator torques press the
-    object with a set of contact forces of zero net wrench, the deepest contact aimed
+    (``squeeze``: ``"push"``, by default, targets whose actuator torques press the
+    object with the set of contact forces of zero net wrench that resists the largest
+    push, every contact aimed at most ``squeeze_mm`` in (:mod:`.aim`); ``"forces"``, the
+    same with one such set picked without regard to the pushes, the deepest contact aimed
     ``squeeze_mm`` in; ``"balanced"``, each contact ``squeeze_mm`` times its normal force in
     such a set over the largest; ``"uniform"``, DexGraspBench's, every contact
     ``squeeze_mm``; :mod:`.squeeze`); then a force of ``push_accel`` x ``mass_kg`` pushes the object's centre of
@@ -42,7 +44,7 @@ class SimOptions:
         damping: joint damping [N m s / rad] (keeps the stiff hand stable).
         squeeze_mm: how far each contact is aimed into the object [mm] (with the forces
             and the balanced squeeze: the contact aimed deepest; the others less).
-        squeeze: ``"forces"`` (default), ``"balanced"`` or ``"uniform"`` (DexGraspBench's).
+        squeeze: ``"push"`` (default), ``"forces"``, ``"balanced"`` or ``"uniform"`` (DexGraspBench's).
         squeeze_s: duration of the squeeze [s] (0.4 s: 100 steps of 4 ms).
         push_accel: push force per kg [N/kg = m/s^2] (10).
         hold_s: duration of the push [s] (2).
@@ -60,7 +62,7 @@ class SimOptions:
     kp: float = 5.0
     damping: float = 0.1
     squeeze_mm: float = 10.0
-    squeeze: str = "forces"
+    squeeze: str = "push"
     squeeze_s: float = 0.4
     push_accel: float = 10.0
     hold_s: float = 2.0
@@ -82,8 +84,8 @@ class SimOptions:
             if not ok:
                 need = "a positive number" if name in positive else "a number >= 0"
                 raise PrehensionError(f"simulation options: {name} must be {need}, got {value!r}")
-        if self.squeeze not in ("forces", "balanced", "uniform"):
-            raise PrehensionError(f"simulation options: squeeze must be 'forces', 'balanced' or 'uniform', got {self.squeeze!r}")
+        if self.squeeze not in ("forces", "balanced", "uniform", "push"):
+            raise PrehensionError(f"simulation options: squeeze must be 'forces', 'push', 'balanced' or 'uniform', got {self.squeeze!r}")
         if self.timestep_s > 0.05:
             raise PrehensionError(f"simulation options: timestep_s must be at most 0.05 s, got {self.timestep_s}")
 

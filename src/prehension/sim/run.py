@@ -18,7 +18,7 @@ from ..geometry.rotations import rotation_about
 from ..tasks.model import Task
 from .options import PUSH_DIRECTIONS, SimOptions
 from .scene import MM, SimScene, build_scene_xml
-from .squeeze import squeeze_step
+from .push import squeeze_for
 from .start import hand_depth, posed, solver_distance, start_state
 
 __all__ = ["PushOutcome", "PhysicsReport", "Closing", "simulate_grasp", "require_mujoco", "scene_for"]
@@ -185,7 +185,7 @@ def _simulated(mujoco, task: Task, solution, options: SimOptions, seed: int, pre
     scene = scene_for(task, solution, options, seed)
     q = np.asarray(solution.q, dtype=float)
     model, data = posed(mujoco, scene.xml, scene.dof_names, q)
-    q_squeeze = squeeze_step(task, q, solution.contacts, options.squeeze_mm, options.squeeze, options.friction)[0]
+    q_squeeze = squeeze_for(task, q, solution.T_palm_object, solution.contacts, options)[0]
     sim = _Sim(mujoco, model, data, scene, q, q_squeeze, options)
     closing = None
     if pregrasp_q is not None:

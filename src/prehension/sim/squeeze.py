@@ -1,8 +1,11 @@
 """The squeeze: joint angles that would carry each contact a little further into the object.
 
-Three kinds (``SimOptions.squeeze``; :func:`squeeze_step` computes any of them):
+Four kinds (``SimOptions.squeeze``; :func:`~.push.squeeze_for` computes any of them,
+:func:`squeeze_step` every one but ``"push"``):
 
-* ``"forces"`` (the default): the targets are chosen so that the actuators' own torques
+* ``"push"`` (the default, :mod:`.aim`): the ``"forces"`` step with, of all balanced
+  force sets, the one whose squeeze resists the largest push (it needs the object's pose).
+* ``"forces"`` (the default until 2026-11-28): the targets are chosen so that the actuators' own torques
   press the object with a set of contact forces that resist each other.  With
   ``f*`` the balanced contact forces of :func:`balanced_normal_forces` (zero net wrench
   when the grasp is force closure) and ``J`` the contacts' point Jacobians over the
@@ -17,7 +20,7 @@ Three kinds (``SimOptions.squeeze``; :func:`squeeze_step` computes any of them):
   whatever the balance of forces.  Three fingertips on one face and a thumb on the other
   then push three times harder one way than the other, and the object turns during the
   squeeze itself.
-* ``"balanced"`` (the default): each contact is aimed ``squeeze_mm * f_i / max_j f_j``
+* ``"balanced"`` (the default before ``"forces"``): each contact is aimed ``squeeze_mm * f_i / max_j f_j``
   into the object, ``f_i`` its normal force in a set of contact forces that resist each
   other -- a zero net force and torque -- found by :func:`balanced_normal_forces`.  The
   position actuators press roughly in proportion to how far their targets lie inside the
@@ -41,7 +44,7 @@ from ..tasks.model import Task
 __all__ = ["squeeze_step", "squeeze_targets", "as_good_a_squeeze", "squeeze_depths", "balanced_normal_forces",
            "BalancedForces", "SQUEEZE_KINDS"]  # fmt: skip
 
-SQUEEZE_KINDS = ("forces", "balanced", "uniform")
+SQUEEZE_KINDS = ("forces", "balanced", "uniform", "push")
 
 
 class BalancedForces(NamedTuple):
@@ -105,6 +108,8 @@ def squeeze_step(task: Task, q, contacts, squeeze_mm: float, kind: str = "forces
     contact is aimed into the object (C,) [mm])``.  ``"forces"``: when no contact would be
     aimed inward (more than 1e-9 mm per unit of balanced force), the ``"balanced"`` one."""
     q = np.asarray(q, dtype=float)
+    if kind == "push":
+        raise ValueError("squeeze_step: the 'push' squeeze needs the object's pose and the push: sim.push.squeeze_for")
     if kind == "forces":
         J, _, free, _ = _problem(task, q, contacts, squeeze_mm, None)  # (3C, n_dof) [mm/rad], couplings folded
         inward = inward_normals(contacts)
