@@ -85,8 +85,9 @@ def _step_matrix(task: Task, J: np.ndarray, free: np.ndarray) -> np.ndarray:
 
 
 def _linear_model(task: Task, q: np.ndarray, contacts, options: SimOptions):
-    """``(A, D, Nm, bounds)``: the step ``dq = A g``, the depths ``D g`` [mm], the normal
-    forces ``Nm g`` [N] and ``(lo, hi)`` of ``dq`` (module docstring)."""
+    """``(A, D, Nm, (lo, hi), free)``: the step ``dq = A g``, the depths ``D g`` [mm], the
+    normal forces ``Nm g`` [N], the bounds ``(lo, hi)`` of ``dq`` and the free dofs' mask
+    (module docstring)."""
     J, _, free, _ = _problem(task, q, contacts, options.squeeze_mm, None)
     inward = inward_normals(contacts)
     C = len(contacts)
