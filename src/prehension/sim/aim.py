@@ -36,10 +36,10 @@ from scipy.optimize import linprog
 
 from ..quality.options import QualityOptions
 from ..quality.solid import object_reference
-from ..quality.wrenches import cone_edges, primitive_wrenches
+from ..quality.wrenches import primitive_wrenches
 from ..tasks.model import Task
 from .options import PUSH_DIRECTIONS, SimOptions
-from .squeeze import _problem, _targets, contact_jacobian, inward_normals
+from .squeeze import _problem, _targets, balance_wrenches, contact_jacobian, coupling_weights, inward_normals
 
 __all__ = ["AimedSqueeze", "push_squeeze", "push_wrenches"]
 
@@ -74,11 +74,8 @@ def push_wrenches(task: Task, T_palm_object, contacts, options: SimOptions) -> n
 def _step_matrix(task: Task, J: np.ndarray, free: np.ndarray) -> np.ndarray:
     """``A`` ``(n_dof, 3C)``: the step ``dq = A g`` of the forces squeeze (``J`` folded)."""
     hand = task.hand
-    weight = np.ones(hand.n_dof)
-    for c in hand.couplings:
-        weight[hand.dof_index(c.source)] += c.ratio**2
     A = np.zeros((hand.n_dof, J.shape[0]))
-    A[free] = J[:, free].T / weight[free, None]
+    A[free] = J[:, free].T / coupling_weights(hand)[free, None]
     for c in hand.couplings:
         A[hand.dof_index(c.dof)] = c.ratio * A[hand.dof_index(c.source)]
     return A
@@ -105,14 +102,11 @@ def _linear_model(task: Task, q: np.ndarray, contacts, options: SimOptions):
 def _balance_rows(contacts, friction: float, n_edges: int = 8) -> tuple[np.ndarray, np.ndarray]:
     """``(E (3C, C e) the cone edges as columns, W (6, C e) their wrenches)``: ``g = E mu``, balanced when ``W mu = 0``."""
     p = np.array([np.asarray(c.hand_point, float) for c in contacts])
-    arm = p - p.mean(axis=0)
-    scale = max(float(np.max(np.linalg.norm(arm, axis=1))), 1e-9)
-    edges = cone_edges(inward_normals(contacts), friction, n_edges)  # (C, e, 3)
+    edges, W = balance_wrenches(p, inward_normals(contacts), friction, n_edges)  # (C, e, 3), (6, C e)
     C, e = edges.shape[:2]
     E = np.zeros((3 * C, C * e))
     for i in range(C):
         E[3 * i:3 * i + 3, i * e:(i + 1) * e] = edges[i].T
-    W = np.concatenate([edges, np.cross(arm[:, None, :], edges) / scale], axis=2).reshape(C * e, 6).T
     return E, W
 
 

@@ -42,7 +42,7 @@ from ..quality.wrenches import cone_edges
 from ..tasks.model import Task
 
 __all__ = ["squeeze_step", "squeeze_targets", "as_good_a_squeeze", "squeeze_depths", "balanced_normal_forces",
-           "BalancedForces", "SQUEEZE_KINDS"]  # fmt: skip
+           "balance_wrenches", "coupling_weights", "BalancedForces", "SQUEEZE_KINDS"]  # fmt: skip
 
 SQUEEZE_KINDS = ("forces", "balanced", "uniform", "push")
 
@@ -79,15 +79,10 @@ def balanced_normal_forces(points_mm, inward_normals, friction: float, n_edges: 
         friction: Coulomb coefficient of the cones.
         n_edges: edges of each linearised cone.
     """
-    p = np.asarray(points_mm, dtype=float).reshape(-1, 3)
     n = np.asarray(inward_normals, dtype=float).reshape(-1, 3)
     n = n / np.linalg.norm(n, axis=1, keepdims=True)
-    C = len(p)
-    arm = p - p.mean(axis=0)
-    scale = max(float(np.max(np.linalg.norm(arm, axis=1))), 1e-9)
-    edges = cone_edges(n, friction, n_edges)  # (C, E, 3), unit normal component
-    E = edges.shape[1]
-    W = np.concatenate([edges, np.cross(arm[:, None, :], edges) / scale], axis=2).reshape(C * E, 6).T  # (6, C E)
+    edges, W = balance_wrenches(points_mm, n, friction, n_edges)
+    C, E = edges.shape[:2]
     nv = C * E
     # variables: lambda (C E), s (6);  -s <= W lambda <= s;  -sum_j lambda_ij <= -1
     A_ub = np.block([[W, -np.eye(6)], [-W, -np.eye(6)], [-np.kron(np.eye(C), np.ones((1, E))), np.zeros((C, 6))]])
@@ -103,6 +98,28 @@ def balanced_normal_forces(points_mm, inward_normals, friction: float, n_edges: 
     return BalancedForces(normal / normal.min(), forces, residual if residual > 1e-7 else 0.0)
 
 
+def balance_wrenches(points_mm, inward_normals, friction: float, n_edges: int = 8) -> tuple[np.ndarray, np.ndarray]:
+    """The cone edges ``(C, E, 3)`` (unit normal component,
+    :func:`~prehension.quality.wrenches.cone_edges`) and their wrenches ``(6, C E)`` as the
+    balance of :func:`balanced_normal_forces` counts them: force, and torque about the
+    contacts' mean point divided by their largest distance from it (force units)."""
+    p = np.asarray(points_mm, dtype=float).reshape(-1, 3)
+    arm = p - p.mean(axis=0)
+    scale = max(float(np.max(np.linalg.norm(arm, axis=1))), 1e-9)
+    edges = cone_edges(np.asarray(inward_normals, dtype=float).reshape(-1, 3), friction, n_edges)
+    C, E = edges.shape[:2]
+    return edges, np.concatenate([edges, np.cross(arm[:, None, :], edges) / scale], axis=2).reshape(C * E, 6).T
+
+
+def coupling_weights(hand) -> np.ndarray:
+    """``w`` ``(n_dof,)`` of the forces squeeze's step ``J^T f / w``: 1 plus the squared
+    ratios of the dofs coupled to each dof (a source moves its followers too)."""
+    weight = np.ones(hand.n_dof)
+    for c in hand.couplings:
+        weight[hand.dof_index(c.source)] += c.ratio**2
+    return weight
+
+
 def squeeze_step(task: Task, q, contacts, squeeze_mm: float, kind: str = "forces", friction: float = 0.6) -> tuple[np.ndarray, np.ndarray]:
     """The squeeze of ``kind`` (module docstring): ``(targets (n_dof,) [rad], how far each
     contact is aimed into the object (C,) [mm])``.  ``"forces"``: when no contact would be
@@ -114,11 +131,8 @@ def squeeze_step(task: Task, q, contacts, squeeze_mm: float, kind: str = "forces
         J, _, free, _ = _problem(task, q, contacts, squeeze_mm, None)  # (3C, n_dof) [mm/rad], couplings folded
         inward = inward_normals(contacts)
         forces = _balanced(contacts, friction).forces  # (C, 3)
-        weight = np.ones(task.hand.n_dof)
-        for c in task.hand.couplings:
-            weight[task.hand.dof_index(c.source)] += c.ratio**2
         dq = np.zeros(task.hand.n_dof)
-        dq[free] = J[:, free].T @ forces.reshape(-1) / weight[free]
+        dq[free] = J[:, free].T @ forces.reshape(-1) / coupling_weights(task.hand)[free]
         depths = np.einsum("cd,cd->c", (J @ dq).reshape(-1, 3), inward)
         if len(contacts) and depths.max() > 1e-9:
             scale = squeeze_mm / depths.max()
