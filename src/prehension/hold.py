@@ -71,7 +71,7 @@ from .errors import PrehensionError
 from .quality import QualityOptions, grasp_quality
 from .region_closure import AIMED_STARTS, aimed_grasps, regions_closure
 from .results import SolveResult, Status
-from .sim.push import push_margin
+from .sim.push import push_margin, squeeze_for
 from .solve import SolveOptions, solve
 
 __all__ = ["HoldOutcome", "hold_first", "margin_of", "CLOSURE_TIME_S", "REGIONS_SHARE", "closure_model"]
@@ -127,10 +127,18 @@ def closure_model(options):
 def margin_of(task, solution, options) -> float | None:
     """The candidate's push margin (:func:`~prehension.sim.push.push_margin` with the test's
     ``options``, 4 decimals), recorded beside its verdict; ``None`` when it cannot be computed."""
+    return _margin_and_squeeze(task, solution, options)[0]
+
+
+def _margin_and_squeeze(task, solution, options) -> tuple[float | None, object]:
+    """``(margin_of's margin, the squeeze's targets)``: the squeeze is computed once, for the
+    margin and the physics test both; ``(None, None)`` when it cannot be (the test then
+    computes it, and says why it cannot)."""
     try:
-        return round(push_margin(task, solution, options).margin, 4)
+        q_squeeze = squeeze_for(task, solution.q, solution.T_palm_object, solution.contacts, options)[0]
+        return round(push_margin(task, solution, options, q_squeeze).margin, 4), q_squeeze
     except PrehensionError:  # e.g. an object with no size to take torques about: the test itself says why
-        return None
+        return None, None
 
 
 def _trials(task, solutions, first: int, options, seed: int, progress, total: int) -> tuple[list, list, bool]:
@@ -141,10 +149,10 @@ def _trials(task, solutions, first: int, options, seed: int, progress, total: in
     reports, tried = [], []
     try:
         for rank, solution in enumerate(solutions, start=first):
-            margin = margin_of(task, solution, options)
+            margin, q_squeeze = _margin_and_squeeze(task, solution, options)
             if progress is not None:
                 progress(f"physics test of candidate {rank + 1} of {total} (push margin {margin})")
-            report = simulate_grasp(task, solution, options, seed)
+            report = simulate_grasp(task, solution, options, seed, q_squeeze=q_squeeze)
             reports.append((rank, report))
             tried.append({"candidate": rank, "success": report.success, "rejected": report.rejected,
                           "pushes_held": report.held, "push_margin": margin, "why": _why(report)})  # fmt: skip
