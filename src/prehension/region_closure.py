@@ -35,10 +35,13 @@ but no candidate is force closure, the local solver's iterations start from
 ``AIMED_STARTS`` random hand configurations whose object contact parameters are
 force-closure points of the regions (the witness, and the ``AIMED_POINTS`` best of
 ``AIMED_SAMPLES`` seeded random choices of one point per region, by the merit of
-:func:`prehension.ascent.merit`, positive ones only): the iterations move the hand onto
-those points when it can reach them (they move the points too: every grasp reached is
-verified and measured again).  The force-closure grasps reached, distinct, best merit
-first, each moved up by the quality ascent, are ``--hold``'s further candidates.
+:func:`prehension.ascent.merit`, positive ones only).  The local solver's initial
+placement (Obtain_Initial_Conf) sets the object parameters itself, so these starts reach
+what the same hand configurations reach without the aim (docs/quality.md, "Physics in the
+loop", step 2); the points decide only whether the starts are run (none found: no
+grasps).  Every grasp reached is verified and measured again; the force-closure ones,
+distinct, best merit first, each moved up by the quality ascent, are ``--hold``'s further
+candidates.
 """
 
 from __future__ import annotations
