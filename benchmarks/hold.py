@@ -333,6 +333,9 @@ def _hold_summary(console: Console, judged: list, squeezes) -> None:
         groups = {"generated": [m for m in judged if m["group"] != "authored"],
                   "authored": [m for m in judged if m["group"] == "authored"], "all": judged}  # fmt: skip
         for name, members in groups.items():
+            if not members:
+                console.print(f"--hold, {what}, {name} tasks: none judged in this run")
+                continue
             proven, held, rest = _hold_rate(members, key)
             split = ""
             if name == "generated":
