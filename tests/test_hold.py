@@ -228,7 +228,7 @@ def test_further_rounds_of_aimed_starts_while_none_holds_and_the_budget_lasts(fo
     assert holds.success and not drops.success
     monkeypatch.setattr(sim_module, "simulate_grasp", lambda task, s, options, seed=0, **_: holds if s is b else drops)
     rounds = {0: [a], 1: [_turned(task, grasp, 0.2)], 2: [b]}
-    monkeypatch.setattr(hold_module, "aimed_grasps", lambda task, quality, seed, witness: rounds.get(seed, []))
+    monkeypatch.setattr(hold_module, "aimed_grasps", lambda task, quality, seed, witness, aim=True: rounds.get(seed, []))
     out = hold_first(SolveResult(task, "local", "solved", "one candidate", (grasp,)))
     assert out.held and out.result.solutions == (b,)
     assert [t["candidate"] for t in out.result.stats["hold"]["tried"]] == [0, 1, 2]

@@ -166,17 +166,21 @@ def _closed(task: Task, params: tuple, centre, rho: float, quality: QualityOptio
     return force_closure(primitive_wrenches(np.array(points), np.array(inward), centre, rho, quality)).force_closure
 
 
-def aimed_grasps(task: Task, quality: QualityOptions, seed: int, witness=None) -> list[Solution]:
+def aimed_grasps(task: Task, quality: QualityOptions, seed: int, witness=None, aim: bool = True) -> list[Solution]:
     """Force-closure grasps of ``task`` (``quality``'s model) from the local iterations aimed
     at force-closure points of its regions (module docstring, "Aimed starts"); ``witness``:
-    per contact, object parameters known to be force closure (:class:`RegionClosure`)."""
+    per contact, object parameters known to be force closure (:class:`RegionClosure`).
+    ``aim=False``: plain random starts, no points sampled (a further round, once a first
+    one has shown the regions to have force-closure points: the aim is discarded anyway)."""
     rng = np.random.default_rng(seed)
-    points = ([tuple(witness)] if witness is not None else []) + _closure_points(task, quality, rng)
-    if not points:
-        return []
-    starts = [Configuration(s.joint_angles, s.T_palm_object, tuple((hp, np.array(points[k % len(points)][c], float))
-                                                                     for c, (hp, _) in enumerate(s.contact_params)))
-              for k, s in enumerate(random_starts(task, AIMED_STARTS, rng))]  # fmt: skip
+    starts = list(random_starts(task, AIMED_STARTS, rng)) if not aim else None
+    if aim:
+        points = ([tuple(witness)] if witness is not None else []) + _closure_points(task, quality, rng)
+        if not points:
+            return []
+        starts = [Configuration(s.joint_angles, s.T_palm_object, tuple((hp, np.array(points[k % len(points)][c], float))
+                                                                         for c, (hp, _) in enumerate(s.contact_params)))
+                  for k, s in enumerate(random_starts(task, AIMED_STARTS, rng))]  # fmt: skip
     found = [make_solution(task, c) for c in refine_local(task, starts, LocalOptions()).configurations if c is not None]
     scored = sorted(((merit(task, s, quality), k, s) for k, s in enumerate(found) if s is not None), key=lambda m: (-m[0], m[1]))
     kept: list[Solution] = []
