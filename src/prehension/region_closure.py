@@ -173,7 +173,6 @@ def aimed_grasps(task: Task, quality: QualityOptions, seed: int, witness=None, a
     ``aim=False``: plain random starts, no points sampled (a further round, once a first
     one has shown the regions to have force-closure points: the aim is discarded anyway)."""
     rng = np.random.default_rng(seed)
-    starts = list(random_starts(task, AIMED_STARTS, rng)) if not aim else None
     if aim:
         points = ([tuple(witness)] if witness is not None else []) + _closure_points(task, quality, rng)
         if not points:
@@ -181,6 +180,8 @@ def aimed_grasps(task: Task, quality: QualityOptions, seed: int, witness=None, a
         starts = [Configuration(s.joint_angles, s.T_palm_object, tuple((hp, np.array(points[k % len(points)][c], float))
                                                                          for c, (hp, _) in enumerate(s.contact_params)))
                   for k, s in enumerate(random_starts(task, AIMED_STARTS, rng))]  # fmt: skip
+    else:
+        starts = list(random_starts(task, AIMED_STARTS, rng))
     found = [make_solution(task, c) for c in refine_local(task, starts, LocalOptions()).configurations if c is not None]
     scored = sorted(((merit(task, s, quality), k, s) for k, s in enumerate(found) if s is not None), key=lambda m: (-m[0], m[1]))
     kept: list[Solution] = []
