@@ -1,12 +1,25 @@
 """Grasps that hold: the first solution's epsilon against ``solve --best 5``'s, and its cost.
 
-Tasks: 3- and 4-fingertip tasks on every mesh of ``../shared/objects`` (the bunny at 100 mm
-per unit, the five random solids at 10 mm per unit; the thumb against index, middle and
-ring on faces whose normals face each other across the object, seeded random; each region
-the largest patch of radius ``--region-mm``, 3/4 or 1/2 of it fitted by ``region_from_mesh``,
-degree 2, that stays within 0.3 mm of the surface, else a planar patch inside the face:
-the random solids are coarse polyhedra, so most of their regions are small), the built-in tasks and the
-examples of ``examples/quality``.
+Tasks, in three groups:
+
+- **generated, shared meshes**: 3- and 4-fingertip tasks on every mesh of ``../shared/objects``
+  (the bunny at 100 mm per unit, the five random solids at 10 mm per unit; the thumb against
+  index, middle and ring on faces whose normals face each other across the object, seeded
+  random; each region the largest patch of radius ``--region-mm``, 3/4 or 1/2 of it fitted by
+  ``region_from_mesh``, degree 2, that stays within 0.3 mm of the surface, else a planar patch
+  inside the face: the random solids are coarse polyhedra, so most of their regions are small);
+- **generated, built-in objects**: the same generator, hand, region maker and ``--per-mesh`` on
+  the meshes of the built-in tasks' objects (guitar, scalpel, teapot: their paths are taken from
+  the built-in tasks), drawn after the shared meshes from the same seeded generator so the shared
+  tasks are those of earlier tables.  Only the guitar yields tasks: the scalpel is about 18 mm
+  thick (below ``objects.GRIP_MM``'s 25 mm), and the teapot's largest opposed faces are those of
+  its body, 165-176 mm apart (above its 95 mm); a mesh whose faces run out makes 2-contact tasks,
+  which are left out, so the guitar gives about one 3-contact task a draw;
+- **authored**: the built-in tasks and the examples of ``examples/quality`` (as written, the same
+  in every draw; those with 3 or 4 contacts are judged).
+
+``--meshes-only``: the generated tasks alone (both groups); ``--shared-only``: those on
+``../shared/objects`` alone (the tasks of the tables before the built-in objects were added).
 
 Per task (friction 0.6, hard fingers unless ``--torsion``): the Ferrari-Canny epsilon of
 the first solution (``prehension solve --method local``), of the best of ``solve --best
@@ -30,10 +43,12 @@ search proved that the task's regions admit no force-closure grasp (friction 0.6
 Those tasks are counted apart in the summary (never dropped): the hold rate is given over
 every judged task and over the tasks not so proven.  Summary: the median ratio best/first over the tasks whose first solution is
 force closure, how many tasks go from not force closure to force closure, the median and
-largest time, and the hold rates over the solved 3- and 4-contact tasks.
+largest time, and the hold rates over the solved 3- and 4-contact tasks (``--hold``'s: for the
+generated tasks, split into shared meshes and built-in objects, the authored tasks, and all).
 
     python benchmarks/hold.py                      # every task (~40), a few minutes
-    python benchmarks/hold.py --quick              # 2 tasks per mesh, no built-in tasks
+    python benchmarks/hold.py --quick              # 2 tasks per mesh, no authored tasks
+    python benchmarks/hold.py --physics --regions user --meshes-only --seed 1   # a draw of generated tasks
     python benchmarks/hold.py --torsion 5          # soft fingers
     python benchmarks/hold.py --physics --tasks bunny --limit 4    # the physics columns, in parts
     python benchmarks/hold.py --per-candidate --best 10            # every candidate's epsilon and verdict
@@ -60,7 +75,7 @@ from rich.console import Console
 from rich.table import Table
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from objects import SHARED, _patch, mesh_tasks  # noqa: E402  (a sibling benchmark script)
+from objects import MESHES, SHARED, _patch, mesh_tasks  # noqa: E402  (a sibling benchmark script)
 
 from prehension.ascent import AscentOptions  # noqa: E402
 from prehension.best import BestOptions, solve_best  # noqa: E402
@@ -121,15 +136,34 @@ def _user_patch(radius_mm: float):
 REGION_MAKERS = {"strict": _fitted_patch, "user": _user_patch}
 
 
+def _builtin_meshes() -> list[tuple[str, float]]:
+    """The built-in objects' meshes as ``(path, mm per unit)``, each once, in the order of the built-in tasks."""
+    meshes = []
+    for name in builtin_task_names():
+        solid = load_builtin_task(name).object.solid
+        if (solid.path, solid.scale) not in meshes:
+            meshes.append((solid.path, solid.scale))
+    return meshes
+
+
+def _group(task) -> str:
+    """Which group a generated task belongs to: its mesh under ``../shared/objects`` or a built-in object's."""
+    return "shared" if Path(task.object.solid.path).resolve().is_relative_to(SHARED.resolve()) else "built-in object"
+
+
 def _tasks(args) -> list:
-    rows = []
-    if SHARED.is_dir():
-        made = mesh_tasks(np.random.default_rng(args.seed), 2 if args.quick else args.per_mesh, counts=(3, 4),
-                          patch=REGION_MAKERS[getattr(args, "regions", "strict")](args.region_mm))  # fmt: skip
-        rows += [task for _, task in made if len(task.contacts) >= 3]  # a mesh short of opposed faces gives fewer
-    if not (args.quick or getattr(args, "meshes_only", False)):
-        rows += [load_builtin_task(n) for n in builtin_task_names()]
-        rows += [resolve_task(str(p)) for p in sorted(EXAMPLES.glob("*.yaml"))]
+    """``(group, task)`` pairs: the generated 3- and 4-fingertip tasks on the shared meshes
+    (group ``shared``; first, so the seeded draw of them is unchanged) and on the built-in
+    objects' meshes (``built-in object``; not with ``--shared-only``), then the authored
+    tasks (``authored``: the built-in tasks and ``examples/quality``; not with ``--meshes-only``,
+    ``--shared-only`` or ``--quick``)."""
+    meshes = (MESHES if SHARED.is_dir() else []) + ([] if getattr(args, "shared_only", False) else _builtin_meshes())
+    made = mesh_tasks(np.random.default_rng(args.seed), 2 if args.quick else args.per_mesh, counts=(3, 4),
+                      patch=REGION_MAKERS[getattr(args, "regions", "strict")](args.region_mm), meshes=meshes)  # fmt: skip
+    rows = [(_group(task), task) for _, task in made if len(task.contacts) >= 3]  # a mesh short of opposed faces gives fewer
+    if not (args.quick or getattr(args, "meshes_only", False) or getattr(args, "shared_only", False)):
+        rows += [("authored", load_builtin_task(n)) for n in builtin_task_names()]
+        rows += [("authored", resolve_task(str(p))) for p in sorted(EXAMPLES.glob("*.yaml"))]
     return rows
 
 
@@ -238,12 +272,15 @@ def main() -> None:
                         help="how mesh regions are made: strict (default; within 0.3 mm on a 7x7 grid, else the planar "
                              "patch inside one face) or user (what `prehension region --radius R` accepts without a "
                              "warning: deviation <= 0.5 mm, R = 12, 9, 6, 4 mm)")  # fmt: skip
-    parser.add_argument("--meshes-only", action="store_true", help="only the tasks on ../shared/objects (no built-ins)")
+    parser.add_argument("--meshes-only", action="store_true",
+                        help="only the generated tasks (../shared/objects and the built-in objects; no authored tasks)")
+    parser.add_argument("--shared-only", action="store_true",
+                        help="only the generated tasks on ../shared/objects (the draw of earlier tables)")
     parser.add_argument("--per-candidate", action="store_true",
                         help="every candidate of --best N: epsilon and physics verdict (needs MuJoCo; the docstring)")  # fmt: skip
     parser.add_argument("--best", type=int, default=5, help="N of --best N (default 5)")
     parser.add_argument("--torsion", type=float, default=0.0, help="soft fingers: torsional friction [mm] (default 0)")
-    parser.add_argument("--quick", action="store_true", help="2 tasks per mesh, no built-in tasks")
+    parser.add_argument("--quick", action="store_true", help="2 tasks per mesh, no authored tasks")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--physics", action="store_true", help="the physics columns (needs MuJoCo; 2-8 s per grasp)")
     parser.add_argument("--tasks", default=None, metavar="TEXT", help="only the tasks whose name contains TEXT")
@@ -263,12 +300,12 @@ def main() -> None:
                 f"--hold ({args.squeezes[1]})", f"--hold ({args.squeezes[0]})"):  # fmt: skip
         table.add_column(col, justify="left" if col == "task" else "right")
     rows = []
-    tasks = [t for t in _tasks(args) if args.tasks is None or args.tasks in t.name][args.skip:]
+    tasks = [(g, t) for g, t in _tasks(args) if args.tasks is None or args.tasks in t.name][args.skip:]
     if args.per_candidate:
-        _per_candidate(console, [t for t in tasks[: args.limit] if len(t.contacts) in (3, 4)], args)
+        _per_candidate(console, [t for _, t in tasks[: args.limit] if len(t.contacts) in (3, 4)], args)
         return
-    for task in tasks[: args.limit]:
-        m = _measure(task, quality, args.best, args.seed, args.physics, args.squeezes)
+    for group, task in tasks[: args.limit]:
+        m = _measure(task, quality, args.best, args.seed, args.physics, args.squeezes) | {"group": group}
         rows.append(m)
         ratio = m["best"] / m["first"] if m["first"] and m["best"] is not None else None
         table.add_row(task.name, str(len(task.contacts)), _fmt(m["first"]), _fmt(m["found"]), _fmt(m["best"]),
@@ -279,17 +316,35 @@ def main() -> None:
     _summary(console, rows, args.squeezes)
 
 
+def _hold_rate(judged: list, key: str) -> tuple[int, int, int]:
+    """``(proven, held, rest)``: of ``judged``, the tasks proven to admit no force-closure
+    grasp, and of the others (judged by ``key``) how many held."""
+    proven = sum(1 for m in judged if m["physics"][f"{key}_proven"])
+    rest = [m for m in judged if not m["physics"][f"{key}_proven"] and m["physics"][key] is not None]
+    return proven, sum(m["physics"][key][0] for m in rest), len(rest)
+
+
 def _hold_summary(console: Console, judged: list, squeezes) -> None:
     """``--hold`` counted two ways, with each squeeze: over every judged task, and over the
     tasks whose regions are not proven to admit no force-closure grasp (those are reported
-    apart, never dropped)."""
+    apart, never dropped); for the generated tasks (split: shared meshes, built-in objects),
+    the authored tasks and all."""
     for key, what in (("hold", f"{squeezes[0]} squeeze (default)"), ("hold_before", f"{squeezes[1]} squeeze (before)")):
-        proven = [m for m in judged if m["physics"][f"{key}_proven"]]
-        rest = [m for m in judged if not m["physics"][f"{key}_proven"] and m["physics"][key] is not None]
-        held = sum(m["physics"][key][0] for m in rest)
-        console.print(f"--hold, {what}: {len(proven)} of {len(judged)} tasks proven to admit no force-closure grasp (the "
-                      f"physics test's friction and torsion; none of them held); of the other {len(rest)}, the first "
-                      f"answer holds in {held} ({held / max(len(rest), 1):.0%})")  # fmt: skip
+        groups = {"generated": [m for m in judged if m["group"] != "authored"],
+                  "authored": [m for m in judged if m["group"] == "authored"], "all": judged}  # fmt: skip
+        for name, members in groups.items():
+            if not members:
+                console.print(f"--hold, {what}, {name} tasks: none judged in this run")
+                continue
+            proven, held, rest = _hold_rate(members, key)
+            split = ""
+            if name == "generated":
+                parts = (("shared meshes", "shared"), ("built-in objects", "built-in object"))
+                rates = [(label, _hold_rate([m for m in members if m["group"] == g], key)) for label, g in parts]
+                split = " (" + "; ".join(f"{label}: {h}/{r}, {p} proven" for label, (p, h, r) in rates) + ")"
+            console.print(f"--hold, {what}, {name} tasks: {proven} of {len(members)} proven to admit no force-closure "
+                          f"grasp (the physics test's friction and torsion; none of them held); of the other {rest}, "
+                          f"the first answer holds in {held} ({held / max(rest, 1):.0%}){split}")  # fmt: skip
         times = [m["physics"][f"{key}_s"] for m in judged if m["physics"][f"{key}_s"] is not None]
         if times:
             console.print(f"--hold wall time per task, {what} (physics tests and the force-closure search): median "
@@ -326,6 +381,9 @@ def _summary(console: Console, rows: list, squeezes=HOLD_SQUEEZES) -> None:
             console.print(f"  --hold, {m['name']}: {_verdict(m['physics']['hold'])} ({squeezes[1]} squeeze: "
                           f"{_verdict(m['physics']['hold_before'])})")  # fmt: skip
         _hold_summary(console, judged, squeezes)
+    unsolved = [m for m in rows if m["best"] is None]
+    console.print(f"tasks --best leaves unsolved: {len(unsolved)} of {len(rows)} (left out of the rates above): "
+                  + (", ".join(f"{m['name']} ({m['group']})" for m in unsolved) or "none"))  # fmt: skip
     if solved:
         cpu = [m["cpu"] for m in solved]
         wall = [m["wall"] for m in solved]

@@ -113,15 +113,17 @@ def _patch(mesh, distance, centre, inradius):
     return region_from_mesh(mesh, at=centre, radius=min(0.8 * inradius, 6.0), degree=1, distance=distance).region
 
 
-def mesh_tasks(rng, per_mesh: int, counts=(2, 3, 4), patch=None) -> list[tuple[str, Task]]:
-    """``per_mesh`` tasks on each shared mesh (``counts`` contacts in turn: 2, 3 or 4);
-    ``patch(mesh, distance, centre, inradius)`` makes each region (default: a planar patch
-    inside the face)."""
+def mesh_tasks(rng, per_mesh: int, counts=(2, 3, 4), patch=None, meshes=None) -> list[tuple[str, Task]]:
+    """``per_mesh`` tasks on each mesh of ``meshes`` (``(file, mm per unit)`` pairs, a
+    relative file under ``SHARED``; default ``MESHES``, the shared meshes), ``counts``
+    contacts in turn (2, 3 or 4); ``patch(mesh, distance, centre, inradius)`` makes each
+    region (default: a planar patch inside the face).  The meshes are drawn from ``rng`` in
+    order, so meshes appended after ``MESHES`` leave the shared meshes' tasks unchanged."""
     patch = patch or _patch
     hand = load_builtin_task("guitar-tuning").hand
     out = []
-    for file, scale in MESHES:
-        path = SHARED / file
+    for file, scale in MESHES if meshes is None else meshes:
+        path = SHARED / file  # an absolute file stays itself
         mesh = load_mesh(path, scale)
         distance = MeshDistance(mesh.vertices, mesh.faces)
         pairs, centre, normal, inradius = _opposed_pairs(mesh, distance, rng, 200)

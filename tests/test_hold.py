@@ -226,9 +226,9 @@ def test_further_rounds_of_aimed_starts_while_none_holds_and_the_budget_lasts(fo
     holds = sim_module.simulate_grasp(task, grasp, SimOptions())
     drops = sim_module.simulate_grasp(*one_face, SimOptions())
     assert holds.success and not drops.success
-    monkeypatch.setattr(sim_module, "simulate_grasp", lambda task, s, options, seed=0: holds if s is b else drops)
+    monkeypatch.setattr(sim_module, "simulate_grasp", lambda task, s, options, seed=0, **_: holds if s is b else drops)
     rounds = {0: [a], 1: [_turned(task, grasp, 0.2)], 2: [b]}
-    monkeypatch.setattr(hold_module, "aimed_grasps", lambda task, quality, seed, witness: rounds.get(seed, []))
+    monkeypatch.setattr(hold_module, "aimed_grasps", lambda task, quality, seed, witness, aim=True: rounds.get(seed, []))
     out = hold_first(SolveResult(task, "local", "solved", "one candidate", (grasp,)))
     assert out.held and out.result.solutions == (b,)
     assert [t["candidate"] for t in out.result.stats["hold"]["tried"]] == [0, 1, 2]
@@ -275,3 +275,23 @@ def test_an_open_task_refuses_the_closure_budget_it_would_not_use(tmp_path, caps
     path.write_text(dumps_task(OpenTask("open", pincer.hand, pincer.object, (OpenContact("A", None), OpenContact("B", None)))))
     assert main(["solve", str(path), "--hold", "--hold-closure-time", "5", "-o", str(tmp_path / "r.jsonl")]) == EXIT_BAD_INPUT
     assert "--hold-closure-time is not used by an open task's assignment search" in capsys.readouterr().err
+
+
+def test_each_candidates_push_squeeze_is_computed_once_for_its_margin_and_its_test(four, one_face, monkeypatch):
+    """The push squeeze's program runs once per tried candidate (the margin and the physics
+    test share it), and the verdicts and margins are those of each computed on its own."""
+    import prehension.sim.push as push_module
+    from prehension.sim import simulate_grasp
+
+    task, holds = four
+    _, drops = one_face
+    calls = []
+    program = push_module.push_squeeze
+    monkeypatch.setattr(push_module, "push_squeeze", lambda *a, **k: calls.append(1) or program(*a, **k))
+    out = hold_first(SolveResult(task, "local", "solved", "two candidates", (drops, holds)), closure_time_s=0)
+    assert len(calls) == 2  # one per candidate tried (it was two per candidate)
+    monkeypatch.setattr(push_module, "push_squeeze", program)
+    alone = [simulate_grasp(task, g, SimOptions(), 0) for g in (drops, holds)]
+    assert [t["pushes_held"] for t in out.result.stats["hold"]["tried"]] == [r.held for r in alone]
+    assert out.physics[0] == alone[1].to_dict()
+    assert [t["push_margin"] for t in out.result.stats["hold"]["tried"]] == [margin_of(task, g, SimOptions()) for g in (drops, holds)]

@@ -74,3 +74,19 @@ def test_point_regions_are_one_choice_decided_at_once(sa_hand):
             found = regions_closure(case.task, quality)
             assert found.boxes == 1 and found.status in ("infeasible", "witness", "gave_up")
             assert (found.status == "witness") == configuration_quality(case.task, case.config, quality).force_closure
+
+
+def test_a_further_round_of_plain_starts_samples_no_points_and_keeps_force_closure_grasps(four, monkeypatch):
+    """``aim=False`` (``--hold``'s further rounds): no points of the regions are sampled,
+    and the grasps kept are force closure, each a verified solution of the task."""
+    import prehension.region_closure as rc
+    from prehension.verification.residuals import evaluate
+
+    task, _ = four
+    quality = QualityOptions(friction=0.6, torsion_mm=20.0)
+    monkeypatch.setattr(rc, "_closure_points", lambda *a: pytest.fail("sampled points in a plain round"))
+    found = rc.aimed_grasps(task, quality, 1, None, aim=False)
+    assert 1 <= len(found) <= rc.AIMED_KEPT
+    for solution in found:
+        assert configuration_quality(task, solution.configuration(), quality).force_closure
+        assert evaluate(task, solution.configuration()).ok

@@ -38,9 +38,10 @@ own contact model (friction ``SimOptions.friction``, soft fingers of torsion
    others (``stats["hold"]["closure"]``: status ``"solved"``, ``"method": "aimed"``), and
    the complete solver is not asked.  While none holds and the budget lasts (its wall
    clock from the start of step 1, the physics tests of these grasps included), further
-   rounds of aimed starts (seeds ``seed + 1``, ``seed + 2``, ...) add the force-closure
-   grasps they reach that are distinct from every candidate so far, tried the same way
-   (``"rounds"``, ``"grasps"``: how many rounds, how many grasps in all);
+   rounds of starts (seeds ``seed + 1``, ``seed + 2``, ...; plain random ones, no points
+   sampled: the local solver discards the aim) add the force-closure grasps they reach
+   that are distinct from every candidate so far, tried the same way (``"rounds"``,
+   ``"grasps"``: how many rounds, how many grasps in all);
 3. when they reach none, the **complete solver** is asked, for the time left, for a
    force-closure grasp of the same task (``require="force-closure"``,
    :mod:`prehension.solvers.complete.closure`):
@@ -71,7 +72,7 @@ from .errors import PrehensionError
 from .quality import QualityOptions, grasp_quality
 from .region_closure import AIMED_STARTS, aimed_grasps, regions_closure
 from .results import SolveResult, Status
-from .sim.push import push_margin
+from .sim.push import push_margin, squeeze_for
 from .solve import SolveOptions, solve
 
 __all__ = ["HoldOutcome", "hold_first", "margin_of", "CLOSURE_TIME_S", "REGIONS_SHARE", "closure_model"]
@@ -127,10 +128,18 @@ def closure_model(options):
 def margin_of(task, solution, options) -> float | None:
     """The candidate's push margin (:func:`~prehension.sim.push.push_margin` with the test's
     ``options``, 4 decimals), recorded beside its verdict; ``None`` when it cannot be computed."""
+    return _margin_and_squeeze(task, solution, options)[0]
+
+
+def _margin_and_squeeze(task, solution, options) -> tuple[float | None, object]:
+    """``(margin_of's margin, the squeeze's targets)``: the squeeze is computed once, for the
+    margin and the physics test both; ``(None, None)`` when it cannot be (the test then
+    computes it, and says why it cannot)."""
     try:
-        return round(push_margin(task, solution, options).margin, 4)
+        q_squeeze = squeeze_for(task, solution.q, solution.T_palm_object, solution.contacts, options)[0]
+        return round(push_margin(task, solution, options, q_squeeze).margin, 4), q_squeeze
     except PrehensionError:  # e.g. an object with no size to take torques about: the test itself says why
-        return None
+        return None, None
 
 
 def _trials(task, solutions, first: int, options, seed: int, progress, total: int) -> tuple[list, list, bool]:
@@ -141,10 +150,10 @@ def _trials(task, solutions, first: int, options, seed: int, progress, total: in
     reports, tried = [], []
     try:
         for rank, solution in enumerate(solutions, start=first):
-            margin = margin_of(task, solution, options)
+            margin, q_squeeze = _margin_and_squeeze(task, solution, options)
             if progress is not None:
                 progress(f"physics test of candidate {rank + 1} of {total} (push margin {margin})")
-            report = simulate_grasp(task, solution, options, seed)
+            report = simulate_grasp(task, solution, options, seed, q_squeeze=q_squeeze)
             reports.append((rank, report))
             tried.append({"candidate": rank, "success": report.success, "rejected": report.rejected,
                           "pushes_held": report.held, "push_margin": margin, "why": _why(report)})  # fmt: skip
@@ -252,7 +261,8 @@ class _Trying:
 
 
 def _more_rounds(state: _Trying, closure: dict, witness, options, seed: int, deadline: float, progress) -> None:
-    """Further rounds of aimed starts (seeds ``seed + 1``, ``seed + 2``, ...) while no
+    """Further rounds of plain random starts (seeds ``seed + 1``, ``seed + 2``, ...; the first
+    round showed the regions to have force-closure points, and the aim is discarded) while no
     candidate holds and the search's budget lasts (``deadline``: its wall clock, the physics
     tests of its grasps included); each round's force-closure grasps that are distinct from
     every candidate so far are tried.  ``closure["rounds"]`` and its message say how many."""
@@ -260,16 +270,16 @@ def _more_rounds(state: _Trying, closure: dict, witness, options, seed: int, dea
     try:
         while not state.held and not state.interrupted and time.perf_counter() < deadline:
             if progress is not None:
-                progress(f"no candidate holds: aimed starts, round {closure['rounds'] + 1}")
-            found = aimed_grasps(task, quality, seed + closure["rounds"], witness)
+                progress(f"no candidate holds: random starts, round {closure['rounds'] + 1}")
+            found = aimed_grasps(task, quality, seed + closure["rounds"], witness, aim=False)
             closure["rounds"] += 1
             new = [s for s in found if all(distinct(s, other, task) for other in state.solutions)]
             closure["grasps"] += len(new)
             state.add([(s, AIMED_SOURCE) for s in new], options, seed, progress)
     except KeyboardInterrupt:
         state.interrupted = True
-    closure["message"] = (f"{closure['grasps']} force-closure grasp(s) from starts aimed at force-closure points of the "
-                          f"regions ({closure['rounds']} round(s) of {AIMED_STARTS} starts)")  # fmt: skip
+    closure["message"] = (f"{closure['grasps']} force-closure grasp(s) from {closure['rounds']} round(s) of {AIMED_STARTS} "
+                          "starts (the first aimed at force-closure points of the regions, the others random)")  # fmt: skip
 
 
 def _with_extra(result: SolveResult, extra: list) -> dict:

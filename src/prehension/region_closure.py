@@ -35,10 +35,13 @@ but no candidate is force closure, the local solver's iterations start from
 ``AIMED_STARTS`` random hand configurations whose object contact parameters are
 force-closure points of the regions (the witness, and the ``AIMED_POINTS`` best of
 ``AIMED_SAMPLES`` seeded random choices of one point per region, by the merit of
-:func:`prehension.ascent.merit`, positive ones only): the iterations move the hand onto
-those points when it can reach them (they move the points too: every grasp reached is
-verified and measured again).  The force-closure grasps reached, distinct, best merit
-first, each moved up by the quality ascent, are ``--hold``'s further candidates.
+:func:`prehension.ascent.merit`, positive ones only).  The local solver's initial
+placement (Obtain_Initial_Conf) sets the object parameters itself, so these starts reach
+what the same hand configurations reach without the aim (docs/quality.md, "Physics in the
+loop", step 2); the points decide only whether the starts are run (none found: no
+grasps).  Every grasp reached is verified and measured again; the force-closure ones,
+distinct, best merit first, each moved up by the quality ascent, are ``--hold``'s further
+candidates.
 """
 
 from __future__ import annotations
@@ -163,17 +166,22 @@ def _closed(task: Task, params: tuple, centre, rho: float, quality: QualityOptio
     return force_closure(primitive_wrenches(np.array(points), np.array(inward), centre, rho, quality)).force_closure
 
 
-def aimed_grasps(task: Task, quality: QualityOptions, seed: int, witness=None) -> list[Solution]:
+def aimed_grasps(task: Task, quality: QualityOptions, seed: int, witness=None, aim: bool = True) -> list[Solution]:
     """Force-closure grasps of ``task`` (``quality``'s model) from the local iterations aimed
     at force-closure points of its regions (module docstring, "Aimed starts"); ``witness``:
-    per contact, object parameters known to be force closure (:class:`RegionClosure`)."""
+    per contact, object parameters known to be force closure (:class:`RegionClosure`).
+    ``aim=False``: plain random starts, no points sampled (a further round, once a first
+    one has shown the regions to have force-closure points: the aim is discarded anyway)."""
     rng = np.random.default_rng(seed)
-    points = ([tuple(witness)] if witness is not None else []) + _closure_points(task, quality, rng)
-    if not points:
-        return []
-    starts = [Configuration(s.joint_angles, s.T_palm_object, tuple((hp, np.array(points[k % len(points)][c], float))
-                                                                     for c, (hp, _) in enumerate(s.contact_params)))
-              for k, s in enumerate(random_starts(task, AIMED_STARTS, rng))]  # fmt: skip
+    if aim:
+        points = ([tuple(witness)] if witness is not None else []) + _closure_points(task, quality, rng)
+        if not points:
+            return []
+        starts = [Configuration(s.joint_angles, s.T_palm_object, tuple((hp, np.array(points[k % len(points)][c], float))
+                                                                         for c, (hp, _) in enumerate(s.contact_params)))
+                  for k, s in enumerate(random_starts(task, AIMED_STARTS, rng))]  # fmt: skip
+    else:
+        starts = list(random_starts(task, AIMED_STARTS, rng))
     found = [make_solution(task, c) for c in refine_local(task, starts, LocalOptions()).configurations if c is not None]
     scored = sorted(((merit(task, s, quality), k, s) for k, s in enumerate(found) if s is not None), key=lambda m: (-m[0], m[1]))
     kept: list[Solution] = []

@@ -141,9 +141,13 @@ def _forces(task: Task, q: np.ndarray, contacts, q_squeeze: np.ndarray, options:
     return np.linalg.lstsq(J[:, moving].T, tau[moving], rcond=None)[0].reshape(-1, 3)  # on the object [N]
 
 
-def push_margin(task: Task, solution, options: SimOptions = SimOptions()) -> PushMargin:
-    """The largest push per direction a grasp resists with its squeeze's normal forces (module docstring)."""
-    normal = squeeze_normal_forces(task, solution, options)
+def push_margin(task: Task, solution, options: SimOptions = SimOptions(), q_squeeze=None) -> PushMargin:
+    """The largest push per direction a grasp resists with its squeeze's normal forces
+    (module docstring); ``q_squeeze``: the squeeze's targets when already computed (the
+    first of :func:`squeeze_for`'s answer with the same ``options``), else computed here."""
+    if q_squeeze is None:
+        q_squeeze = squeeze_for(task, solution.q, solution.T_palm_object, solution.contacts, options)[0]
+    normal = _normal_forces(task, np.asarray(solution.q, dtype=float), solution.contacts, q_squeeze, options)
     pushes = _pushes(push_wrenches(task, solution.T_palm_object, solution.contacts, options), normal, options)
     push = options.push_accel * options.mass_kg
     return PushMargin(float(pushes.min() / push) if push > 0 else float("inf"), pushes, normal)

@@ -167,25 +167,29 @@ def scene_for(task: Task, solution, options: SimOptions = SimOptions(), seed: in
     return replace(build_scene_xml(task, T, start.pieces, options), approximation_mm=start.approximation_mm)
 
 
-def simulate_grasp(task: Task, solution, options: SimOptions = SimOptions(), seed: int = 0, pregrasp_q=None) -> PhysicsReport:
+def simulate_grasp(task: Task, solution, options: SimOptions = SimOptions(), seed: int = 0, pregrasp_q=None,
+                   q_squeeze=None) -> PhysicsReport:  # fmt: skip
     """The physics test of ``solution`` (a grasp of ``task``; see the module docstring).
 
     ``pregrasp_q``: (n_dof,) angles to start from instead of the grasp's (its pre-grasp,
     :mod:`prehension.pregrasp`): the hand first closes onto the object (:class:`Closing`).
+    ``q_squeeze``: the squeeze's targets when already computed (the first of
+    :func:`~.push.squeeze_for`'s answer with the same ``options``), else computed here.
     """
     mujoco = require_mujoco()
     try:
-        return _simulated(mujoco, task, solution, options, seed, pregrasp_q)
+        return _simulated(mujoco, task, solution, options, seed, pregrasp_q, q_squeeze)
     except mujoco.FatalError as exc:  # e.g. the arena overflows: a clear error, never a traceback
         raise PrehensionError(f"the physics test of task {task.name!r} stopped inside MuJoCo: {str(exc).splitlines()[0]}") from None
 
 
-def _simulated(mujoco, task: Task, solution, options: SimOptions, seed: int, pregrasp_q) -> PhysicsReport:
+def _simulated(mujoco, task: Task, solution, options: SimOptions, seed: int, pregrasp_q, q_squeeze) -> PhysicsReport:
     """:func:`simulate_grasp` with MuJoCo at hand."""
     scene = scene_for(task, solution, options, seed)
     q = np.asarray(solution.q, dtype=float)
     model, data = posed(mujoco, scene.xml, scene.dof_names, q)
-    q_squeeze = squeeze_for(task, q, solution.T_palm_object, solution.contacts, options)[0]
+    if q_squeeze is None:
+        q_squeeze = squeeze_for(task, q, solution.T_palm_object, solution.contacts, options)[0]
     sim = _Sim(mujoco, model, data, scene, q, q_squeeze, options)
     closing = None
     if pregrasp_q is not None:
