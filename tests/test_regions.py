@@ -405,3 +405,26 @@ def test_cap_cone_margin_is_the_cone_test_and_its_gradient_matches_finite_differ
         fd = [(cap.cone_margin(ag + h)[0] - cap.cone_margin(ag - h)[0]) / (2 * FD_STEP) for h in FD_STEP * np.eye(2)]
         assert np.allclose(grad, fd, atol=1e-6)
     assert random_bezier_region(rng, 1, 1).cone_margin(np.full(2, 0.5)) is None
+
+
+@pytest.mark.parametrize("degree", [(1, 1), (2, 2), (3, 2)])
+def test_restricted_patch_is_the_patch_over_its_box(rng, degree):
+    """A restricted patch at ``s`` is the patch at ``lower + (upper - lower) s``: points and normals."""
+    for _ in range(5):
+        region = random_bezier_region(rng, *degree)
+        lower = rng.uniform(0.0, 0.6, size=2)
+        upper = lower + rng.uniform(0.05, 0.4, size=2)
+        part = region.restricted(lower, upper)
+        s = rng.uniform(0.0, 1.0, size=(20, 2))
+        p_part, n_part = part.evaluate(s)
+        p, n = region.evaluate(lower + (upper - lower) * s)
+        np.testing.assert_allclose(p_part, p, atol=1e-9)
+        np.testing.assert_allclose(n_part, n, atol=1e-9)
+        assert np.array_equal(part.param_bounds()[0], np.zeros(2)) and np.array_equal(part.param_bounds()[1], np.ones(2))
+
+
+def test_restricted_is_none_for_caps_and_points_and_refuses_an_empty_box(rng):
+    assert random_cap(rng, 40.0).restricted(np.zeros(2), np.ones(2)) is None
+    assert PointRegion(np.zeros(3), np.array([0.0, 0.0, 1.0])).restricted(np.zeros(0), np.zeros(0)) is None
+    with pytest.raises(InvalidGeometry, match="lower < upper"):
+        random_bezier_region(rng, 2, 2).restricted(np.array([0.5, 0.2]), np.array([0.5, 0.8]))

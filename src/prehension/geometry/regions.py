@@ -118,6 +118,14 @@ class Region:
         """The mean of the points that define the region (3,) [mm]: a centre to turn it about."""
         raise NotImplementedError
 
+    def restricted(self, lower: np.ndarray, upper: np.ndarray) -> "Region | None":
+        """The part of the region over the parameter box ``[lower, upper]`` (inside
+        :meth:`param_bounds`), as a region of its own whose parameter box maps affinely onto
+        ``[lower, upper]`` (its parameter ``s`` is this region's ``lower + (upper - lower) *
+        (s - l) / (u - l)``, ``(l, u)`` its :meth:`param_bounds`); ``None`` for a kind whose
+        part is not a region of its kind (sphere caps, points)."""
+        return None
+
     #: What to tell a user whose region's normal points into its object (its kind's usual cause).
     inward_hint: str = ""
 
@@ -178,6 +186,13 @@ class BezierRegion(Region):
 
     def transformed(self, R, t):
         return BezierRegion(self.patch.transformed(R, t))
+
+    def restricted(self, lower, upper):
+        """The sub-patch over ``[lower, upper]`` (de Casteljau subdivision: exact), on ``[0, 1]^2``."""
+        (u0, v0), (u1, v1) = np.clip(lower, 0.0, 1.0), np.clip(upper, 0.0, 1.0)
+        if not (u1 > u0 and v1 > v0):
+            raise InvalidGeometry(f"a restricted patch needs lower < upper inside [0, 1]^2, got {lower} and {upper}")
+        return BezierRegion(self.patch.subdivide(float(u0), float(u1), float(v0), float(v1)))
 
     def centroid(self):
         return self.patch.control_points.reshape(-1, 3).mean(axis=0)
