@@ -261,8 +261,8 @@ class _Trying:
 
 
 def _more_rounds(state: _Trying, closure: dict, witness, options, seed: int, deadline: float, progress) -> None:
-    """Further rounds of plain random starts (seeds ``seed + 1``, ``seed + 2``, ...; the first
-    round showed the regions to have force-closure points, and the aim is discarded) while no
+    """Further rounds of plain random starts over the whole regions (seeds ``seed + 1``,
+    ``seed + 2``, ...; the first round showed the regions to have force-closure points) while no
     candidate holds and the search's budget lasts (``deadline``: its wall clock, the physics
     tests of its grasps included); each round's force-closure grasps that are distinct from
     every candidate so far are tried.  ``closure["rounds"]`` and its message say how many."""
