@@ -90,3 +90,29 @@ def test_a_further_round_of_plain_starts_samples_no_points_and_keeps_force_closu
     for solution in found:
         assert configuration_quality(task, solution.configuration(), quality).force_closure
         assert evaluate(task, solution.configuration()).ok
+
+
+def test_aimed_starts_reach_grasps_near_their_point_verified_on_the_task_itself(four):
+    """The aimed starts (``aim=True``): every grasp the restricted task gives is a verified
+    solution of the task itself whose object parameters lie within ``AIM_HALF_WIDTH`` of the
+    aimed point (the restriction's box), and the grasps kept are force closure."""
+    import prehension.region_closure as rc
+    from prehension.best import random_starts
+    from prehension.verification.residuals import evaluate
+
+    task, _ = four
+    quality = QualityOptions(friction=0.6, torsion_mm=20.0)
+    rng = np.random.default_rng(5)
+    point = tuple(rng.uniform(0.3, 0.7, size=2) for _ in task.contacts)
+    reached = [s for s in rc._aimed(task, point, random_starts(task, 20, rng)) if s is not None]
+    assert reached  # the box grasp's faces are wide: some start reaches them
+    for solution in reached:
+        config = solution.configuration()
+        assert evaluate(task, config).ok
+        for (_, op), at in zip(config.contact_params, point):
+            assert np.all(np.abs(np.asarray(op) - at) <= rc.AIM_HALF_WIDTH + 1e-9)
+    found = rc.aimed_grasps(task, quality, 1, None, aim=True)
+    assert 1 <= len(found) <= rc.AIMED_KEPT
+    for solution in found:
+        assert configuration_quality(task, solution.configuration(), quality).force_closure
+        assert evaluate(task, solution.configuration()).ok

@@ -33,13 +33,13 @@ own contact model (friction ``SimOptions.friction``, soft fingers of torsion
    "regions"``) and ``prehension check`` re-derives it (a few seconds at most);
 2. otherwise the local iterations start from random hand configurations **aimed** at
    force-closure points of the regions (:func:`prehension.region_closure.aimed_grasps`,
-   a second or two); the force-closure grasps they reach (at most eight, each moved up by
+   a few seconds); the force-closure grasps they reach (at most eight, each moved up by
    the quality ascent) are further candidates, tried in the physics test like the
    others (``stats["hold"]["closure"]``: status ``"solved"``, ``"method": "aimed"``), and
    the complete solver is not asked.  While none holds and the budget lasts (its wall
    clock from the start of step 1, the physics tests of these grasps included), further
-   rounds of starts (seeds ``seed + 1``, ``seed + 2``, ...; plain random ones, no points
-   sampled: the local solver discards the aim) add the force-closure grasps they reach
+   rounds of starts (seeds ``seed + 1``, ``seed + 2``, ...; plain random ones over the
+   whole regions, no points sampled) add the force-closure grasps they reach
    that are distinct from every candidate so far, tried the same way (``"rounds"``,
    ``"grasps"``: how many rounds, how many grasps in all);
 3. when they reach none, the **complete solver** is asked, for the time left, for a
@@ -261,8 +261,8 @@ class _Trying:
 
 
 def _more_rounds(state: _Trying, closure: dict, witness, options, seed: int, deadline: float, progress) -> None:
-    """Further rounds of plain random starts (seeds ``seed + 1``, ``seed + 2``, ...; the first
-    round showed the regions to have force-closure points, and the aim is discarded) while no
+    """Further rounds of plain random starts over the whole regions (seeds ``seed + 1``,
+    ``seed + 2``, ...; the first round showed the regions to have force-closure points) while no
     candidate holds and the search's budget lasts (``deadline``: its wall clock, the physics
     tests of its grasps included); each round's force-closure grasps that are distinct from
     every candidate so far are tried.  ``closure["rounds"]`` and its message say how many."""

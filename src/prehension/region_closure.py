@@ -31,23 +31,26 @@ the frontier of force closure).  The search is deterministic: ``prehension check
 re-derives a stored proof by running it again (:func:`regions_closure`).
 
 **Aimed starts** (:func:`aimed_grasps`).  When the regions do admit force-closure points
-but no candidate is force closure, the local solver's iterations start from
-``AIMED_STARTS`` random hand configurations whose object contact parameters are
-force-closure points of the regions (the witness, and the ``AIMED_POINTS`` best of
-``AIMED_SAMPLES`` seeded random choices of one point per region, by the merit of
-:func:`prehension.ascent.merit`, positive ones only).  The local solver's initial
-placement (Obtain_Initial_Conf) sets the object parameters itself, so these starts reach
-what the same hand configurations reach without the aim (docs/quality.md, "Physics in the
-loop", step 2); the points decide only whether the starts are run (none found: no
-grasps).  Every grasp reached is verified and measured again; the force-closure ones,
-distinct, best merit first, each moved up by the quality ascent, are ``--hold``'s further
-candidates.
+but no candidate is force closure, the local solver's iterations are aimed at force-closure
+points of the regions (the witness, and the ``AIMED_POINTS`` best of ``AIMED_SAMPLES``
+seeded random choices of one point per region, by the merit of
+:func:`prehension.ascent.merit`, positive ones only).  The local solver's initial placement
+(Obtain_Initial_Conf) puts the object's contact points at their regions' centres, so a
+start cannot carry object parameters; instead each point's starts solve the task with every
+object region restricted to its part within ``AIM_HALF_WIDTH`` of each parameter range
+around the point (:meth:`~prehension.geometry.regions.Region.restricted`: a Bézier patch's
+sub-patch, exact; caps and points stay whole), from ``AIMED_STARTS`` random hand
+configurations shared among the points.  A grasp of the restricted task is one of the task
+(its parameters mapped back onto the whole regions) whose contacts lie near the aimed
+points.  Every grasp reached is verified on the task itself and measured again; the
+force-closure ones, distinct, best merit first, each moved up by the quality ascent, are
+``--hold``'s further candidates.
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -68,6 +71,7 @@ MAX_BOXES = 200_000  # boxes examined at most
 AIMED_SAMPLES = 400  # random choices of points in the regions, measured (aimed starts)
 AIMED_POINTS = 10  # the best force-closure ones the starts aim at
 AIMED_STARTS = 100  # starts of the local iterations
+AIM_HALF_WIDTH = 0.25  # an aimed start's object regions: within this fraction of each parameter range of the point
 AIMED_KEPT = 8  # force-closure grasps returned at most
 
 
@@ -170,19 +174,18 @@ def aimed_grasps(task: Task, quality: QualityOptions, seed: int, witness=None, a
     """Force-closure grasps of ``task`` (``quality``'s model) from the local iterations aimed
     at force-closure points of its regions (module docstring, "Aimed starts"); ``witness``:
     per contact, object parameters known to be force closure (:class:`RegionClosure`).
-    ``aim=False``: plain random starts, no points sampled (a further round, once a first
-    one has shown the regions to have force-closure points: the aim is discarded anyway)."""
+    ``aim=False``: plain random starts over the whole regions, no points sampled (a further
+    round, once a first one has shown the regions to have force-closure points)."""
     rng = np.random.default_rng(seed)
     if aim:
         points = ([tuple(witness)] if witness is not None else []) + _closure_points(task, quality, rng)
         if not points:
             return []
-        starts = [Configuration(s.joint_angles, s.T_palm_object, tuple((hp, np.array(points[k % len(points)][c], float))
-                                                                         for c, (hp, _) in enumerate(s.contact_params)))
-                  for k, s in enumerate(random_starts(task, AIMED_STARTS, rng))]  # fmt: skip
+        starts = random_starts(task, AIMED_STARTS, rng)
+        found = [s for k, point in enumerate(points) for s in _aimed(task, point, starts[k :: len(points)])]
     else:
-        starts = list(random_starts(task, AIMED_STARTS, rng))
-    found = [make_solution(task, c) for c in refine_local(task, starts, LocalOptions()).configurations if c is not None]
+        configs = refine_local(task, random_starts(task, AIMED_STARTS, rng), LocalOptions()).configurations
+        found = [make_solution(task, c) for c in configs if c is not None]
     scored = sorted(((merit(task, s, quality), k, s) for k, s in enumerate(found) if s is not None), key=lambda m: (-m[0], m[1]))
     kept: list[Solution] = []
     for value, _, solution in scored:
@@ -191,6 +194,44 @@ def aimed_grasps(task: Task, quality: QualityOptions, seed: int, witness=None, a
         if all(distinct(solution, other, task, BestOptions()) for other in kept):
             kept.append(solution)
     return [improve_grasp(task, s, quality).solution for s in kept]
+
+
+def _aimed(task: Task, point: tuple, starts: list[Configuration]) -> list[Solution | None]:
+    """The grasps of ``task`` that the local iterations reach from ``starts`` with every
+    object region restricted around ``point`` (per contact, its object parameters), verified
+    on ``task`` itself."""
+    if not starts:
+        return []
+    regions, contacts, boxes = dict(task.object.regions), [], []
+    for c, (contact, at) in enumerate(zip(task.contacts, point)):
+        region = task.object_region(contact)
+        lower, upper = region.param_bounds()
+        at = np.asarray(at, dtype=float)
+        box = (np.maximum(lower, at - AIM_HALF_WIDTH * (upper - lower)), np.minimum(upper, at + AIM_HALF_WIDTH * (upper - lower)))
+        part = region.restricted(*box) if at.size and np.all(box[1] > box[0]) else None
+        if part is None:
+            contacts.append(contact)
+            boxes.append(None)
+            continue
+        name = f"{contact.object_region}@aim{c}"  # one part per contact: two contacts may share a region
+        regions[name] = part
+        contacts.append(replace(contact, object_region=name))
+        boxes.append((box, part.param_bounds()))
+    aimed = replace(task, object=replace(task.object, regions=regions), contacts=tuple(contacts))
+    configs = refine_local(aimed, starts, LocalOptions()).configurations  # a start's object parameters: placed anew
+    return [make_solution(task, _unaimed(c, boxes)) for c in configs if c is not None]
+
+
+def _unaimed(config: Configuration, boxes: list) -> Configuration:
+    """A configuration of the restricted task as one of the task: each restricted contact's
+    object parameters mapped affinely from its part's parameter box onto the box it covers."""
+    params = []
+    for (hp, op), box in zip(config.contact_params, boxes):
+        if box is not None:
+            (lower, upper), (part_lo, part_hi) = box
+            op = lower + (upper - lower) * (np.asarray(op, dtype=float) - part_lo) / (part_hi - part_lo)
+        params.append((hp, op))
+    return Configuration(config.joint_angles, config.T_palm_object, tuple(params))
 
 
 def _closure_points(task: Task, quality: QualityOptions, rng) -> list[tuple]:
