@@ -88,6 +88,7 @@ from .contract import contract
 from .relaxations import EPS, TINY, down, relaxation_rows, up
 from .rotation_cuts import RotationStructure, rotation_structure
 from ...system.canonical import System
+from ...system.formulation import QUATERNIONS
 
 _MIN_ROW_NORM = 1e-200  # rows with a smaller scaled norm are not rescaled (no overflow)
 
@@ -132,6 +133,15 @@ class ShrinkOptions:
             variable by less than ``stop_gain`` of its width (a failed LP counts as such);
             0: never (every variable is bounded).  Stopping early only keeps a box larger.
 
+        quaternions: ``"palm"`` or ``"links"``: the system also carries the unit quaternion
+            (``w >= 0``) of the palm's rotation or of every link's, with ``R = R(q)``, and a
+            box is split through the widest quaternion component while its scaled width
+            exceeds ``quaternion_split`` (:mod:`.branching`); ``"none"``: neither.  (A
+            splitting option kept with the shrink options: it shapes the search's boxes as
+            they do, and travels with them to checkpoints and benchmarks.)
+        quaternion_split: see ``quaternions``; in ``(0, 1]`` (1: the quaternion components
+            are split only when they are the widest variables, as any other).
+
         Both cuts are off by default: sound and stronger per box (they empty most of the
         boxes past a 3-4-contact frontier that the LPs without them only narrow), but a box
         they do not empty costs 2-3x the CPU, and on the measured workloads the search
@@ -158,6 +168,8 @@ class ShrinkOptions:
     lp_order: str = "widest"
     stop_after: int = 0
     stop_gain: float = 0.01
+    quaternions: str = "none"
+    quaternion_split: float = 0.25
 
     def __post_init__(self):
         if not 0.0 < self.rho <= 1.0:
@@ -168,6 +180,11 @@ class ShrinkOptions:
             raise ValueError(f"ShrinkOptions.lp_order must be 'widest' or 'narrowest', got {self.lp_order!r}")
         if self.stop_after < 0 or not self.stop_gain >= 0.0:
             raise ValueError("ShrinkOptions: stop_after >= 0 and stop_gain >= 0 required")
+        if self.quaternions not in QUATERNIONS:
+            raise ValueError(f"ShrinkOptions.quaternions must be one of {', '.join(map(repr, QUATERNIONS))}, "
+                             f"got {self.quaternions!r}")
+        if not 0.0 < self.quaternion_split <= 1.0:
+            raise ValueError(f"ShrinkOptions.quaternion_split must be in (0, 1] (a scaled width), got {self.quaternion_split}")
         if self.max_passes < 0 or self.lp_time_limit <= 0 or self.lp_iteration_limit <= 0:
             raise ValueError("ShrinkOptions: max_passes >= 0 and positive LP limits required")
 
