@@ -35,7 +35,10 @@ Choices (each keeps the system exact; see ``docs/complete-solver.md``):
   the unit quaternion ``q = (w, x, y, z)``, ``w >= 0``, of the palm's rotation (or of every
   link's) as four more base variables with ``|q|^2 = 1`` and ``R = R(q)`` (each entry
   quadratic in ``q``), so that the search can halve a rotation by one split
-  (docs/complete-solver.md, "Quaternion branching").
+  (docs/complete-solver.md, "Quaternion branching").  With ``angles=True`` each joint angle
+  ``theta`` of half range ``h < 90 deg`` also gets ``sin(theta - mid) = cos(mid) sin theta -
+  sin(mid) cos theta`` (linear in the system's cosine and sine), in ``[-sin h, sin h]`` and
+  monotone over the range: splitting it at 0 halves the angle's range.
 
 Only the links on the paths from the palm to the contact links enter the system (the
 paper removes fingers outside the kinematic loops); the other angles are fixed when a
@@ -98,6 +101,7 @@ class Formulation:
         builder: the builder, which knows how every other variable follows from the base ones.
         quaternion_vars: link -> ``(4,)`` variable indices of the unit quaternion ``(w, x, y, z)``,
             ``w >= 0``, of ``R_object_link`` (only the links given quaternions, see ``build_system``).
+        angle_vars: dof -> index of ``sin(theta - mid)`` (only with ``build_system(..., angles=True)``).
     """
 
     task: Task
@@ -110,6 +114,7 @@ class Formulation:
     base_keys: dict[int, BaseKey]
     builder: Builder = field(repr=False)
     quaternion_vars: dict[str, np.ndarray] = field(default_factory=dict)
+    angle_vars: dict[str, int] = field(default_factory=dict)
 
     @property
     def dofs_in_system(self) -> tuple[str, ...]:
@@ -185,6 +190,7 @@ class _Formulator:
         self.reach_points: list[list[Lin]] = []  # per contact: the centre of its hand ball
         self.p_palm_in_object = np.zeros(3, dtype=int)
         self.quaternion_vars: dict[str, np.ndarray] = {}
+        self.angle_vars: dict[str, int] = {}
 
     def base(self, key: BaseKey, name: str, lo: float, hi: float) -> int:
         i = self.b.var(name, lo, hi)
@@ -233,6 +239,16 @@ class _Formulator:
                     levi = 1.0 if (r, c, k) in ((0, 1, 2), (1, 2, 0), (2, 0, 1)) else -1.0
                     value = b.bilinear((q[r + 1], 2.0), (q[c + 1], 1.0)) - b.bilinear((q[0], 2.0 * levi), (q[k + 1], 1.0))
                 b.equation(value - Lin.var(R[r, c]))
+
+    def add_angle_offset(self, dof: str) -> None:
+        """``sin(theta - mid)`` of an angle of half range ``h < pi / 2``: in ``[-sin h, sin h]``
+        (padded by 1e-12: a limit reached exactly stays inside after rounding)."""
+        ang, (cos_i, sin_i) = self.angles[dof], self.dof_vars[dof]
+        if ang.half_range >= 0.5 * np.pi:
+            return
+        offset = Lin.var(sin_i, np.cos(ang.mid)) - Lin.var(cos_i, np.sin(ang.mid))
+        bound = np.sin(ang.half_range) + 1e-12
+        self.angle_vars[dof] = self.b.as_var_bounded(offset, f"sin({dof} - mid)", -bound, bound)
 
     def in_object(self, link: str, v) -> list[Lin]:
         """``R_object_link v``: a vector fixed in ``link``, in the object frame (linear)."""
@@ -379,12 +395,13 @@ def _object_box(task: Task) -> tuple[np.ndarray, np.ndarray]:
     return allp.min(axis=0), allp.max(axis=0)
 
 
-def build_system(task: Task, quaternions: str = "none") -> Formulation:
+def build_system(task: Task, quaternions: str = "none", angles: bool = False) -> Formulation:
     """The canonical system of ``task`` (see the module docstring).
 
     ``quaternions`` (one of :data:`QUATERNIONS`): which link rotations also get a unit
-    quaternion's four variables, added after all others (the rest of the system, its
-    variables' indices included, is the same as without them)."""
+    quaternion's four variables; ``angles``: whether each joint angle of half range below
+    90 deg gets ``sin(theta - mid)``.  Both are added after all other variables (the rest
+    of the system, its variables' indices included, is the same as without them)."""
     if quaternions not in QUATERNIONS:
         raise ValueError(f"quaternions must be one of {', '.join(map(repr, QUATERNIONS))}, got {quaternions!r}")
     f = _Formulator(task)
@@ -409,7 +426,9 @@ def build_system(task: Task, quaternions: str = "none") -> Formulation:
     f.add_reach_constraints()
     for link in {"none": [], "palm": links[:1], "links": links}[quaternions]:
         f.add_quaternion(link)
+    for dof in f.dof_vars if angles else ():
+        f.add_angle_offset(dof)
     return Formulation(
         task, f.b.build(), tuple(links), f.R_object_link, f.p_palm_in_object, f.dof_vars, tuple(f.contact_vars),
-        f.base_keys, f.b, f.quaternion_vars,
+        f.base_keys, f.b, f.quaternion_vars, f.angle_vars,
     )  # fmt: skip

@@ -46,7 +46,7 @@ from ...verification.residuals import Tolerances
 from ...system.embedding import configuration_from_point, embed
 from ...system.formulation import Formulation, build_system
 from ...quality import QualityOptions, grasp_quality
-from .branching import scaled_widths, split_variable
+from .branching import scaled_widths, shrink_variables, split_variable
 from .checkpoint import SearchState, load_state, options_record, save_state, search_fingerprint
 from .closure import closure_prune
 from .collision import collision_prune
@@ -244,7 +244,7 @@ def process_box(form: Formulation, lower, upper, depth: int, options: BranchAndP
         solution, best = _verify(form, lower, upper, options)
         if solution is not None:
             return BoxOutcome("solution", lower, upper, depth, 0, solution, best=best)
-    shrunk = shrink_box(form.system, lower, upper, replace(options.shrink, variables=tuple(form.base_indices.tolist())),
+    shrunk = shrink_box(form.system, lower, upper, replace(options.shrink, variables=shrink_variables(form)),
                         deadline=deadline_after(options.time_limit_s), rotations=cut_rotations(form, options.shrink))
     if shrunk.empty:
         return BoxOutcome("empty", shrunk.lower, shrunk.upper, depth, shrunk.n_lps, best=best)
@@ -262,7 +262,7 @@ def process_box(form: Formulation, lower, upper, depth: int, options: BranchAndP
             if solution is not None:
                 return BoxOutcome("solution", lo, hi, depth, shrunk.n_lps, solution, best=best)
         return BoxOutcome("small", lo, hi, depth, shrunk.n_lps, best=best)
-    k = split_variable(form, widths, options.shrink)
+    k = split_variable(form, lo, hi, options.shrink)
     mid = 0.5 * (lo[k] + hi[k])
     left_hi, right_lo = hi.copy(), lo.copy()
     left_hi[k], right_lo[k] = mid, mid
@@ -368,7 +368,7 @@ def solve_complete(
     """
     started = time.perf_counter()
     with scope(deadline_after(options.time_limit_s, started)):  # the hand's span bounds stop at it
-        form = build_system(task, options.shrink.quaternions)
+        form = build_system(task, options.shrink.quaternions, options.shrink.angles)
     fingerprint = search_fingerprint(form, options) if checkpoint is not None else {}
     if resume:
         state = load_state(form, options, checkpoint)

@@ -136,11 +136,15 @@ class ShrinkOptions:
         quaternions: ``"palm"`` or ``"links"``: the system also carries the unit quaternion
             (``w >= 0``) of the palm's rotation or of every link's, with ``R = R(q)``, and a
             box is split through the widest quaternion component while its scaled width
-            exceeds ``quaternion_split`` (:mod:`.branching`); ``"none"``: neither.  (A
-            splitting option kept with the shrink options: it shapes the search's boxes as
-            they do, and travels with them to checkpoints and benchmarks.)
-        quaternion_split: see ``quaternions``; in ``(0, 1]`` (1: the quaternion components
-            are split only when they are the widest variables, as any other).
+            exceeds ``branch_width`` (:mod:`.branching`); ``"none"``: no quaternion.
+        angles: the system also carries ``sin(theta - mid)`` of each joint angle of half
+            range below 90 deg, the LPs bound it, and (after the quaternion) a box is split
+            through the widest of them while its scaled width exceeds ``branch_width``.
+        branch_width: see ``quaternions`` and ``angles``; in ``(0, 1]`` (1: those variables
+            are split only when they are the widest base variables, as any other).
+            (These three are splitting options kept with the shrink options: they shape the
+            search's boxes as the others do, and travel with them to checkpoints and
+            benchmarks.)
 
         Both cuts are off by default: sound and stronger per box (they empty most of the
         boxes past a 3-4-contact frontier that the LPs without them only narrow), but a box
@@ -169,7 +173,8 @@ class ShrinkOptions:
     stop_after: int = 0
     stop_gain: float = 0.01
     quaternions: str = "none"
-    quaternion_split: float = 0.25
+    angles: bool = False
+    branch_width: float = 0.25
 
     def __post_init__(self):
         if not 0.0 < self.rho <= 1.0:
@@ -183,8 +188,8 @@ class ShrinkOptions:
         if self.quaternions not in QUATERNIONS:
             raise ValueError(f"ShrinkOptions.quaternions must be one of {', '.join(map(repr, QUATERNIONS))}, "
                              f"got {self.quaternions!r}")
-        if not 0.0 < self.quaternion_split <= 1.0:
-            raise ValueError(f"ShrinkOptions.quaternion_split must be in (0, 1] (a scaled width), got {self.quaternion_split}")
+        if not 0.0 < self.branch_width <= 1.0:
+            raise ValueError(f"ShrinkOptions.branch_width must be in (0, 1] (a scaled width), got {self.branch_width}")
         if self.max_passes < 0 or self.lp_time_limit <= 0 or self.lp_iteration_limit <= 0:
             raise ValueError("ShrinkOptions: max_passes >= 0 and positive LP limits required")
 
