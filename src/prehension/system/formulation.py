@@ -35,7 +35,7 @@ Choices (each keeps the system exact; see ``docs/complete-solver.md``):
   the unit quaternion ``q = (w, x, y, z)``, ``w >= 0``, of the palm's rotation (or of every
   link's) as four more base variables with ``|q|^2 = 1`` and ``R = R(q)`` (each entry
   quadratic in ``q``), so that the search can halve a rotation by one split
-  (docs/complete-solver.md, "Quaternion branching").  With ``angles=True`` each joint angle
+  (docs/complete-solver.md, "Quaternion and angle branching").  With ``angles=True`` each joint angle
   ``theta`` of half range ``h < 90 deg`` also gets ``sin(theta - mid) = cos(mid) sin theta -
   sin(mid) cos theta`` (linear in the system's cosine and sine), in ``[-sin h, sin h]`` and
   monotone over the range: splitting it at 0 halves the angle's range.

@@ -17,8 +17,8 @@ linear programs narrow the other eight by a few percent (CHANGELOG, issue 32).  
   narrower than ``branch_width`` the widest of these is split while wider than it: one
   split halves the angle's range, so the rotations of the link and of every link after it.
 
-Below the threshold the default rule applies (docs/complete-solver.md, "Quaternion
-branching").  Any choice of variable is sound: the two halves cover the box.
+Below the threshold the default rule applies (docs/complete-solver.md, "Quaternion and
+angle branching").  Any choice of variable is sound: the two halves cover the box.
 """
 
 from __future__ import annotations

@@ -133,6 +133,12 @@ class ShrinkOptions:
             variable by less than ``stop_gain`` of its width (a failed LP counts as such);
             0: never (every variable is bounded).  Stopping early only keeps a box larger.
 
+        Both cuts are off by default: sound and stronger per box (they empty most of the
+        boxes past a 3-4-contact frontier that the LPs without them only narrow), but a box
+        they do not empty costs 2-3x the CPU, and on the measured workloads the search
+        decided no more with them (docs/complete-solver.md, "Rotation cuts": the random
+        frontier families, the assignment search's 0.5 s proofs).
+
         quaternions: ``"palm"`` or ``"links"``: the system also carries the unit quaternion
             (``w >= 0``) of the palm's rotation or of every link's, with ``R = R(q)``, and a
             box is split through the widest quaternion component while its scaled width
@@ -144,13 +150,9 @@ class ShrinkOptions:
             are split only when they are the widest base variables, as any other).
             (These three are splitting options kept with the shrink options: they shape the
             search's boxes as the others do, and travel with them to checkpoints and
-            benchmarks.)
-
-        Both cuts are off by default: sound and stronger per box (they empty most of the
-        boxes past a 3-4-contact frontier that the LPs without them only narrow), but a box
-        they do not empty costs 2-3x the CPU, and on the measured workloads the search
-        decided no more with them (docs/complete-solver.md, "Rotation cuts": the random
-        frontier families, the assignment search's 0.5 s proofs).
+            benchmarks.)  Off by default: past the undecided 3-4-contact frontiers they
+            close 2-3x more of the tree in the first minute on some families, less on
+            others, and decide none in 300 s (CHANGELOG, branch ``frontier6``).
     """
 
     rho: float = 0.9
