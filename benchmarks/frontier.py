@@ -55,6 +55,8 @@ by the pose-free pair test; the report counts the certified runs of both kinds.
     python benchmarks/frontier.py --random 20 --seed 1 --out s1.jsonl --anatomy --frontier-only   # sub-task frontiers
     python benchmarks/frontier.py --random 20 --seed 1 --out s1.jsonl --families 0 --offsets 1 --time-limit 60 \
         --shrink feasibility_first=true lp_order=narrowest stop_after=10 --tag cheap     # other ShrinkOptions
+    python benchmarks/frontier.py --random 20 --seed 1 --out s1.jsonl --families 0 --offsets 1 --time-limit 60 \
+        --shrink quaternions=palm angles=true branch_width=0.1 --tag qa   # split the palm's quaternion, then the angles
 
 Each run also records the share of the search tree still open when it stopped
 (``stats["open_share"]``, ``sum 2^-depth`` over the open boxes; 0 once decided): the

@@ -18,10 +18,10 @@ from ..geometry.rotations import signed_angle
 from ..hands.kinematics import forward_kinematics
 from ..tasks.model import Configuration
 from .formulation import Formulation
-from .keys import BaseKey, ContactVariables, PalmOrigin, PatchParameter, RotationEntry, Side
+from .keys import BaseKey, ContactVariables, PalmOrigin, PatchParameter, QuaternionComponent, RotationEntry, Side
 from .regions import form_of
 
-__all__ = ["embed", "configuration_from_point"]
+__all__ = ["embed", "configuration_from_point", "unit_quaternion"]
 
 
 def _object_frame_pose(form: Formulation, config: Configuration) -> tuple[dict, np.ndarray]:
@@ -46,6 +46,8 @@ def _base_value(key: BaseKey, R_object_link: dict, p_palm_in_object: np.ndarray,
     """The value of one base variable at a configuration (dispatch on the key's type)."""
     if isinstance(key, RotationEntry):
         return float(R_object_link[key.link][key.row, key.col])
+    if isinstance(key, QuaternionComponent):
+        return float(unit_quaternion(R_object_link[key.link])[key.index])
     if isinstance(key, PalmOrigin):
         return float(p_palm_in_object[key.axis])
     contact = task.contacts[key.contact]
@@ -55,6 +57,23 @@ def _base_value(key: BaseKey, R_object_link: dict, p_palm_in_object: np.ndarray,
         return float(params[key.index])
     region = task.object_region(contact) if key.side == Side.OBJECT else task.hand_region(contact).region
     return form_of(region).normal_value(region, params, key)
+
+
+def unit_quaternion(R: np.ndarray) -> np.ndarray:
+    """The unit quaternion ``(w, x, y, z)`` of a rotation matrix with ``w >= 0`` (Shepperd's
+    method: from the largest of ``4 w^2, 4 x^2, 4 y^2, 4 z^2``, the diagonal of ``Z(R)``)."""
+    t = np.array([1.0 + R[0, 0] + R[1, 1] + R[2, 2], 1.0 + R[0, 0] - R[1, 1] - R[2, 2],
+                  1.0 - R[0, 0] + R[1, 1] - R[2, 2], 1.0 - R[0, 0] - R[1, 1] + R[2, 2]])  # fmt: skip
+    a = int(np.argmax(t))
+    row = [  # 4 q_a q, from the row of Z(R) = 4 q q^T with the largest diagonal
+        [t[0], R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]],
+        [R[2, 1] - R[1, 2], t[1], R[0, 1] + R[1, 0], R[0, 2] + R[2, 0]],
+        [R[0, 2] - R[2, 0], R[0, 1] + R[1, 0], t[2], R[1, 2] + R[2, 1]],
+        [R[1, 0] - R[0, 1], R[0, 2] + R[2, 0], R[1, 2] + R[2, 1], t[3]],
+    ][a]
+    q = np.array(row) / (2.0 * np.sqrt(t[a]))
+    q /= np.linalg.norm(q)
+    return -q if q[0] < 0.0 else q
 
 
 def _orthonormal(R: np.ndarray) -> np.ndarray:

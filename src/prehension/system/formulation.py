@@ -31,6 +31,14 @@ Choices (each keeps the system exact; see ``docs/complete-solver.md``):
   ``r_k + R_k c - rho nu = o`` and the cone ``-nu . (R_k m) >= cos(beta)``; a point region
   ``r_k + R_k p = o``, ``R_k n = -nu``; a hand Bézier patch the same with Bernstein forms
   in the link frame.
+* **Quaternions** (only when asked: ``build_system(task, quaternions="palm" | "links")``):
+  the unit quaternion ``q = (w, x, y, z)``, ``w >= 0``, of the palm's rotation (or of every
+  link's) as four more base variables with ``|q|^2 = 1`` and ``R = R(q)`` (each entry
+  quadratic in ``q``), so that the search can halve a rotation by one split
+  (docs/complete-solver.md, "Quaternion and angle branching").  With ``angles=True`` each joint angle
+  ``theta`` of half range ``h < 90 deg`` also gets ``sin(theta - mid) = cos(mid) sin theta -
+  sin(mid) cos theta`` (linear in the system's cosine and sine), in ``[-sin h, sin h]`` and
+  monotone over the range: splitting it at 0 halves the angle's range.
 
 Only the links on the paths from the palm to the contact links enter the system (the
 paper removes fingers outside the kinematic loops); the other angles are fixed when a
@@ -50,10 +58,13 @@ from ..tasks.model import Task
 from .builder import Builder, Lin, lin_sum
 from .canonical import System
 from .couplings import add_coupling
-from .keys import BaseKey, ContactVariables, PalmOrigin, RotationEntry, Side, UnitNormal
+from .keys import BaseKey, ContactVariables, PalmOrigin, QuaternionComponent, RotationEntry, Side, UnitNormal
 from .regions import form_of
 
-__all__ = ["Formulation", "DofAngle", "build_system"]
+__all__ = ["Formulation", "DofAngle", "QUATERNIONS", "build_system"]
+
+#: Which link rotations :func:`build_system` gives quaternion variables: none, the palm's, every link's.
+QUATERNIONS = ("none", "palm", "links")
 
 
 @dataclass(frozen=True)
@@ -88,6 +99,9 @@ class Formulation:
         contact_vars: per contact, the variables a configuration is read back from.
         base_keys: index of every base variable -> its typed key (:mod:`.keys`).
         builder: the builder, which knows how every other variable follows from the base ones.
+        quaternion_vars: link -> ``(4,)`` variable indices of the unit quaternion ``(w, x, y, z)``,
+            ``w >= 0``, of ``R_object_link`` (only the links given quaternions, see ``build_system``).
+        angle_vars: dof -> index of ``sin(theta - mid)`` (only with ``build_system(..., angles=True)``).
     """
 
     task: Task
@@ -99,6 +113,8 @@ class Formulation:
     contact_vars: tuple[ContactVariables, ...]
     base_keys: dict[int, BaseKey]
     builder: Builder = field(repr=False)
+    quaternion_vars: dict[str, np.ndarray] = field(default_factory=dict)
+    angle_vars: dict[str, int] = field(default_factory=dict)
 
     @property
     def dofs_in_system(self) -> tuple[str, ...]:
@@ -173,6 +189,8 @@ class _Formulator:
         self.object_points: list[list[Lin]] = []
         self.reach_points: list[list[Lin]] = []  # per contact: the centre of its hand ball
         self.p_palm_in_object = np.zeros(3, dtype=int)
+        self.quaternion_vars: dict[str, np.ndarray] = {}
+        self.angle_vars: dict[str, int] = {}
 
     def base(self, key: BaseKey, name: str, lo: float, hi: float) -> int:
         i = self.b.var(name, lo, hi)
@@ -201,6 +219,36 @@ class _Formulator:
         for r in range(3):  # e = c x d (7)
             r1, r2 = (r + 1) % 3, (r + 2) % 3
             b.equation(b.bilinear(c[r1], d[r2]) - b.bilinear(c[r2], d[r1]) - Lin.var(R[r, 2]))
+
+    def add_quaternion(self, link: str) -> None:
+        """The unit quaternion ``q = (w, x, y, z)`` of ``R_link``, ``w >= 0`` (every rotation has
+        one: ``q`` and ``-q`` give the same rotation), with ``|q|^2 = 1`` and ``R = R(q)``:
+        ``R_ii = w^2 + q_i^2 - q_j^2 - q_k^2`` and ``R_ij = 2 (q_i q_j - e_ijk w q_k)`` (``q_1..q_3 =
+        x, y, z``; ``e`` the Levi-Civita symbol), linear in the squares and products of ``q``."""
+        b, R = self.b, self.R_object_link[link]
+        q = [self.base(QuaternionComponent(link, k), f"q_{link}[{k}]", 0.0 if k == 0 else -1.0, 1.0) for k in range(4)]
+        self.quaternion_vars[link] = np.array(q)
+        sq = [Lin.var(b.square(i)) for i in q]
+        b.equation(lin_sum(sq) - Lin.constant(1.0))
+        for r in range(3):
+            for c in range(3):
+                if r == c:
+                    value = lin_sum(sq[k + 1] * (1.0 if k == r else -1.0) for k in range(3)) + sq[0]
+                else:
+                    k = 3 - r - c
+                    levi = 1.0 if (r, c, k) in ((0, 1, 2), (1, 2, 0), (2, 0, 1)) else -1.0
+                    value = b.bilinear((q[r + 1], 2.0), (q[c + 1], 1.0)) - b.bilinear((q[0], 2.0 * levi), (q[k + 1], 1.0))
+                b.equation(value - Lin.var(R[r, c]))
+
+    def add_angle_offset(self, dof: str) -> None:
+        """``sin(theta - mid)`` of an angle of half range ``h < pi / 2``: in ``[-sin h, sin h]``
+        (padded by 1e-12: a limit reached exactly stays inside after rounding)."""
+        ang, (cos_i, sin_i) = self.angles[dof], self.dof_vars[dof]
+        if ang.half_range >= 0.5 * np.pi:
+            return
+        offset = Lin.var(sin_i, np.cos(ang.mid)) - Lin.var(cos_i, np.sin(ang.mid))
+        bound = np.sin(ang.half_range) + 1e-12
+        self.angle_vars[dof] = self.b.as_var_bounded(offset, f"sin({dof} - mid)", -bound, bound)
 
     def in_object(self, link: str, v) -> list[Lin]:
         """``R_object_link v``: a vector fixed in ``link``, in the object frame (linear)."""
@@ -347,8 +395,15 @@ def _object_box(task: Task) -> tuple[np.ndarray, np.ndarray]:
     return allp.min(axis=0), allp.max(axis=0)
 
 
-def build_system(task: Task) -> Formulation:
-    """The canonical system of ``task`` (see the module docstring)."""
+def build_system(task: Task, quaternions: str = "none", angles: bool = False) -> Formulation:
+    """The canonical system of ``task`` (see the module docstring).
+
+    ``quaternions`` (one of :data:`QUATERNIONS`): which link rotations also get a unit
+    quaternion's four variables; ``angles``: whether each joint angle of half range below
+    90 deg gets ``sin(theta - mid)``.  Both are added after all other variables (the rest
+    of the system, its variables' indices included, is the same as without them)."""
+    if quaternions not in QUATERNIONS:
+        raise ValueError(f"quaternions must be one of {', '.join(map(repr, QUATERNIONS))}, got {quaternions!r}")
     f = _Formulator(task)
     joints = _loop_joints(task)
     links = [task.hand.palm] + [j.child for j in joints]
@@ -369,7 +424,11 @@ def build_system(task: Task) -> Formulation:
     for ci, contact in enumerate(task.contacts):
         f.add_contact(ci, contact)
     f.add_reach_constraints()
+    for link in {"none": [], "palm": links[:1], "links": links}[quaternions]:
+        f.add_quaternion(link)
+    for dof in f.dof_vars if angles else ():
+        f.add_angle_offset(dof)
     return Formulation(
         task, f.b.build(), tuple(links), f.R_object_link, f.p_palm_in_object, f.dof_vars, tuple(f.contact_vars),
-        f.base_keys, f.b,
+        f.base_keys, f.b, f.quaternion_vars, f.angle_vars,
     )  # fmt: skip

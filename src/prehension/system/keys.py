@@ -16,7 +16,8 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import Union
 
-__all__ = ["BaseKey", "ContactVariables", "NormalLength", "PalmOrigin", "PatchParameter", "RotationEntry", "Side", "UnitNormal"]
+__all__ = ["BaseKey", "ContactVariables", "NormalLength", "PalmOrigin", "PatchParameter", "QuaternionComponent", "RotationEntry",
+           "Side", "UnitNormal"]
 
 
 class Side(str, Enum):
@@ -33,6 +34,15 @@ class RotationEntry:
     link: str
     row: int
     col: int
+
+
+@dataclass(frozen=True)
+class QuaternionComponent:
+    """Component ``index`` (0: ``w``, 1-3: ``x, y, z``) of the unit quaternion of ``R_object_link``,
+    the one with ``w >= 0`` (only in a system built with quaternions, :func:`.formulation.build_system`)."""
+
+    link: str
+    index: int
 
 
 @dataclass(frozen=True)
@@ -70,7 +80,7 @@ class NormalLength:
     side: Side
 
 
-BaseKey = Union[RotationEntry, PalmOrigin, PatchParameter, UnitNormal, NormalLength]
+BaseKey = Union[RotationEntry, QuaternionComponent, PalmOrigin, PatchParameter, UnitNormal, NormalLength]
 
 
 @dataclass(frozen=True)

@@ -276,7 +276,8 @@ def options_record(options) -> dict:
 #: them; left out of the fingerprint at that value, so a checkpoint written before them
 #: resumes.  Set otherwise, they are part of it: a different search.
 _ADDED_LATER = {"shrink.rotation_cuts": False, "shrink.limit_cuts": False, "shrink.feasibility_first": False,
-                "shrink.lp_order": "widest", "shrink.stop_after": 0}
+                "shrink.lp_order": "widest", "shrink.stop_after": 0, "shrink.quaternions": "none",
+                "shrink.angles": False}
 #: Added with ``shrink.stop_after`` and meaningless without it (left out while it is 0).
 _STOP_GAIN = "shrink.stop_gain"
 
@@ -299,6 +300,8 @@ def _options_mapping(options) -> dict:
     walk("", values)
     if flat.get("shrink.stop_after") == 0:
         flat.pop(_STOP_GAIN, None)
+    if flat.get("shrink.quaternions") == "none" and flat.get("shrink.angles") is False:  # meaningless without them
+        flat.pop("shrink.branch_width", None)
     for key, before in _ADDED_LATER.items():  # added later: at the search before them, the old fingerprint
         if key in flat and flat[key] == before and type(flat[key]) is type(before):
             del flat[key]

@@ -5,7 +5,8 @@ Each box is *processed*: shrunk (contraction, then linear programs over the rela
 configuration in it puts the hand into the object (:mod:`.collision`, after the
 contraction and again after the LPs); if not empty, a point read from it is refined on the original
 constraints and judged by the residual function (:func:`prehension.results.make_solution`);
-if that fails, the box is split through its widest scaled interval -- or, once it is
+if that fails, the box is split through its widest scaled interval (or a rotation's
+quaternion, :mod:`.branching`) -- or, once it is
 narrower than ``sigma``, kept as an *unverified* solution box (never called a solution).
 
 Depth-first order stops at the first verified solution; breadth-first collects every
@@ -45,6 +46,7 @@ from ...verification.residuals import Tolerances
 from ...system.embedding import configuration_from_point, embed
 from ...system.formulation import Formulation, build_system
 from ...quality import QualityOptions, grasp_quality
+from .branching import scaled_widths, shrink_variables, split_variable
 from .checkpoint import SearchState, load_state, options_record, save_state, search_fingerprint
 from .closure import closure_prune
 from .collision import collision_prune
@@ -176,13 +178,6 @@ class BoxOutcome:
     by_closure: bool = False  # "empty" because no configuration in it is force closure (require="force-closure")
 
 
-def _scaled_widths(form: Formulation, lower, upper) -> np.ndarray:
-    system = form.system
-    ref = np.maximum(system.upper - system.lower, 1e-12)
-    base = form.base_indices
-    return (upper[base] - lower[base]) / ref[base]
-
-
 def _verification_points(lower: np.ndarray, upper: np.ndarray, n: int) -> np.ndarray:
     """The box centre, then ``n - 1`` points drawn in the box's middle half (deterministic)."""
     seed = zlib.crc32(np.ascontiguousarray(lower).tobytes() + np.ascontiguousarray(upper).tobytes())
@@ -249,7 +244,7 @@ def process_box(form: Formulation, lower, upper, depth: int, options: BranchAndP
         solution, best = _verify(form, lower, upper, options)
         if solution is not None:
             return BoxOutcome("solution", lower, upper, depth, 0, solution, best=best)
-    shrunk = shrink_box(form.system, lower, upper, replace(options.shrink, variables=tuple(form.base_indices.tolist())),
+    shrunk = shrink_box(form.system, lower, upper, replace(options.shrink, variables=shrink_variables(form)),
                         deadline=deadline_after(options.time_limit_s), rotations=cut_rotations(form, options.shrink))
     if shrunk.empty:
         return BoxOutcome("empty", shrunk.lower, shrunk.upper, depth, shrunk.n_lps, best=best)
@@ -260,14 +255,14 @@ def process_box(form: Formulation, lower, upper, depth: int, options: BranchAndP
         return BoxOutcome("empty", lo, hi, depth, shrunk.n_lps, best=best, by_self_collision=True)
     if _never_closure(form, lo, hi, options):
         return BoxOutcome("empty", lo, hi, depth, shrunk.n_lps, best=best, by_closure=True)
-    widths = _scaled_widths(form, lo, hi)
+    widths = scaled_widths(form, lo, hi)
     if widths.max() < options.sigma:
         if options.all_solutions:
             solution, best = _verify(form, lo, hi, options, in_box=True)
             if solution is not None:
                 return BoxOutcome("solution", lo, hi, depth, shrunk.n_lps, solution, best=best)
         return BoxOutcome("small", lo, hi, depth, shrunk.n_lps, best=best)
-    k = form.base_indices[int(np.argmax(widths))]
+    k = split_variable(form, lo, hi, options.shrink)
     mid = 0.5 * (lo[k] + hi[k])
     left_hi, right_lo = hi.copy(), lo.copy()
     left_hi[k], right_lo[k] = mid, mid
@@ -373,7 +368,7 @@ def solve_complete(
     """
     started = time.perf_counter()
     with scope(deadline_after(options.time_limit_s, started)):  # the hand's span bounds stop at it
-        form = build_system(task)
+        form = build_system(task, options.shrink.quaternions, options.shrink.angles)
     fingerprint = search_fingerprint(form, options) if checkpoint is not None else {}
     if resume:
         state = load_state(form, options, checkpoint)

@@ -88,6 +88,7 @@ from .contract import contract
 from .relaxations import EPS, TINY, down, relaxation_rows, up
 from .rotation_cuts import RotationStructure, rotation_structure
 from ...system.canonical import System
+from ...system.formulation import QUATERNIONS
 
 _MIN_ROW_NORM = 1e-200  # rows with a smaller scaled norm are not rescaled (no overflow)
 
@@ -137,6 +138,21 @@ class ShrinkOptions:
         they do not empty costs 2-3x the CPU, and on the measured workloads the search
         decided no more with them (docs/complete-solver.md, "Rotation cuts": the random
         frontier families, the assignment search's 0.5 s proofs).
+
+        quaternions: ``"palm"`` or ``"links"``: the system also carries the unit quaternion
+            (``w >= 0``) of the palm's rotation or of every link's, with ``R = R(q)``, and a
+            box is split through the widest quaternion component while its scaled width
+            exceeds ``branch_width`` (:mod:`.branching`); ``"none"``: no quaternion.
+        angles: the system also carries ``sin(theta - mid)`` of each joint angle of half
+            range below 90 deg, the LPs bound it, and (after the quaternion) a box is split
+            through the widest of them while its scaled width exceeds ``branch_width``.
+        branch_width: see ``quaternions`` and ``angles``; in ``(0, 1]`` (1: those variables
+            are split only when they are the widest base variables, as any other).
+            (These three are splitting options kept with the shrink options: they shape the
+            search's boxes as the others do, and travel with them to checkpoints and
+            benchmarks.)  Off by default: past the undecided 3-4-contact frontiers they
+            close 2-3x more of the tree in the first minute on some families, less on
+            others, and decide none in 300 s (CHANGELOG, branch ``frontier6``).
     """
 
     rho: float = 0.9
@@ -158,6 +174,9 @@ class ShrinkOptions:
     lp_order: str = "widest"
     stop_after: int = 0
     stop_gain: float = 0.01
+    quaternions: str = "none"
+    angles: bool = False
+    branch_width: float = 0.25
 
     def __post_init__(self):
         if not 0.0 < self.rho <= 1.0:
@@ -168,6 +187,11 @@ class ShrinkOptions:
             raise ValueError(f"ShrinkOptions.lp_order must be 'widest' or 'narrowest', got {self.lp_order!r}")
         if self.stop_after < 0 or not self.stop_gain >= 0.0:
             raise ValueError("ShrinkOptions: stop_after >= 0 and stop_gain >= 0 required")
+        if self.quaternions not in QUATERNIONS:
+            raise ValueError(f"ShrinkOptions.quaternions must be one of {', '.join(map(repr, QUATERNIONS))}, "
+                             f"got {self.quaternions!r}")
+        if not 0.0 < self.branch_width <= 1.0:
+            raise ValueError(f"ShrinkOptions.branch_width must be in (0, 1] (a scaled width), got {self.branch_width}")
         if self.max_passes < 0 or self.lp_time_limit <= 0 or self.lp_iteration_limit <= 0:
             raise ValueError("ShrinkOptions: max_passes >= 0 and positive LP limits required")
 
