@@ -60,20 +60,13 @@ def _base_value(key: BaseKey, R_object_link: dict, p_palm_in_object: np.ndarray,
 
 
 def unit_quaternion(R: np.ndarray) -> np.ndarray:
-    """The unit quaternion ``(w, x, y, z)`` of a rotation matrix with ``w >= 0`` (Shepperd's
-    method: from the largest of ``4 w^2, 4 x^2, 4 y^2, 4 z^2``, the diagonal of ``Z(R)``)."""
-    t = np.array([1.0 + R[0, 0] + R[1, 1] + R[2, 2], 1.0 + R[0, 0] - R[1, 1] - R[2, 2],
-                  1.0 - R[0, 0] + R[1, 1] - R[2, 2], 1.0 - R[0, 0] - R[1, 1] + R[2, 2]])  # fmt: skip
-    a = int(np.argmax(t))
-    row = [  # 4 q_a q, from the row of Z(R) = 4 q q^T with the largest diagonal
-        [t[0], R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]],
-        [R[2, 1] - R[1, 2], t[1], R[0, 1] + R[1, 0], R[0, 2] + R[2, 0]],
-        [R[0, 2] - R[2, 0], R[0, 1] + R[1, 0], t[2], R[1, 2] + R[2, 1]],
-        [R[1, 0] - R[0, 1], R[0, 2] + R[2, 0], R[1, 2] + R[2, 1], t[3]],
-    ][a]
-    q = np.array(row) / (2.0 * np.sqrt(t[a]))
-    q /= np.linalg.norm(q)
-    return -q if q[0] < 0.0 else q
+    """The unit quaternion ``(w, x, y, z)`` of a rotation matrix with ``w >= 0`` (scipy's,
+    reordered from its ``(x, y, z, w)``, with the sign that makes ``w >= 0``)."""
+    from scipy.spatial.transform import Rotation  # here, not at import: scipy.spatial costs ~0.3 s to import
+
+    x, y, z, w = Rotation.from_matrix(R).as_quat()
+    q = np.array([w, x, y, z])
+    return -q if w < 0.0 else q
 
 
 def _orthonormal(R: np.ndarray) -> np.ndarray:
