@@ -46,7 +46,7 @@ from scipy.optimize import linprog
 from ..tasks.model import Task
 from .options import PUSH_DIRECTIONS, SimOptions
 from .aim import push_squeeze, push_wrenches
-from .squeeze import _targets, contact_jacobian, inward_normals, squeeze_step
+from .squeeze import _targets, contact_jacobian, free_dofs, inward_normals, squeeze_step
 
 __all__ = ["PushMargin", "push_margin", "squeeze_normal_forces", "squeeze_forces", "squeeze_for", "as_good_a_push_squeeze"]
 
@@ -96,9 +96,7 @@ def as_good_a_push_squeeze(task: Task, q, T_palm_object, contacts, options: SimO
     hand = task.hand
     if given.shape != q.shape or np.any(given < hand.lower - 1e-12) or np.any(given > hand.upper + 1e-12):
         return False
-    free = np.asarray(task.active_mask, bool).copy()
-    for c in hand.couplings:
-        free[hand.dof_index(c.dof)] = False
+    free = free_dofs(task)
     if not np.allclose(_targets(hand, q, free, (given - q)[free]), given, atol=1e-9, rtol=0):
         return False
     depths = np.einsum("cd,cd->c", (contact_jacobian(task, q, contacts) @ (given - q)).reshape(-1, 3), inward_normals(contacts))

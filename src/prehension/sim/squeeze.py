@@ -42,7 +42,7 @@ from ..quality.wrenches import cone_edges
 from ..tasks.model import Task
 
 __all__ = ["squeeze_step", "squeeze_targets", "as_good_a_squeeze", "squeeze_depths", "balanced_normal_forces",
-           "balance_wrenches", "coupling_weights", "BalancedForces", "SQUEEZE_KINDS"]  # fmt: skip
+           "balance_wrenches", "coupling_weights", "free_dofs", "BalancedForces", "SQUEEZE_KINDS"]  # fmt: skip
 
 SQUEEZE_KINDS = ("forces", "balanced", "uniform", "push")
 
@@ -182,13 +182,20 @@ def _problem(task: Task, q: np.ndarray, contacts, squeeze_mm: float, depths_mm):
     depths = np.full(len(task.contacts), float(squeeze_mm)) if depths_mm is None else np.asarray(depths_mm, float)
     J = contact_jacobian(task, q, contacts)  # (3C, n_dof)
     target = [-depth * np.asarray(state.object_normal, float) for state, depth in zip(contacts, depths)]
-    free = task.active_mask.copy()
+    free = free_dofs(task)
     for c in hand.couplings:  # a coupled dof moves with its source
-        i, s = hand.dof_index(c.dof), hand.dof_index(c.source)
-        J[:, s] += c.ratio * J[:, i]
-        free[i] = False
+        J[:, hand.dof_index(c.source)] += c.ratio * J[:, hand.dof_index(c.dof)]
     bounds = np.minimum((hand.lower - q)[free], 0), np.maximum((hand.upper - q)[free], 0)
     return J, np.concatenate(target), free, bounds
+
+
+def free_dofs(task: Task) -> np.ndarray:
+    """The dofs a squeeze step moves on its own ``(n_dof,)`` bool: the task's active ones but
+    those that follow a coupling (they move with their source)."""
+    free = np.asarray(task.active_mask, bool).copy()
+    for c in task.hand.couplings:
+        free[task.hand.dof_index(c.dof)] = False
+    return free
 
 
 def _targets(hand, q: np.ndarray, free: np.ndarray, dq_free: np.ndarray) -> np.ndarray:
