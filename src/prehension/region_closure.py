@@ -208,7 +208,7 @@ def _aimed(task: Task, point: tuple, starts: list[Configuration]) -> list[Soluti
         lower, upper = region.param_bounds()
         at = np.asarray(at, dtype=float)
         box = (np.maximum(lower, at - AIM_HALF_WIDTH * (upper - lower)), np.minimum(upper, at + AIM_HALF_WIDTH * (upper - lower)))
-        part = region.restricted(*box) if at.size and np.all(box[1] > box[0]) else None
+        part = region.restricted(*box) if np.all(box[1] > box[0]) else None  # None: a kind with no parts (caps, points)
         if part is None:
             contacts.append(contact)
             boxes.append(None)
